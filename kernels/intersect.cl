@@ -1,0 +1,99 @@
+/* Closest hit over every shape and light, and the any-hit test of shadow rays. The loops are uniform
+ * over lanes (every lane tests the same shape); the lanes' own results are merged with select(). */
+#ifndef INTERSECT_CL
+#define INTERSECT_CL
+
+#include "scene.h"
+#include "rectangle.cl" /* lights are rectangles: always needed */
+#if HAS_TRIANGLES
+#include "triangle.cl"
+#endif
+#if HAS_ELLIPSOIDS
+#include "ellipsoid.cl"
+#endif
+
+typedef struct {
+    vfloat t;      /* +inf: nothing hit */
+    vec3 n;        /* unit geometric normal, facing the incoming ray */
+    vint material; /* -1: nothing or a light */
+    vec3 emitted;  /* colour of the light hit first, else 0 */
+} Hit;
+
+/* Keep the nearer of the current hit and a candidate at t_new with normal n (any orientation). */
+inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 n, int material, Vec3f emitted)
+{
+    vint nearer = t_new < hit->t;
+    vfloat facing = select((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, r.d) > 0.0f);
+    hit->t = select(hit->t, t_new, nearer);
+    hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
+    hit->material = select(hit->material, (vint)(material), nearer);
+    hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
+}
+
+inline Hit closest_hit(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
+{
+    Hit hit;
+    hit.t = (vfloat)(INFINITY);
+    hit.n = v3_splat(0.0f, 0.0f, 0.0f);
+    hit.material = (vint)(-1);
+    hit.emitted = hit.n;
+    const Vec3f black = {0.0f, 0.0f, 0.0f};
+#if HAS_RECTANGLES
+    for (int i = 0; i < s->params->n_rectangles; ++i) {
+        __global const Rectangle *rect = &s->rectangles[i];
+        vfloat t = intersect_rectangle(rect, r, tmin, fmin(tmax, hit.t));
+        hit_update(&hit, r, t, v3_uniform(rect->normal), rect->material, black);
+    }
+#endif
+#if HAS_TRIANGLES
+    RayShear shear = ray_shear(r);
+    for (int i = 0; i < s->params->n_triangles; ++i) {
+        __global const Triangle *tri = &s->triangles[i];
+        vfloat b1, b2;
+        vfloat t = intersect_triangle(tri, r, shear, tmin, fmin(tmax, hit.t), &b1, &b2);
+        hit_update(&hit, r, t, v3_uniform(tri->normal), tri->material, black);
+    }
+#endif
+#if HAS_ELLIPSOIDS
+    for (int i = 0; i < s->params->n_ellipsoids; ++i) {
+        __global const Ellipsoid *e = &s->ellipsoids[i];
+        vec3 q;
+        vfloat t = intersect_ellipsoid(e, r, tmin, fmin(tmax, hit.t), &q);
+        if (ANY(t < hit.t))
+            hit_update(&hit, r, t, ellipsoid_normal(e, q), e->material, black);
+    }
+#endif
+    for (int i = 0; i < s->params->n_lights; ++i) {
+        __global const Light *light = &s->lights[i];
+        vfloat t = intersect_rectangle(&light->shape, r, tmin, fmin(tmax, hit.t));
+        hit_update(&hit, r, t, v3_uniform(light->shape.normal), -1, light->colour);
+    }
+    return hit;
+}
+
+/* Mask of the lanes whose segment o + t d, t in (tmin, tmax), is blocked by a shape. Lights do not
+ * block. Stops as soon as every lane is blocked. */
+inline vint occluded(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
+{
+    vint blocked = (vint)(0);
+#if HAS_RECTANGLES
+    for (int i = 0; i < s->params->n_rectangles && !ALL(blocked); ++i)
+        blocked |= intersect_rectangle(&s->rectangles[i], r, tmin, tmax) < INFINITY;
+#endif
+#if HAS_TRIANGLES
+    RayShear shear = ray_shear(r);
+    for (int i = 0; i < s->params->n_triangles && !ALL(blocked); ++i) {
+        vfloat b1, b2;
+        blocked |= intersect_triangle(&s->triangles[i], r, shear, tmin, tmax, &b1, &b2) < INFINITY;
+    }
+#endif
+#if HAS_ELLIPSOIDS
+    for (int i = 0; i < s->params->n_ellipsoids && !ALL(blocked); ++i) {
+        vec3 q;
+        blocked |= intersect_ellipsoid(&s->ellipsoids[i], r, tmin, tmax, &q) < INFINITY;
+    }
+#endif
+    return blocked;
+}
+
+#endif

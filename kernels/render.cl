@@ -1,0 +1,51 @@
+/* The per-pixel pipeline: generate camera rays, intersect, shade, accumulate.
+ *
+ * One work-item renders LANES neighbouring pixels of one row: x = LANES * get_global_id(0) + lane,
+ * y = row0 + get_global_id(1). Output planes (each width * height floats): R, G, B (mean over the pixel
+ * samples, linear) and the number of rays traced for the pixel. */
+#include "camera.cl"
+#include "shading.cl"
+
+inline void store_lanes(__global float *plane, int index, vfloat value, vint active)
+{
+    float v[LANES];
+    int a[LANES];
+    VSTORE(value, 0, v);
+    VSTORE(active, 0, a);
+    for (int i = 0; i < LANES; ++i)
+        if (a[i])
+            plane[index + i] = v[i];
+}
+
+__kernel void render(__constant const Camera *camera, __constant const RenderParams *params,
+                     __global const Rectangle *rectangles, __global const Triangle *triangles,
+                     __global const Ellipsoid *ellipsoids, __global const Light *lights,
+                     __global const Material *materials, __global const float2 *pixel_samples,
+                     __global const float2 *light_samples, int row0, __global float *out)
+{
+    const Scene scene = {rectangles, triangles, ellipsoids, lights, materials, params};
+    const int width = params->width, height = params->height;
+    const int x0 = LANES * get_global_id(0), y = row0 + get_global_id(1);
+    if (y >= height)
+        return;
+    vint active = (x0 + LANE_IDS) < width;
+    vfloat x = CONVERT_VFLOAT(x0 + LANE_IDS);
+
+    vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
+    vfloat rays = 0.0f;
+    for (int s = 0; s < params->spp; ++s) {
+        float2 offset = pixel_samples[s];
+        Ray ray = generate_camera_ray(camera, x + offset.x, (vfloat)(y + offset.y), 1.0f / width,
+                                      1.0f / height);
+        Hit hit = closest_hit(&scene, ray, (vfloat)(0.0f), (vfloat)(INFINITY));
+        sum = v3_add(sum, shade(&scene, ray, hit, light_samples, &rays));
+    }
+    rays += (float)params->spp;
+
+    const int plane = width * height, index = y * width + x0;
+    const float inv_spp = 1.0f / params->spp;
+    store_lanes(out, index, sum.x * inv_spp, active);
+    store_lanes(out + plane, index, sum.y * inv_spp, active);
+    store_lanes(out + 2 * plane, index, sum.z * inv_spp, active);
+    store_lanes(out + 3 * plane, index, rays, active);
+}

@@ -1,0 +1,12 @@
+"""The one error type a user sees: bad input, reported as one line, exit status 2."""
+
+
+class InputError(Exception):
+    """Bad user input: a scene file, a texture, a command-line value.
+
+    `source` names the file (or "command line"), `key` the offending key or option, `value` its value.
+    """
+
+    def __init__(self, source, key, value, problem):
+        self.source, self.key, self.value, self.problem = str(source), key, value, problem
+        super().__init__(f"{self.source}: {key} = {value!r}: {problem}")

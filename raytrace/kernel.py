@@ -1,0 +1,46 @@
+"""Finding, specialising and building the OpenCL program."""
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+import pyopencl as cl
+
+
+def kernel_dir():
+    """kernels/ of a checkout, else the copy installed as the package raytrace.kernels."""
+    checkout = Path(__file__).resolve().parent.parent / "kernels"
+    if (checkout / "render.cl").is_file():
+        return checkout
+    return Path(str(resources.files("raytrace.kernels")))
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a scene needs compiled in. Everything else (counts, sample tables, image size, seeds) is a
+    kernel argument, so it never triggers a rebuild."""
+    lanes: int = 8
+    rectangles: bool = True
+    triangles: bool = True
+    ellipsoids: bool = True
+
+    @classmethod
+    def of(cls, scene, lanes):
+        return cls(lanes, bool(scene.rectangles), bool(scene.triangles), bool(scene.ellipsoids))
+
+    def options(self):
+        return [f"-DLANES={self.lanes}", f"-DHAS_RECTANGLES={int(self.rectangles)}",
+                f"-DHAS_TRIANGLES={int(self.triangles)}", f"-DHAS_ELLIPSOIDS={int(self.ellipsoids)}"]
+
+
+def build(context, source, options=()):
+    """Build `source` with kernels/ on the include path; returns (program, seconds)."""
+    start = time.perf_counter()
+    program = cl.Program(context, source).build(options=[*options, "-I", str(kernel_dir())])
+    return program, time.perf_counter() - start
+
+
+@lru_cache(maxsize=16)
+def render_program(context, features):
+    return build(context, '#include "render.cl"\n', features.options())

@@ -1,0 +1,301 @@
+"""Scene description: the TOML file format, its validation, and the host-side scene model (float64).
+
+Every check names the file, the key and the value (InputError), so a user can fix a scene in one go.
+"""
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
+DEFAULT_SHININESS = 16.0
+
+
+@dataclass(frozen=True)
+class Camera:
+    position: np.ndarray
+    look_at: np.ndarray
+    ref_up: np.ndarray
+    fov_deg: float
+    focal_length: float = 1.0
+
+    def basis(self):
+        """forward, right, up as SPEC.md section 1 defines them (float64)."""
+        forward = _normalize(self.look_at - self.position)
+        right = _normalize(np.cross(forward, self.ref_up))
+        return forward, right, np.cross(right, forward)
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str
+    colour: np.ndarray
+    shininess: float = DEFAULT_SHININESS
+
+
+@dataclass(frozen=True)
+class Rectangle:
+    """Centre, full size (sx, sy), unit normal n, unit tangent t (x axis); bitangent n x t (y axis)."""
+    center: np.ndarray
+    size: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    material: int = 0
+
+    @property
+    def bitangent(self):
+        return np.cross(self.normal, self.tangent)
+
+
+@dataclass(frozen=True)
+class Light(Rectangle):
+    colour: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+
+@dataclass(frozen=True)
+class Triangle:
+    vertices: np.ndarray          # 3 x 3, rows v0, v1, v2
+    material: int = 0
+    uv: np.ndarray | None = None  # 3 x 2 per-vertex texture coordinates, or None for (b1, b2)
+
+
+@dataclass(frozen=True)
+class Ellipsoid:
+    """The image of the unit sphere under x -> center + axes.T @ x (rows of `axes` are a, b, c)."""
+    center: np.ndarray
+    axes: np.ndarray
+    material: int = 0
+
+    @property
+    def matrix(self):
+        return self.axes.T
+
+
+@dataclass
+class Scene:
+    path: str
+    camera: Camera
+    width: int
+    height: int
+    ambient: np.ndarray
+    lights: list
+    materials: list
+    rectangles: list = field(default_factory=list)
+    triangles: list = field(default_factory=list)
+    ellipsoids: list = field(default_factory=list)
+    spp: int = 1
+    light_samples: int = 1
+    sampler: str = "grid"
+
+
+def _normalize(v):
+    return v / np.linalg.norm(v)
+
+
+class _Reader:
+    """Typed access to one TOML table; every error names file, key path and value."""
+
+    def __init__(self, path, table, prefix=""):
+        self.path, self.table, self.prefix = path, table, prefix
+        if not isinstance(table, dict):
+            self.fail("", table, "must be a table")
+
+    def fail(self, key, value, problem):
+        raise InputError(self.path, self.prefix + key if key else self.prefix.rstrip("."), value, problem)
+
+    def check_keys(self, allowed):
+        for key in self.table:
+            if key not in allowed:
+                self.fail(key, self.table[key], f"unknown key (expected one of: {', '.join(allowed)})")
+
+    def has(self, key):
+        return key in self.table
+
+    def raw(self, key, default=None):
+        if key not in self.table:
+            if default is None:
+                self.fail(key, None, "missing")
+            return default
+        return self.table[key]
+
+    def number(self, key, default=None, low=-math.inf, high=math.inf, open_low=False):
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.fail(key, value, "must be a finite number")
+        if value < low or value > high or (open_low and value == low):
+            bound = f"> {low}" if open_low else f">= {low}"
+            self.fail(key, value, f"must be {bound} and <= {high}")
+        return float(value)
+
+    def integer(self, key, default=None, low=1, high=1 << 15):
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            self.fail(key, value, f"must be an integer in [{low}, {high}]")
+        return value
+
+    def string(self, key, default=None, choices=None):
+        value = self.raw(key, default)
+        if not isinstance(value, str) or (choices and value not in choices):
+            self.fail(key, value, f"must be one of: {', '.join(choices)}" if choices else "must be a string")
+        return value
+
+    def vector(self, key, n, default=None, nonzero=False, low=-math.inf):
+        value = self.raw(key, default)
+        ok = isinstance(value, (list, tuple)) and len(value) == n and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x >= low
+            for x in value)
+        if not ok:
+            bound = f" >= {low}" if low > -math.inf else ""
+            self.fail(key, value, f"must be a list of {n} finite numbers{bound}")
+        v = np.array(value, dtype=np.float64)
+        if nonzero and not np.any(v):
+            self.fail(key, value, "must not be the zero vector")
+        return v
+
+    def vectors(self, key, n, count=None):
+        value = self.raw(key)
+        if not isinstance(value, list) or (count is not None and len(value) != count) or not value:
+            self.fail(key, value, f"must be a list of {count or 'one or more'} vectors")
+        return np.array([_Reader(self.path, {key: v}, self.prefix).vector(key, n) for v in value])
+
+    def sub(self, key):
+        return _Reader(self.path, self.raw(key), f"{self.prefix}{key}.")
+
+
+def _frame(r, normal_key="normal", tangent_key="tangent"):
+    """Unit normal and a tangent made orthogonal to it (Gram-Schmidt); refuses a tangent along the normal."""
+    n = _normalize(r.vector(normal_key, 3, nonzero=True))
+    t_raw = r.vector(tangent_key, 3, nonzero=True)
+    t = t_raw - np.dot(t_raw, n) * n
+    if np.linalg.norm(t) < 1e-6 * np.linalg.norm(t_raw):
+        r.fail(tangent_key, t_raw.tolist(), "must not be parallel to the normal")
+    return n, _normalize(t)
+
+
+def _rectangle_fields(r):
+    size = r.vector("size", 2)
+    if np.any(size <= 0):
+        r.fail("size", size.tolist(), "both sides must be > 0")
+    normal, tangent = _frame(r)
+    return dict(center=r.vector("center", 3), size=size, normal=normal, tangent=tangent)
+
+
+def _check_triangle(r, key, vertices):
+    area2 = np.linalg.norm(np.cross(vertices[1] - vertices[0], vertices[2] - vertices[0]))
+    scale = max(np.linalg.norm(vertices[1] - vertices[0]), np.linalg.norm(vertices[2] - vertices[0])) ** 2
+    if not area2 > 1e-9 * scale:
+        r.fail(key, vertices.tolist(), "degenerate triangle (zero area)")
+
+
+def _load_shape(scene, r, material_index):
+    kind = r.string("type", choices=SHAPE_KINDS)
+    common = {"type", "material"}
+    name = r.string("material")
+    if name not in material_index:
+        r.fail("material", name, f"no such material (defined: {', '.join(material_index)})")
+    m = material_index[name]
+    if kind == "rectangle":
+        r.check_keys(sorted(common | {"center", "size", "normal", "tangent"}))
+        scene.rectangles.append(Rectangle(material=m, **_rectangle_fields(r)))
+    elif kind == "triangle":
+        r.check_keys(sorted(common | {"vertices", "uv"}))
+        vertices = r.vectors("vertices", 3, count=3)
+        _check_triangle(r, "vertices", vertices)
+        uv = r.vectors("uv", 2, count=3) if r.has("uv") else None
+        scene.triangles.append(Triangle(vertices, m, uv))
+    elif kind == "mesh":
+        r.check_keys(sorted(common | {"vertices", "faces"}))
+        vertices = r.vectors("vertices", 3)
+        faces = r.raw("faces")
+        if not isinstance(faces, list) or not faces:
+            r.fail("faces", faces, "must be a list of index triples")
+        for i, face in enumerate(faces):
+            if not (isinstance(face, list) and len(face) == 3 and all(
+                    isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(vertices) for k in face)):
+                r.fail(f"faces[{i}]", face, f"must be 3 vertex indices in [0, {len(vertices) - 1}]")
+            _check_triangle(r, f"faces[{i}]", vertices[face])
+            scene.triangles.append(Triangle(vertices[face], m))
+    else:
+        r.check_keys(sorted(common | {"center", "axes"}))
+        axes = r.vectors("axes", 3, count=3)
+        norms = np.prod(np.linalg.norm(axes, axis=1))
+        if not abs(np.linalg.det(axes)) > 1e-6 * norms:
+            r.fail("axes", axes.tolist(), "singular ellipsoid: the three axes must be linearly independent")
+        scene.ellipsoids.append(Ellipsoid(r.vector("center", 3), axes, m))
+
+
+def parse_scene(table, path="<scene>"):
+    """Build a Scene from a parsed TOML table; raises InputError on the first bad key."""
+    r = _Reader(path, table)
+    r.check_keys(["ambient", "camera", "image", "lights", "materials", "render", "shapes"])
+
+    c = r.sub("camera")
+    c.check_keys(["focal_length", "fov", "look_at", "position", "up"])
+    position = c.vector("position", 3)
+    look_at = c.vector("look_at", 3)
+    ref_up = c.vector("up", 3, nonzero=True)
+    if np.linalg.norm(look_at - position) == 0:
+        c.fail("look_at", look_at.tolist(), "must differ from camera.position")
+    if np.linalg.norm(np.cross(_normalize(look_at - position), _normalize(ref_up))) < 1e-6:
+        c.fail("up", ref_up.tolist(), "must not be parallel to the view direction")
+    camera = Camera(position, look_at, ref_up, c.number("fov", low=0, high=180, open_low=True),
+                    c.number("focal_length", 1.0, low=0, open_low=True))
+    if camera.fov_deg >= 180:
+        c.fail("fov", camera.fov_deg, "must be < 180")
+
+    img = r.sub("image")
+    img.check_keys(["height", "width"])
+    width, height = img.integer("width"), img.integer("height")
+
+    render = r.sub("render") if r.has("render") else _Reader(path, {}, "render.")
+    render.check_keys(["light_samples", "sampler", "spp"])
+
+    mats = r.raw("materials")
+    if not isinstance(mats, dict) or not mats:
+        r.fail("materials", mats, "must be a table of named materials")
+    materials, material_index = [], {}
+    for name in mats:
+        mr = r.sub("materials").sub(name)
+        mr.check_keys(["colour", "shininess"])
+        material_index[name] = len(materials)
+        materials.append(Material(name, mr.vector("colour", 3, low=0),
+                                  mr.number("shininess", DEFAULT_SHININESS, low=0, open_low=True)))
+
+    scene = Scene(path, camera, width, height, r.vector("ambient", 3, default=[0, 0, 0], low=0), [],
+                  materials, spp=render.integer("spp", 1), light_samples=render.integer("light_samples", 1),
+                  sampler=render.string("sampler", "grid"))
+
+    lights = r.raw("lights")
+    if not isinstance(lights, list) or not lights:
+        r.fail("lights", lights, "must be a non-empty array of [[lights]] tables")
+    for i, light in enumerate(lights):
+        lr = _Reader(path, light, f"lights[{i}].")
+        lr.check_keys(["center", "colour", "normal", "size", "tangent"])
+        scene.lights.append(Light(colour=lr.vector("colour", 3, low=0), **_rectangle_fields(lr)))
+
+    shapes = r.raw("shapes", [])
+    if not isinstance(shapes, list):
+        r.fail("shapes", shapes, "must be an array of [[shapes]] tables")
+    for i, shape in enumerate(shapes):
+        _load_shape(scene, _Reader(path, shape, f"shapes[{i}]."), material_index)
+    return scene
+
+
+def load_scene(path):
+    """Read and validate a TOML scene file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise InputError(path, "file", str(path), e.strerror or "cannot be read") from None
+    except UnicodeDecodeError:
+        raise InputError(path, "file", str(path), "is not UTF-8 text") from None
+    try:
+        table = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(path, "toml", str(e).split("\n")[0], "is not valid TOML") from None
+    return parse_scene(table, str(path))
