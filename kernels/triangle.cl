@@ -45,6 +45,9 @@ inline vec3 shear_vertex(Vec3f v, Ray r, RayShear s)
 inline vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s, vfloat tmin, vfloat tmax,
                                  vfloat *b1, vfloat *b2)
 {
+    /* No fused multiply-add in the edge functions: e(a, b) must be exactly -e(b, a), so that the two
+     * triangles sharing an edge see the same value with opposite signs. */
+#pragma OPENCL FP_CONTRACT OFF
     vec3 a = shear_vertex(tri->v0, r, s), b = shear_vertex(tri->v1, r, s), c = shear_vertex(tri->v2, r, s);
     vfloat e0 = b.x * c.y - b.y * c.x; /* edge v1 v2: weight of v0 */
     vfloat e1 = c.x * a.y - c.y * a.x; /* edge v2 v0: weight of v1 */

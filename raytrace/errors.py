@@ -9,4 +9,5 @@ class InputError(Exception):
 
     def __init__(self, source, key, value, problem):
         self.source, self.key, self.value, self.problem = str(source), key, value, problem
-        super().__init__(f"{self.source}: {key} = {value!r}: {problem}")
+        shown = "" if value is None else f" = {value!r}"
+        super().__init__(f"{self.source}: {key}{shown}: {problem}")

@@ -1,0 +1,103 @@
+"""Command line: `python -m raytrace render SCENE -o OUT ...` and `python -m raytrace bench ...`.
+
+Bad input ends with one line on stderr naming the file (or the command line), the key and the value,
+and exit status 2; no output file is left behind."""
+import argparse
+import dataclasses
+import json
+import os
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+from . import samplers
+from .errors import InputError
+from .image import FORMATS, write_image
+
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        m = re.match(r"argument ([^:]+): (.*)", message)
+        key = m.group(1).split("/")[-1] if m else self.prog
+        value = re.search(r"value: '([^']*)'", message)
+        raise InputError("command line", key, value.group(1) if value else None, m.group(2) if m else message)
+
+
+def _add_render_options(p):
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
+    p.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
+    p.add_argument("--spp", type=int, help="pixel samples (a square number for the grid sampler)")
+    p.add_argument("--light-samples", type=int, help="samples per light (square: the course's uniform grid)")
+    p.add_argument("--sampler", help=f"pixel sample pattern: {', '.join(samplers.PIXEL_SAMPLERS)}")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random sample patterns")
+    p.add_argument("--device", help='OpenCL device: "P:D" indices or part of its name (default: a CPU)')
+
+
+def parser():
+    p = _Parser(prog="raytrace", description=__doc__.split("\n")[0])
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    r = sub.add_parser("render", help="render a scene to an image file")
+    _add_render_options(r)
+    r.add_argument("-o", "--output", required=True, help=f"image file ({', '.join(sorted(FORMATS))})")
+    r.add_argument("--stats-json", help="write render statistics to this JSON file")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    b = sub.add_parser("bench", help="rays per second of the kernel variants, against a baseline")
+    _add_render_options(b)
+    b.add_argument("--repeat", type=int, default=3, help="timed renders per variant (the best counts)")
+    b.add_argument("--json", help="write the results to this JSON file")
+    return p
+
+
+def _write_json(path, data):
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(suffix=".json", prefix=".raytrace-", dir=path.parent if str(path.parent) else ".")
+    with os.fdopen(fd, "w") as f:
+        json.dump(data, f, indent=2)
+    os.replace(tmp, path)
+
+
+def _render_kwargs(args):
+    return dict(width=args.width, height=args.height, spp=args.spp, light_samples=args.light_samples,
+                sampler=args.sampler, seed=args.seed, device=args.device)
+
+
+def cmd_render(args):
+    from .render import render
+    from .scene import load_scene
+
+    output = Path(args.output)
+    if output.suffix.lower() not in FORMATS:
+        raise InputError("command line", "-o", args.output, f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
+    if not (output.parent if str(output.parent) else Path(".")).is_dir():
+        raise InputError("command line", "-o", args.output, "the output directory does not exist")
+    scene = load_scene(args.scene)
+    image, stats = render(scene, **_render_kwargs(args), progress=False if args.no_progress else None)
+    metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
+                "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(args.scene)}
+    write_image(output, image, metadata)
+    if args.stats_json:
+        _write_json(args.stats_json, dataclasses.asdict(stats))
+    print(f"{output}: {stats.width}x{stats.height}, {stats.spp} spp x {stats.light_samples} light samples, "
+          f"{stats.render_seconds:.3f} s, {stats.mrays_per_s:.1f} Mrays/s on {stats.device}", file=sys.stderr)
+
+
+def cmd_bench(args):
+    from .bench import benchmark
+
+    results = benchmark(args.scene, repeat=args.repeat, **_render_kwargs(args))
+    if args.json:
+        _write_json(args.json, results)
+
+
+def main(argv=None):
+    try:
+        args = parser().parse_args(argv)
+        {"render": cmd_render, "bench": cmd_bench}[args.command](args)
+    except InputError as e:
+        print(f"raytrace: error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    return 0
