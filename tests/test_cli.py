@@ -1,0 +1,105 @@
+"""The command line as a user runs it: real files written and read back with OpenImageIO, and bad input
+answered with one line, exit status 2 and no output file."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+import raytrace
+from conftest import ROOT
+from raytrace.image import encode_8bit
+
+CORNELL = str(ROOT / "scenes" / "cornell.toml")
+
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def read(path):
+    """Spec and pixels in the file's own format (ImageBuf.get_pixels(UNKNOWN) crashes in OIIO 3.2.2)."""
+    image = oiio.ImageInput.open(str(path))
+    assert image is not None, oiio.geterror()
+    spec = image.spec()
+    pixels = image.read_image(spec.format)
+    image.close()
+    return spec, pixels
+
+
+def test_render_png_exr_and_stats(tmp_path, cornell):
+    size = ["--width", 40, "--height", 32, "--spp", 4, "--light-samples", 4]
+    png, exr, stats = tmp_path / "c.png", tmp_path / "c.exr", tmp_path / "s.json"
+    assert run("render", CORNELL, "-o", png, *size, "--stats-json", stats).returncode == 0
+    r = run("render", CORNELL, "-o", exr, *size)
+    assert r.returncode == 0, r.stderr
+    spec, pixels = read(exr)
+    assert (spec.width, spec.height, spec.nchannels) == (40, 32, 3) and pixels.dtype == np.float32
+    assert spec.getattribute("raytrace:spp") == 4 and spec.getattribute("raytrace:light_samples") == 4
+    assert spec.getattribute("raytrace:sampler") == "grid" and "Portable" in spec.getattribute("raytrace:device")
+    assert spec.getattribute("raytrace:seconds") > 0
+    image, _ = raytrace.render(cornell, width=40, height=32, spp=4, light_samples=4)
+    np.testing.assert_array_equal(pixels, image)       # EXR keeps the linear floats as they are
+    spec8, pixels8 = read(png)
+    assert spec8.format == oiio.UINT8
+    np.testing.assert_array_equal(pixels8, encode_8bit(image))
+    data = json.loads(stats.read_text())
+    for key in ("render_seconds", "build_seconds", "rays", "mrays_per_s", "device", "build_options"):
+        assert key in data
+    assert data["rays"] > 40 * 32 * 4 and "-DHAS_ELLIPSOIDS=1" in data["build_options"]
+
+
+def test_8bit_encoding():
+    """ceil(255 x^(1/2.2)) of SPEC.md section 6, clamped."""
+    x = np.array([-1.0, 0.0, 1e-7, 0.5, 1.0, 3.0])
+    np.testing.assert_array_equal(encode_8bit(x), [0, 0, 1, 187, 255, 255])
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--spp", "-1"], "command line: --spp = -1"),
+    (["--width", "0"], "command line: --width = 0"),
+    (["--sampler", "fancy"], "command line: --sampler = 'fancy'"),
+    (["--spp", "5"], "command line: --spp = 5"),
+    (["--spp", "abc"], "command line: --spp = 'abc'"),
+    (["--light-samples", "0"], "command line: --light-samples = 0"),
+    (["--device", "no-such-device"], "command line: --device = 'no-such-device'"),
+])
+def test_bad_command_line(tmp_path, args, needle):
+    out = tmp_path / "x.png"
+    r = run("render", CORNELL, "-o", out, "--width", 16, "--height", 16, *args)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and needle in r.stderr and "Traceback" not in r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_scene_files(tmp_path):
+    cases = {
+        "missing.toml": None,
+        "broken.toml": "[camera\n",
+        "wrongkey.toml": open(CORNELL).read().replace("fov = 45.0", "fov = 45.0\nzoom = 2"),
+        "singular.toml": open(CORNELL).read().replace("[0.0, 0.0, 0.4]]", "[0.0, 0.0, 0.0]]"),
+        "badvector.toml": open(CORNELL).read().replace("look_at = [0.0, 0.0, 1.0]", "look_at = [0.0, 1.0]"),
+    }
+    expected = {"missing.toml": "file", "broken.toml": "toml", "wrongkey.toml": "camera.zoom = 2",
+                "singular.toml": "shapes[6].axes", "badvector.toml": "camera.look_at = [0.0, 1.0]"}
+    for name, text in cases.items():
+        scene = tmp_path / name
+        if text is not None:
+            scene.write_text(text)
+        out = tmp_path / "out" / "x.png"
+        out.parent.mkdir(exist_ok=True)
+        r = run("render", scene, "-o", out)
+        assert r.returncode == 2, name
+        assert r.stderr.count("\n") == 1 and name in r.stderr and expected[name] in r.stderr, r.stderr
+        assert list(out.parent.iterdir()) == []
+
+
+def test_bad_output(tmp_path):
+    r = run("render", CORNELL, "-o", tmp_path / "x.gif")
+    assert r.returncode == 2 and "-o" in r.stderr and "x.gif" in r.stderr
+    r = run("render", CORNELL, "-o", tmp_path / "no" / "dir" / "x.png")
+    assert r.returncode == 2 and "directory" in r.stderr

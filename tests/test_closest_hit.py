@@ -1,0 +1,84 @@
+"""Closest-hit selection over the whole course scene (kernels/intersect.cl) against the reference."""
+import numpy as np
+
+import reference
+from conftest import planar
+from raytrace.kernel import kernel_dir
+from raytrace.render import (ellipsoid_structs, light_structs, material_structs, rectangle_structs,
+                             triangle_structs)
+from raytrace import types
+
+SOURCE = """
+#include "intersect.cl"
+__kernel void closest(int n, __constant const RenderParams *params, __global const Rectangle *rects,
+                      __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
+                      __global const Material *materials, __global const float *o, __global const float *d,
+                      __global float *t, __global float *nrm, __global float *material, __global float *emitted)
+{
+    const Scene s = {rects, tris, ells, lights, materials, params};
+    Ray r = {IN3(o), IN3(d)};
+    Hit hit = closest_hit(&s, r, (vfloat)(0.0f), (vfloat)(INFINITY));
+    OUT(t, hit.t);
+    OUT3(nrm, hit.n);
+    OUT(material, CONVERT_VFLOAT(hit.material));
+    OUT(emitted, hit.emitted.x);
+}
+"""
+
+
+def scene_args(scene):
+    params = np.zeros((), types.RENDER_PARAMS)
+    params["n_rectangles"], params["n_triangles"] = len(scene.rectangles), len(scene.triangles)
+    params["n_ellipsoids"], params["n_lights"] = len(scene.ellipsoids), len(scene.lights)
+    params["ambient"] = scene.ambient
+    return [params, rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
+            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials)]
+
+
+def random_rays(scene, n, seed):
+    """Rays from points inside the box in all directions, and from the camera."""
+    rng = np.random.default_rng(seed)
+    o = rng.uniform([-0.95, -0.95, 0.05], [0.95, 0.95, 1.9], (n, 3))
+    o[: n // 4] = scene.camera.position
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return o.astype(np.float32).astype(float), d.astype(np.float32).astype(float)
+
+
+def test_closest_hit_matches_reference(harness, cornell):
+    """Same surface (material and light) for every ray but those whose two nearest hits lie within
+    1e-4 of each other (float32 may order them either way); t relative 1e-5; face-forwarded normals 1e-4."""
+    n = 2048
+    o, d = random_rays(cornell, n, 11)
+    out = harness.run(SOURCE, "closest", n, [*scene_args(cornell), planar(o), planar(d)],
+                      {"t": 1, "nrm": 3, "material": 1, "emitted": 1}, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
+                      HAS_ELLIPSOIDS=1)
+    ref = reference.closest_hit(cornell, o, d, tmin=0.0)
+    second = reference.closest_hit(cornell, o + (ref["t"][:, None] + 1e-4) * d, d, tmin=0.0)
+    clear = ~np.isfinite(ref["t"]) | (second["t"] > 1e-4)
+    assert np.count_nonzero(clear) > 0.95 * n
+    np.testing.assert_array_equal(out["material"][clear], ref["material"][clear])
+    np.testing.assert_array_equal(out["emitted"][clear] > 0, ref["light"][clear] >= 0)
+    assert np.count_nonzero(ref["light"][clear] >= 0) > 5, "some rays must see the light"
+    assert np.count_nonzero(~np.isfinite(ref["t"])) > 50, "some rays from the camera miss the box"
+    np.testing.assert_array_equal(np.isfinite(out["t"][clear]), np.isfinite(ref["t"][clear]))
+    clear &= np.isfinite(ref["t"])
+    np.testing.assert_allclose(out["t"][clear], ref["t"][clear], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(out["nrm"].T[clear], ref["normal"][clear], atol=1e-4)
+    assert np.all(np.sum(out["nrm"].T * d, axis=1)[clear] <= 1e-6), "normals face the incoming ray"
+
+
+def test_shape_kinds_can_be_left_out(harness, cornell):
+    """With HAS_ELLIPSOIDS=0 the ellipsoid is not compiled: rays at it see what lies behind it."""
+    e = cornell.ellipsoids[0]
+    o = np.tile(cornell.camera.position, (8, 1))
+    d = e.center - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    args = [*scene_args(cornell), planar(o), planar(d)]
+    outputs = {"t": 1, "nrm": 3, "material": 1, "emitted": 1}
+    full = harness.run(SOURCE, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)
+    without = harness.run(SOURCE, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
+                          HAS_ELLIPSOIDS=0)
+    assert np.all(full["material"] == e.material)
+    assert np.all(without["material"] != e.material) and np.all(without["t"] > full["t"])
+    assert "HAS_ELLIPSOIDS" in (kernel_dir() / "intersect.cl").read_text()

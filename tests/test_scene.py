@@ -1,0 +1,63 @@
+"""Scene files: the course's scene as SPEC.md gives it, and every kind of bad input named precisely."""
+import tomllib
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from raytrace.errors import InputError
+from raytrace.scene import load_scene, parse_scene
+
+CORNELL = ROOT / "scenes" / "cornell.toml"
+
+
+def test_cornell_is_the_course_scene(cornell):
+    assert (cornell.width, cornell.height) == (512, 512)
+    np.testing.assert_array_equal(cornell.camera.position, [0, -3, 1.3])
+    assert cornell.camera.fov_deg == 45
+    assert len(cornell.rectangles) == 5 and len(cornell.triangles) == 4 and len(cornell.ellipsoids) == 1
+    colours = {m.name: m.colour.tolist() for m in cornell.materials}
+    assert colours["red"] == [0.8, 0, 0] and colours["yellow"] == [1, 0.93, 0.6]
+    left = cornell.rectangles[2]
+    np.testing.assert_array_equal(left.center, [-1, 0, 1])
+    assert cornell.materials[left.material].name == "red"
+    np.testing.assert_array_equal(cornell.triangles[3].vertices, [[-1, 0.2, 0.2], [-0.5, -0.3774, 1], [0, 0.2, 0.2]])
+    np.testing.assert_array_equal(cornell.ellipsoids[0].axes, [[0.3, 0.1, 0], [-0.1, 0.3, 0], [0, 0, 0.4]])
+
+
+def broken(edit):
+    table = tomllib.loads(CORNELL.read_text())
+    edit(table)
+    with pytest.raises(InputError) as info:
+        parse_scene(table, "broken.toml")
+    return info.value, str(info.value)
+
+
+@pytest.mark.parametrize("edit,key,value", [
+    (lambda t: t["camera"].update(positon=[0, 0, 0]), "camera.positon", [0, 0, 0]),
+    (lambda t: t["camera"].update(position=[0, 0]), "camera.position", [0, 0]),
+    (lambda t: t["shapes"][6].update(axes=[[1, 0, 0], [0, 1, 0], [1, 1, 0]]), "shapes[6].axes",
+     [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]),
+    (lambda t: t["shapes"][0].update(size=[0, 2]), "shapes[0].size", [0.0, 2.0]),
+    (lambda t: t["shapes"][1].update(material="gold"), "shapes[1].material", "gold"),
+    (lambda t: t["shapes"][2].update(type="sphere"), "shapes[2].type", "sphere"),
+    (lambda t: t["shapes"][5].update(faces=[[0, 1, 7]]), "shapes[5].faces[0]", [0, 1, 7]),
+    (lambda t: t["image"].update(width=0), "image.width", 0),
+    (lambda t: t["materials"]["red"].update(colour=[1, "x", 0]), "materials.red.colour", [1, "x", 0]),
+    (lambda t: t["shapes"][3].update(tangent=[-1, 0, 0]), "shapes[3].tangent", [-1.0, 0.0, 0.0]),
+    (lambda t: t["lights"][0].update(colour=[1, 1, -1]), "lights[0].colour", [1, 1, -1]),
+    (lambda t: t.update(fog=1), "fog", 1),
+])
+def test_bad_keys_are_named(edit, key, value):
+    error, text = broken(edit)
+    assert (error.source, error.key, error.value) == ("broken.toml", key, value)
+    assert "\n" not in text and text.startswith(f"broken.toml: {key} = ")
+
+
+def test_missing_and_broken_files(tmp_path):
+    with pytest.raises(InputError, match="nope.toml: file"):
+        load_scene(tmp_path / "nope.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[camera\nposition = 1")
+    with pytest.raises(InputError, match="bad.toml: toml"):
+        load_scene(bad)

@@ -1,0 +1,110 @@
+"""Phong terms, light sample points and shadow rays (kernels/shading.cl, lights.cl, intersect.cl)."""
+import numpy as np
+
+import reference
+from conftest import planar
+from raytrace import samplers
+from raytrace.render import light_structs
+from test_closest_hit import scene_args
+
+PHONG = """
+#include "shading.cl"
+__kernel void lobes(int n, __global const float *nrm, __global const float *l, __global const float *v,
+                    float shininess, __global float *out)
+{
+    OUT(out, phong_lobes(IN3(nrm), IN3(l), IN3(v), (vfloat)(shininess)));
+}
+
+__kernel void points(int n, __global const Light *light, __global const float2 *uv, __global float *p)
+{
+    for (int i = I * LANES; i < (I + 1) * LANES; ++i) {  /* a light point is uniform over lanes */
+        vec3 q = light_point(light, uv[i]);
+        float x[LANES], y[LANES], z[LANES];
+        VSTORE(q.x, 0, x); VSTORE(q.y, 0, y); VSTORE(q.z, 0, z);
+        p[i] = x[0]; p[i + n] = y[0]; p[i + 2 * n] = z[0];
+    }
+}
+"""
+
+SHADOW = """
+#include "shading.cl"
+__kernel void shadow(int n, __constant const RenderParams *params, __global const Rectangle *rects,
+                     __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
+                     __global const Material *materials, __global const float *p, __global const float *q,
+                     __global float *blocked)
+{
+    const Scene s = {rects, tris, ells, lights, materials, params};
+    vec3 from = IN3(p);
+    Ray r = {from, v3_sub(IN3(q), from)};
+    OUT(blocked, MASK_TO_ONE(occluded(&s, r, (vfloat)(1e-4f), (vfloat)(SHADOW_END))));
+}
+"""
+
+
+def unit(v):
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def test_phong_lobes(harness):
+    """max(0, n.l) + max(0, r.v)^s with r = 2(n.l)n - l, against float64; exp2(s log2 x) in float32 is good
+    to about s * 2^-22 relative, so 1e-5 absolute for terms <= 2 and s <= 64."""
+    rng = np.random.default_rng(13)
+    n = 512
+    nrm, l, v = (unit(rng.normal(size=(n, 3))) for _ in range(3))
+    l[:64] = nrm[:64]  # mirror cases: r = n, r.v = n.v
+    for s in (1.0, 16.0, 64.0):
+        out = harness.run(PHONG, "lobes", n, [planar(nrm), planar(l), planar(v), np.float32(s)], {"out": 1})
+        ndl = np.sum(nrm * l, 1)
+        r = 2 * ndl[:, None] * nrm - l
+        ref = np.maximum(ndl, 0) + np.maximum(np.sum(r * v, 1), 0) ** s
+        np.testing.assert_allclose(out["out"], ref, atol=1e-5)
+
+
+def test_light_points(harness, cornell):
+    light = cornell.lights[0]
+    uv = samplers.grid(16)
+    out = harness.run(PHONG, "points", 16, [light_structs([light]), uv.astype(np.float32)], {"p": 3})
+    np.testing.assert_allclose(out["p"].T, reference.light_points(light, uv), atol=1e-7)
+    assert np.allclose(out["p"][2], 1.95) and out["p"][0].min() > -0.25 and out["p"][1].max() < 0.15
+
+
+def test_shadow_rays(harness, cornell):
+    """Segments from visible surface points to light samples: blocked exactly when the float64
+    reference is, except segments passing within 1e-3 of an occluder's silhouette."""
+    rng = np.random.default_rng(17)
+    n = 2048
+    o = np.tile(cornell.camera.position, (n, 1))
+    d = unit(rng.normal([0, 1, -0.2], [0.35, 0.1, 0.3], (n, 3)))
+    hit = reference.closest_hit(cornell, o, d, tmin=0.0)
+    ok = (hit["material"] >= 0)
+    p = o + hit["t"][:, None] * d
+    p_off = p + hit["normal"] * 2.44140625e-4 * (1 + np.abs(p).max(1, keepdims=True))
+    q = reference.light_points(cornell.lights[0], rng.uniform(0, 1, (n, 2)))
+    ref = reference.occluded(cornell, p_off, q)
+    out = harness.run(SHADOW, "shadow", n, [*scene_args(cornell), planar(p_off), planar(q)], {"blocked": 1},
+                      HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)["blocked"] > 0
+    # silhouette: nudging the light point by 1e-3 changes the reference's answer
+    nudged = [reference.occluded(cornell, p_off, q + dq) for dq in np.eye(3) * 1e-3]
+    clear = ok & np.all([x == ref for x in nudged], axis=0)
+    assert np.count_nonzero(clear & ref) > 100 and np.count_nonzero(clear & ~ref) > 100
+    np.testing.assert_array_equal(out[clear], ref[clear])
+
+
+def test_no_acne(harness, cornell):
+    """Shadow rays from exact hit points on every surface towards the light, leaving by the error-bounded
+    offset, never hit the surface they leave: a point lit in the reference is lit in the kernel."""
+    rng = np.random.default_rng(19)
+    n = 2048
+    o = np.tile(cornell.camera.position, (n, 1))
+    d = unit(rng.normal([0, 1, -0.1], [0.4, 0.1, 0.4], (n, 3)))
+    hit = reference.closest_hit(cornell, o.astype(np.float32), d.astype(np.float32), tmin=0.0)
+    p = (o + hit["t"][:, None] * d).astype(np.float32).astype(float)  # a float32 hit point, as the kernel has
+    p_off = p + hit["normal"] * 2.44140625e-4 * (1 + np.abs(p).max(1, keepdims=True))
+    q = np.tile(cornell.lights[0].center, (n, 1))
+    facing = (hit["material"] >= 0) & (np.sum(hit["normal"] * (q - p), 1) > 0)
+    ref = reference.occluded(cornell, p, q)
+    out = harness.run(SHADOW, "shadow", n, [*scene_args(cornell), planar(p_off), planar(q)], {"blocked": 1},
+                      HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)["blocked"] > 0
+    lit = facing & ~ref
+    assert np.count_nonzero(lit) > 500
+    assert not np.any(out[lit])
