@@ -2,7 +2,6 @@
 import time
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 
 import pyopencl as cl
@@ -10,10 +9,9 @@ import pyopencl as cl
 
 def kernel_dir():
     """kernels/ of a checkout, else the copy installed as the package raytrace.kernels."""
-    checkout = Path(__file__).resolve().parent.parent / "kernels"
-    if (checkout / "render.cl").is_file():
-        return checkout
-    return Path(str(resources.files("raytrace.kernels")))
+    here = Path(__file__).resolve().parent
+    checkout = here.parent / "kernels"
+    return checkout if (checkout / "render.cl").is_file() else here / "kernels"
 
 
 @dataclass(frozen=True)
