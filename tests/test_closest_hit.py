@@ -3,7 +3,6 @@ import numpy as np
 
 import reference
 from conftest import planar
-from raytrace.kernel import kernel_dir
 from raytrace.render import (ellipsoid_structs, light_structs, material_structs, rectangle_structs,
                              triangle_structs)
 from raytrace import types
@@ -54,7 +53,8 @@ def test_closest_hit_matches_reference(harness, cornell):
                       {"t": 1, "nrm": 3, "material": 1, "emitted": 1}, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
                       HAS_ELLIPSOIDS=1)
     ref = reference.closest_hit(cornell, o, d, tmin=0.0)
-    second = reference.closest_hit(cornell, o + (ref["t"][:, None] + 1e-4) * d, d, tmin=0.0)
+    beyond = np.where(np.isfinite(ref["t"]), ref["t"], 0) + 1e-4
+    second = reference.closest_hit(cornell, o + beyond[:, None] * d, d, tmin=0.0)
     clear = ~np.isfinite(ref["t"]) | (second["t"] > 1e-4)
     assert np.count_nonzero(clear) > 0.95 * n
     np.testing.assert_array_equal(out["material"][clear], ref["material"][clear])
@@ -81,4 +81,3 @@ def test_shape_kinds_can_be_left_out(harness, cornell):
                           HAS_ELLIPSOIDS=0)
     assert np.all(full["material"] == e.material)
     assert np.all(without["material"] != e.material) and np.all(without["t"] > full["t"])
-    assert "HAS_ELLIPSOIDS" in (kernel_dir() / "intersect.cl").read_text()

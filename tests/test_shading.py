@@ -77,7 +77,7 @@ def test_shadow_rays(harness, cornell):
     d = unit(rng.normal([0, 1, -0.2], [0.35, 0.1, 0.3], (n, 3)))
     hit = reference.closest_hit(cornell, o, d, tmin=0.0)
     ok = (hit["material"] >= 0)
-    p = o + hit["t"][:, None] * d
+    p = o + np.where(ok, hit["t"], 0)[:, None] * d  # rays that see nothing or the light: any finite point
     p_off = p + hit["normal"] * 2.44140625e-4 * (1 + np.abs(p).max(1, keepdims=True))
     q = reference.light_points(cornell.lights[0], rng.uniform(0, 1, (n, 2)))
     ref = reference.occluded(cornell, p_off, q)
@@ -98,10 +98,12 @@ def test_no_acne(harness, cornell):
     o = np.tile(cornell.camera.position, (n, 1))
     d = unit(rng.normal([0, 1, -0.1], [0.4, 0.1, 0.4], (n, 3)))
     hit = reference.closest_hit(cornell, o.astype(np.float32), d.astype(np.float32), tmin=0.0)
-    p = (o + hit["t"][:, None] * d).astype(np.float32).astype(float)  # a float32 hit point, as the kernel has
+    on_surface = hit["material"] >= 0
+    t = np.where(on_surface, hit["t"], 0)
+    p = (o + t[:, None] * d).astype(np.float32).astype(float)  # a float32 hit point, as the kernel has
     p_off = p + hit["normal"] * 2.44140625e-4 * (1 + np.abs(p).max(1, keepdims=True))
     q = np.tile(cornell.lights[0].center, (n, 1))
-    facing = (hit["material"] >= 0) & (np.sum(hit["normal"] * (q - p), 1) > 0)
+    facing = on_surface & (np.sum(hit["normal"] * (q - p), 1) > 0)
     ref = reference.occluded(cornell, p, q)
     out = harness.run(SHADOW, "shadow", n, [*scene_args(cornell), planar(p_off), planar(q)], {"blocked": 1},
                       HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)["blocked"] > 0
