@@ -202,6 +202,8 @@ def render(scene, pixel_offsets, light_uv, width=None, height=None):
     w = scene.width if width is None else width
     h = scene.height if height is None else height
     offs = np.asarray(pixel_offsets, dtype=np.float64).reshape(-1, 2)
+    assert np.all((offs >= 0) & (offs < 1)), "pixel offsets lie inside the pixel"
+    assert np.all((np.asarray(light_uv) >= 0) & (np.asarray(light_uv) < 1)), "light samples lie on the light"
     s = len(offs)
     img = np.zeros((h, w, 3))
     rows = max(1, 32768 // (w * s))                      # <= ~32k rays per chunk: well under 1 GB
