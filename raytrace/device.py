@@ -13,11 +13,12 @@ from .errors import InputError
 # PoCL 3.0 offers no setting for it, so we point the device's llvm_cpu field at a CPU LLVM 14 knows
 # and this one can run: x86-64-v3 (AVX2 + FMA), the baseline the PoCL notes measured.
 _FALLBACK_CPU = b"x86-64-v3"
-_keepalive = []
+_patched = {}  # device address -> the name buffer its llvm_cpu now points at (kept alive)
 
 
 def _fix_generic_pocl_cpu(device):
-    if "pthread" not in device.version or not device.version.rstrip().endswith("-generic"):
+    if device.int_ptr in _patched or "pthread" not in device.version \
+            or not device.version.rstrip().endswith("-generic"):
         return
     cpu = ctypes.create_string_buffer(_FALLBACK_CPU)
     with open("/proc/self/mem", "rb", buffering=0) as mem:  # reads of bad addresses fail, never crash
@@ -34,7 +35,7 @@ def _fix_generic_pocl_cpu(device):
             except OSError:
                 continue
             ctypes.c_void_p.from_address(device.int_ptr + offset).value = ctypes.addressof(cpu)
-            _keepalive.append(cpu)
+            _patched[device.int_ptr] = cpu
             return  # the first such field is llvm_cpu, the target of code generation
 
 

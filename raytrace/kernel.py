@@ -1,7 +1,6 @@
 """Finding, specialising and building the OpenCL program."""
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import pyopencl as cl
@@ -39,6 +38,13 @@ def build(context, source, options=()):
     return program, time.perf_counter() - start
 
 
-@lru_cache(maxsize=16)
+_programs = {}
+
+
 def render_program(context, features):
-    return build(context, '#include "render.cl"\n', features.options())
+    """The renderer's program for these features; build seconds are 0 when it was built before."""
+    key = (context, features)
+    if key in _programs:
+        return _programs[key], 0.0
+    _programs[key], seconds = build(context, '#include "render.cl"\n', features.options())
+    return _programs[key], seconds

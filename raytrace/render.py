@@ -61,8 +61,8 @@ def camera_struct(camera, width, height):
     return c
 
 
-def rectangle_structs(rects, dtype=types.RECTANGLE):
-    a = np.zeros(max(len(rects), 1), dtype)
+def rectangle_structs(rects):
+    a = np.zeros(max(len(rects), 1), types.RECTANGLE)
     for s, r in zip(a, rects):
         s["center"], s["normal"], s["tangent"], s["bitangent"] = r.center, r.normal, r.tangent, r.bitangent
         s["half_x"], s["half_y"], s["material"] = r.size[0] / 2, r.size[1] / 2, r.material
@@ -101,6 +101,15 @@ def material_structs(materials):
     return a
 
 
+def params_struct(scene, spp=1, light_samples=1, width=1, height=1):
+    p = np.zeros((), types.RENDER_PARAMS)
+    p["ambient"] = scene.ambient
+    p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), len(scene.triangles)
+    p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
+    p["spp"], p["light_samples"], p["width"], p["height"] = spp, light_samples, width, height
+    return p
+
+
 def _option(value, source, key, check, problem):
     if not check(value):
         raise InputError(source, key, value, problem)
@@ -137,11 +146,7 @@ def render(scene, **kwargs):
     features = options.features or Features.of(scene, options.lanes or default_lanes(device))
     program, build_seconds = render_program(context, features)
 
-    params = np.zeros((), types.RENDER_PARAMS)
-    params["ambient"] = scene.ambient
-    params["n_rectangles"], params["n_triangles"] = len(scene.rectangles), len(scene.triangles)
-    params["n_ellipsoids"], params["n_lights"] = len(scene.ellipsoids), len(scene.lights)
-    params["spp"], params["light_samples"], params["width"], params["height"] = spp, n_light, width, height
+    params = params_struct(scene, spp, n_light, width, height)
 
     ro = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     buffers = [cl.Buffer(context, ro, hostbuf=a) for a in (

@@ -3,9 +3,8 @@ import numpy as np
 
 import reference
 from conftest import planar
-from raytrace.render import (ellipsoid_structs, light_structs, material_structs, rectangle_structs,
+from raytrace.render import (ellipsoid_structs, params_struct, light_structs, material_structs, rectangle_structs,
                              triangle_structs)
-from raytrace import types
 
 SOURCE = """
 #include "intersect.cl"
@@ -26,11 +25,7 @@ __kernel void closest(int n, __constant const RenderParams *params, __global con
 
 
 def scene_args(scene):
-    params = np.zeros((), types.RENDER_PARAMS)
-    params["n_rectangles"], params["n_triangles"] = len(scene.rectangles), len(scene.triangles)
-    params["n_ellipsoids"], params["n_lights"] = len(scene.ellipsoids), len(scene.lights)
-    params["ambient"] = scene.ambient
-    return [params, rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
+    return [params_struct(scene), rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
             ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials)]
 
 
