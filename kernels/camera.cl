@@ -17,4 +17,19 @@ inline Ray generate_camera_ray(__constant const Camera *cam, vfloat x, vfloat y,
     return r;
 }
 
+/* Ray differentials (Igehy 1999; pbrt-v4 section 10.1): where the camera rays of the neighbouring pixel
+ * samples, `spacing` pixels to the right and below, meet the tangent plane (point p, normal n) of the hit
+ * of the ray with unit direction d. Returns their offsets from p. Scalar: for one lane. */
+inline void camera_footprint(__constant const Camera *cam, float spacing, float inv_w, float inv_h, float3 d,
+                             float3 p, float3 n, float3 *dpdx, float3 *dpdy)
+{
+    float3 o = f3(cam->position);
+    float3 dir = d * (cam->focal_length / dot(d, f3(cam->forward))); /* f forward + sx right + sy up */
+    float3 dx = dir + f3(cam->right) * (2.0f * spacing * inv_w * cam->scale_x);
+    float3 dy = dir - f3(cam->up) * (2.0f * spacing * inv_h * cam->scale_y);
+    float plane = dot(p - o, n);
+    *dpdx = o + dx * (plane / dot(dx, n)) - p;
+    *dpdy = o + dy * (plane / dot(dy, n)) - p;
+}
+
 #endif

@@ -12,15 +12,26 @@
 #include "ellipsoid.cl"
 #endif
 
+#define SHAPE_NONE 0 /* nothing, or a light */
+#define SHAPE_RECTANGLE 1
+#define SHAPE_TRIANGLE 2
+#define SHAPE_ELLIPSOID 3
+
 typedef struct {
     vfloat t;      /* +inf: nothing hit */
     vec3 n;        /* unit geometric normal, facing the incoming ray */
     vint material; /* -1: nothing or a light */
     vec3 emitted;  /* colour of the light hit first, else 0 */
+#if HAS_TEXTURES   /* what surface.cl needs to find the texture coordinates */
+    vint kind, index; /* SHAPE_* and the shape's index in its table */
+    vfloat b1, b2;    /* barycentrics of a triangle hit */
+#endif
 } Hit;
 
-/* Keep the nearer of the current hit and a candidate at t_new with normal n (any orientation). */
-inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 n, int material, Vec3f emitted)
+/* Keep the nearer of the current hit and a candidate at t_new with normal n (any orientation): shape
+ * `index` of `kind`, with barycentrics (b1, b2) for a triangle. */
+inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 n, int material, Vec3f emitted, int kind, int index,
+                       vfloat b1, vfloat b2)
 {
     vint nearer = t_new < hit->t;
     vfloat facing = select((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, r.d) > 0.0f);
@@ -28,6 +39,12 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 n, int material, Vec3
     hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
     hit->material = select(hit->material, (vint)(material), nearer);
     hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
+#if HAS_TEXTURES
+    hit->kind = select(hit->kind, (vint)(kind), nearer);
+    hit->index = select(hit->index, (vint)(index), nearer);
+    hit->b1 = select(hit->b1, b1, nearer);
+    hit->b2 = select(hit->b2, b2, nearer);
+#endif
 }
 
 inline Hit closest_hit(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
@@ -37,12 +54,17 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
     hit.n = v3_splat(0.0f, 0.0f, 0.0f);
     hit.material = (vint)(-1);
     hit.emitted = hit.n;
+#if HAS_TEXTURES
+    hit.kind = hit.index = (vint)(0);
+    hit.b1 = hit.b2 = (vfloat)(0.0f);
+#endif
     const Vec3f black = {0.0f, 0.0f, 0.0f};
+    const vfloat zero = 0.0f;
 #if HAS_RECTANGLES
     for (int i = 0; i < s->params->n_rectangles; ++i) {
         __global const Rectangle *rect = &s->rectangles[i];
         vfloat t = intersect_rectangle(rect, r, tmin, fmin(tmax, hit.t));
-        hit_update(&hit, r, t, v3_uniform(rect->normal), rect->material, black);
+        hit_update(&hit, r, t, v3_uniform(rect->normal), rect->material, black, SHAPE_RECTANGLE, i, zero, zero);
     }
 #endif
 #if HAS_TRIANGLES
@@ -51,7 +73,7 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
         __global const Triangle *tri = &s->triangles[i];
         vfloat b1, b2;
         vfloat t = intersect_triangle(tri, r, shear, tmin, fmin(tmax, hit.t), &b1, &b2);
-        hit_update(&hit, r, t, v3_uniform(tri->normal), tri->material, black);
+        hit_update(&hit, r, t, v3_uniform(tri->normal), tri->material, black, SHAPE_TRIANGLE, i, b1, b2);
     }
 #endif
 #if HAS_ELLIPSOIDS
@@ -60,13 +82,13 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
         vec3 q;
         vfloat t = intersect_ellipsoid(e, r, tmin, fmin(tmax, hit.t), &q);
         if (ANY(t < hit.t))
-            hit_update(&hit, r, t, ellipsoid_normal(e, q), e->material, black);
+            hit_update(&hit, r, t, ellipsoid_normal(e, q), e->material, black, SHAPE_ELLIPSOID, i, zero, zero);
     }
 #endif
     for (int i = 0; i < s->params->n_lights; ++i) {
         __global const Light *light = &s->lights[i];
         vfloat t = intersect_rectangle(&light->shape, r, tmin, fmin(tmax, hit.t));
-        hit_update(&hit, r, t, v3_uniform(light->shape.normal), -1, light->colour);
+        hit_update(&hit, r, t, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i, zero, zero);
     }
     return hit;
 }

@@ -68,4 +68,20 @@ inline vec3 v3_select(vec3 a, vec3 b, vint m) /* b where m, else a */
 inline vec3 v3_splat(float x, float y, float z) { return v3((vfloat)(x), (vfloat)(y), (vfloat)(z)); }
 inline vfloat v3_max_abs(vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z))); }
 
+/* The way between lane-generic code and scalar code run once per lane (gathers such as texture lookups):
+ * spill a vec3 to per-lane arrays, read or write lane i as a float3, and load the arrays back. */
+typedef struct { float x[LANES], y[LANES], z[LANES]; } Lanes3;
+
+inline Lanes3 v3_spill(vec3 v)
+{
+    Lanes3 a;
+    VSTORE(v.x, 0, a.x);
+    VSTORE(v.y, 0, a.y);
+    VSTORE(v.z, 0, a.z);
+    return a;
+}
+inline float3 lane3(const Lanes3 *a, int i) { return (float3)(a->x[i], a->y[i], a->z[i]); }
+inline void set_lane3(Lanes3 *a, int i, float3 v) { a->x[i] = v.x; a->y[i] = v.y; a->z[i] = v.z; }
+inline vec3 v3_fill(const Lanes3 *a) { return v3(VLOAD(0, a->x), VLOAD(0, a->y), VLOAD(0, a->z)); }
+
 #endif

@@ -1,4 +1,5 @@
-/* The per-pixel pipeline: generate camera rays, intersect, shade, accumulate.
+/* The per-pixel pipeline: generate camera rays, intersect, find the material's shading point, shade,
+ * accumulate.
  *
  * One work-item renders LANES neighbouring pixels of one row: x = LANES * get_global_id(0) + lane,
  * y = row0 + get_global_id(1). Output planes (each width * height floats): R, G, B (mean over the pixel
@@ -19,11 +20,15 @@ inline void store_lanes(__global float *plane, int index, vfloat value, vint act
 
 __kernel void render(__constant const Camera *camera, __constant const RenderParams *params,
                      __global const Rectangle *rectangles, __global const Triangle *triangles,
-                     __global const Ellipsoid *ellipsoids, __global const Light *lights,
-                     __global const Material *materials, __global const float2 *pixel_samples,
-                     __global const float2 *light_samples, int row0, __global float *out)
+                     __global const TriangleUV *triangle_uvs, __global const Ellipsoid *ellipsoids,
+                     __global const Light *lights, __global const Material *materials,
+                     __global const Texture *textures, __global const MipLevel *mip_levels,
+                     __global const uint *texels, __global const float *srgb_to_linear,
+                     __global const float2 *pixel_samples, __global const float2 *light_samples, int row0,
+                     __global float *out)
 {
-    const Scene scene = {rectangles, triangles, ellipsoids, lights, materials, params};
+    const Scene scene = {rectangles, triangles, triangle_uvs, ellipsoids, lights, materials, camera, params};
+    const TextureStore ts = {textures, mip_levels, texels, srgb_to_linear};
     const int width = params->width, height = params->height;
     const int x0 = LANES * get_global_id(0), y = row0 + get_global_id(1);
     if (y >= height)
@@ -38,7 +43,8 @@ __kernel void render(__constant const Camera *camera, __constant const RenderPar
         Ray ray = generate_camera_ray(camera, x + offset.x, (vfloat)(y + offset.y), 1.0f / width,
                                       1.0f / height);
         Hit hit = closest_hit(&scene, ray, (vfloat)(0.0f), (vfloat)(INFINITY));
-        sum = v3_add(sum, shade(&scene, ray, hit, light_samples, &rays));
+        ShadingPoint sp = shading_point(&scene, ts, ray, hit);
+        sum = v3_add(sum, shade(&scene, ray, hit, sp, light_samples, &rays));
     }
     rays += (float)params->spp;
 

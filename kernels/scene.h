@@ -1,18 +1,32 @@
 /* The scene as the kernel sees it: the host's buffers and counts, gathered in one private struct.
- * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS (set by the host from the scene) leave out the code
- * of shape kinds a scene lacks; the kernel's arguments stay the same in every variant. */
+ * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
+ * HAS_HEIGHT_MAPS (set by the host from the scene) leave out the code of what a scene lacks; the kernel's
+ * arguments stay the same in every variant. */
 #ifndef SCENE_H
 #define SCENE_H
 
 #include "types.h"
 
+/* Any texture at all: hits then carry what is needed to find their texture coordinates. */
+#define HAS_TEXTURES (HAS_COLOUR_MAPS || HAS_NORMAL_MAPS || HAS_HEIGHT_MAPS)
+
 typedef struct {
     __global const Rectangle *rectangles;
     __global const Triangle *triangles;
+    __global const TriangleUV *triangle_uvs;
     __global const Ellipsoid *ellipsoids;
     __global const Light *lights;
     __global const Material *materials;
+    __constant const Camera *camera;
     __constant const RenderParams *params;
 } Scene;
+
+/* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */
+typedef struct {
+    __global const Texture *textures;
+    __global const MipLevel *levels;
+    __global const uint *texels;
+    __global const float *srgb_to_linear; /* 256 entries: 8-bit sRGB code to linear */
+} TextureStore;
 
 #endif

@@ -5,8 +5,8 @@
 #ifndef SHADING_CL
 #define SHADING_CL
 
-#include "intersect.cl"
 #include "lights.cl"
+#include "material.cl"
 
 /* Segments end this fraction short of the light, so a light flush with a ceiling does not shadow itself. */
 #define SHADOW_END (1.0f - 1e-4f)
@@ -22,31 +22,14 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
     return fmax(ndotl, 0.0f) + phong_power(fmax(v3_dot(r, v), 0.0f), shininess);
 }
 
-/* Gather the per-lane material of a hit: colour and shininess (material -1 gives 0). */
-inline void material_of(const Scene *s, vint material, vec3 *k, vfloat *shininess)
-{
-    int m[LANES];
-    float kx[LANES], ky[LANES], kz[LANES], sh[LANES];
-    VSTORE(material, 0, m);
-    for (int i = 0; i < LANES; ++i) {
-        Material mat = {{0.0f, 0.0f, 0.0f}, 1.0f};
-        if (m[i] >= 0)
-            mat = s->materials[m[i]];
-        kx[i] = mat.colour.x; ky[i] = mat.colour.y; kz[i] = mat.colour.z; sh[i] = mat.shininess;
-    }
-    *k = v3(VLOAD(0, kx), VLOAD(0, ky), VLOAD(0, kz));
-    *shininess = VLOAD(0, sh);
-}
-
-/* Colour seen along r at its hit; *rays counts the shadow rays traced per lane. */
-inline vec3 shade(const Scene *s, Ray r, Hit hit, __global const float2 *light_samples, vfloat *rays)
+/* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. A light
+ * sample counts where it lies above both the surface (ng: else the surface itself would block it) and the
+ * shading normal (n: the lobes of a bumped surface). */
+inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const float2 *light_samples,
+                  vfloat *rays)
 {
     vint surface = (hit.t < INFINITY) & (hit.material >= 0);
-    vec3 k;
-    vfloat shininess;
-    material_of(s, hit.material, &k, &shininess);
-    vec3 p = ray_at(r, hit.t);
-    vec3 origin = offset_ray_origin(p, hit.n);
+    vec3 origin = offset_ray_origin(sp.p, sp.ng);
     vec3 v = v3_scale(r.d, -1.0f);
     vec3 direct = v3_splat(0.0f, 0.0f, 0.0f);
     int n_samples = s->params->light_samples;
@@ -55,19 +38,19 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, __global const float2 *light_s
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
             vec3 q = light_point(light, light_samples[j]);
-            vec3 l = v3_normalize(v3_sub(q, p));
-            vint lit = surface & (v3_dot(hit.n, l) > 0.0f);
+            vec3 l = v3_normalize(v3_sub(q, sp.p));
+            vint lit = surface & (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f);
             if (!ANY(lit))
                 continue;
             *rays += MASK_TO_ONE(lit);
             Ray shadow = {origin, v3_sub(q, origin)};
             lit &= !occluded(s, shadow, (vfloat)(0.0f), (vfloat)(SHADOW_END));
-            sum += select((vfloat)(0.0f), phong_lobes(hit.n, l, v, shininess), lit);
+            sum += select((vfloat)(0.0f), phong_lobes(sp.n, l, v, sp.shininess), lit);
         }
         direct = v3_madd(direct, sum * (1.0f / n_samples), v3_uniform(light->colour));
     }
     vec3 ambient = v3_uniform(s->params->ambient);
-    vec3 colour = v3_mul(k, v3_add(ambient, direct));
+    vec3 colour = v3_mul(sp.k, v3_add(ambient, direct));
     return v3_select(hit.emitted, colour, surface);
 }
 

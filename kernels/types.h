@@ -27,9 +27,17 @@ typedef struct {
     int material;
 } Triangle;
 
+/* Texture coordinates of a triangle, read only when shading (kept apart from the intersection data). */
+typedef struct {
+    float uv[6];          /* (u, v) of v0, v1, v2 */
+    Vec3f dpdu, dpdv;     /* the uv parameterisation's derivatives, constant over the triangle */
+    Vec3f tangent;        /* unit direction of dpdu */
+} TriangleUV;
+
 typedef struct {
     Vec3f center;
     float world_to_unit[9]; /* row-major inverse of [a b c]: world offsets to unit-sphere space */
+    float unit_to_world[9]; /* row-major [a b c] (columns are the axes), for dp/du and dp/dv */
     int material;
 } Ellipsoid;
 
@@ -38,18 +46,49 @@ typedef struct {
     Vec3f colour;
 } Light;
 
+#define WRAP_REPEAT 0
+#define WRAP_CLAMP 1
+#define WRAP_MIRROR 2
+
 typedef struct {
-    Vec3f colour; /* ka = kd = ks = colour (the course's model) */
+    Vec3f colour;                    /* ka = kd = ks = colour (the course's model), unless a colour map */
     float shininess;
+    int colour_map, normal_map, height_map; /* indices into the Texture table, -1 for none */
+    int wrap;                        /* WRAP_* */
+    float height_scale;              /* scene units per unit of height */
+    float uv_scale[2], uv_offset[2]; /* (u, v) -> uv_scale * (u, v) + uv_offset before every lookup */
 } Material;
+
+/* How a texture's texels are stored in the packed buffer of 32-bit words. */
+#define TEXELS_SRGB8 0  /* RGBA8 in one word, r in the low byte, sRGB-encoded: decoded through a table */
+#define TEXELS_UNORM8 1 /* RGBA8 in one word, linear data (normal and height maps) */
+#define TEXELS_FLOAT 2  /* RGBA float32 in four words */
+
+typedef struct {
+    int first_level, n_levels; /* its levels in the MipLevel table, finest first */
+    int encoding;              /* TEXELS_* */
+} Texture;
+
+typedef struct {
+    int offset;        /* first word of the level in the texel buffer; rows top to bottom */
+    int width, height;
+} MipLevel;
+
+#define FILTER_NEAREST 0
+#define FILTER_BILINEAR 1
+#define FILTER_TRILINEAR 2
+#define FILTER_ANISOTROPIC 3
 
 typedef struct {
     Vec3f ambient;
     int n_rectangles, n_triangles, n_ellipsoids, n_lights;
     int spp, light_samples;
     int width, height;
+    int texture_filter;    /* FILTER_* */
+    float footprint_scale; /* spacing of the pixel samples in pixels (1 / sqrt(spp)): ray differentials */
 } RenderParams;
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }
+inline float3 f3(Vec3f a) { return (float3)(a.x, a.y, a.z); }
 
 #endif

@@ -21,14 +21,20 @@ class Features:
     rectangles: bool = True
     triangles: bool = True
     ellipsoids: bool = True
+    colour_maps: bool = True
+    normal_maps: bool = True
+    height_maps: bool = True
 
     @classmethod
     def of(cls, scene, lanes):
-        return cls(lanes, bool(scene.rectangles), bool(scene.triangles), bool(scene.ellipsoids))
+        used = lambda attribute: any(getattr(m, attribute) >= 0 for m in scene.materials)  # noqa: E731
+        return cls(lanes, bool(scene.rectangles), bool(scene.triangles), bool(scene.ellipsoids),
+                   used("colour_map"), used("normal_map"), used("height_map"))
 
     def options(self):
-        return [f"-DLANES={self.lanes}", f"-DHAS_RECTANGLES={int(self.rectangles)}",
-                f"-DHAS_TRIANGLES={int(self.triangles)}", f"-DHAS_ELLIPSOIDS={int(self.ellipsoids)}"]
+        flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
+                 "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps}
+        return [f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
 
 
 def build(context, source, options=()):

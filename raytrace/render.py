@@ -1,5 +1,5 @@
-"""Rendering a Scene: struct buffers, the specialised program, banded launches, statistics."""
-import math
+"""Rendering a Scene: options, the specialised program, banded launches, statistics (the structs it
+sends are packed by raytrace/structs.py)."""
 import sys
 import time
 from dataclasses import dataclass, field
@@ -8,6 +8,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import samplers, types
+from .structs import scene_structs
 from .device import context_for, default_lanes, describe, select_device
 from .errors import InputError
 from .kernel import Features, render_program
@@ -22,6 +23,7 @@ class RenderOptions:
     spp: int | None = None
     light_samples: int | None = None
     sampler: str | None = None
+    texture_filter: str = "trilinear"
     seed: int = 0
     device: str | None = None
     lanes: int | None = None
@@ -42,72 +44,10 @@ class RenderStats:
     spp: int
     light_samples: int
     sampler: str
+    texture_filter: str
     seed: int
+    texture_bytes: int
     extra: dict = field(default_factory=dict)
-
-
-def _vec(a):
-    return np.asarray(a, dtype=np.float32)
-
-
-def camera_struct(camera, width, height):
-    forward, right, up = camera.basis()
-    tan_half = math.tan(math.radians(camera.fov_deg) / 2)
-    c = np.zeros((), types.CAMERA)
-    c["position"], c["forward"], c["right"], c["up"] = camera.position, forward, right, up
-    c["scale_x"] = width / height * camera.focal_length * tan_half
-    c["scale_y"] = camera.focal_length * tan_half
-    c["focal_length"] = camera.focal_length
-    return c
-
-
-def rectangle_structs(rects):
-    a = np.zeros(max(len(rects), 1), types.RECTANGLE)
-    for s, r in zip(a, rects):
-        s["center"], s["normal"], s["tangent"], s["bitangent"] = r.center, r.normal, r.tangent, r.bitangent
-        s["half_x"], s["half_y"], s["material"] = r.size[0] / 2, r.size[1] / 2, r.material
-    return a
-
-
-def triangle_structs(tris):
-    a = np.zeros(max(len(tris), 1), types.TRIANGLE)
-    for s, t in zip(a, tris):
-        v0, v1, v2 = t.vertices
-        n = np.cross(v1 - v0, v2 - v1)
-        s["v0"], s["v1"], s["v2"], s["normal"], s["material"] = v0, v1, v2, n / np.linalg.norm(n), t.material
-    return a
-
-
-def ellipsoid_structs(ells):
-    a = np.zeros(max(len(ells), 1), types.ELLIPSOID)
-    for s, e in zip(a, ells):
-        s["center"], s["material"] = e.center, e.material
-        s["world_to_unit"] = np.linalg.inv(e.matrix).ravel()  # float64 inverse, rounded once
-    return a
-
-
-def light_structs(lights):
-    a = np.zeros(len(lights), types.LIGHT)
-    a["shape"] = rectangle_structs(lights)
-    for s, light in zip(a, lights):
-        s["colour"] = light.colour
-    return a
-
-
-def material_structs(materials):
-    a = np.zeros(len(materials), types.MATERIAL)
-    for s, m in zip(a, materials):
-        s["colour"], s["shininess"] = m.colour, m.shininess
-    return a
-
-
-def params_struct(scene, spp=1, light_samples=1, width=1, height=1):
-    p = np.zeros((), types.RENDER_PARAMS)
-    p["ambient"] = scene.ambient
-    p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), len(scene.triangles)
-    p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
-    p["spp"], p["light_samples"], p["width"], p["height"] = spp, light_samples, width, height
-    return p
 
 
 def _option(value, source, key, check, problem):
@@ -134,6 +74,8 @@ def resolve(scene, options):
         _option(spp, cli, "--spp", samplers.is_square, "the grid sampler needs a square number (1, 4, 9, 16, ...)")
     if sampler == "center":
         _option(spp, cli, "--spp", lambda v: v == 1, "the center sampler takes exactly one sample")
+    _option(options.texture_filter, cli, "--texture-filter", lambda v: v in types.FILTERS,
+            f"unknown filter (have: {', '.join(types.FILTERS)})")
     return width, height, spp, nl, sampler
 
 
@@ -146,14 +88,12 @@ def render(scene, **kwargs):
     features = options.features or Features.of(scene, options.lanes or default_lanes(device))
     program, build_seconds = render_program(context, features)
 
-    params = params_struct(scene, spp, n_light, width, height)
-
+    structs = scene_structs(scene, width, height, spp, n_light, options.texture_filter)
+    texture_bytes = sum(a.nbytes for a in structs[-4:-1]) if scene.textures else 0
     ro = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     buffers = [cl.Buffer(context, ro, hostbuf=a) for a in (
-        camera_struct(scene.camera, width, height), params, rectangle_structs(scene.rectangles),
-        triangle_structs(scene.triangles), ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights),
-        material_structs(scene.materials), _vec(samplers.pixel_samples(sampler, spp)),
-        _vec(samplers.light_samples(n_light)))]
+        *structs, samplers.pixel_samples(sampler, spp).astype(np.float32),
+        samplers.light_samples(n_light).astype(np.float32))]
     out = np.empty((4, height, width), np.float32)
     out_buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
     kernel = cl.Kernel(program, "render")
@@ -185,6 +125,6 @@ def render(scene, **kwargs):
         image[~finite] = 0.0
     rays = int(out[3].sum(dtype=np.float64))
     stats = RenderStats(render_seconds, build_seconds, rays, rays / render_seconds / 1e6, describe(device),
-                        [*features.options()], width, height, spp, n_light, sampler, options.seed,
-                        {"nonfinite_values": nonfinite})
+                        [*features.options()], width, height, spp, n_light, sampler, options.texture_filter,
+                        options.seed, texture_bytes, {"nonfinite_values": nonfinite})
     return image, stats

@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .textures import TextureCache
+from .types import WRAP_MODES
 
 SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
 DEFAULT_SHININESS = 16.0
@@ -32,9 +34,17 @@ class Camera:
 
 @dataclass(frozen=True)
 class Material:
+    """The course's Phong material; textures are indices into Scene.textures (-1: none)."""
     name: str
     colour: np.ndarray
     shininess: float = DEFAULT_SHININESS
+    colour_map: int = -1
+    normal_map: int = -1
+    height_map: int = -1
+    height_scale: float = 0.0
+    uv_scale: tuple = (1.0, 1.0)
+    uv_offset: tuple = (0.0, 0.0)
+    wrap: str = "repeat"
 
 
 @dataclass(frozen=True)
@@ -90,6 +100,7 @@ class Scene:
     spp: int = 1
     light_samples: int = 1
     sampler: str = "grid"
+    textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
 
 
 def _normalize(v):
@@ -228,6 +239,31 @@ def _load_shape(scene, r, material_index):
         scene.ellipsoids.append(Ellipsoid(r.vector("center", 3), axes, m))
 
 
+MATERIAL_KEYS = ["colour", "height_map", "height_scale", "normal_map", "shininess", "texture", "uv_offset",
+                 "uv_scale", "wrap"]
+
+
+def _material(r, name, textures):
+    """A material table; texture paths are relative to the scene file and read here."""
+    r.check_keys(MATERIAL_KEYS)
+    maps = {}
+    for key, role in (("texture", "colour"), ("normal_map", "normal"), ("height_map", "height")):
+        if r.has(key):
+            maps[key] = textures.index(r.string(key), role, r.path, r.prefix + key)
+    if r.has("height_scale") != r.has("height_map"):
+        r.fail("height_scale" if r.has("height_scale") else "height_map", r.table.get("height_scale"),
+               "height_map and height_scale go together")
+    uv_scale = r.vector("uv_scale", 2, default=[1.0, 1.0])
+    if np.any(uv_scale <= 0):
+        r.fail("uv_scale", uv_scale.tolist(), "both scales must be > 0")
+    colour = r.vector("colour", 3, default=[1.0, 1.0, 1.0] if "texture" in maps else None, low=0)
+    return Material(name, colour, r.number("shininess", DEFAULT_SHININESS, low=0, open_low=True),
+                    maps.get("texture", -1), maps.get("normal_map", -1), maps.get("height_map", -1),
+                    r.number("height_scale", 0.0, low=0) if "height_map" in maps else 0.0,
+                    tuple(uv_scale), tuple(r.vector("uv_offset", 2, default=[0.0, 0.0])),
+                    r.string("wrap", "repeat", choices=WRAP_MODES))
+
+
 def parse_scene(table, path="<scene>"):
     """Build a Scene from a parsed TOML table; raises InputError on the first bad key."""
     r = _Reader(path, table)
@@ -257,17 +293,15 @@ def parse_scene(table, path="<scene>"):
     mats = r.raw("materials")
     if not isinstance(mats, dict) or not mats:
         r.fail("materials", mats, "must be a table of named materials")
+    textures = TextureCache(Path(path).parent)
     materials, material_index = [], {}
     for name in mats:
-        mr = r.sub("materials").sub(name)
-        mr.check_keys(["colour", "shininess"])
         material_index[name] = len(materials)
-        materials.append(Material(name, mr.vector("colour", 3, low=0),
-                                  mr.number("shininess", DEFAULT_SHININESS, low=0, open_low=True)))
+        materials.append(_material(r.sub("materials").sub(name), name, textures))
 
     scene = Scene(path, camera, width, height, r.vector("ambient", 3, default=[0, 0, 0], low=0), [],
                   materials, spp=render.integer("spp", 1), light_samples=render.integer("light_samples", 1),
-                  sampler=render.string("sampler", "grid"))
+                  sampler=render.string("sampler", "grid"), textures=textures.textures)
 
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:

@@ -12,16 +12,32 @@ RECTANGLE = np.dtype([("center", *VEC3F), ("normal", *VEC3F), ("tangent", *VEC3F
 
 TRIANGLE = np.dtype([("v0", *VEC3F), ("v1", *VEC3F), ("v2", *VEC3F), ("normal", *VEC3F), ("material", "<i4")])
 
-ELLIPSOID = np.dtype([("center", *VEC3F), ("world_to_unit", "<f4", (9,)), ("material", "<i4")])
+TRIANGLE_UV = np.dtype([("uv", "<f4", (6,)), ("dpdu", *VEC3F), ("dpdv", *VEC3F), ("tangent", *VEC3F)])
+
+ELLIPSOID = np.dtype([("center", *VEC3F), ("world_to_unit", "<f4", (9,)), ("unit_to_world", "<f4", (9,)),
+                      ("material", "<i4")])
 
 LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F)])
 
-MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4")])
+MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
+                     ("height_map", "<i4"), ("wrap", "<i4"), ("height_scale", "<f4"), ("uv_scale", "<f4", (2,)),
+                     ("uv_offset", "<f4", (2,))])
+
+TEXTURE = np.dtype([("first_level", "<i4"), ("n_levels", "<i4"), ("encoding", "<i4")])
+
+MIP_LEVEL = np.dtype([("offset", "<i4"), ("width", "<i4"), ("height", "<i4")])
+
+# kernels/types.h: WRAP_*, TEXELS_*, FILTER_*
+WRAP_MODES = {"repeat": 0, "clamp": 1, "mirror": 2}
+TEXELS_SRGB8, TEXELS_UNORM8, TEXELS_FLOAT = 0, 1, 2
+FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_triangles", "<i4"),
                           ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("spp", "<i4"),
-                          ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4")])
+                          ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4"),
+                          ("texture_filter", "<i4"), ("footprint_scale", "<f4")])
 
 # name in kernels/types.h -> dtype
-STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "Ellipsoid": ELLIPSOID,
-           "Light": LIGHT, "Material": MATERIAL, "RenderParams": RENDER_PARAMS}
+STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
+           "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
+           "RenderParams": RENDER_PARAMS}

@@ -4,7 +4,7 @@ import pytest
 
 import reference
 from conftest import planar
-from raytrace.render import camera_struct
+from raytrace.structs import camera_struct
 
 SOURCE = """
 #include "camera.cl"

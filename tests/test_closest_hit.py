@@ -3,7 +3,7 @@ import numpy as np
 
 import reference
 from conftest import planar
-from raytrace.render import (ellipsoid_structs, params_struct, light_structs, material_structs, rectangle_structs,
+from raytrace.structs import (ellipsoid_structs, params_struct, light_structs, material_structs, rectangle_structs,
                              triangle_structs)
 
 SOURCE = """
@@ -13,7 +13,7 @@ __kernel void closest(int n, __constant const RenderParams *params, __global con
                       __global const Material *materials, __global const float *o, __global const float *d,
                       __global float *t, __global float *nrm, __global float *material, __global float *emitted)
 {
-    const Scene s = {rects, tris, ells, lights, materials, params};
+    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(0.0f), (vfloat)(INFINITY));
     OUT(t, hit.t);

@@ -5,7 +5,7 @@ import pytest
 
 import reference
 from conftest import planar
-from raytrace.render import ellipsoid_structs
+from raytrace.structs import ellipsoid_structs
 from raytrace.scene import Ellipsoid
 
 SOURCE = """

@@ -4,7 +4,7 @@ import pytest
 
 import reference
 from conftest import planar
-from raytrace.render import rectangle_structs
+from raytrace.structs import rectangle_structs
 from raytrace.scene import Rectangle
 
 SOURCE = """

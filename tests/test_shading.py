@@ -4,7 +4,7 @@ import numpy as np
 import reference
 from conftest import planar
 from raytrace import samplers
-from raytrace.render import light_structs
+from raytrace.structs import light_structs
 from test_closest_hit import scene_args
 
 PHONG = """
@@ -33,7 +33,7 @@ __kernel void shadow(int n, __constant const RenderParams *params, __global cons
                      __global const Material *materials, __global const float *p, __global const float *q,
                      __global float *blocked)
 {
-    const Scene s = {rects, tris, ells, lights, materials, params};
+    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
     vec3 from = IN3(p);
     Ray r = {from, v3_sub(IN3(q), from)};
     OUT(blocked, MASK_TO_ONE(occluded(&s, r, (vfloat)(1e-4f), (vfloat)(SHADOW_END))));

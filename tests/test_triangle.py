@@ -4,7 +4,7 @@ import pytest
 
 import reference
 from conftest import planar
-from raytrace.render import triangle_structs
+from raytrace.structs import triangle_structs
 from raytrace.scene import Triangle
 
 SOURCE = """

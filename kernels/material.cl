@@ -1,0 +1,144 @@
+/* The material at a hit: its colour (the material's, or its colour map's), shininess, and where and with
+ * which normal it is shaded (normal map, bump map and displacement; SPEC section 5).
+ *
+ * Without textures (HAS_TEXTURES 0) this is a gather of the material table; with them, every lane runs
+ * the scalar texturing code below for its own hit. */
+#ifndef MATERIAL_CL
+#define MATERIAL_CL
+
+#include "intersect.cl"
+#if HAS_TEXTURES
+#include "camera.cl"
+#include "mipmap.cl"
+#include "surface.cl"
+#endif
+
+typedef struct {
+    vec3 p;            /* the shading point: the hit, displaced by a height map */
+    vec3 ng;           /* geometric unit normal, facing the incoming ray */
+    vec3 n;            /* shading unit normal, on the side of ng */
+    vec3 k;            /* the material's colour at the hit (0 where no surface was hit) */
+    vfloat shininess;
+} ShadingPoint;
+
+#if HAS_TEXTURES
+
+inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p, float b1, float b2)
+{
+#if HAS_TRIANGLES
+    if (kind == SHAPE_TRIANGLE)
+        return surface_triangle(&s->triangles[index], &s->triangle_uvs[index], b1, b2);
+#endif
+#if HAS_ELLIPSOIDS
+    if (kind == SHAPE_ELLIPSOID)
+        return surface_ellipsoid(&s->ellipsoids[index], p);
+#endif
+    return surface_rectangle(&s->rectangles[index], p);
+}
+
+/* The height map's bump: the shading normal of the surface displaced by h along n, from the partial
+ * derivatives dh_du, dh_dv (scene units per unit of u and v), without forming the displaced dp/du x dp/dv
+ * (pbrt-v4 section 10.5.1), which loses the u direction where dp/du vanishes (an ellipsoid's pole):
+ * (dpdu + dh_du n) x (dpdv + dh_dv n) is a multiple of n - grad h, grad h = dh_du e_u + dh_dv e_v with the
+ * dual basis e_u = (dpdv x n) / a, e_v = (n x dpdu) / a, a = n.(dpdu x dpdv). Where a is 0, n is kept. */
+inline float3 bump_normal(float3 dpdu, float3 dpdv, float3 n, float dh_du, float dh_dv)
+{
+    float a = dot(n, cross(dpdu, dpdv));
+    float3 bumped = normalize(n - (cross(dpdv, n) * dh_du + cross(n, dpdu) * dh_dv) / a);
+    return all(isfinite(bumped)) ? bumped : n;
+}
+
+/* Everything textured about one lane's hit: *k, *n (starts as the facing geometric normal ng) and *p. */
+inline void texture_lane(const Scene *s, TextureStore ts, __global const Material *m, int kind, int index,
+                         float b1, float b2, float3 d, float3 *k, float3 *n, float3 *p)
+{
+    __constant const RenderParams *params = s->params;
+    SurfacePoint sp = surface_point(s, kind, index, *p, b1, b2);
+    float3 dpdx, dpdy;
+    camera_footprint(s->camera, params->footprint_scale, 1.0f / params->width, 1.0f / params->height, d, *p, *n,
+                     &dpdx, &dpdy);
+    /* the material's uv transform, then (s, t) = (u, 1 - v) of the image */
+    float2 scale = (float2)(m->uv_scale[0], m->uv_scale[1]);
+    float2 uv = mad(sp.uv, scale, (float2)(m->uv_offset[0], m->uv_offset[1]));
+    float4 duv = uv_derivatives(sp, dpdx, dpdy) * scale.xyxy;
+    float2 st = (float2)(uv.x, 1.0f - uv.y);
+    float4 dst = duv * (float4)(1.0f, -1.0f, 1.0f, -1.0f);
+    const int filter = params->texture_filter, wrap = m->wrap;
+    float3 ng = *n;
+    Frame frame = shading_frame(sp);
+    float side = dot(frame.n, ng) < 0.0f ? -1.0f : 1.0f; /* the frame's normal seen from the ray's side */
+    float3 shading = frame.n;
+#if HAS_COLOUR_MAPS
+    if (m->colour_map >= 0)
+        *k = texture_lookup(ts, m->colour_map, st, dst, filter, wrap).xyz;
+#endif
+#if HAS_NORMAL_MAPS
+    if (m->normal_map >= 0) { /* tangent space: rgb = (x, y, z) / 2 + 1/2 */
+        float3 c = mad(texture_lookup(ts, m->normal_map, st, dst, filter, wrap).xyz, 2.0f, -1.0f);
+        float3 mapped = normalize(frame.t * c.x + frame.b * c.y + frame.n * c.z);
+        shading = all(isfinite(mapped)) ? mapped : frame.n;
+    }
+#endif
+#if HAS_HEIGHT_MAPS
+    if (m->height_map >= 0) {
+        MipLevel top = mip_level(ts, m->height_map, 0);
+        float du = fmax(0.5f * (fabs(duv.x) + fabs(duv.z)), 0.5f / top.width);
+        float dv = fmax(0.5f * (fabs(duv.y) + fabs(duv.w)), 0.5f / top.height);
+        float h = texture_lookup(ts, m->height_map, st, dst, filter, wrap).x;
+        float hu = texture_lookup(ts, m->height_map, st + (float2)(du, 0.0f), dst, filter, wrap).x;
+        float hv = texture_lookup(ts, m->height_map, st - (float2)(0.0f, dv), dst, filter, wrap).x;
+        float kh = m->height_scale;
+        shading = bump_normal(sp.dpdu / scale.x, sp.dpdv / scale.y, shading, kh * (hu - h) / du,
+                              kh * (hv - h) / dv);
+        *p += ng * (kh * h);
+    }
+#endif
+    *n = shading * side;
+}
+
+#endif
+
+/* The shading point of each lane's hit along r. */
+inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hit)
+{
+    ShadingPoint sp;
+    sp.p = ray_at(r, hit.t);
+    sp.ng = sp.n = hit.n;
+    int m[LANES];
+    float sh[LANES];
+    Lanes3 k = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
+    VSTORE(hit.material, 0, m);
+#if HAS_TEXTURES
+    int kind[LANES], index[LANES];
+    float b1[LANES], b2[LANES];
+    VSTORE(hit.kind, 0, kind);
+    VSTORE(hit.index, 0, index);
+    VSTORE(hit.b1, 0, b1);
+    VSTORE(hit.b2, 0, b2);
+    Lanes3 p = v3_spill(sp.p), n = v3_spill(sp.n), d = v3_spill(r.d);
+#endif
+    for (int i = 0; i < LANES; ++i) {
+        sh[i] = 1.0f;
+        if (m[i] < 0)
+            continue;
+        __global const Material *mat = &s->materials[m[i]];
+        sh[i] = mat->shininess;
+        float3 colour = f3(mat->colour);
+#if HAS_TEXTURES
+        float3 pi = lane3(&p, i), ni = lane3(&n, i);
+        texture_lane(s, ts, mat, kind[i], index[i], b1[i], b2[i], lane3(&d, i), &colour, &ni, &pi);
+        set_lane3(&p, i, pi);
+        set_lane3(&n, i, ni);
+#endif
+        set_lane3(&k, i, colour);
+    }
+    sp.k = v3_fill(&k);
+    sp.shininess = VLOAD(0, sh);
+#if HAS_TEXTURES
+    sp.p = v3_fill(&p);
+    sp.n = v3_fill(&n);
+#endif
+    return sp;
+}
+
+#endif

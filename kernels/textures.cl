@@ -1,0 +1,87 @@
+/* Texel fetches, wrap modes and bilinear filtering inside one MIP level.
+ *
+ * All levels of all textures live in one buffer of 32-bit words (the host packs them; raytrace/mipmap.py).
+ * 8-bit textures keep one word per RGBA texel on the device, a quarter of float4's memory and bandwidth,
+ * and are decoded here: sRGB colour maps through a 256-entry table (exact, and cheaper than pow), data
+ * maps by / 255. Coordinates follow OpenImageIO's (s, t): texel (i, j), row j from the top, has its centre
+ * at ((i + 1/2) / W, (j + 1/2) / H); the renderer's v runs up the image, so t = 1 - v.
+ *
+ * This file is scalar: a texture lookup is a gather that differs per pixel, so the lane-generic callers
+ * (material.cl) run it once per lane. */
+#ifndef TEXTURES_CL
+#define TEXTURES_CL
+
+#include "scene.h"
+
+inline float4 unpack_rgba8(uint word) { return convert_float4(as_uchar4(word)); }
+
+inline float4 texel_fetch(TextureStore ts, int encoding, MipLevel level, int i, int j)
+{
+    int index = j * level.width + i;
+    if (encoding == TEXELS_FLOAT)
+        return vload4(level.offset / 4 + index, (__global const float *)ts.texels);
+    uint word = ts.texels[level.offset + index];
+    if (encoding == TEXELS_UNORM8)
+        return unpack_rgba8(word) * (1.0f / 255.0f);
+    uchar4 c = as_uchar4(word);
+    return (float4)(ts.srgb_to_linear[c.x], ts.srgb_to_linear[c.y], ts.srgb_to_linear[c.z], c.w * (1.0f / 255.0f));
+}
+
+/* An integer texel index i into [0, n) by the wrap mode. */
+inline int wrap_index(int i, int n, int mode)
+{
+    if (mode == WRAP_CLAMP)
+        return clamp(i, 0, n - 1);
+    if (mode == WRAP_MIRROR) {
+        int m = i % (2 * n);
+        m = m < 0 ? m + 2 * n : m;
+        return m < n ? m : 2 * n - 1 - m;
+    }
+    int m = i % n;
+    return m < 0 ? m + n : m;
+}
+
+/* A continuous texel coordinate x brought near [0, n) without changing what wrap_index makes of it, so
+ * that its floor fits an int however large u grows (uv_scale 1e6, a grazing floor). NaN becomes 0. */
+inline float reduce_coordinate(float x, int n, int mode)
+{
+    if (!isfinite(x))
+        return 0.0f;
+    if (mode == WRAP_CLAMP)
+        return clamp(x, -1.0f, (float)n);
+    float period = mode == WRAP_MIRROR ? 2.0f * n : (float)n;
+    return x - period * floor(x / period);
+}
+
+inline MipLevel mip_level(TextureStore ts, int texture, int level)
+{
+    return ts.levels[ts.textures[texture].first_level + level];
+}
+
+/* Level 0, the texel whose cell contains st. */
+inline float4 texture_nearest(TextureStore ts, int texture, float2 st, int wrap)
+{
+    MipLevel level = mip_level(ts, texture, 0);
+    float x = reduce_coordinate(st.x * level.width, level.width, wrap);
+    float y = reduce_coordinate(st.y * level.height, level.height, wrap);
+    int i = wrap_index((int)floor(x), level.width, wrap), j = wrap_index((int)floor(y), level.height, wrap);
+    return texel_fetch(ts, ts.textures[texture].encoding, level, i, j);
+}
+
+/* Bilinear interpolation between the four texel centres around st in one level. */
+inline float4 texture_bilinear(TextureStore ts, int texture, int level_index, float2 st, int wrap)
+{
+    MipLevel level = mip_level(ts, texture, level_index);
+    int encoding = ts.textures[texture].encoding;
+    float x = reduce_coordinate(st.x * level.width - 0.5f, level.width, wrap);
+    float y = reduce_coordinate(st.y * level.height - 0.5f, level.height, wrap);
+    float fx = floor(x), fy = floor(y);
+    float wx = x - fx, wy = y - fy;
+    int i0 = wrap_index((int)fx, level.width, wrap), i1 = wrap_index((int)fx + 1, level.width, wrap);
+    int j0 = wrap_index((int)fy, level.height, wrap), j1 = wrap_index((int)fy + 1, level.height, wrap);
+    float4 top = mix(texel_fetch(ts, encoding, level, i0, j0), texel_fetch(ts, encoding, level, i1, j0), wx);
+    float4 bottom = mix(texel_fetch(ts, encoding, level, i0, j1), texel_fetch(ts, encoding, level, i1, j1), wx);
+    return mix(top, bottom, wy);
+}
+
+#endif
