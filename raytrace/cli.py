@@ -1,4 +1,5 @@
-"""Command line: `python -m raytrace render SCENE -o OUT ...` and `python -m raytrace bench ...`.
+"""Command line: `python -m raytrace render SCENE -o OUT ...`, `python -m raytrace bench ...` and
+`python -m raytrace assets [--out DIR]`.
 
 Bad input ends with one line on stderr naming the file (or the command line), the key and the value,
 and exit status 2; no output file is left behind."""
@@ -11,7 +12,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import samplers
+from . import samplers, types
 from .errors import InputError
 from .image import FORMATS, write_image
 
@@ -33,6 +34,8 @@ def _add_render_options(p):
     p.add_argument("--spp", type=int, help="pixel samples (a square number for the grid sampler)")
     p.add_argument("--light-samples", type=int, help="samples per light (square: the course's uniform grid)")
     p.add_argument("--sampler", help=f"pixel sample pattern: {', '.join(samplers.PIXEL_SAMPLERS)}")
+    p.add_argument("--texture-filter", default="trilinear", choices=list(types.FILTERS),
+                   help="texture filter (default: trilinear)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sample patterns")
     p.add_argument("--device", help='OpenCL device: "P:D" indices or part of its name (default: a CPU)')
 
@@ -49,6 +52,9 @@ def parser():
     _add_render_options(b)
     b.add_argument("--repeat", type=int, default=3, help="timed renders per variant (the best counts)")
     b.add_argument("--json", help="write the results to this JSON file")
+    a = sub.add_parser("assets", help="generate the procedural textures the scenes use")
+    a.add_argument("--out", default="assets/textures", help="output directory (default: assets/textures)")
+    a.add_argument("--seed", type=int, default=0, help="seed of the textures' random patterns")
     return p
 
 
@@ -62,7 +68,7 @@ def _write_json(path, data):
 
 def _render_kwargs(args):
     return dict(width=args.width, height=args.height, spp=args.spp, light_samples=args.light_samples,
-                sampler=args.sampler, seed=args.seed, device=args.device)
+                sampler=args.sampler, texture_filter=args.texture_filter, seed=args.seed, device=args.device)
 
 
 def cmd_render(args):
@@ -77,6 +83,7 @@ def cmd_render(args):
     scene = load_scene(args.scene)
     image, stats = render(scene, **_render_kwargs(args), progress=False if args.no_progress else None)
     metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
+                "texture_filter": stats.texture_filter,
                 "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(args.scene)}
     write_image(output, image, metadata)
     if args.stats_json:
@@ -93,10 +100,20 @@ def cmd_bench(args):
         _write_json(args.json, results)
 
 
+def cmd_assets(args):
+    from .assets import generate
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError("command line", "--out", args.out, "exists and is not a directory")
+    for path in generate(out, seed=args.seed):
+        print(path)
+
+
 def main(argv=None):
     try:
         args = parser().parse_args(argv)
-        {"render": cmd_render, "bench": cmd_bench}[args.command](args)
+        {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets}[args.command](args)
     except InputError as e:
         print(f"raytrace: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -8,7 +8,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import samplers, types
-from .structs import scene_structs
+from .structs import scene_structs, texture_structs
 from .device import context_for, default_lanes, describe, select_device
 from .errors import InputError
 from .kernel import Features, render_program
@@ -88,11 +88,11 @@ def render(scene, **kwargs):
     features = options.features or Features.of(scene, options.lanes or default_lanes(device))
     program, build_seconds = render_program(context, features)
 
-    structs = scene_structs(scene, width, height, spp, n_light, options.texture_filter)
-    texture_bytes = sum(a.nbytes for a in structs[-4:-1]) if scene.textures else 0
+    textures = texture_structs(scene)
+    texture_bytes = textures[2].nbytes if scene.textures else 0  # the packed texels of every level
     ro = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     buffers = [cl.Buffer(context, ro, hostbuf=a) for a in (
-        *structs, samplers.pixel_samples(sampler, spp).astype(np.float32),
+        *scene_structs(scene, width, height, spp, n_light, options.texture_filter), *textures, samplers.pixel_samples(sampler, spp).astype(np.float32),
         samplers.light_samples(n_light).astype(np.float32))]
     out = np.empty((4, height, width), np.float32)
     out_buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)

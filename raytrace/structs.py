@@ -96,9 +96,9 @@ def material_structs(materials):
 
 
 def texture_structs(scene):
-    """(texels, MipLevel table, Texture table, sRGB decoding table) of all the scene's textures."""
+    """(Texture table, MipLevel table, texels, sRGB decoding table) of all the scene's textures."""
     texels, levels, textures = mipmap.pack(scene.textures, scene.path)
-    return texels, levels, textures, mipmap.SRGB8_TO_LINEAR.astype(np.float32)
+    return textures, levels, texels, mipmap.SRGB8_TO_LINEAR.astype(np.float32)
 
 
 def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear"):
@@ -114,9 +114,9 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
 
 
 def scene_structs(scene, width, height, spp, light_samples, texture_filter):
-    """Every buffer of the render kernel up to the sample tables, in its argument order."""
+    """The render kernel's scene buffers, in its argument order, up to the textures."""
     return [camera_struct(scene.camera, width, height),
             params_struct(scene, spp, light_samples, width, height, texture_filter),
             rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
             triangle_uv_structs(scene.triangles), ellipsoid_structs(scene.ellipsoids),
-            light_structs(scene.lights), material_structs(scene.materials), *texture_structs(scene)]
+            light_structs(scene.lights), material_structs(scene.materials)]
