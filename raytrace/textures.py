@@ -38,7 +38,9 @@ class Texture:
 def read_image(path):
     """(pixels H x W x C, kind) of the first image in the file, kind "8-bit" (uint8 codes), "integer" (other
     integer formats, as floats in [0, 1]) or "float"; raises OSError with OpenImageIO's words."""
-    image = oiio.ImageInput.open(str(path))
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)  # the colours as stored, not multiplied by alpha
+    image = oiio.ImageInput.open(str(path), config)
     if image is None:
         raise OSError(oiio.geterror() or "cannot open")
     try:
@@ -74,6 +76,11 @@ def load_texture(path, role, source, key):
         raise InputError(source, key, str(path), f"a normal map needs 3 channels (x, y, z), it has {pixels.shape[2]}")
     if not np.all(np.isfinite(pixels)):
         raise InputError(source, key, str(path), "the image holds NaN or infinite values")
+    return make_texture(pixels, kind, role, str(path))
+
+
+def make_texture(pixels, kind, role, path="<array>"):
+    """A Texture from H x W x C pixels as read_image gives them (kind "8-bit", "integer" or "float")."""
     rgb = _rgb(pixels)
     if kind == "8-bit":
         encoding = types.TEXELS_SRGB8 if role == "colour" else types.TEXELS_UNORM8
@@ -82,7 +89,7 @@ def load_texture(path, role, source, key):
         linear = srgb_to_linear(rgb) if role == "colour" and kind == "integer" else rgb.astype(np.float64)
         encoding = types.TEXELS_FLOAT
         levels = [level.astype(np.float32) for level in mipmap.pyramid(_rgba(linear, 1.0))]
-    return Texture(str(path), role, encoding, levels)
+    return Texture(path, role, encoding, levels)
 
 
 class TextureCache:

@@ -1,0 +1,196 @@
+"""Texture images and lookups inside one level (raytrace/textures.py, kernels/textures.cl): real files of
+every kind written and read back, the decoding of stored texels, wrap modes, nearest and bilinear filtering
+against the float64 reference (tests/reference_textures.py) and against OpenImageIO's TextureSystem."""
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+import reference_textures as ref
+from raytrace import mipmap, types
+from raytrace.errors import InputError
+from raytrace.textures import load_texture, make_texture
+
+LOOKUP = """
+#include "mipmap.cl"
+/* Scalar lookups, one per element: work-item I does elements [I LANES, (I + 1) LANES). */
+__kernel void lookup(int n, __global const Texture *textures, __global const MipLevel *levels,
+                     __global const uint *texels, __global const float *srgb, int texture, int filter, int wrap,
+                     __global const float *st, __global const float *dst, __global float *out)
+{
+    TextureStore ts = {textures, levels, texels, srgb};
+    for (int i = I * LANES; i < (I + 1) * LANES; ++i) {
+        float4 c = texture_lookup(ts, texture, vload2(i, st), vload4(i, dst), filter, wrap);
+        out[i] = c.x; out[i + n] = c.y; out[i + 2 * n] = c.z; out[i + 3 * n] = c.w;
+    }
+}
+"""
+
+
+def kernel_lookup(harness, textures, index, filter_name, wrap, s, t, derivs=None):
+    """RGB of texture `index` of the packed `textures` at (s, t), float64 N x 3."""
+    count, n = len(s), -(-len(s) // 8) * 8  # padded to a multiple of the lane width
+    pad = lambda a: np.concatenate([a, np.zeros(a.shape[:-1] + (n - count,))], axis=-1)  # noqa: E731
+    derivs = np.zeros((4, count)) if derivs is None else np.asarray(derivs, dtype=np.float64)
+    s, t, derivs = pad(np.asarray(s, dtype=np.float64)), pad(np.asarray(t, dtype=np.float64)), pad(derivs)
+    texels, levels, table = mipmap.pack(textures)
+    args = [table, levels, texels, mipmap.SRGB8_TO_LINEAR.astype(np.float32), np.int32(index),
+            np.int32(types.FILTERS[filter_name]), np.int32(types.WRAP_MODES[wrap]),
+            np.stack([s, t], axis=1).astype(np.float32), np.asarray(derivs).T.astype(np.float32)]
+    return harness.run(LOOKUP, "lookup", n, args, {"out": 4})["out"][:3, :count].T
+
+
+def stored_levels(texture):
+    """The levels as the device holds them, decoded to linear float64 (8-bit ones through the same table
+    the kernel uses): what the filters must interpolate."""
+    if texture.encoding == types.TEXELS_FLOAT:
+        return [level[..., :3].astype(np.float64) for level in texture.levels]
+    srgb = texture.encoding == types.TEXELS_SRGB8
+    return [mipmap.decode_8bit(level, srgb)[..., :3] for level in texture.levels]
+
+
+def random_uv(rng, n, lo=-1.5, hi=2.5):
+    """Points covering several periods, so every wrap mode folds some of them."""
+    return rng.uniform(lo, hi, n), rng.uniform(lo, hi, n)
+
+
+# --- files ----------------------------------------------------------------------------------------------
+
+def write(path, pixels, fmt):
+    out = oiio.ImageOutput.create(str(path))
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], fmt)
+    spec.attribute("oiio:UnassociatedAlpha", 1)  # write the colours as given, not divided by alpha
+    assert out.open(str(path), spec) and out.write_image(pixels) and out.close(), oiio.geterror()
+
+
+FORMATS = [  # (file, OpenImageIO format, numpy type, code scale)
+    ("png8.png", "uint8", np.uint8, 255), ("png16.png", "uint16", np.uint16, 65535),
+    ("tif16.tif", "uint16", np.uint16, 65535), ("jpeg.jpg", "uint8", np.uint8, 255),
+    ("half.exr", "half", np.float16, None), ("float.exr", "float", np.float32, None),
+    ("float.tif", "float", np.float32, None)]
+
+
+@pytest.mark.parametrize("channels", [1, 3, 4])
+@pytest.mark.parametrize("name, fmt, dtype, scale", FORMATS, ids=[f[0] for f in FORMATS])
+def test_every_format_reads_back_as_linear(tmp_path, name, fmt, dtype, scale, channels):
+    """A 13 x 7 image (no power of two) in each format and channel count: level 0 decodes to the reference's
+    linear values. Bounds: exact formats 1e-6 (float32 rounding of the decode); JPEG is lossy, so it only
+    has to agree in the mean within 2 codes (JPEG of a smooth ramp)."""
+    if name.startswith("jpeg") and channels == 4:
+        pytest.skip("JPEG has no alpha channel")
+    yy, xx = np.mgrid[0:7, 0:13]
+    base = np.stack([(xx + 2 * yy) / 30, xx / 12, yy / 6, np.full_like(xx, 0.5, dtype=float)], axis=2)[..., :channels]
+    pixels = (np.round(base * scale) if scale else base).astype(dtype)
+    write(tmp_path / name, pixels, fmt)
+    for role in ("colour", "height"):
+        texture = load_texture(tmp_path / name, role, "scene.toml", "materials.m.texture")
+        assert texture.size == (13, 7) and len(texture.levels) == 4  # 13x7, 6x3, 3x1, 1x1
+        got = stored_levels(texture)[0]
+        want = ref.image_to_linear(pixels, srgb=role == "colour")
+        if name.startswith("jpeg"):
+            assert abs(got.mean() - want.mean()) < 2 / 255
+        else:
+            np.testing.assert_allclose(got, want, atol=1e-6)
+
+
+def test_eight_bit_stays_eight_bit(tmp_path):
+    """8-bit files take one 32-bit word per texel on the device, with the file's codes unchanged."""
+    codes = np.random.default_rng(1).integers(0, 256, (16, 16, 3), dtype=np.uint8)
+    write(tmp_path / "c.png", codes, "uint8")
+    colour = load_texture(tmp_path / "c.png", "colour", "s", "k")
+    data = load_texture(tmp_path / "c.png", "normal", "s", "k")
+    assert colour.encoding == types.TEXELS_SRGB8 and data.encoding == types.TEXELS_UNORM8
+    np.testing.assert_array_equal(colour.levels[0][..., :3], codes)
+    texels, _, _ = mipmap.pack([colour])
+    assert texels.nbytes == 4 * sum(level.shape[0] * level.shape[1] for level in colour.levels)
+
+
+@pytest.mark.parametrize("content, problem", [
+    (None, "cannot read the image"), (b"not an image", "cannot read the image"),
+    ("grey", "a normal map needs 3 channels")])
+def test_bad_texture_files(tmp_path, content, problem):
+    path = tmp_path / "t.png"
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    elif content == "grey":
+        write(path, np.zeros((4, 4, 1), np.uint8), "uint8")
+    with pytest.raises(InputError) as e:
+        load_texture(path, "normal", "scene.toml", "materials.m.normal_map")
+    assert e.value.source == "scene.toml" and e.value.key == "materials.m.normal_map"
+    assert e.value.value == str(path) and problem in str(e.value)
+
+
+def test_srgb_table_is_the_standard_curve():
+    """The kernel's decoding table against the reference's formula, at every code."""
+    np.testing.assert_allclose(mipmap.SRGB8_TO_LINEAR, ref.srgb_to_linear(np.arange(256) / 255), rtol=1e-15)
+    assert mipmap.SRGB8_TO_LINEAR[0] == 0 and mipmap.SRGB8_TO_LINEAR[255] == 1
+
+
+# --- lookups in one level ---------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def textures():
+    """An 8-bit sRGB colour map (11 x 6), an 8-bit data map (8 x 8) and a float map (5 x 9)."""
+    rng = np.random.default_rng(7)
+    return [make_texture(rng.integers(0, 256, (6, 11, 3), dtype=np.uint8), "8-bit", "colour"),
+            make_texture(rng.integers(0, 256, (8, 8, 3), dtype=np.uint8), "8-bit", "normal"),
+            make_texture(rng.uniform(-1, 4, (9, 5, 1)).astype(np.float32), "float", "height")]
+
+
+@pytest.mark.parametrize("wrap", list(types.WRAP_MODES))
+@pytest.mark.parametrize("index", [0, 1, 2], ids=["srgb8", "unorm8", "float"])
+def test_nearest_and_bilinear_match_reference(harness, textures, index, wrap):
+    """Level-0 lookups at random points over several periods, in each wrap mode and storage. Bilinear: the
+    weights are float32 products of coordinates up to 2.5 * 11 texels (error ~ 2^-24 * 30 per weight), on
+    values up to 4: bound 1e-5. Nearest picks the same texel except within float32 rounding of a texel
+    border, which the test skips (distance < 1e-4 texels)."""
+    rng = np.random.default_rng(index)
+    s, t = random_uv(rng, 512)
+    levels = stored_levels(textures[index])
+    h, w = levels[0].shape[:2]
+    got = kernel_lookup(harness, textures, index, "bilinear", wrap, s, t)
+    np.testing.assert_allclose(got, ref.bilinear(levels[0], s, t, wrap), atol=1e-5)
+    fx, fy = s * w, t * h
+    clear = (np.abs(fx - np.round(fx)) > 1e-4) & (np.abs(fy - np.round(fy)) > 1e-4)
+    got = kernel_lookup(harness, textures, index, "nearest", wrap, s, t)
+    np.testing.assert_allclose(got[clear], ref.nearest(levels[0], s, t, wrap)[clear], atol=1e-6)
+
+
+def test_wrap_modes_fold_as_specified(harness, textures):
+    """Texel centres one, two and three periods away: repeat returns the same texel, mirror the reflected
+    one on odd periods, clamp the border texel. Exact (a texel centre interpolates nothing)."""
+    level = stored_levels(textures[2])[0]  # 5 x 9 floats
+    h, w = level.shape[:2]
+    i = np.arange(-3 * w, 4 * w)
+    s, t = (i + 0.5) / w, np.full(i.shape, 2.5 / h)
+    expect = {"repeat": i % w, "clamp": np.clip(i, 0, w - 1),
+              "mirror": np.where((i // w) % 2 == 0, i % w, w - 1 - i % w)}
+    for wrap, column in expect.items():
+        got = kernel_lookup(harness, textures, 2, "bilinear", wrap, s, t)
+        np.testing.assert_allclose(got, level[2, column], atol=1e-6, err_msg=wrap)
+
+
+def test_huge_and_nonfinite_coordinates_stay_in_the_texture(harness, textures):
+    """uv of 1e9 (a grazing floor with a large uv_scale) or NaN must read a texel of the texture, never
+    memory beyond it: every value returned lies in the texture's range."""
+    s = np.array([1e9, -1e9, 3e7, np.nan, np.inf, -np.inf, 0.5, 1e30])
+    for wrap in types.WRAP_MODES:
+        for f in types.FILTERS:
+            got = kernel_lookup(harness, textures, 2, f, wrap, s, s[::-1], np.full((4, 8), 1e-3))
+            level = stored_levels(textures[2])[0]
+            assert np.all(np.isfinite(got)) and np.all(got >= level.min() - 1e-6) and np.all(got <= level.max() + 1e-6)
+
+
+def test_bilinear_matches_openimageio(harness, tmp_path):
+    """OpenImageIO's TextureSystem as an independent oracle: its bilinear mode without MIP-mapping
+    interpolates the same texel centres (documented to agree with a plain bilinear to 5e-7). Float
+    texture, so no decoding differs; bound 2e-6."""
+    rng = np.random.default_rng(3)
+    image = rng.random((12, 20, 3)).astype(np.float32)
+    oiio.ImageBufAlgo.make_texture(oiio.MakeTxTexture, oiio.ImageBuf(image), str(tmp_path / "t.tx"), oiio.ImageSpec())
+    system, opt = oiio.TextureSystem(), oiio.TextureOpt()
+    opt.swrap = opt.twrap = oiio.Wrap.Periodic
+    opt.mipmode, opt.interpmode = oiio.MipMode.NoMIP, oiio.InterpMode.Bilinear
+    s, t = random_uv(rng, 64, 0.0, 1.0)
+    want = np.array([system.texture(str(tmp_path / "t.tx"), opt, a, b, 0, 0, 0, 0, 3) for a, b in zip(s, t)])
+    got = kernel_lookup(harness, [make_texture(image, "float", "colour")], 0, "bilinear", "repeat", s, t)
+    np.testing.assert_allclose(got, want, atol=2e-6)
