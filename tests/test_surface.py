@@ -1,0 +1,194 @@
+"""Texture coordinates, dp/du and dp/dv, tangent frames and ray differentials per shape (kernels/surface.cl,
+camera.cl) against the float64 reference (tests/reference_textures.py)."""
+import numpy as np
+import pytest
+
+import reference
+import reference_textures as ref
+from conftest import planar
+from raytrace.scene import Ellipsoid, Rectangle, Triangle
+from raytrace.structs import (camera_struct, ellipsoid_structs, rectangle_structs, triangle_structs,
+                              triangle_uv_structs)
+
+SOURCE = """
+#include "camera.cl"
+#include "surface.cl"
+/* The 20 outputs of a surface point: uv, dpdu, dpdv, n, then the frame's t, b, n. */
+inline void put(int n, int i, __global float *out, SurfacePoint sp)
+{
+    Frame f = shading_frame(sp);
+    float v[20] = {sp.uv.x, sp.uv.y, sp.dpdu.x, sp.dpdu.y, sp.dpdu.z, sp.dpdv.x, sp.dpdv.y, sp.dpdv.z,
+                   sp.n.x, sp.n.y, sp.n.z, f.t.x, f.t.y, f.t.z, f.b.x, f.b.y, f.b.z, f.n.x, f.n.y, f.n.z};
+    for (int c = 0; c < 20; ++c)
+        out[c * n + i] = v[c];
+}
+#define EACH for (int i = I * LANES; i < (I + 1) * LANES; ++i)
+
+__kernel void rectangle(int n, __global const Rectangle *r, __global const float *p, __global float *out)
+{
+    EACH put(n, i, out, surface_rectangle(r, (float3)(p[i], p[i + n], p[i + 2 * n])));
+}
+
+__kernel void triangle(int n, __global const Triangle *t, __global const TriangleUV *uv,
+                       __global const float *b, __global float *out)
+{
+    EACH put(n, i, out, surface_triangle(t, uv, b[i], b[i + n]));
+}
+
+__kernel void ellipsoid(int n, __global const Ellipsoid *e, __global const float *p, __global float *out)
+{
+    EACH put(n, i, out, surface_ellipsoid(e, (float3)(p[i], p[i + n], p[i + 2 * n])));
+}
+
+/* (du/dx, dv/dx, du/dy, dv/dy) on a rectangle for camera rays with unit directions d hitting at p. */
+__kernel void footprint(int n, __constant const Camera *cam, __global const Rectangle *r, float spacing,
+                        float inv_w, float inv_h, __global const float *d, __global const float *p,
+                        __global float *out)
+{
+    EACH {
+        float3 pi = (float3)(p[i], p[i + n], p[i + 2 * n]), di = (float3)(d[i], d[i + n], d[i + 2 * n]);
+        SurfacePoint sp = surface_rectangle(r, pi);
+        float3 dpdx, dpdy;
+        camera_footprint(cam, spacing, inv_w, inv_h, di, pi, sp.n, &dpdx, &dpdy);
+        float4 duv = uv_derivatives(sp, dpdx, dpdy);
+        out[i] = duv.x; out[i + n] = duv.y; out[i + 2 * n] = duv.z; out[i + 3 * n] = duv.w;
+    }
+}
+"""
+
+KEYS = ("u", "v", "dpdu", "dpdv", "normal", "t", "b", "n_uv")
+
+
+def unpack(out):
+    """The kernel's 20 rows as a dict of N-vectors and N x 3 arrays."""
+    rows = out.T
+    parts = [rows[:, 0], rows[:, 1]] + [rows[:, k:k + 3] for k in range(2, 20, 3)]
+    return dict(zip(KEYS, parts))
+
+
+def check_frame(got, dpdu, dpdv):
+    """Orthonormal, right-handed (t x b = n), t along dpdu's tangential part, b on dpdv's side: float32
+    rounding of unit vectors (1e-5)."""
+    t, b, n = got["t"], got["b"], got["n_uv"]
+    for a, c in ((t, t), (b, b), (n, n)):
+        np.testing.assert_allclose(np.einsum("ij,ij->i", a, c), 1, atol=1e-5)
+    for a, c in ((t, b), (b, n), (n, t)):
+        np.testing.assert_allclose(np.einsum("ij,ij->i", a, c), 0, atol=1e-5)
+    np.testing.assert_allclose(np.cross(t, b), n, atol=1e-5)
+    assert np.all(np.einsum("ij,ij->i", b, dpdv) >= -1e-6)
+    assert np.all(np.einsum("ij,ij->i", t, dpdu) >= -1e-6)
+
+
+def compare(got, want, atol):
+    """Kernel against reference: uv and frame to atol, dpdu and dpdv relative to their size."""
+    np.testing.assert_allclose(got["u"], want["u"], atol=atol)
+    np.testing.assert_allclose(got["v"], want["v"], atol=atol)
+    for key in ("dpdu", "dpdv"):
+        scale = np.linalg.norm(want[key], axis=1, keepdims=True)
+        np.testing.assert_allclose(got[key] / scale, want[key] / scale, atol=atol)
+    frame = ref.shading_frame(want)
+    for key, expected in zip(("t", "b", "n_uv"), frame):
+        np.testing.assert_allclose(got[key], expected, atol=atol)
+    check_frame(got, want["dpdu"], want["dpdv"])
+
+
+RECTANGLES = [Rectangle(np.array([0.0, 0, 0]), np.array([2.0, 2.0]), np.array([0.0, 0, 1]), np.array([1.0, 0, 0])),
+              Rectangle(np.array([0.3, -0.2, 0.5]), np.array([0.7, 1.9]), np.array([1.0, 2, 2]) / 3,
+                        np.array([2.0, -2, 1]) / 3)]
+
+
+@pytest.mark.parametrize("rect", RECTANGLES, ids=["floor", "oblique"])
+def test_rectangle(harness, rect):
+    """uv are float32 dot products of O(1) terms over sizes O(1): 1e-5."""
+    rng = np.random.default_rng(0)
+    uv = rng.uniform(0, 1, (64, 2))
+    p = rect.center + (uv[:, :1] - 0.5) * rect.size[0] * rect.tangent + (uv[:, 1:] - 0.5) * rect.size[1] * rect.bitangent
+    got = unpack(harness.run(SOURCE, "rectangle", 64, [rectangle_structs([rect]), planar(p)], {"out": 20})["out"])
+    want = ref.rectangle_surface(rect.center, rect.size, rect.normal, rect.tangent, p)
+    np.testing.assert_allclose(np.stack([want["u"], want["v"]], axis=1), uv)
+    compare(got, want, 1e-5)
+
+
+TRIANGLE_UVS = {"default": None, "given": np.array([[0.2, 0.1], [2.0, 0.4], [0.7, 1.5]]),
+                "mirrored": np.array([[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]]), "degenerate": np.full((3, 2), 0.5)}
+
+
+@pytest.mark.parametrize("name", TRIANGLE_UVS)
+def test_triangle(harness, name):
+    """Per-vertex uv interpolated, dp/du dp/dv from the host's float64 solve (rounded once): 1e-5. A
+    mirrored uv layout turns the frame's normal to the back; a degenerate one still gets a frame."""
+    tri = Triangle(np.array([[0.1, 0.2, 0.3], [1.2, -0.3, 0.5], [0.4, 0.9, 1.1]]), 0, TRIANGLE_UVS[name])
+    rng = np.random.default_rng(1)
+    b = rng.dirichlet([1, 1, 1], 64)[:, 1:]
+    args = [triangle_structs([tri]), triangle_uv_structs([tri]), np.ascontiguousarray(b.T)]
+    got = unpack(harness.run(SOURCE, "triangle", 64, args, {"out": 20})["out"])
+    want = ref.triangle_surface(tri.vertices, tri.uv, b[:, 0], b[:, 1])
+    compare(got, want, 1e-5)
+    flipped = np.einsum("ij,ij->i", got["n_uv"], want["normal"]) < 0
+    assert np.all(flipped) if name == "mirrored" else not np.any(flipped)
+
+
+ELLIPSOID = Ellipsoid(np.array([0.5, 0.4, 0.4]), np.array([[0.3, 0.1, 0.0], [-0.1, 0.3, 0.0], [0.0, 0.0, 0.4]]))
+
+
+def sphere_points(rng, n):
+    """Random unit vectors plus the poles, points next to them, and both sides of the seam (theta = pi)."""
+    q = rng.normal(size=(n, 3))
+    special = [[0, 0, 1], [0, 0, -1], [1e-4, 0, 1], [0, -1e-4, -1], [-1, 1e-6, 0.3], [-1, -1e-6, 0.3],
+               [-1, 0, -0.5], [-1, 1e-3, 0], [-1, -1e-3, 0]]
+    q[: len(special)] = special
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-3, 1e3])
+def test_ellipsoid(harness, scale):
+    """uv from atan2 of float32 unit-sphere points: 1e-5 (u compared modulo 1: the seam may fall on either
+    side). dp/du and dp/dv relative 1e-5; at the poles dp/du vanishes, and the frame must still be a
+    finite orthonormal frame, its tangent the limit M (-sin theta, cos theta, 0) of the reference."""
+    e = Ellipsoid(ELLIPSOID.center * scale, ELLIPSOID.axes * scale)
+    q = sphere_points(np.random.default_rng(2), 64)
+    p = e.center + q @ e.matrix.T
+    got = unpack(harness.run(SOURCE, "ellipsoid", 64, [ellipsoid_structs([e]), planar(p)], {"out": 20})["out"])
+    want = ref.ellipsoid_surface(e.center, e.matrix, p)
+    assert all(np.all(np.isfinite(v)) for v in got.values())
+    du = got["u"] - want["u"]
+    pole = np.abs(q[:, 2]) > 1 - 1e-6  # theta is meaningless there; only the frame's finiteness counts
+    np.testing.assert_allclose((du - np.round(du))[~pole], 0, atol=1e-5)
+    np.testing.assert_allclose(got["v"], want["v"], atol=1e-5)
+    for key in ("dpdu", "dpdv"):
+        scale_ = np.linalg.norm(want[key], axis=1, keepdims=True) + 1e-30
+        np.testing.assert_allclose((got[key] / scale_)[~pole], (want[key] / scale_)[~pole], atol=1e-5)
+    frame = ref.shading_frame(want)
+    for key, expected in zip(("t", "b", "n_uv"), frame):
+        np.testing.assert_allclose(got[key][~pole], expected[~pole], atol=1e-4)
+    check_frame(got, want["dpdu"], want["dpdv"])
+    np.testing.assert_allclose(got["n_uv"], want["normal"], atol=1e-5)  # outward: v runs south to north
+
+
+def test_ray_differentials_on_a_plane(harness, cornell):
+    """The analytic footprint of the kernel (offset camera rays meeting the tangent plane, then least
+    squares for du, dv) against the reference's uv at the neighbouring pixel samples found by intersecting
+    the float64 camera's rays with the floor: on a plane both are exact, so the bound is float32 rounding
+    of differences of hit points (|p| ~ 3, footprint ~ 1e-3 of it): 1e-3 relative, plus 1e-7 absolute."""
+    floor = Rectangle(np.zeros(3), np.array([100.0, 100.0]), np.array([0.0, 0, 1]), np.array([1.0, 0, 0]))
+    width, height, spacing = 64, 48, 0.5
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(0, width, 256), rng.uniform(30, height, 256)   # the lower rows look at the floor
+    cam = cornell.camera
+    basis = ref.camera_basis(cam.position, cam.look_at, cam.ref_up)
+
+    def uv_of_pixel(px, py):
+        d = ref.camera_direction(basis, cam.fov_deg, cam.focal_length, width, height, px, py)
+        t = reference.intersect_rectangle(floor, np.broadcast_to(cam.position, d.shape), d, 0, np.inf)
+        s = ref.rectangle_surface(floor.center, floor.size, floor.normal, floor.tangent, cam.position + t[:, None] * d)
+        return s["u"], s["v"]
+
+    o, d = reference.camera_rays(cornell, x, y, width, height)
+    t = reference.intersect_rectangle(floor, o, d, 0, np.inf)
+    assert np.all(np.isfinite(t))
+    args = [camera_struct(cam, width, height), rectangle_structs([floor]), np.float32(spacing),
+            np.float32(1 / width), np.float32(1 / height), planar(d), planar(o + t[:, None] * d)]
+    got = harness.run(SOURCE, "footprint", 256, args, {"out": 4})["out"]
+    want = np.array(ref.footprint_by_offset_pixels(uv_of_pixel, x, y, spacing))
+    np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-7)
+    assert np.abs(want).max() > 1e-3, "a footprint that can be told from zero"
