@@ -307,12 +307,15 @@ def height_gradient(levels, filter_name, u, v, derivs_uv, mode, uv_scale=(1, 1),
     return h, hu, hv
 
 
-def bump_normal(dpdu, dpdv, N, k, h, hu, hv):
-    """normalize((dpdu + k hu N) x (dpdv + k hv N)) turned to N's side. Pass the transformed dpdu', dpdv'
-    that match hu, hv. h (the height itself) does not enter the normal; it is accepted for symmetry."""
-    hu, hv = np.asarray(hu, dtype=np.float64)[:, None], np.asarray(hv, dtype=np.float64)[:, None]
-    n = _normalize(np.cross(dpdu + k * hu * N, dpdv + k * hv * N))
-    return np.where((_dot(n, N) < 0)[:, None], -n, n)
+def bump_normal(dpdu, dpdv, N, k, hu, hv):
+    """The normal N tilted by the height's surface gradient: normalize(N - k g), g the vector orthogonal to
+    N with g . dpdu = hu and g . dpdv = hv (a 3 x 3 solve per point). Where N is the normal of dpdu x dpdv
+    this is normalize((dpdu + k hu N) x (dpdv + k hv N)) turned to N's side; with a normal-mapped N it
+    tilts that normal the same way. Pass the transformed dpdu', dpdv' that match hu, hv."""
+    rows = np.stack([dpdu, dpdv, N], axis=1)                              # N x 3 x 3
+    rhs = np.stack([hu, hv, np.zeros(len(N))], axis=1)[..., None]
+    g = np.linalg.solve(rows, rhs)[..., 0]
+    return _normalize(N - k * g)
 
 
 # --- 6. ray differentials ------------------------------------------------------------------------------

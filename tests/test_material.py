@@ -1,0 +1,191 @@
+"""The material at a hit (kernels/material.cl): colour maps, normal maps, bump maps and displacement, for
+each kind of shape, from camera ray to shading point, against the float64 reference composed of
+tests/reference.py (rays, intersections) and tests/reference_textures.py (surfaces, footprints, filters)."""
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+import raytrace
+import reference
+import reference_textures as ref
+from conftest import ROOT
+from raytrace.kernel import Features
+from raytrace.scene import parse_scene
+from raytrace.structs import scene_structs, texture_structs
+from test_textures import stored_levels
+
+SOURCE = """
+#include "camera.cl"
+#include "material.cl"
+__kernel void shading(int n, __constant const Camera *camera, __constant const RenderParams *params,
+                      __global const Rectangle *rects, __global const Triangle *tris,
+                      __global const TriangleUV *tri_uvs, __global const Ellipsoid *ells,
+                      __global const Light *lights, __global const Material *materials,
+                      __global const Texture *textures, __global const MipLevel *levels,
+                      __global const uint *texels, __global const float *srgb, __global const float *xy,
+                      __global float *k, __global float *nrm, __global float *pos)
+{
+    const Scene s = {rects, tris, tri_uvs, ells, lights, materials, camera, params};
+    const TextureStore ts = {textures, levels, texels, srgb};
+    Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), 1.0f / params->width, 1.0f / params->height);
+    Hit hit = closest_hit(&s, r, (vfloat)(0.0f), (vfloat)(INFINITY));
+    ShadingPoint sp = shading_point(&s, ts, r, hit);
+    OUT3(k, sp.k);
+    OUT3(nrm, sp.n);
+    OUT3(pos, sp.p);
+}
+"""
+
+SIZE = 64
+
+
+def smooth_map(rng, channels, lo, hi):
+    """A periodic SIZE x SIZE map of a few low-frequency waves in [lo, hi]: its texel-to-texel steps are
+    small, so float32 rounding of coordinates moves a lookup by little (the tests' bounds use this)."""
+    y, x = np.mgrid[0:SIZE, 0:SIZE] * (2 * np.pi / SIZE)
+    out = []
+    for _ in range(channels):
+        a, b, c = rng.integers(1, 4, 3)
+        wave = np.sin(a * x + rng.uniform(0, 6)) * np.cos(b * y + c * x + rng.uniform(0, 6))
+        out.append(lo + (hi - lo) * (wave + 1) / 2)
+    return np.stack(out, axis=2)
+
+
+@pytest.fixture(scope="module")
+def maps(tmp_path_factory):
+    """Real files: an 8-bit sRGB colour map, an 8-bit normal map tilted up to ~35 degrees, a float height
+    map."""
+    rng, folder = np.random.default_rng(8), tmp_path_factory.mktemp("maps")
+    colour = np.round(smooth_map(rng, 3, 0.1, 0.9) * 255).astype(np.uint8)
+    normal = np.concatenate([smooth_map(rng, 2, 0.3, 0.7), np.full((SIZE, SIZE, 1), 0.9)], axis=2)
+    height = smooth_map(rng, 1, 0.0, 1.0).astype(np.float32)
+    files = {}
+    for name, pixels, fmt in (("colour.png", colour, "uint8"), ("normal.png", np.round(normal * 255).astype(np.uint8),
+                                                                  "uint8"), ("height.exr", height, "float")):
+        spec = oiio.ImageSpec(SIZE, SIZE, pixels.shape[2], fmt)
+        out = oiio.ImageOutput.create(str(folder / name))
+        assert out.open(str(folder / name), spec) and out.write_image(pixels) and out.close()
+        files[name.split(".")[0]] = str(folder / name)
+    return files
+
+
+SHAPES = {
+    "rectangle": {"type": "rectangle", "center": [0.0, 0.5, 0.0], "size": [3.0, 3.0], "normal": [0.0, 0.0, 1.0],
+                  "tangent": [1.0, 0.0, 0.0]},
+    "triangle": {"type": "triangle", "vertices": [[-1.5, 1.0, 0.0], [1.5, 0.5, 0.2], [0.0, 1.2, 2.2]],
+                 "uv": [[0.1, 0.0], [1.3, 0.2], [0.5, 1.1]]},
+    "ellipsoid": {"type": "ellipsoid", "center": [0.0, 0.5, 1.0], "axes": [[0.8, 0.1, 0.0], [0.0, 0.6, -0.4],
+                                                                            [0.0, 0.3, 0.7]]},
+}
+
+
+def make_scene(shape, material):
+    table = {"camera": {"position": [0.0, -3.0, 1.3], "look_at": [0.0, 0.0, 1.0], "up": [0.0, 0.0, 1.0], "fov": 45.0},
+             "image": {"width": 48, "height": 40}, "ambient": [0.1, 0.1, 0.1],
+             "lights": [{"center": [0.0, 0.0, 3.0], "size": [0.5, 0.3], "normal": [0.0, 0.0, -1.0],
+                         "tangent": [1.0, 0.0, 0.0], "colour": [1.0, 1.0, 1.0]}],
+             "materials": {"m": material}, "shapes": [{**SHAPES[shape], "material": "m"}]}
+    return parse_scene(table, str(ROOT / "scenes" / "test.toml"))
+
+
+def expected_shading(scene, x, y, spp, filter_name):
+    """The float64 composition: camera ray, hit, surface, footprint, uv transform, lookups, frame, normal
+    map, bump, displacement. Returns (hit mask, colour, shading normal, shading point)."""
+    cam, m = scene.camera, scene.materials[0]
+    o, d = reference.camera_rays(scene, x, y, scene.width, scene.height)
+    if scene.rectangles:
+        r = scene.rectangles[0]
+        t = reference.intersect_rectangle(r, o, d, 0, np.inf)
+        surface = ref.rectangle_surface(r.center, r.size, r.normal, r.tangent, o + t[:, None] * d)
+    elif scene.triangles:
+        tri = scene.triangles[0]
+        t, b1, b2 = reference.intersect_triangle(tri.vertices, o, d, 0, np.inf)
+        surface = ref.triangle_surface(tri.vertices, tri.uv, b1, b2)
+    else:
+        e = scene.ellipsoids[0]
+        t, _ = reference.intersect_ellipsoid(e, o, d, 0, np.inf)
+        surface = ref.ellipsoid_surface(e.center, e.matrix, o + np.where(np.isfinite(t), t, 0)[:, None] * d)
+    hit = np.isfinite(t)
+    p = o + np.where(hit, t, 0)[:, None] * d
+    ng = np.where((np.einsum("ij,ij->i", surface["normal"], d) > 0)[:, None], -surface["normal"], surface["normal"])
+    basis = ref.camera_basis(cam.position, cam.look_at, cam.ref_up)
+    _, d_x, d_y = ref.ray_differentials(basis, cam.fov_deg, cam.focal_length, scene.width, scene.height, x, y,
+                                        max(0.125, 1 / np.sqrt(spp)))
+    derivs_uv = ref.uv_derivatives(surface["dpdu"], surface["dpdv"], *ref.surface_differentials(o, p, ng, d_x, d_y))
+    s, tt, derivs = ref.texture_coords(surface["u"], surface["v"], derivs_uv, m.uv_scale, m.uv_offset)
+    levels = [stored_levels(texture) for texture in scene.textures]
+    colour = ref.lookup(levels[m.colour_map], filter_name, s, tt, derivs, m.wrap) if m.colour_map >= 0 else m.colour
+    frame = ref.shading_frame(surface)
+    n = frame[2]
+    if m.normal_map >= 0:
+        n = ref.normal_map_normal(frame, ref.lookup(levels[m.normal_map], filter_name, s, tt, derivs, m.wrap))
+    if m.height_map >= 0:
+        h, hu, hv = ref.height_gradient(levels[m.height_map], filter_name, surface["u"], surface["v"], derivs_uv,
+                                        m.wrap, m.uv_scale, m.uv_offset)
+        n = ref.bump_normal(surface["dpdu"] / m.uv_scale[0], surface["dpdv"] / m.uv_scale[1], n, m.height_scale,
+                            hu, hv)
+        p = p + ng * (m.height_scale * h)[:, None]
+    side = np.sign(np.einsum("ij,ij->i", frame[2], ng))
+    return hit, colour, n * side[:, None], p
+
+
+def kernel_shading(harness, scene, x, y, spp, filter_name):
+    features = Features.of(scene, harness.lanes)
+    defines = {o[2:].split("=")[0]: int(o.split("=")[1]) for o in features.options()[1:]}
+    args = [*scene_structs(scene, scene.width, scene.height, spp, 1, filter_name), *texture_structs(scene),
+            np.concatenate([x, y]).astype(np.float32)]
+    return harness.run(SOURCE, "shading", len(x), args, {"k": 3, "nrm": 3, "pos": 3}, **defines)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("filter_name", ["trilinear", "anisotropic"])
+def test_shading_point_matches_reference(harness, maps, shape, filter_name):
+    """All three maps at once, with a uv transform and mirror wrapping, on each kind of shape, at random
+    pixel positions. The maps are smooth (steps between texels <= ~0.1), so the kernel's float32 rounding
+    of uv (~1e-6 relative) and of the footprint (~1e-4 relative, from differences of hit points ~3 units
+    from the camera) moves a lookup by < 1e-4 of the value range and the MIP level by < 2e-4: colour
+    bound 1e-3. The bump divides differences of two such lookups by the step du ~ the footprint (>= 1/2
+    texel = 1/128 of uv): 1e-4 / (1/128) * height_scale 0.05 tilts the normal by < 1e-3 radian on a
+    tangent of unit size; with the normal map's own error, bound 3e-3 on the normal. Displaced points
+    move by height_scale * h: error 0.05 * 1e-3, plus float32 of coordinates ~3: bound 1e-4."""
+    material = {"texture": maps["colour"], "normal_map": maps["normal"], "height_map": maps["height"],
+                "height_scale": 0.05, "uv_scale": [2.0, 1.5], "uv_offset": [0.1, -0.3], "wrap": "mirror"}
+    scene = make_scene(shape, material)
+    rng = np.random.default_rng(9)
+    x, y = rng.uniform(0, scene.width, 512), rng.uniform(0, scene.height, 512)
+    got = kernel_shading(harness, scene, x, y, 4, filter_name)
+    with np.errstate(invalid="ignore"):  # the reference also runs its lookups for the rays that miss
+        hit, colour, normal, p = expected_shading(scene, x, y, 4, filter_name)
+    assert np.count_nonzero(hit) > 100
+    np.testing.assert_allclose(got["k"].T[hit], colour[hit], atol=1e-3)
+    np.testing.assert_allclose(got["nrm"].T[hit], normal[hit], atol=3e-3)
+    np.testing.assert_allclose(got["pos"].T[hit], p[hit], atol=1e-4)
+    assert np.all(got["k"].T[~hit] == 0)
+
+
+def flat_maps(tmp_path):
+    """A float normal map of exactly (0.5, 0.5, 1) and a height map of zeros, as files."""
+    for name, value in (("flat.exr", [0.5, 0.5, 1.0]), ("zero.exr", [0.0])):
+        pixels = np.broadcast_to(np.array(value, np.float32), (8, 8, len(value))).copy()
+        out = oiio.ImageOutput.create(str(tmp_path / name))
+        assert out.open(str(tmp_path / name), oiio.ImageSpec(8, 8, len(value), "float")) and out.write_image(pixels)
+        out.close()
+    return str(tmp_path / "flat.exr"), str(tmp_path / "zero.exr")
+
+
+@pytest.mark.parametrize("lanes", [1, 8])
+def test_flat_normal_map_and_zero_height_change_nothing(tmp_path, lanes):
+    """A flat normal map gives the frame's normal, which is the geometric normal up to its float32
+    rounding (a few 1e-7); a height map of zeros tilts nothing (its differences are exactly 0) and
+    displaces nothing. Shadow rays leave from the same points along the same normal, so no shadow test
+    can flip; the lobes move by < 16 (the exponent) * 1e-6: bound 2e-5 per pixel, for every shape kind."""
+    flat, zero = flat_maps(tmp_path)
+    for shape in SHAPES:
+        plain = make_scene(shape, {"colour": [0.7, 0.6, 0.5]})
+        mapped = make_scene(shape, {"colour": [0.7, 0.6, 0.5], "normal_map": flat, "height_map": zero,
+                                    "height_scale": 0.1})
+        a, _ = raytrace.render(plain, spp=4, light_samples=4, lanes=lanes)
+        b, stats = raytrace.render(mapped, spp=4, light_samples=4, lanes=lanes)
+        assert "-DHAS_NORMAL_MAPS=1" in stats.build_options and "-DHAS_HEIGHT_MAPS=1" in stats.build_options
+        assert a.max() > 0.3
+        np.testing.assert_allclose(b, a, atol=2e-5, err_msg=shape)
