@@ -23,7 +23,7 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):
         m = re.match(r"argument ([^:]+): (.*)", message)
         key = m.group(1).split("/")[-1] if m else self.prog
-        value = re.search(r"value: '([^']*)'", message)
+        value = re.search(r"(?:value|choice): '([^']*)'", message)
         raise InputError("command line", key, value.group(1) if value else None, m.group(2) if m else message)
 
 

@@ -67,6 +67,7 @@ def test_8bit_encoding():
     (["--spp", "abc"], "command line: --spp = 'abc'"),
     (["--light-samples", "0"], "command line: --light-samples = 0"),
     (["--device", "no-such-device"], "command line: --device = 'no-such-device'"),
+    (["--texture-filter", "cubic"], "command line: --texture-filter = 'cubic'"),
 ])
 def test_bad_command_line(tmp_path, args, needle):
     out = tmp_path / "x.png"
@@ -103,3 +104,47 @@ def test_bad_output(tmp_path):
     assert r.returncode == 2 and "-o" in r.stderr and "x.gif" in r.stderr
     r = run("render", CORNELL, "-o", tmp_path / "no" / "dir" / "x.png")
     assert r.returncode == 2 and "directory" in r.stderr
+
+
+def test_bad_texture_files(tmp_path):
+    """A missing texture, a file that is no image, a normal map with one channel: one line naming the
+    scene, the material's key and the texture's path; exit 2; nothing written."""
+    grey = tmp_path / "grey.png"
+    out = oiio.ImageOutput.create(str(grey))
+    assert out.open(str(grey), oiio.ImageSpec(4, 4, 1, "uint8")) and out.write_image(np.zeros((4, 4, 1), np.uint8))
+    out.close()
+    (tmp_path / "junk.png").write_text("not a png")
+    text = open(CORNELL).read()
+    for value, key in (("missing.png", "texture"), ("junk.png", "texture"), ("grey.png", "normal_map")):
+        scene = tmp_path / f"{key}.toml"
+        scene.write_text(text.replace('red = { colour = [0.8, 0.0, 0.0] }',
+                                      f'red = {{ colour = [0.8, 0.0, 0.0], {key} = "{value}" }}'))
+        (tmp_path / "out").mkdir(exist_ok=True)
+        r = run("render", scene, "-o", tmp_path / "out" / "x.png")
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+        assert f"materials.red.{key} = '{tmp_path / value}'" in r.stderr and str(scene) in r.stderr, r.stderr
+        assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_textured_render_and_filters(tmp_path):
+    """Each filter renders the textured scene through the command line, records itself in the file, and
+    changes the image (the grid floor's far lines)."""
+    scene = ROOT / "scenes" / "grid_floor.toml"
+    images = {}
+    for f in ("nearest", "trilinear"):
+        r = run("render", scene, "-o", tmp_path / f"{f}.exr", "--width", 32, "--height", 32, "--spp", 1,
+                "--sampler", "center", "--light-samples", 1, "--texture-filter", f)
+        assert r.returncode == 0, r.stderr
+        spec, images[f] = read(tmp_path / f"{f}.exr")
+        assert spec.getattribute("raytrace:texture_filter") == f
+    assert np.abs(images["nearest"] - images["trilinear"]).max() > 0.05
+
+
+def test_assets_are_reproducible(tmp_path):
+    """`python -m raytrace assets` writes the committed textures again, byte for byte."""
+    r = run("assets", "--out", tmp_path)
+    assert r.returncode == 0, r.stderr
+    committed = sorted((ROOT / "assets" / "textures").iterdir())
+    assert [p.name for p in committed] == sorted(p.name for p in tmp_path.iterdir())
+    for path in committed:
+        assert (tmp_path / path.name).read_bytes() == path.read_bytes(), path.name

@@ -61,3 +61,43 @@ def test_missing_and_broken_files(tmp_path):
     bad.write_text("[camera\nposition = 1")
     with pytest.raises(InputError, match="bad.toml: toml"):
         load_scene(bad)
+
+
+@pytest.mark.parametrize("entry, key, value", [
+    ({"uv_scale": [0.0, 1.0]}, "uv_scale", [0.0, 1.0]),
+    ({"uv_scale": [-2.0, 1.0]}, "uv_scale", [-2.0, 1.0]),
+    ({"height_map": "../assets/textures/bricks_height.png", "height_scale": -0.1}, "height_scale", -0.1),
+    ({"height_scale": 0.1}, "height_scale", 0.1),
+    ({"wrap": "tile"}, "wrap", "tile"),
+    ({"uv_offset": [0.0]}, "uv_offset", [0.0]),
+    ({"texture": 7}, "texture", 7),
+])
+def test_bad_texture_keys_are_named(entry, key, value):
+    table = tomllib.loads(CORNELL.read_text())
+    table["materials"]["red"].update(entry)
+    with pytest.raises(InputError) as info:
+        parse_scene(table, str(CORNELL))
+    assert (info.value.source, info.value.key, info.value.value) == (str(CORNELL), f"materials.red.{key}", value)
+
+
+def test_texture_files_resolve_from_the_scene_and_missing_ones_are_named(tmp_path):
+    """Paths are relative to the scene file, wherever the process runs; a missing file names the scene,
+    the key and the path it looked for."""
+    table = tomllib.loads(CORNELL.read_text())
+    table["materials"]["red"]["texture"] = "../assets/textures/grid.png"
+    scene = parse_scene(table, str(CORNELL))
+    assert len(scene.textures) == 1 and scene.materials[1].colour_map == 0
+    table["materials"]["red"]["texture"] = "nowhere.png"
+    with pytest.raises(InputError) as info:
+        parse_scene(table, str(tmp_path / "s.toml"))
+    assert info.value.key == "materials.red.texture" and info.value.value == str(tmp_path / "nowhere.png")
+    assert "cannot read the image" in str(info.value)
+
+
+def test_textured_scenes_load(tmp_path):
+    """Every shipped scene loads; a texture used by several materials in one role is read once."""
+    for path in sorted((ROOT / "scenes").glob("*.toml")):
+        scene = load_scene(path)
+        assert len({(t.path, t.role) for t in scene.textures}) == len(scene.textures)
+    textured = load_scene(ROOT / "scenes" / "textured_cornell.toml")
+    assert len(textured.textures) == 5  # bricks colour, normal, height; stones colour, height
