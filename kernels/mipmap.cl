@@ -30,7 +30,7 @@ inline void footprint_axes(TextureStore ts, int texture, float4 dst, float2 *ax,
     *ay = dst.s23 * size;
 }
 
-/* Trilinear: the level of the longer footprint axis, as SPEC's D = log2 L. */
+/* Trilinear: the level of the longer footprint axis, as the README's D = log2 L. */
 inline float4 texture_trilinear(TextureStore ts, int texture, float2 st, float4 dst, int wrap)
 {
     float2 ax, ay;

@@ -23,7 +23,7 @@ inline float3 mat3_mul(const __global float *m, float3 v) /* row-major m times v
                     dot((float3)(m[6], m[7], m[8]), v));
 }
 
-/* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (SPEC section 5). */
+/* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (the README's model, texture coordinates). */
 inline SurfacePoint surface_rectangle(__global const Rectangle *r, float3 p)
 {
     float3 rel = p - f3(r->center), t = f3(r->tangent), b = f3(r->bitangent);
@@ -52,7 +52,7 @@ inline SurfacePoint surface_triangle(__global const Triangle *tri, __global cons
 }
 
 /* Spherical coordinates of the unit-sphere point q = M^-1 (p - c): u = theta / 2 pi + 1/2 with
- * theta = atan2(q.y, q.x) (SPEC section 5), v = 1 - phi / pi with phi the angle from the north pole, so v
+ * theta = atan2(q.y, q.x) (the README's model, texture coordinates), v = 1 - phi / pi with phi the angle from the north pole, so v
  * runs up the image as it does on the other shapes (pbrt-v4's sphere). q is renormalised first: the hit
  * point is off the surface by its rounding error. The angles come from atan2 alone, accurate at the poles
  * where acos(q.z) is not; theta's wrap at the seam moves u by exactly 1, which repeat wrapping ignores,

@@ -9,7 +9,7 @@
 typedef struct { float x, y, z; } Vec3f;
 
 typedef struct {
-    Vec3f position, forward, right, up; /* orthonormal basis of SPEC.md section 1 */
+    Vec3f position, forward, right, up; /* orthonormal basis of the README's model, camera */
     float scale_x;                      /* (W/H) * f * tan(fov/2) */
     float scale_y;                      /* f * tan(fov/2) */
     float focal_length;

@@ -26,7 +26,7 @@ class Camera:
     focal_length: float = 1.0
 
     def basis(self):
-        """forward, right, up as SPEC.md section 1 defines them (float64)."""
+        """forward, right, up as the README's model, camera defines them (float64)."""
         forward = _normalize(self.look_at - self.position)
         right = _normalize(np.cross(forward, self.ref_up))
         return forward, right, np.cross(right, forward)

@@ -373,21 +373,6 @@ def uv_derivatives(dpdu, dpdv, dpdx, dpdy):
     return dudx, dvdx, dudy, dvdy
 
 
-def footprint_by_finite_differences(uv_of_pixel, x, y, delta, eps=1e-3):
-    """(dudx, dvdx, dudy, dvdy) = delta * central differences of the caller's uv_of_pixel(x, y) -> (u, v)
-    with step eps in pixels; no tangent plane involved. This converges (error O(eps^2)) to delta times
-    the true derivative. The contract's analytic differential is instead the FORWARD difference with step
-    delta, uv(x + delta) - uv(x), on the tangent plane (exact on a plane): the two agree to O(eps^2) where
-    uv is affine in the pixel coordinate (e.g. D_x . N_g independent of x), and otherwise differ by
-    O(delta^2) times the second derivative of the perspective mapping. Use footprint_by_offset_pixels
-    for an exact (round-off) check on planes."""
-    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-    (uxp, vxp), (uxm, vxm) = uv_of_pixel(x + eps, y), uv_of_pixel(x - eps, y)
-    (uyp, vyp), (uym, vym) = uv_of_pixel(x, y + eps), uv_of_pixel(x, y - eps)
-    c = delta / (2 * eps)
-    return c * (uxp - uxm), c * (vxp - vxm), c * (uyp - uym), c * (vyp - vym)
-
-
 def footprint_by_offset_pixels(uv_of_pixel, x, y, delta):
     """(dudx, dvdx, dudy, dvdy) = uv(x + delta, y) - uv(x, y) and uv(x, y + delta) - uv(x, y): on a plane
     whose u, v are affine in p, this is what the tangent-plane formula gives, up to round-off."""

@@ -1,4 +1,4 @@
-"""Camera rays (kernels/camera.cl) against the float64 reference (SPEC.md section 1)."""
+"""Camera rays (kernels/camera.cl) against the float64 reference (the README's model, camera)."""
 import numpy as np
 import pytest
 

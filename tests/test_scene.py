@@ -1,4 +1,4 @@
-"""Scene files: the course's scene as SPEC.md gives it, and every kind of bad input named precisely."""
+"""Scene files: the course's scene as the course gives it, and every kind of bad input named precisely."""
 import tomllib
 
 import numpy as np

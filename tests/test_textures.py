@@ -180,17 +180,25 @@ def test_huge_and_nonfinite_coordinates_stay_in_the_texture(harness, textures):
             assert np.all(np.isfinite(got)) and np.all(got >= level.min() - 1e-6) and np.all(got <= level.max() + 1e-6)
 
 
+def openimageio_lookup(folder, image, mipmode, s, t, derivs=None):
+    """OpenImageIO's TextureSystem on `image` (made into a tiled, MIP-mapped file), periodic wrapping,
+    bilinear interpolation, the given MipMode; derivs (dsdx, dtdx, dsdy, dtdy) default to 0."""
+    path = str(folder / "t.tx")
+    assert oiio.ImageBufAlgo.make_texture(oiio.MakeTxTexture, oiio.ImageBuf(image), path, oiio.ImageSpec())
+    system, opt = oiio.TextureSystem(), oiio.TextureOpt()
+    opt.swrap = opt.twrap = oiio.Wrap.Periodic
+    opt.mipmode, opt.interpmode = mipmode, oiio.InterpMode.Bilinear
+    derivs = np.zeros((4, len(s))) if derivs is None else derivs
+    return np.array([system.texture(path, opt, a, b, *map(float, d), 3) for a, b, d in zip(s, t, derivs.T)])
+
+
 def test_bilinear_matches_openimageio(harness, tmp_path):
     """OpenImageIO's TextureSystem as an independent oracle: its bilinear mode without MIP-mapping
     interpolates the same texel centres (documented to agree with a plain bilinear to 5e-7). Float
     texture, so no decoding differs; bound 2e-6."""
     rng = np.random.default_rng(3)
     image = rng.random((12, 20, 3)).astype(np.float32)
-    oiio.ImageBufAlgo.make_texture(oiio.MakeTxTexture, oiio.ImageBuf(image), str(tmp_path / "t.tx"), oiio.ImageSpec())
-    system, opt = oiio.TextureSystem(), oiio.TextureOpt()
-    opt.swrap = opt.twrap = oiio.Wrap.Periodic
-    opt.mipmode, opt.interpmode = oiio.MipMode.NoMIP, oiio.InterpMode.Bilinear
     s, t = random_uv(rng, 64, 0.0, 1.0)
-    want = np.array([system.texture(str(tmp_path / "t.tx"), opt, a, b, 0, 0, 0, 0, 3) for a, b in zip(s, t)])
+    want = openimageio_lookup(tmp_path, image, oiio.MipMode.NoMIP, s, t)
     got = kernel_lookup(harness, [make_texture(image, "float", "colour")], 0, "bilinear", "repeat", s, t)
     np.testing.assert_allclose(got, want, atol=2e-6)
