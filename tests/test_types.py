@@ -39,3 +39,19 @@ def test_no_struct_has_hidden_padding():
     """Only 4-byte fields: the field sizes add up to the struct size, on every OpenCL device."""
     for dtype in types.STRUCTS.values():
         assert sum(dtype.fields[name][0].itemsize for name in dtype.names) == dtype.itemsize
+
+
+def test_constants_match_device(cl_env):
+    """The WRAP_*, TEXELS_* and FILTER_* macros of kernels/types.h against their mirrors in raytrace/types.py."""
+    names = {f"WRAP_{k.upper()}": v for k, v in types.WRAP_MODES.items()}
+    names |= {f"FILTER_{k.upper()}": v for k, v in types.FILTERS.items()}
+    names |= {"TEXELS_SRGB8": types.TEXELS_SRGB8, "TEXELS_UNORM8": types.TEXELS_UNORM8,
+              "TEXELS_FLOAT": types.TEXELS_FLOAT}
+    context, queue = cl_env
+    body = "\n".join(f"    out[{i}] = {name};" for i, name in enumerate(names))
+    program, _ = build(context, f'#include "types.h"\n__kernel void constants(__global int *out)\n{{\n{body}\n}}\n')
+    out = np.zeros(len(names), np.int32)
+    buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    cl.Kernel(program, "constants")(queue, (1,), None, buf)
+    cl.enqueue_copy(queue, out, buf)
+    assert out.tolist() == list(names.values())
