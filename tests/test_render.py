@@ -74,3 +74,12 @@ def test_specialised_kernel(cornell):
     np.testing.assert_array_equal(special, full)
     with_ellipsoid, _ = raytrace.render(cornell, width=32, height=32, spp=1, light_samples=4, sampler="center")
     assert np.abs(with_ellipsoid - special).max() > 0.1
+
+
+def test_texture_features_follow_the_scene():
+    """Colour maps only: no normal- or height-map code; all three: all of it; none: no texture code."""
+    from conftest import ROOT
+    expect = {"cornell": (0, 0, 0), "grid_floor": (1, 0, 0), "normal_wall": (0, 1, 0), "textured_cornell": (1, 1, 1)}
+    for name, flags in expect.items():
+        options = Features.of(raytrace.load_scene(ROOT / "scenes" / f"{name}.toml"), 8).options()
+        assert options[-3:] == [f"-DHAS_{m}_MAPS={f}" for m, f in zip(("COLOUR", "NORMAL", "HEIGHT"), flags)]
