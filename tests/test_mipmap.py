@@ -156,7 +156,7 @@ def test_mipmapping_removes_aliasing(grid_floor):
     (RMSE) to a 256-spp supersampled render than the 1-spp render with nearest filtering, by at least 30%.
     The supersampled render uses bilinear (no MIP-mapping), so the reference does not favour MIP-maps.
     One light sample: shading is not what is compared. (The grid's lines sit on the pyramid's texel
-    pairs; lines straddling them blur twice as wide at every level, and then trilinear gains only ~17%
+    pairs; lines straddling them blur twice as wide at every level, and then trilinear gains only ~10%
     here: raytrace/assets.py.)"""
     size = dict(width=96, height=96, light_samples=1)
     truth, _ = raytrace.render(grid_floor, spp=256, sampler="grid", texture_filter="bilinear", **size)
