@@ -1,5 +1,5 @@
 /* The material at a hit: its colour (the material's, or its colour map's), shininess, and where and with
- * which normal it is shaded (normal map, bump map and displacement; the README's model, texture coordinates).
+ * which normal it is shaded (normal map, bump map and displacement: the README's Textures section).
  *
  * Without textures (HAS_TEXTURES 0) this is a gather of the material table; with them, every lane runs
  * the scalar texturing code below for its own hit. */

@@ -23,7 +23,14 @@ inline float3 mat3_mul(const __global float *m, float3 v) /* row-major m times v
                     dot((float3)(m[6], m[7], m[8]), v));
 }
 
-/* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (the README's model, texture coordinates). */
+inline float3 mat3_mul_transposed(const __global float *m, float3 v)
+{
+    return (float3)(dot((float3)(m[0], m[3], m[6]), v), dot((float3)(m[1], m[4], m[7]), v),
+                    dot((float3)(m[2], m[5], m[8]), v));
+}
+
+/* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (the README's model,
+ * texture coordinates). */
 inline SurfacePoint surface_rectangle(__global const Rectangle *r, float3 p)
 {
     float3 rel = p - f3(r->center), t = f3(r->tangent), b = f3(r->bitangent);
@@ -52,11 +59,11 @@ inline SurfacePoint surface_triangle(__global const Triangle *tri, __global cons
 }
 
 /* Spherical coordinates of the unit-sphere point q = M^-1 (p - c): u = theta / 2 pi + 1/2 with
- * theta = atan2(q.y, q.x) (the README's model, texture coordinates), v = 1 - phi / pi with phi the angle from the north pole, so v
- * runs up the image as it does on the other shapes (pbrt-v4's sphere). q is renormalised first: the hit
- * point is off the surface by its rounding error. The angles come from atan2 alone, accurate at the poles
- * where acos(q.z) is not; theta's wrap at the seam moves u by exactly 1, which repeat wrapping ignores,
- * and the derivatives are analytic, so the seam has no footprint of its own. */
+ * theta = atan2(q.y, q.x) (the README's model, texture coordinates), v = 1 - phi / pi with phi the angle
+ * from the north pole, so v runs up the image as it does on the other shapes (pbrt-v4's sphere). q is
+ * renormalised first: the hit point is off the surface by its rounding error. The angles come from atan2
+ * alone, accurate at the poles where acos(q.z) is not; theta's wrap at the seam moves u by exactly 1,
+ * which repeat wrapping ignores, and the derivatives are analytic, so the seam has no footprint of its own. */
 inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
 {
     float3 q = normalize(mat3_mul(e->world_to_unit, p - f3(e->center)));
@@ -67,9 +74,7 @@ inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
     sp.uv = (float2)(atan2(q.y, q.x) / (2.0f * pi) + 0.5f, 1.0f - atan2(sin_phi, q.z) / pi);
     sp.dpdu = mat3_mul(e->unit_to_world, (float3)(-q.y, q.x, 0.0f) * (2.0f * pi));
     sp.dpdv = mat3_mul(e->unit_to_world, (float3)(q.z * cos_theta, q.z * sin_theta, -sin_phi) * -pi);
-    sp.n = normalize((float3)(dot((float3)(e->world_to_unit[0], e->world_to_unit[3], e->world_to_unit[6]), q),
-                              dot((float3)(e->world_to_unit[1], e->world_to_unit[4], e->world_to_unit[7]), q),
-                              dot((float3)(e->world_to_unit[2], e->world_to_unit[5], e->world_to_unit[8]), q)));
+    sp.n = normalize(mat3_mul_transposed(e->world_to_unit, q)); /* the inverse-transpose, as ellipsoid.cl */
     sp.tangent = normalize(mat3_mul(e->unit_to_world, (float3)(-sin_theta, cos_theta, 0.0f)));
     return sp;
 }

@@ -92,8 +92,8 @@ def render(scene, **kwargs):
     texture_bytes = textures[2].nbytes if scene.textures else 0  # the packed texels of every level
     ro = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     buffers = [cl.Buffer(context, ro, hostbuf=a) for a in (
-        *scene_structs(scene, width, height, spp, n_light, options.texture_filter), *textures, samplers.pixel_samples(sampler, spp).astype(np.float32),
-        samplers.light_samples(n_light).astype(np.float32))]
+        *scene_structs(scene, width, height, spp, n_light, options.texture_filter), *textures,
+        samplers.pixel_samples(sampler, spp).astype(np.float32), samplers.light_samples(n_light).astype(np.float32))]
     out = np.empty((4, height, width), np.float32)
     out_buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
     kernel = cl.Kernel(program, "render")

@@ -251,8 +251,8 @@ def _material(r, name, textures):
         if r.has(key):
             maps[key] = textures.index(r.string(key), role, r.path, r.prefix + key)
     if r.has("height_scale") != r.has("height_map"):
-        r.fail("height_scale" if r.has("height_scale") else "height_map", r.table.get("height_scale"),
-               "height_map and height_scale go together")
+        given = "height_scale" if r.has("height_scale") else "height_map"
+        r.fail(given, r.table[given], "height_map and height_scale go together")
     uv_scale = r.vector("uv_scale", 2, default=[1.0, 1.0])
     if np.any(uv_scale <= 0):
         r.fail("uv_scale", uv_scale.tolist(), "both scales must be > 0")

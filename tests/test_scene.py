@@ -68,6 +68,7 @@ def test_missing_and_broken_files(tmp_path):
     ({"uv_scale": [-2.0, 1.0]}, "uv_scale", [-2.0, 1.0]),
     ({"height_map": "../assets/textures/bricks_height.png", "height_scale": -0.1}, "height_scale", -0.1),
     ({"height_scale": 0.1}, "height_scale", 0.1),
+    ({"height_map": "../assets/textures/bricks_height.png"}, "height_map", "../assets/textures/bricks_height.png"),
     ({"wrap": "tile"}, "wrap", "tile"),
     ({"uv_offset": [0.0]}, "uv_offset", [0.0]),
     ({"texture": 7}, "texture", 7),

@@ -102,7 +102,8 @@ def test_rectangle(harness, rect):
     """uv are float32 dot products of O(1) terms over sizes O(1): 1e-5."""
     rng = np.random.default_rng(0)
     uv = rng.uniform(0, 1, (64, 2))
-    p = rect.center + (uv[:, :1] - 0.5) * rect.size[0] * rect.tangent + (uv[:, 1:] - 0.5) * rect.size[1] * rect.bitangent
+    offset = uv - 0.5
+    p = rect.center + offset[:, :1] * rect.size[0] * rect.tangent + offset[:, 1:] * rect.size[1] * rect.bitangent
     got = unpack(harness.run(SOURCE, "rectangle", 64, [rectangle_structs([rect]), planar(p)], {"out": 20})["out"])
     want = ref.rectangle_surface(rect.center, rect.size, rect.normal, rect.tangent, p)
     np.testing.assert_allclose(np.stack([want["u"], want["v"]], axis=1), uv)
