@@ -17,15 +17,18 @@
 #if LANES == 1
 typedef float vfloat;
 typedef int vint;
+typedef uint vuint;
 #define ANY(m) (m)
 #define ALL(m) (m)
 #define VLOAD(i, p) ((p)[i])
 #define VSTORE(v, i, p) ((p)[i] = (v))
 #define LANE_IDS 0
 #define CONVERT_VFLOAT(v) ((float)(v))
+#define AS_VUINT(v) ((uint)(v))
 #else
 typedef CAT(float, LANES) vfloat;
 typedef CAT(int, LANES) vint;
+typedef CAT(uint, LANES) vuint;
 #define ANY(m) any(m)
 #define ALL(m) all(m)
 #define VLOAD(i, p) CAT(vload, LANES)(i, p)
@@ -40,6 +43,7 @@ typedef CAT(int, LANES) vint;
 #error "LANES must be 1, 4, 8 or 16"
 #endif
 #define CONVERT_VFLOAT(v) CAT(convert_float, LANES)(v)
+#define AS_VUINT(v) CAT(as_uint, LANES)(v)
 #endif
 
 /* A mask as 0/1 floats, e.g. to count rays per lane. */

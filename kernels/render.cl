@@ -2,8 +2,9 @@
  * accumulate.
  *
  * One work-item renders LANES neighbouring pixels of one row: x = LANES * get_global_id(0) + lane,
- * y = row0 + get_global_id(1). Output planes (each width * height floats): R, G, B (mean over the pixel
- * samples, linear) and the number of rays traced for the pixel. */
+ * y = row0 + get_global_id(1). A launch takes the pixel samples [sample0, sample0 + n_samples) of a
+ * progressive render (the host accumulates passes). Output planes (each width * height floats): R, G, B
+ * (sums over the launch's pixel samples, linear) and the number of rays traced for the pixel. */
 #include "camera.cl"
 #include "shading.cl"
 
@@ -24,7 +25,8 @@ __kernel void render(__constant const Camera *camera, __constant const RenderPar
                      __global const Light *lights, __global const Material *materials,
                      __global const Texture *textures, __global const MipLevel *mip_levels,
                      __global const uint *texels, __global const float *srgb_to_linear,
-                     __global const float2 *pixel_samples, __global const float2 *light_samples, int row0,
+                     __global const uint2 *pixel_samples, __global const uint2 *light_samples, int sample0,
+                     int n_samples, int row0,
                      __global float *out)
 {
     const Scene scene = {rectangles, triangles, triangle_uvs, ellipsoids, lights, materials, camera, params};
@@ -36,22 +38,21 @@ __kernel void render(__constant const Camera *camera, __constant const RenderPar
     vint active = (x0 + LANE_IDS) < width;
     vfloat x = CONVERT_VFLOAT(x0 + LANE_IDS);
 
+    vuint key = pixel_key(AS_VUINT(y * width + x0 + LANE_IDS), params->seed);
     vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
     vfloat rays = 0.0f;
-    for (int s = 0; s < params->spp; ++s) {
-        float2 offset = pixel_samples[s];
-        Ray ray = generate_camera_ray(camera, x + offset.x, (vfloat)(y + offset.y), 1.0f / width,
-                                      1.0f / height);
+    for (int s = sample0; s < sample0 + n_samples; ++s) {
+        vec2 offset = sample_2d(pixel_samples, s, params->pixel_sampler, key);
+        Ray ray = generate_camera_ray(camera, x + offset.x, (vfloat)(y) + offset.y, 1.0f / width, 1.0f / height);
         Hit hit = closest_hit(&scene, ray, (vfloat)(0.0f), (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
-        sum = v3_add(sum, shade(&scene, ray, hit, sp, light_samples, &rays));
+        sum = v3_add(sum, shade(&scene, ray, hit, sp, light_samples, stream_key(key, s), &rays));
     }
-    rays += (float)params->spp;
+    rays += (float)n_samples;
 
     const int plane = width * height, index = y * width + x0;
-    const float inv_spp = 1.0f / params->spp;
-    store_lanes(out, index, sum.x * inv_spp, active);
-    store_lanes(out + plane, index, sum.y * inv_spp, active);
-    store_lanes(out + 2 * plane, index, sum.z * inv_spp, active);
+    store_lanes(out, index, sum.x, active);
+    store_lanes(out + plane, index, sum.y, active);
+    store_lanes(out + 2 * plane, index, sum.z, active);
     store_lanes(out + 3 * plane, index, rays, active);
 }

@@ -22,11 +22,12 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
     return fmax(ndotl, 0.0f) + phong_power(fmax(v3_dot(r, v), 0.0f), shininess);
 }
 
-/* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. A light
+/* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. The light
+ * samples come from the light sample pattern, randomised under `key` and the light's index. A light
  * sample counts where it lies above both the surface (ng: else the surface itself would block it) and the
  * shading normal (n: the lobes of a bumped surface). */
-inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const float2 *light_samples,
-                  vfloat *rays)
+inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const uint2 *light_samples,
+                  vuint key, vfloat *rays)
 {
     vint surface = (hit.t < INFINITY) & (hit.material >= 0);
     vec3 origin = offset_ray_origin(sp.p, sp.ng);
@@ -35,9 +36,10 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
     int n_samples = s->params->light_samples;
     for (int li = 0; li < s->params->n_lights && ANY(surface); ++li) {
         __global const Light *light = &s->lights[li];
+        vuint light_key = stream_key(key, li);
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
-            vec3 q = light_point(light, light_samples[j]);
+            vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
             vec3 l = v3_normalize(v3_sub(q, sp.p));
             vint lit = surface & (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f);
             if (!ANY(lit))

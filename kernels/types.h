@@ -79,10 +79,25 @@ typedef struct {
 #define FILTER_TRILINEAR 2
 #define FILTER_ANISOTROPIC 3
 
+/* How a sample pattern's table (points in 0.32 fixed point, the same for every pixel) is randomised per
+ * pixel and per sample stream, so that neighbouring pixels get independent patterns (samplers.cl). */
+#define RANDOMIZE_NONE 0        /* the table as it is: center, grid, rotated grids */
+#define RANDOMIZE_INDEPENDENT 1 /* the table is ignored: a fresh uniform point per sample (random) */
+#define RANDOMIZE_JITTER 2      /* table = stratum corners, plus a uniform offset within the stratum */
+#define RANDOMIZE_SHIFT 3       /* a Cranley-Patterson rotation per stream (halton) */
+#define RANDOMIZE_OWEN 4        /* hash-based Owen scrambling per stream (sobol) */
+
+typedef struct {
+    int randomize;      /* RANDOMIZE_* */
+    uint cell_x, cell_y; /* RANDOMIZE_JITTER: the stratum's size in units of 2^-24 */
+} Sampler;
+
 typedef struct {
     Vec3f ambient;
     int n_rectangles, n_triangles, n_ellipsoids, n_lights;
-    int spp, light_samples;
+    Sampler pixel_sampler, light_sampler;
+    uint seed;
+    int light_samples;
     int width, height;
     int texture_filter;    /* FILTER_* */
     float footprint_scale; /* spacing of the pixel samples in pixels (1 / sqrt(spp)): ray differentials */

@@ -33,10 +33,13 @@ def _add_render_options(p):
     p.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
     p.add_argument("--spp", type=int, help="pixel samples (a square number for the grid sampler)")
     p.add_argument("--light-samples", type=int, help="samples per light (square: the course's uniform grid)")
-    p.add_argument("--sampler", help=f"pixel sample pattern: {', '.join(samplers.PIXEL_SAMPLERS)}")
+    p.add_argument("--sampler", help=f"pixel sample pattern: {', '.join(samplers.SAMPLERS)} (default: the scene's)")
+    p.add_argument("--light-sampler", help="light sample pattern, the same choice (default: the scene's, else grid)")
     p.add_argument("--texture-filter", default="trilinear", choices=list(types.FILTERS),
                    help="texture filter (default: trilinear)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random sample patterns")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random sample patterns' randomisation")
+    p.add_argument("--time-limit", type=float, help="stop before a pass that would end after SECONDS")
+    p.add_argument("--target-error", type=float, help="stop at this estimated relative RMSE of the image")
     p.add_argument("--device", help='OpenCL device: "P:D" indices or part of its name (default: a CPU)')
 
 
@@ -68,7 +71,8 @@ def _write_json(path, data):
 
 def _render_kwargs(args):
     return dict(width=args.width, height=args.height, spp=args.spp, light_samples=args.light_samples,
-                sampler=args.sampler, texture_filter=args.texture_filter, seed=args.seed, device=args.device)
+                sampler=args.sampler, light_sampler=args.light_sampler, texture_filter=args.texture_filter,
+                seed=args.seed, time_limit=args.time_limit, target_error=args.target_error, device=args.device)
 
 
 def cmd_render(args):

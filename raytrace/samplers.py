@@ -1,14 +1,76 @@
-"""Sample tables the host builds and the kernel reads: pixel offsets in [0, 1)^2 for anti-aliasing and
-(u, v) points on the light rectangle."""
+"""Sample patterns: the tables the host builds and the kernel reads (points in [0, 1)^2 for the pixel
+offsets and for the points on a light), and how kernels/samplers.cl randomises them per pixel.
+
+Tables are stored in 0.32 fixed point (uint32 pairs), so that the kernel's randomisations are exact
+integer operations. The course's patterns (center, grid, rotated grids) are used as they are in every
+pixel; random and low-discrepancy ones get a fresh randomisation per pixel and per sample stream."""
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-PIXEL_SAMPLERS = ("center", "grid")
+from . import types
+
+SAMPLERS = ("center", "grid", "rotated-grid-cw", "rotated-grid-ccw", "random", "jittered", "halton", "sobol")
+SQUARE_ONLY = ("grid", "rotated-grid-cw", "rotated-grid-ccw")
+ROTATION = math.atan(0.5)  # the course's rotated grid: 26.57 degrees
+
+
+@dataclass(frozen=True)
+class Pattern:
+    name: str
+    points: np.ndarray  # (n, 2) float64 in [0, 1): the table (for jittered: the strata's corners)
+    randomize: str      # a key of types.RANDOMIZE
+    strata: tuple = (1, 1)  # jittered: strata along x and y
+
+    def table(self):
+        """The points in 0.32 fixed point, as the kernel reads them (uint2 per point)."""
+        if self.randomize == "jitter":  # corners rounded up to 2^-24, the kernel's float resolution
+            return (np.ceil(self.points * 2.0**24).astype(np.uint32) << np.uint32(8)).astype(np.uint32)
+        return np.minimum(np.floor(self.points * 2.0**32), 2.0**32 - 1).astype(np.uint32)
+
+    def sampler_struct(self):
+        s = np.zeros((), types.SAMPLER)
+        s["randomize"] = types.RANDOMIZE[self.randomize]
+        s["cell_x"], s["cell_y"] = (2**24 // self.strata[0], 2**24 // self.strata[1])
+        return s
 
 
 def is_square(n):
     return n >= 1 and math.isqrt(n) ** 2 == n
+
+
+def count_problem(name, n):
+    """Why `name` cannot take n samples, or None."""
+    if name not in SAMPLERS:
+        return f"unknown sampler (have: {', '.join(SAMPLERS)})"
+    if name == "center" and n != 1:
+        return "the center sampler takes exactly one sample"
+    if name in SQUARE_ONLY and not is_square(n):
+        return f"the {name} sampler needs a square number (1, 4, 9, 16, ...)"
+    return None
+
+
+def pattern(name, n):
+    """The `name` pattern of n points; ValueError if it cannot have n."""
+    problem = count_problem(name, n)
+    if problem:
+        raise ValueError(problem)
+    if name == "center":
+        return Pattern(name, np.full((1, 2), 0.5), "none")
+    if name == "grid":
+        return Pattern(name, progressive(grid(n)), "none")
+    if name.startswith("rotated-grid"):
+        return Pattern(name, rotated_grid(n, clockwise=name.endswith("-cw")), "none")
+    if name == "random":
+        return Pattern(name, np.zeros((n, 2)), "independent")
+    if name == "jittered":
+        strata = jitter_strata(n)
+        return Pattern(name, progressive(grid_corners(*strata)), "jitter", strata)
+    if name == "halton":
+        i = np.arange(n)
+        return Pattern(name, np.stack([radical_inverse(i, 2), radical_inverse(i, 3)], axis=1), "shift")
+    return Pattern(name, sobol(n) / 2.0**32, "owen")
 
 
 def grid(n):
@@ -17,6 +79,44 @@ def grid(n):
     c = (np.arange(k) + 0.5) / k
     u, v = np.meshgrid(c, c)
     return np.stack([u.ravel(), v.ravel()], axis=1)
+
+
+def grid_corners(nx, ny):
+    """Lower corners of an nx x ny grid of cells, row by row."""
+    u, v = np.meshgrid(np.arange(nx) / nx, np.arange(ny) / ny)
+    return np.stack([u.ravel(), v.ravel()], axis=1)
+
+
+def jitter_strata(n):
+    """(nx, ny) with nx * ny = n and the cells as square as n allows: ny the largest divisor <= sqrt(n)."""
+    ny = next(d for d in range(math.isqrt(n), 0, -1) if n % d == 0)
+    return n // ny, ny
+
+
+def rotated_grid(n, clockwise):
+    """The grid rotated by atan(1/2) about the pixel centre, wrapped into the pixel, in the grid's
+    progressive order. Clockwise as seen on the image, whose y axis points down."""
+    g = progressive(grid(n)) - 0.5
+    angle = ROTATION if clockwise else -ROTATION  # with y down, a positive angle turns clockwise on screen
+    c, s = math.cos(angle), math.sin(angle)
+    rotated = np.stack([c * g[:, 0] - s * g[:, 1], s * g[:, 0] + c * g[:, 1]], axis=1)
+    return np.mod(rotated + 0.5, 1.0)
+
+
+def progressive(points):
+    """The points reordered so that every prefix of 4^k of them is spread over the pixel: sorted by their
+    bit-reversed Morton code (the first four fill the four quadrants, the first sixteen the 4 x 4 cells, as
+    far as the points allow). A progressive render that stops early then holds a coarser version of the
+    pattern, not its first rows."""
+    q = np.minimum(np.floor(points * 65536), 65535).astype(np.uint64)
+    code = np.zeros(len(points), np.uint64)
+    for bit in range(16):  # interleave: x in the even bits, y in the odd bits
+        code |= ((q[:, 0] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(2 * bit)
+        code |= ((q[:, 1] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(2 * bit + 1)
+    reversed_code = np.zeros_like(code)
+    for bit in range(32):
+        reversed_code |= ((code >> np.uint64(bit)) & np.uint64(1)) << np.uint64(31 - bit)
+    return points[np.argsort(reversed_code, kind="stable")]
 
 
 def radical_inverse(i, base):
@@ -29,21 +129,20 @@ def radical_inverse(i, base):
     return result
 
 
-def hammersley(n):
-    """(i + 1/2)/n against the base-2 radical inverse: a low-discrepancy set of exactly n points."""
-    i = np.arange(n)
-    return np.stack([(i + 0.5) / n, radical_inverse(i, 2)], axis=1)
-
-
-def pixel_samples(name, n):
-    """The anti-aliasing table: `center` (one sample; n must be 1) or `grid` (n a square)."""
-    if name == "center":
-        return np.full((n, 2), 0.5)
-    if name == "grid":
-        return grid(n)
-    raise ValueError(name)
-
-
-def light_samples(n):
-    """The course's uniform grid of cell centres when n is a square, else the Hammersley set of n."""
-    return grid(n) if is_square(n) else hammersley(n)
+def sobol(n):
+    """The first n points of the two-dimensional Sobol sequence, unscrambled, as uint32 fixed point: a
+    (0, 2)-sequence in base 2. Dimension 0 is the van der Corput sequence; dimension 1 has the direction
+    numbers v_k = v_{k-1} xor (v_{k-1} >> 1) (the upper-triangular Pascal matrix mod 2). Points come in
+    Gray-code order (point i is built from the bits of i xor i/2), as scipy.stats.qmc.Sobol and Joe and Kuo
+    generate them; it only reorders each aligned block of 2^m points."""
+    i = np.arange(n, dtype=np.uint64)
+    i ^= i >> np.uint64(1)
+    directions = [np.uint64(1 << 31)]
+    for _ in range(31):
+        directions.append(directions[-1] ^ (directions[-1] >> np.uint64(1)))
+    points = np.zeros((n, 2), np.uint64)
+    for k in range(32):
+        bit = (i >> np.uint64(k)) & np.uint64(1)
+        points[:, 0] ^= bit * np.uint64(1 << (31 - k))
+        points[:, 1] ^= bit * directions[k]
+    return points.astype(np.uint32)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import samplers
 from .errors import InputError
 from .textures import TextureCache
 from .types import WRAP_MODES
@@ -100,6 +101,7 @@ class Scene:
     spp: int = 1
     light_samples: int = 1
     sampler: str = "grid"
+    light_sampler: str = "grid"
     textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
 
 
@@ -288,7 +290,7 @@ def parse_scene(table, path="<scene>"):
     width, height = img.integer("width"), img.integer("height")
 
     render = r.sub("render") if r.has("render") else _Reader(path, {}, "render.")
-    render.check_keys(["light_samples", "sampler", "spp"])
+    render.check_keys(["light_sampler", "light_samples", "sampler", "spp"])
 
     mats = r.raw("materials")
     if not isinstance(mats, dict) or not mats:
@@ -299,9 +301,15 @@ def parse_scene(table, path="<scene>"):
         material_index[name] = len(materials)
         materials.append(_material(r.sub("materials").sub(name), name, textures))
 
+    spp, light_samples = render.integer("spp", 1), render.integer("light_samples", 1)
+    sampler, light_sampler = render.string("sampler", "grid"), render.string("light_sampler", "grid")
+    for key, name, n in (("sampler", sampler, spp), ("light_sampler", light_sampler, light_samples)):
+        problem = samplers.count_problem(name, n)
+        if problem:
+            render.fail(key, name, problem)
     scene = Scene(path, camera, width, height, r.vector("ambient", 3, default=[0, 0, 0], low=0), [],
-                  materials, spp=render.integer("spp", 1), light_samples=render.integer("light_samples", 1),
-                  sampler=render.string("sampler", "grid"), textures=textures.textures)
+                  materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
+                  textures=textures.textures)
 
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from . import mipmap, types
+from . import mipmap, samplers, types
 
 
 def camera_struct(camera, width, height):
@@ -101,22 +101,30 @@ def texture_structs(scene):
     return textures, levels, texels, mipmap.SRGB8_TO_LINEAR.astype(np.float32)
 
 
-def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear"):
+def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear",
+                  pixel_pattern=None, light_pattern=None, seed=0):
+    """RenderParams; the patterns default to one centre sample (raytrace.samplers.Pattern)."""
     p = np.zeros((), types.RENDER_PARAMS)
     p["ambient"] = scene.ambient
     p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), len(scene.triangles)
     p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
-    p["spp"], p["light_samples"], p["width"], p["height"] = spp, light_samples, width, height
+    center = samplers.pattern("center", 1)
+    p["pixel_sampler"] = (pixel_pattern or center).sampler_struct()
+    p["light_sampler"] = (light_pattern or center).sampler_struct()
+    p["seed"] = seed % 2**32
+    p["light_samples"], p["width"], p["height"] = light_samples, width, height
     p["texture_filter"] = types.FILTERS[texture_filter]
     # Ray differentials span one sample spacing, but at least 1/8 pixel, as pbrt-v4's RayIntegrator does.
     p["footprint_scale"] = max(0.125, 1 / math.sqrt(spp))
     return p
 
 
-def scene_structs(scene, width, height, spp, light_samples, texture_filter):
+def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixel_pattern=None, light_pattern=None,
+                  seed=0):
     """The render kernel's scene buffers, in its argument order, up to the textures."""
     return [camera_struct(scene.camera, width, height),
-            params_struct(scene, spp, light_samples, width, height, texture_filter),
+            params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
+                          seed),
             rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
             triangle_uv_structs(scene.triangles), ellipsoid_structs(scene.ellipsoids),
             light_structs(scene.lights), material_structs(scene.materials)]

@@ -32,12 +32,17 @@ WRAP_MODES = {"repeat": 0, "clamp": 1, "mirror": 2}
 TEXELS_SRGB8, TEXELS_UNORM8, TEXELS_FLOAT = 0, 1, 2
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
+# kernels/types.h: RANDOMIZE_*
+RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "owen": 4}
+
+SAMPLER = np.dtype([("randomize", "<i4"), ("cell_x", "<u4"), ("cell_y", "<u4")])
+
 RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_triangles", "<i4"),
-                          ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("spp", "<i4"),
-                          ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4"),
+                          ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("pixel_sampler", SAMPLER),
+                          ("light_sampler", SAMPLER), ("seed", "<u4"), ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4"),
                           ("texture_filter", "<i4"), ("footprint_scale", "<f4")])
 
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
            "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
-           "RenderParams": RENDER_PARAMS}
+           "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS}

@@ -15,14 +15,10 @@ __kernel void lobes(int n, __global const float *nrm, __global const float *l, _
     OUT(out, phong_lobes(IN3(nrm), IN3(l), IN3(v), (vfloat)(shininess)));
 }
 
-__kernel void points(int n, __global const Light *light, __global const float2 *uv, __global float *p)
+__kernel void points(int n, __global const Light *light, __global const float *uv, __global float *p)
 {
-    for (int i = I * LANES; i < (I + 1) * LANES; ++i) {  /* a light point is uniform over lanes */
-        vec3 q = light_point(light, uv[i]);
-        float x[LANES], y[LANES], z[LANES];
-        VSTORE(q.x, 0, x); VSTORE(q.y, 0, y); VSTORE(q.z, 0, z);
-        p[i] = x[0]; p[i + n] = y[0]; p[i + 2 * n] = z[0];
-    }
+    vec2 u = {IN(uv), IN(uv + n)};
+    OUT3(p, light_point(light, u));
 }
 """
 
@@ -63,7 +59,7 @@ def test_phong_lobes(harness):
 def test_light_points(harness, cornell):
     light = cornell.lights[0]
     uv = samplers.grid(16)
-    out = harness.run(PHONG, "points", 16, [light_structs([light]), uv.astype(np.float32)], {"p": 3})
+    out = harness.run(PHONG, "points", 16, [light_structs([light]), planar(uv)], {"p": 3})
     np.testing.assert_allclose(out["p"].T, reference.light_points(light, uv), atol=1e-7)
     assert np.allclose(out["p"][2], 1.95) and out["p"][0].min() > -0.25 and out["p"][1].max() < 0.15
 
