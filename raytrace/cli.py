@@ -76,7 +76,7 @@ def _render_kwargs(args):
 
 
 def cmd_render(args):
-    from .render import render
+    from .render import render_progressive
     from .scene import load_scene
 
     output = Path(args.output)
@@ -85,15 +85,21 @@ def cmd_render(args):
     if not (output.parent if str(output.parent) else Path(".")).is_dir():
         raise InputError("command line", "-o", args.output, "the output directory does not exist")
     scene = load_scene(args.scene)
-    image, stats = render(scene, **_render_kwargs(args), progress=False if args.no_progress else None)
+    image, variance, stats = render_progressive(scene, **_render_kwargs(args),
+                                                progress=False if args.no_progress else None)
     metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
-                "texture_filter": stats.texture_filter,
+                "light_sampler": stats.light_sampler, "texture_filter": stats.texture_filter, "seed": stats.seed,
                 "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(args.scene)}
-    write_image(output, image, metadata)
+    if stats.estimated_rmse is not None:
+        metadata["estimated_rmse"] = float(stats.estimated_rmse)
+    write_image(output, image, metadata, variance)
     if args.stats_json:
         _write_json(args.stats_json, dataclasses.asdict(stats))
-    print(f"{output}: {stats.width}x{stats.height}, {stats.spp} spp x {stats.light_samples} light samples, "
-          f"{stats.render_seconds:.3f} s, {stats.mrays_per_s:.1f} Mrays/s on {stats.device}", file=sys.stderr)
+    error = "" if stats.estimated_rmse is None else (
+        f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)")
+    print(f"{output}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}) x {stats.light_samples} light "
+          f"samples ({stats.light_sampler}) in {stats.passes} passes, {stats.render_seconds:.3f} s, "
+          f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device}{error}; stopped by {stats.stopped_by}", file=sys.stderr)
 
 
 def cmd_bench(args):

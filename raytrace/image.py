@@ -20,14 +20,15 @@ def encode_8bit(image):
     return np.ceil(255.0 * x ** (1.0 / 2.2) - 1e-9).astype(np.uint8)
 
 
-def write_image(path, image, metadata=None):
+def write_image(path, image, metadata=None, variance=None):
     """Write H x W x 3 linear float `image` to `path`, atomically: a temporary file renamed into place,
-    so a failed write leaves no partial file."""
+    so a failed write leaves no partial file. An EXR file also carries `variance` (H x W x 3, the estimated
+    variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B."""
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in FORMATS:
         raise InputError("command line", "-o", str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
-    if not np.all(np.isfinite(image)):
+    if not np.all(np.isfinite(image)) or (variance is not None and not np.all(np.isfinite(variance))):
         raise ValueError("refusing to write NaN or Inf into an image")
     if ext in EIGHT_BIT:
         pixels = encode_8bit(image)
@@ -35,8 +36,14 @@ def write_image(path, image, metadata=None):
         pixels = np.round(65535.0 * np.clip(image, 0, 1) ** (1 / 2.2)).astype(np.uint16)
     else:
         pixels = np.ascontiguousarray(image, dtype=np.float32)
+    channels = ["R", "G", "B"]
+    if ext == ".exr" and variance is not None:
+        pixels = np.ascontiguousarray(np.concatenate([pixels, np.asarray(variance, np.float32)], axis=-1))
+        channels += ["variance.R", "variance.G", "variance.B"]
     height, width = image.shape[:2]
-    spec = oiio.ImageSpec(width, height, 3, oiio.TypeDesc(pixels.dtype.name if pixels.dtype != np.float32 else "float"))
+    spec = oiio.ImageSpec(width, height, len(channels),
+                          oiio.TypeDesc(pixels.dtype.name if pixels.dtype != np.float32 else "float"))
+    spec.channelnames = channels
     for key, value in (metadata or {}).items():
         spec.attribute(f"raytrace:{key}", value)
     if ext in FLOAT:

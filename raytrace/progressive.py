@@ -6,6 +6,8 @@ sigma^2, E[(A - B)^2] = sigma^2 (1/nA + 1/nB) for the half means A and B, so the
 (sigma^2 / N, N = nA + nB) is estimated per pixel by (A - B)^2 nA nB / N^2, which is (A - B)^2 / 4 for
 equal halves (the two-buffer estimate of adaptive samplers such as Cycles'). float64 sums keep 65536
 passes exact to far below the float32 image they become."""
+import math
+
 import numpy as np
 
 MIN_PASSES_FOR_TARGET = 4  # an error estimate from 2 passes has one degree of freedom per pixel
@@ -29,26 +31,35 @@ class Accumulator:
     def mean(self):
         return self.total / max(self.n_total, 1)
 
-    def variance(self):
-        """Per-pixel estimated variance of the mean, or None before the second pass."""
+    def half_difference(self):
+        """(A - B) sqrt(nA nB) / N per pixel, whose square estimates the variance of the mean; None
+        before the second pass."""
         n_odd = self.n_total - self.n_even
         if self.passes < 2:
             return None
-        a, b = self.even / self.n_even, (self.total - self.even) / n_odd
-        return (a - b) ** 2 * (self.n_even * n_odd / self.n_total**2)
+        odd = self.total - self.even
+        odd *= -math.sqrt(self.n_even * n_odd) / (n_odd * self.n_total)
+        odd += self.even * (math.sqrt(self.n_even * n_odd) / (self.n_even * self.n_total))
+        return odd
+
+    def variance(self):
+        """Per-pixel estimated variance of the mean, or None before the second pass."""
+        d = self.half_difference()
+        return None if d is None else d * d
 
     def estimated_rmse(self):
         """(estimated RMSE of the image over all pixels and channels, the same relative to the image's mean
         value), or (None, None) before the second pass."""
-        variance = self.variance()
-        if variance is None:
+        d = self.half_difference()
+        if d is None:
             return None, None
-        rmse = float(np.sqrt(np.mean(np.nan_to_num(variance))))
-        mean = float(np.mean(np.nan_to_num(self.mean())))
-        return rmse, rmse / mean if mean > 0 else float("inf")
+        d = d.ravel()
+        rmse = math.sqrt(np.dot(d, d) / d.size)
+        mean = float(np.mean(self.total)) / self.n_total
+        return rmse, rmse / mean if mean > 0 else math.inf
 
 
-def pass_size(spp, work_per_sample, budget=1 << 24):
+def pass_size(spp, work_per_sample, budget=1 << 22):
     """Samples per pass: a power of two, at most spp / 2 (so that there are two halves to compare) and
     with at most `budget` work units (rays, roughly) per pass, so a pass takes a fraction of a second."""
     size = 1

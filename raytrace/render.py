@@ -168,6 +168,7 @@ def render_progressive(scene, **kwargs):
         now = time.perf_counter()
         rmse, relative = acc.estimated_rmse()
         history.append({"pass": acc.passes, "samples": acc.n_total, "seconds": now - start,
+                        "pass_seconds": now - pass_start,
                         "kernel_seconds": render_seconds, "estimated_rmse": rmse,
                         "estimated_relative_rmse": relative})
         progress.update(now - start, acc.n_total, acc.passes, relative)

@@ -9,9 +9,9 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-import raytrace
 from conftest import ROOT
 from raytrace.image import encode_8bit
+from raytrace.render import render_progressive
 
 CORNELL = str(ROOT / "scenes" / "cornell.toml")
 
@@ -38,18 +38,23 @@ def test_render_png_exr_and_stats(tmp_path, cornell):
     r = run("render", CORNELL, "-o", exr, *size)
     assert r.returncode == 0, r.stderr
     spec, pixels = read(exr)
-    assert (spec.width, spec.height, spec.nchannels) == (40, 32, 3) and pixels.dtype == np.float32
+    assert (spec.width, spec.height, spec.nchannels) == (40, 32, 6) and pixels.dtype == np.float32
+    assert list(spec.channelnames) == ["R", "G", "B", "variance.R", "variance.G", "variance.B"]
     assert spec.getattribute("raytrace:spp") == 4 and spec.getattribute("raytrace:light_samples") == 4
     assert spec.getattribute("raytrace:sampler") == "grid" and "Portable" in spec.getattribute("raytrace:device")
     assert spec.getattribute("raytrace:seconds") > 0
-    image, _ = raytrace.render(cornell, width=40, height=32, spp=4, light_samples=4)
-    np.testing.assert_array_equal(pixels, image)       # EXR keeps the linear floats as they are
+    image, variance, _ = render_progressive(cornell, width=40, height=32, spp=4, light_samples=4)
+    np.testing.assert_array_equal(pixels[..., :3], image)       # EXR keeps the linear floats as they are
+    np.testing.assert_array_equal(pixels[..., 3:], variance)
+    assert spec.getattribute("raytrace:estimated_rmse") == pytest.approx(np.sqrt(np.mean(variance)), rel=1e-5)
     spec8, pixels8 = read(png)
     assert spec8.format == oiio.UINT8
     np.testing.assert_array_equal(pixels8, encode_8bit(image))
     data = json.loads(stats.read_text())
-    for key in ("render_seconds", "build_seconds", "rays", "mrays_per_s", "device", "build_options"):
+    for key in ("render_seconds", "build_seconds", "rays", "mrays_per_s", "device", "build_options",
+                "estimated_rmse", "passes", "stopped_by"):
         assert key in data
+    assert [h["samples"] for h in data["history"]] == [2, 4] and data["history"][-1]["estimated_rmse"] > 0
     assert data["rays"] > 40 * 32 * 4 and "-DHAS_ELLIPSOIDS=1" in data["build_options"]
 
 
@@ -68,6 +73,15 @@ def test_8bit_encoding():
     (["--light-samples", "0"], "command line: --light-samples = 0"),
     (["--device", "no-such-device"], "command line: --device = 'no-such-device'"),
     (["--texture-filter", "cubic"], "command line: --texture-filter = 'cubic'"),
+    (["--light-sampler", "fancy"], "command line: --light-sampler = 'fancy'"),
+    (["--light-sampler", "center", "--light-samples", "4"], "command line: --light-samples = 4"),
+    (["--sampler", "rotated-grid-cw", "--spp", "8"], "command line: --spp = 8"),
+    (["--time-limit", "0"], "command line: --time-limit = 0"),
+    (["--time-limit", "nan"], "command line: --time-limit = nan"),
+    (["--target-error", "-1"], "command line: --target-error = -1"),
+    (["--target-error", "inf"], "command line: --target-error = inf"),
+    (["--seed", "-1"], "command line: --seed = -1"),
+    (["--seed", str(2**32)], f"command line: --seed = {2**32}"),
 ])
 def test_bad_command_line(tmp_path, args, needle):
     out = tmp_path / "x.png"
@@ -84,9 +98,13 @@ def test_bad_scene_files(tmp_path):
         "wrongkey.toml": open(CORNELL).read().replace("fov = 45.0", "fov = 45.0\nzoom = 2"),
         "singular.toml": open(CORNELL).read().replace("[0.0, 0.0, 0.4]]", "[0.0, 0.0, 0.0]]"),
         "badvector.toml": open(CORNELL).read().replace("look_at = [0.0, 0.0, 1.0]", "look_at = [0.0, 1.0]"),
+        "badsampler.toml": open(CORNELL).read().replace('sampler = "grid"', 'sampler = "fancy"'),
+        "badcount.toml": open(CORNELL).read().replace('sampler = "grid"', 'sampler = "grid"\nlight_sampler = '
+                                                      '"center"'),
     }
     expected = {"missing.toml": "file", "broken.toml": "toml", "wrongkey.toml": "camera.zoom = 2",
-                "singular.toml": "shapes[6].axes", "badvector.toml": "camera.look_at = [0.0, 1.0]"}
+                "singular.toml": "shapes[6].axes", "badvector.toml": "camera.look_at = [0.0, 1.0]",
+                "badsampler.toml": "render.sampler = 'fancy'", "badcount.toml": "render.light_sampler = 'center'"}
     for name, text in cases.items():
         scene = tmp_path / name
         if text is not None:
