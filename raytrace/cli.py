@@ -58,6 +58,23 @@ def parser():
     a = sub.add_parser("assets", help="generate the procedural textures the scenes use")
     a.add_argument("--out", default="assets/textures", help="output directory (default: assets/textures)")
     a.add_argument("--seed", type=int, default=0, help="seed of the textures' random patterns")
+    c = sub.add_parser("converge", help="image error against run time for every sample pattern")
+    c.add_argument("scene", help="scene file (TOML)")
+    c.add_argument("--samplers", required=True,
+                   help=f"comma-separated pixel sample patterns: {', '.join(samplers.SAMPLERS)}")
+    c.add_argument("--max-spp", type=int, required=True, help="the largest pixel sample count measured")
+    c.add_argument("--reference", help="reference image of the same size (default: rendered, sobol)")
+    c.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
+    c.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
+    c.add_argument("--light-samples", type=int, help="samples per light (default: the scene's)")
+    c.add_argument("--seed", type=int, default=0, help="seed of the measured renders (the reference's: seed + 1000003)")
+    c.add_argument("--reference-spp", type=int, help="the rendered reference's samples (default: 16 x max-spp, "
+                   "at most 65536)")
+    c.add_argument("--montage-seconds", type=float, help="time per pattern in the montage (default: a quarter of "
+                   "random's longest render)")
+    c.add_argument("--crop", help="the montage's crop, X,Y,W,H in fractions of the image (default: "
+                   "0.70,0.72,0.18,0.18, the ellipsoid's shadow in scenes/cornell.toml)")
+    c.add_argument("--out", required=True, help="output directory")
     return p
 
 
@@ -120,10 +137,19 @@ def cmd_assets(args):
         print(path)
 
 
+def cmd_converge(args):
+    from .converge import converge, parse_crop
+
+    converge(args.scene, [name.strip() for name in args.samplers.split(",")], args.max_spp, args.out,
+             reference=args.reference, width=args.width, height=args.height, light_samples=args.light_samples,
+             seed=args.seed, reference_spp=args.reference_spp, montage_seconds=args.montage_seconds,
+             crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout)
+
+
 def main(argv=None):
     try:
         args = parser().parse_args(argv)
-        {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets}[args.command](args)
+        {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets, "converge": cmd_converge}[args.command](args)
     except InputError as e:
         print(f"raytrace: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

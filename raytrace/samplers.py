@@ -59,14 +59,15 @@ def pattern(name, n):
     if name == "center":
         return Pattern(name, np.full((1, 2), 0.5), "none")
     if name == "grid":
-        return Pattern(name, progressive(grid(n)), "none")
+        k = math.isqrt(n)
+        return Pattern(name, progressive(grid(n), (k, k)), "none")
     if name.startswith("rotated-grid"):
         return Pattern(name, rotated_grid(n, clockwise=name.endswith("-cw")), "none")
     if name == "random":
         return Pattern(name, np.zeros((n, 2)), "independent")
     if name == "jittered":
         strata = jitter_strata(n)
-        return Pattern(name, progressive(grid_corners(*strata)), "jitter", strata)
+        return Pattern(name, progressive(grid_corners(*strata), strata), "jitter", strata)
     if name == "halton":
         i = np.arange(n)
         return Pattern(name, np.stack([radical_inverse(i, 2), radical_inverse(i, 3)], axis=1), "shift")
@@ -96,19 +97,33 @@ def jitter_strata(n):
 def rotated_grid(n, clockwise):
     """The grid rotated by atan(1/2) about the pixel centre, wrapped into the pixel, in the grid's
     progressive order. Clockwise as seen on the image, whose y axis points down."""
-    g = progressive(grid(n)) - 0.5
+    k = math.isqrt(n)
+    g = progressive(grid(n), (k, k)) - 0.5
     angle = ROTATION if clockwise else -ROTATION  # with y down, a positive angle turns clockwise on screen
     c, s = math.cos(angle), math.sin(angle)
     rotated = np.stack([c * g[:, 0] - s * g[:, 1], s * g[:, 0] + c * g[:, 1]], axis=1)
     return np.mod(rotated + 0.5, 1.0)
 
 
-def progressive(points):
-    """The points reordered so that every prefix of 4^k of them is spread over the pixel: sorted by their
-    bit-reversed Morton code (the first four fill the four quadrants, the first sixteen the 4 x 4 cells, as
-    far as the points allow). A progressive render that stops early then holds a coarser version of the
-    pattern, not its first rows."""
-    q = np.minimum(np.floor(points * 65536), 65535).astype(np.uint64)
+def progressive(points, cells):
+    """The points, one per cell of a `cells` = (nx, ny) grid, reordered so that every block of 2^k
+    consecutive points is spread over the pixel: a progressive render that stops early holds a coarser
+    version of the pattern, and the passes it alternates between its two halves cover the pixel alike (else
+    the halves would differ by which part of the pixel they cover, and the error estimate with them).
+    When nx and ny are powers of two, cell i is the one the i-th Sobol point falls in: the Sobol sequence is
+    a (0, 2)-sequence, so each aligned block of 2^k cells holds one cell of every elementary box of area
+    2^-k. Otherwise the order is that of the cells' bit-reversed Morton codes (the first four fill the four
+    quadrants, the first sixteen the 4 x 4 boxes, as far as the cells allow)."""
+    nx, ny = cells
+    ix = np.minimum(np.floor(points[:, 0] * nx), nx - 1).astype(np.int64)
+    iy = np.minimum(np.floor(points[:, 1] * ny), ny - 1).astype(np.int64)
+    if nx & (nx - 1) == 0 and ny & (ny - 1) == 0:
+        order = sobol(nx * ny).astype(np.float64) / 2.0**32
+        rank = np.empty(nx * ny, np.int64)
+        rank[np.floor(order[:, 1] * ny).astype(np.int64) * nx + np.floor(order[:, 0] * nx).astype(np.int64)] = \
+            np.arange(nx * ny)
+        return points[np.argsort(rank[iy * nx + ix], kind="stable")]
+    q = np.stack([ix * 65536 // nx, iy * 65536 // ny], axis=1).astype(np.uint64)
     code = np.zeros(len(points), np.uint64)
     for bit in range(16):  # interleave: x in the even bits, y in the odd bits
         code |= ((q[:, 0] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(2 * bit)
