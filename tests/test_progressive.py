@@ -123,3 +123,13 @@ def test_randomised_patterns_give_noise_not_structure(cornell, truth):
         assert abs(neighbour_correlation(image - truth[0])) < 0.2, sampler
     fixed, _ = raytrace.render(cornell, spp=4, sampler="grid", light_sampler="grid", seed=3, **SMALL)
     assert neighbour_correlation(fixed - truth[0]) > 0.4
+
+
+def test_patterns_seeds_and_stopping_rules_never_rebuild(cornell):
+    """Patterns, their tables, seeds and stopping rules are kernel arguments: after the first render of
+    this variant in the process, every other combination reports build seconds 0."""
+    raytrace.render(cornell, spp=1, sampler="center", **SMALL)
+    for sampler, light, seed in (("sobol", "halton", 1), ("jittered", "random", 2), ("rotated-grid-ccw", "grid", 3)):
+        _, stats = raytrace.render(cornell, spp=16, sampler=sampler, light_sampler=light, seed=seed, time_limit=10.0,
+                                   target_error=1e-9, **SMALL)
+        assert stats.build_seconds == 0
