@@ -229,7 +229,7 @@ def montage(names, rows, seconds):
 
 def draw_montage(panels, reference_crop, reference_facts, caption, path, cols=4, dpi=100):
     """The crops, enlarged by an integer factor with nearest-neighbour pixels, the reference first."""
-    from .figures import _panels, _save, _show
+    from .figures import figure_panels, save_figure, show_image
     _pyplot()  # the Agg backend, before the helpers import pyplot
     h, w = reference_crop.shape[:2]
     zoom = max(1, 256 // max(h, w))
@@ -239,14 +239,14 @@ def draw_montage(panels, reference_crop, reference_facts, caption, path, cols=4,
               for p in panels]
     cols = min(cols, len(shown))
     n_rows = -(-len(shown) // cols)
-    fig, rows = _panels(cols, [h * zoom] * n_rows, w * zoom, dpi, title_px=44, caption_px=48)
+    fig, rows = figure_panels(cols, [h * zoom] * n_rows, w * zoom, dpi, title_px=44, caption_px=48)
     axes = [ax for row in rows for ax in row]
     for ax, (crop, title) in zip(axes, shown):
-        _show(ax, crop, title)
+        show_image(ax, crop, title)
     for ax in axes[len(shown):]:
         ax.set_axis_off()
     fig.text(0.5, 0.005, caption, ha="center", va="bottom", fontsize=9)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def print_table(rows, out):

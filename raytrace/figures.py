@@ -17,7 +17,7 @@ TEXTURED = ("textured_cornell", "grid_floor", "normal_wall", "textured_shapes")
 FILTERS = ("nearest", "bilinear", "trilinear", "anisotropic")
 
 
-def _panels(cols, heights, width, dpi, title_px=36, gap=10, caption_px=0):
+def figure_panels(cols, heights, width, dpi, title_px=36, gap=10, caption_px=0):
     """A figure whose axes are exactly `width` x heights[i] pixels at `dpi`, so images show 1:1 (or at an
     integer zoom) and no texel is dropped or smeared by resampling; returns (figure, rows of axes)."""
     import matplotlib.pyplot as plt
@@ -31,7 +31,7 @@ def _panels(cols, heights, width, dpi, title_px=36, gap=10, caption_px=0):
     return fig, rows
 
 
-def _show(ax, image, title):
+def show_image(ax, image, title):
     """One panel: the image as the project's 8-bit PNGs encode it, pixels as squares, no ticks."""
     ax.imshow(encode_8bit(image), interpolation="nearest", aspect="auto")
     ax.set_title(title, fontsize=10)
@@ -39,7 +39,7 @@ def _show(ax, image, title):
     ax.set_yticks([])
 
 
-def _save(fig, path):
+def save_figure(fig, path):
     fig.savefig(path, dpi=fig.dpi, bbox_inches="tight", pad_inches=0.04)
     import matplotlib.pyplot as plt
     plt.close(fig)
@@ -53,17 +53,17 @@ def _metadata(scene_name, stats):
 
 def scenes_figure(out, size=384, single=512, spp=16, light_samples=16, dpi=100):
     """scenes.png: the four textured scenes in a 2 x 2 grid; and each alone as <scene>.png."""
-    fig, rows = _panels(2, [size, size], size, dpi)
+    fig, rows = figure_panels(2, [size, size], size, dpi)
     written = []
     for ax, name in zip([ax for row in rows for ax in row], TEXTURED):
         scene = load_scene(SCENES / f"{name}.toml")
         options = dict(spp=spp, light_samples=light_samples, sampler="grid", texture_filter="trilinear",
                        progress=False)
-        _show(ax, render(scene, width=size, height=size, **options)[0], name)
+        show_image(ax, render(scene, width=size, height=size, **options)[0], name)
         alone, stats = render(scene, width=single, height=single, **options)
         write_image(out / f"{name}.png", alone, _metadata(name, stats))
         written.append(out / f"{name}.png")
-    return [_save(fig, out / "scenes.png"), *written]
+    return [save_figure(fig, out / "scenes.png"), *written]
 
 
 def without_relief(scene):
@@ -75,13 +75,13 @@ def without_relief(scene):
 def normal_height_figure(out, size=512, spp=16, light_samples=16, dpi=100):
     """fig2_normal_height.png: textured_cornell with colour maps only, then with normal and height maps."""
     scene = load_scene(SCENES / "textured_cornell.toml")
-    fig, rows = _panels(2, [size], size, dpi)
+    fig, rows = figure_panels(2, [size], size, dpi)
     for ax, (s, title) in zip(rows[0], ((without_relief(scene), "colour maps only"),
                                         (scene, "colour + normal + height maps"))):
         image, _ = render(s, width=size, height=size, spp=spp, light_samples=light_samples, sampler="grid",
                           texture_filter="trilinear", progress=False)
-        _show(ax, image, title)
-    return _save(fig, out / "fig2_normal_height.png")
+        show_image(ax, image, title)
+    return save_figure(fig, out / "fig2_normal_height.png")
 
 
 def filters_figure(out, size=256, reference_spp=1024, dpi=100):
@@ -100,15 +100,15 @@ def filters_figure(out, size=256, reference_spp=1024, dpi=100):
         panels.append((image, f"{name}, 1 spp\nRMSE {rmse:.4f}"))
     zoom = 4  # the crop: the far floor just below its far edge (row 0.42 of the image), centred
     r0, h, c0, w = round(0.42 * size), 3 * size // 16, 3 * size // 8, size // 4
-    fig, (top, bottom) = _panels(len(panels), [size, h * zoom], size, dpi, title_px=44, caption_px=40)
+    fig, (top, bottom) = figure_panels(len(panels), [size, h * zoom], size, dpi, title_px=44, caption_px=40)
     for k, (image, title) in enumerate(panels):
-        _show(top[k], image, title)
+        show_image(top[k], image, title)
         top[k].add_patch(plt.Rectangle((c0 - 0.5, r0 - 0.5), w, h, fill=False, ec="yellow", lw=0.8))
-        _show(bottom[k], image[r0:r0 + h, c0:c0 + w], f"zoomed {zoom} x")
+        show_image(bottom[k], image[r0:r0 + h, c0:c0 + w], f"zoomed {zoom} x")
     fig.text(0.5, 0.005, f"scenes/grid_floor.toml, {size} x {size}, 1 light sample in every panel: the texture "
              "filter is measured, not the shading.\nRMSE over all pixels and channels of the linear image, "
              "against the reference (grid sampler, box filter, no MIP-mapping).", ha="center", va="bottom", fontsize=9)
-    _save(fig, out / "fig3_filters.png")
+    save_figure(fig, out / "fig3_filters.png")
     return table
 
 
