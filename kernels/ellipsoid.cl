@@ -12,37 +12,71 @@ inline vec3 mat3_apply(const __global float *m, vec3 v) /* row-major m times v *
               mad(m[6], v.x, mad(m[7], v.y, m[8] * v.z)));
 }
 
+inline vec3 mat3_apply_abs(const __global float *m, vec3 v) /* |m| times v, for error bounds */
+{
+    return v3(mad(fabs(m[0]), v.x, mad(fabs(m[1]), v.y, fabs(m[2]) * v.z)),
+              mad(fabs(m[3]), v.x, mad(fabs(m[4]), v.y, fabs(m[5]) * v.z)),
+              mad(fabs(m[6]), v.x, mad(fabs(m[7]), v.y, fabs(m[8]) * v.z)));
+}
+
 inline vec3 mat3_apply_transposed(const __global float *m, vec3 v)
 {
     return v3(mad(m[0], v.x, mad(m[3], v.y, m[6] * v.z)), mad(m[1], v.x, mad(m[4], v.y, m[7] * v.z)),
               mad(m[2], v.x, mad(m[5], v.y, m[8] * v.z)));
 }
 
-/* t in [tmin, tmax] (the near root, else the far one) or +inf; *q: the hit in unit-sphere space.
+/* t of the hit (the near root if it is ahead, else the far one; +inf for none) and *q, the hit in unit-sphere
+ * space. A hit must be ahead, t > 0; the root that is the surface a ray leaves is no hit.
  *
  * Stable quadratic (Haines et al., Ray Tracing Gems ch. 7): with a = d.d, h = o.d, c = o.o - 1 the
  * discriminant h^2 - a c is rewritten as a (1 - |o - (h/a) d|^2), which does not cancel when the ray
  * passes far from the centre, and the two roots are q/a and c/q with q = -(h + sign(h) sqrt(disc)), so
- * neither root is a difference of nearly equal numbers. */
-inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vfloat tmin, vfloat tmax, vec3 *q)
+ * neither root is a difference of nearly equal numbers.
+ *
+ * c is the origin's own inside/outside test. Its rounding error: o = M (o_world - centre) is off by at most
+ * gamma(5) |M| |o_world - centre| per coordinate (one subtraction, a 3-term row), so c is off by at most
+ * 2 |o|.that + gamma(4) (o.o + 1). Where |c| is within that bound the origin lies on the surface and the
+ * root c/q, the one near 0, is the surface itself: only the root q/a can be a hit (ahead when the ray goes
+ * inwards: the far side). */
+inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
 {
-    vec3 o = mat3_apply(e->world_to_unit, v3_sub(r.o, v3_uniform(e->center)));
+    vec3 oc = v3_sub(r.o, v3_uniform(e->center));
+    vec3 o = mat3_apply(e->world_to_unit, oc);
     vec3 d = mat3_apply(e->world_to_unit, r.d);
     vfloat a = v3_dot(d, d), h = v3_dot(o, d), c = v3_dot(o, o) - 1.0f;
+    vfloat dc = 2.0f * GAMMA(5) * v3_dot(v3_abs(o), mat3_apply_abs(e->world_to_unit, v3_abs(oc)))
+              + GAMMA(4) * (v3_dot(o, o) + 1.0f);
     vec3 f = v3_madd(o, -h / a, d);
     vfloat disc = a * (1.0f - v3_dot(f, f));
     vfloat root = -(h + copysign(sqrt(fmax(disc, 0.0f)), h));
-    vfloat t0 = root / a, t1 = c / root;
-    vfloat t_near = fmin(t0, t1), t_far = fmax(t0, t1);
-    vfloat t = select(t_far, t_near, t_near >= tmin);
+    vfloat t_far_side = root / a;
+    vfloat t_near_origin = select(c / root, (vfloat)(-INFINITY), fabs(c) <= dc);
+    vfloat t_near = fmin(t_far_side, t_near_origin), t_far = fmax(t_far_side, t_near_origin);
+    vfloat t = select(t_far, t_near, t_near > 0.0f);
     *q = v3_madd(o, t, d);
-    return select((vfloat)(INFINITY), t, (disc >= 0.0f) & (t >= tmin) & (t <= tmax));
+    return select((vfloat)(INFINITY), t, (disc >= 0.0f) & (t > 0.0f));
 }
 
 /* World-space unit normal at unit-sphere point q: the inverse-transpose of [a b c] applied to q. */
 inline vec3 ellipsoid_normal(__global const Ellipsoid *e, vec3 q)
 {
     return v3_normalize(mat3_apply_transposed(e->world_to_unit, q));
+}
+
+/* The world point of the hit q, first put back on the unit sphere (pbrt-v4 section 6.8.5's reprojection),
+ * and *err: its distance from the surface along the unit normal n. q / |q| is on the sphere to within 7
+ * roundings (the dot product, rsqrt, the product); centre + [a b c] q adds 3 more; and [a b c] and its
+ * stored inverse are each rounded from one float64 pair, which moves the surface they describe apart by at
+ * most 3 roundings of |[a b c]| |q| along the normal: gamma(13) in all. */
+inline vec3 ellipsoid_point(__global const Ellipsoid *e, vec3 q, vec3 n, vfloat *err)
+{
+    vec3 unit = v3_normalize(q);
+    vec3 centre = v3_uniform(e->center);
+    vec3 p = v3_add(centre, mat3_apply(e->unit_to_world, unit));
+    vec3 box = v3_add(v3_scale(v3_abs(centre), GAMMA(3)),
+                      v3_scale(mat3_apply_abs(e->unit_to_world, v3_abs(unit)), GAMMA(13)));
+    *err = error_along(n, box);
+    return p;
 }
 
 #endif

@@ -19,6 +19,8 @@
 
 typedef struct {
     vfloat t;      /* +inf: nothing hit */
+    vec3 p;        /* the hit point, computed from the shape's own parameters (not o + t d) */
+    vfloat err;    /* a bound on p's distance from the surface along n (ray.h) */
     vec3 n;        /* unit geometric normal, facing the incoming ray */
     vint material; /* -1: nothing or a light */
     vec3 emitted;  /* colour of the light hit first, else 0 */
@@ -28,14 +30,16 @@ typedef struct {
 #endif
 } Hit;
 
-/* Keep the nearer of the current hit and a candidate at t_new with normal n (any orientation): shape
- * `index` of `kind`, with barycentrics (b1, b2) for a triangle. */
-inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 n, int material, Vec3f emitted, int kind, int index,
-                       vfloat b1, vfloat b2)
+/* Keep the nearer of the current hit and a candidate at t_new, point p within err of the surface, with normal
+ * n (any orientation): shape `index` of `kind`, with barycentrics (b1, b2) for a triangle. */
+inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n, int material, Vec3f emitted,
+                       int kind, int index, vfloat b1, vfloat b2)
 {
     vint nearer = t_new < hit->t;
     vfloat facing = select((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, r.d) > 0.0f);
     hit->t = select(hit->t, t_new, nearer);
+    hit->p = v3_select(hit->p, p, nearer);
+    hit->err = select(hit->err, err, nearer);
     hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
     hit->material = select(hit->material, (vint)(material), nearer);
     hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
@@ -47,11 +51,13 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 n, int material, Vec3
 #endif
 }
 
-inline Hit closest_hit(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
+/* The nearest hit along r in (0, tmax]; a ray leaving a surface never hits that surface (ray.h). */
+inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
 {
     Hit hit;
     hit.t = (vfloat)(INFINITY);
-    hit.n = v3_splat(0.0f, 0.0f, 0.0f);
+    hit.p = hit.n = v3_splat(0.0f, 0.0f, 0.0f);
+    hit.err = 0.0f;
     hit.material = (vint)(-1);
     hit.emitted = hit.n;
 #if HAS_TEXTURES
@@ -60,59 +66,78 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
 #endif
     const Vec3f black = {0.0f, 0.0f, 0.0f};
     const vfloat zero = 0.0f;
+    vfloat dt, u, v, err;
 #if HAS_RECTANGLES
     for (int i = 0; i < s->params->n_rectangles; ++i) {
         __global const Rectangle *rect = &s->rectangles[i];
-        vfloat t = intersect_rectangle(rect, r, tmin, fmin(tmax, hit.t));
-        hit_update(&hit, r, t, v3_uniform(rect->normal), rect->material, black, SHAPE_RECTANGLE, i, zero, zero);
+        vfloat t = intersect_rectangle(rect, r, &dt, &u, &v);
+        t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+        if (ANY(t < hit.t)) {
+            vec3 p = rectangle_point(rect, u, v, &err);
+            hit_update(&hit, r, t, p, err, v3_uniform(rect->normal), rect->material, black, SHAPE_RECTANGLE, i,
+                       zero, zero);
+        }
     }
 #endif
 #if HAS_TRIANGLES
     RayShear shear = ray_shear(r);
     for (int i = 0; i < s->params->n_triangles; ++i) {
         __global const Triangle *tri = &s->triangles[i];
-        vfloat b1, b2;
-        vfloat t = intersect_triangle(tri, r, shear, tmin, fmin(tmax, hit.t), &b1, &b2);
-        hit_update(&hit, r, t, v3_uniform(tri->normal), tri->material, black, SHAPE_TRIANGLE, i, b1, b2);
+        vfloat b0, b1, b2;
+        vfloat t = intersect_triangle(tri, r, shear, &dt, &b0, &b1, &b2);
+        t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+        if (ANY(t < hit.t)) {
+            vec3 p = triangle_point(tri, b0, b1, b2, &err);
+            hit_update(&hit, r, t, p, err, v3_uniform(tri->normal), tri->material, black, SHAPE_TRIANGLE, i, b1,
+                       b2);
+        }
     }
 #endif
 #if HAS_ELLIPSOIDS
     for (int i = 0; i < s->params->n_ellipsoids; ++i) {
         __global const Ellipsoid *e = &s->ellipsoids[i];
         vec3 q;
-        vfloat t = intersect_ellipsoid(e, r, tmin, fmin(tmax, hit.t), &q);
-        if (ANY(t < hit.t))
-            hit_update(&hit, r, t, ellipsoid_normal(e, q), e->material, black, SHAPE_ELLIPSOID, i, zero, zero);
+        vfloat t = intersect_ellipsoid(e, r, &q);
+        t = select((vfloat)(INFINITY), t, t <= tmax);
+        if (ANY(t < hit.t)) {
+            vec3 n = ellipsoid_normal(e, q);
+            vec3 p = ellipsoid_point(e, q, n, &err);
+            hit_update(&hit, r, t, p, err, n, e->material, black, SHAPE_ELLIPSOID, i, zero, zero);
+        }
     }
 #endif
     for (int i = 0; i < s->params->n_lights; ++i) {
         __global const Light *light = &s->lights[i];
-        vfloat t = intersect_rectangle(&light->shape, r, tmin, fmin(tmax, hit.t));
-        hit_update(&hit, r, t, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i, zero, zero);
+        vfloat t = intersect_rectangle(&light->shape, r, &dt, &u, &v);
+        t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+        hit_update(&hit, r, t, hit.p, zero, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
+                   zero, zero);
     }
     return hit;
 }
 
-/* Mask of the lanes whose segment o + t d, t in (tmin, tmax), is blocked by a shape. Lights do not
- * block. Stops as soon as every lane is blocked. */
-inline vint occluded(const Scene *s, Ray r, vfloat tmin, vfloat tmax)
+/* Mask of the lanes whose segment o + t d, t in (0, 1), is blocked by a shape: conservatively inside, so
+ * neither the surface it leaves nor one it ends on counts (ray.h). Lights do not block. Stops as soon as
+ * every lane is blocked. */
+inline vint occluded(const Scene *s, Ray r)
 {
     vint blocked = (vint)(0);
+    vfloat dt, u, v;
 #if HAS_RECTANGLES
     for (int i = 0; i < s->params->n_rectangles && !ALL(blocked); ++i)
-        blocked |= intersect_rectangle(&s->rectangles[i], r, tmin, tmax) < INFINITY;
+        blocked |= hit_on_segment(intersect_rectangle(&s->rectangles[i], r, &dt, &u, &v), dt);
 #endif
 #if HAS_TRIANGLES
     RayShear shear = ray_shear(r);
     for (int i = 0; i < s->params->n_triangles && !ALL(blocked); ++i) {
-        vfloat b1, b2;
-        blocked |= intersect_triangle(&s->triangles[i], r, shear, tmin, tmax, &b1, &b2) < INFINITY;
+        vfloat b0, b1, b2;
+        blocked |= hit_on_segment(intersect_triangle(&s->triangles[i], r, shear, &dt, &b0, &b1, &b2), dt);
     }
 #endif
 #if HAS_ELLIPSOIDS
     for (int i = 0; i < s->params->n_ellipsoids && !ALL(blocked); ++i) {
         vec3 q;
-        blocked |= intersect_ellipsoid(&s->ellipsoids[i], r, tmin, tmax, &q) < INFINITY;
+        blocked |= hit_on_segment(intersect_ellipsoid(&s->ellipsoids[i], r, &q), (vfloat)(0.0f));
     }
 #endif
     return blocked;

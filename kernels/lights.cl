@@ -2,6 +2,7 @@
 #ifndef LIGHTS_CL
 #define LIGHTS_CL
 
+#include "ray.h"
 #include "samplers.cl"
 
 /* The point of the light at (u, v) in [0, 1)^2: c + (u - 1/2) sx t + (v - 1/2) sy b. */
@@ -12,6 +13,17 @@ inline vec3 light_point(__global const Light *light, vec2 uv)
     return v3(mad(du, r->tangent.x, mad(dv, r->bitangent.x, r->center.x)),
               mad(du, r->tangent.y, mad(dv, r->bitangent.y, r->center.y)),
               mad(du, r->tangent.z, mad(dv, r->bitangent.z, r->center.z)));
+}
+
+/* A bound on the distance of every light_point() from the light's plane: four roundings of the sum c + du t + dv b
+ * (|du| <= sx/2, |dv| <= sy/2; du and dv's own rounding moves the point within the plane), plus du t.n + dv b.n,
+ * the stored unit vectors being orthogonal only to within two roundings each (rectangle.cl). */
+inline float light_point_error(__global const Light *light)
+{
+    __global const Rectangle *r = &light->shape;
+    float3 n = fabs(f3(r->normal));
+    float3 box = fabs(f3(r->center)) + fabs(f3(r->tangent)) * r->half_x + fabs(f3(r->bitangent)) * r->half_y;
+    return GAMMA(4) * dot(n, box) + GAMMA(2) * (r->half_x + r->half_y);
 }
 
 #endif

@@ -15,6 +15,7 @@
 
 typedef struct {
     vec3 p;            /* the shading point: the hit, displaced by a height map */
+    vfloat err;        /* a bound on p's distance from the surface, or from where the height map puts it */
     vec3 ng;           /* geometric unit normal, facing the incoming ray */
     vec3 n;            /* shading unit normal, on the side of ng */
     vec3 k;            /* the material's colour at the hit (0 where no surface was hit) */
@@ -48,9 +49,10 @@ inline float3 bump_normal(float3 dpdu, float3 dpdv, float3 n, float dh_du, float
     return all(isfinite(bumped)) ? bumped : n;
 }
 
-/* Everything textured about one lane's hit: *k, *n (starts as the facing geometric normal ng) and *p. */
+/* Everything textured about one lane's hit: *k, *n (starts as the facing geometric normal ng), *p and its
+ * error bound *err (ray.h). */
 inline void texture_lane(const Scene *s, TextureStore ts, __global const Material *m, int kind, int index,
-                         float b1, float b2, float3 d, float3 *k, float3 *n, float3 *p)
+                         float b1, float b2, float3 d, float3 *k, float3 *n, float3 *p, float *err)
 {
     __constant const RenderParams *params = s->params;
     SurfacePoint sp = surface_point(s, kind, index, *p, b1, b2);
@@ -90,7 +92,8 @@ inline void texture_lane(const Scene *s, TextureStore ts, __global const Materia
         float kh = m->height_scale;
         shading = bump_normal(sp.dpdu / scale.x, sp.dpdv / scale.y, shading, kh * (hu - h) / du,
                               kh * (hv - h) / dv);
-        *p += ng * (kh * h);
+        *p += ng * (kh * h); /* outwards (kh h >= 0): the surface stays behind; the sum rounds once more */
+        *err += GAMMA(2) * dot(fabs(ng), fabs(*p));
     }
 #endif
     *n = shading * side;
@@ -102,7 +105,8 @@ inline void texture_lane(const Scene *s, TextureStore ts, __global const Materia
 inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hit)
 {
     ShadingPoint sp;
-    sp.p = ray_at(r, hit.t);
+    sp.p = hit.p;
+    sp.err = hit.err;
     sp.ng = sp.n = hit.n;
     int m[LANES];
     float sh[LANES];
@@ -116,6 +120,8 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     VSTORE(hit.b1, 0, b1);
     VSTORE(hit.b2, 0, b2);
     Lanes3 p = v3_spill(sp.p), n = v3_spill(sp.n), d = v3_spill(r.d);
+    float err[LANES];
+    VSTORE(sp.err, 0, err);
 #endif
     for (int i = 0; i < LANES; ++i) {
         sh[i] = 1.0f;
@@ -126,7 +132,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         float3 colour = f3(mat->colour);
 #if HAS_TEXTURES
         float3 pi = lane3(&p, i), ni = lane3(&n, i);
-        texture_lane(s, ts, mat, kind[i], index[i], b1[i], b2[i], lane3(&d, i), &colour, &ni, &pi);
+        texture_lane(s, ts, mat, kind[i], index[i], b1[i], b2[i], lane3(&d, i), &colour, &ni, &pi, &err[i]);
         set_lane3(&p, i, pi);
         set_lane3(&n, i, ni);
 #endif
@@ -136,6 +142,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     sp.shininess = VLOAD(0, sh);
 #if HAS_TEXTURES
     sp.p = v3_fill(&p);
+    sp.err = VLOAD(0, err);
     sp.n = v3_fill(&n);
 #endif
     return sp;

@@ -5,16 +5,35 @@
 #include "ray.h"
 #include "types.h"
 
-/* t of the hit in [tmin, tmax], or +inf. A ray parallel to the plane gets t = +-inf or NaN: a miss. */
-inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat tmin, vfloat tmax)
+/* t of the plane crossing where it lies inside the rectangle, else +inf (NaN for a ray in the plane);
+ * *dt: a bound on t's rounding error; (*u, *v): the crossing's coordinates along the tangent and bitangent
+ * from the centre. t = num / den with num = (c - o).n, the origin's distance from the plane, and den = d.n:
+ * c - o rounds once and each 3-term dot product rounds at most four times, the division 5 (ray.h). A ray that
+ * leaves the plane's own surface has |num| within its bound e_num, so dt >= |t| there: never a hit. */
+inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat *dt, vfloat *u, vfloat *v)
 {
     vec3 n = v3_uniform(rect->normal);
     vec3 co = v3_sub(v3_uniform(rect->center), r.o);
-    vfloat t = v3_dot(co, n) / v3_dot(r.d, n);
+    vfloat num = v3_dot(co, n), den = v3_dot(r.d, n);
+    vfloat t = num / den;
+    vfloat e_num = GAMMA(5) * error_along(n, v3_abs(co)), e_den = GAMMA(4) * error_along(n, v3_abs(r.d));
+    *dt = fabs(t) * (e_num / fabs(num) + e_den / fabs(den) + GAMMA(5));
     vec3 rel = v3_madd(v3_scale(co, -1.0f), t, r.d); /* p - c, without forming p */
-    vint inside = (fabs(v3_dot(rel, v3_uniform(rect->tangent))) <= rect->half_x)
-                & (fabs(v3_dot(rel, v3_uniform(rect->bitangent))) <= rect->half_y);
-    return select((vfloat)(INFINITY), t, inside & (t >= tmin) & (t <= tmax));
+    *u = v3_dot(rel, v3_uniform(rect->tangent));
+    *v = v3_dot(rel, v3_uniform(rect->bitangent));
+    return select((vfloat)(INFINITY), t, (fabs(*u) <= rect->half_x) & (fabs(*v) <= rect->half_y));
+}
+
+/* The point at (u, v) on the rectangle, c + u t + v b, and *err: its distance from the plane (c, n), at most
+ * four roundings of the sum plus u t.n + v b.n, where the stored unit vectors are orthogonal only to
+ * within two roundings each. */
+inline vec3 rectangle_point(__global const Rectangle *rect, vfloat u, vfloat v, vfloat *err)
+{
+    vec3 t = v3_uniform(rect->tangent), b = v3_uniform(rect->bitangent);
+    vec3 p = v3_madd(v3_madd(v3_uniform(rect->center), v, b), u, t);
+    vec3 box = v3_add(v3_abs(v3_uniform(rect->center)), v3_add(v3_abs(v3_scale(t, u)), v3_abs(v3_scale(b, v))));
+    *err = GAMMA(4) * error_along(v3_uniform(rect->normal), box) + GAMMA(2) * (fabs(u) + fabs(v));
+    return p;
 }
 
 #endif

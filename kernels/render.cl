@@ -44,7 +44,7 @@ __kernel void render(__constant const Camera *camera, __constant const RenderPar
     for (int s = sample0; s < sample0 + n_samples; ++s) {
         vec2 offset = sample_2d(pixel_samples, s, params->pixel_sampler, key);
         Ray ray = generate_camera_ray(camera, x + offset.x, (vfloat)(y) + offset.y, 1.0f / width, 1.0f / height);
-        Hit hit = closest_hit(&scene, ray, (vfloat)(0.0f), (vfloat)(INFINITY));
+        Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
         sum = v3_add(sum, shade(&scene, ray, hit, sp, light_samples, stream_key(key, s), &rays));
     }

@@ -8,9 +8,6 @@
 #include "lights.cl"
 #include "material.cl"
 
-/* Segments end this fraction short of the light, so a light flush with a ceiling does not shadow itself. */
-#define SHADOW_END (1.0f - 1e-4f)
-
 /* x^n for x in [0, 1], as exp2(n log2 x): the builtin pow costs more than all the rest of the shading. */
 inline vfloat phong_power(vfloat x, vfloat n) { return exp2(n * log2(x)); }
 
@@ -26,17 +23,32 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
  * samples come from the light sample pattern, randomised under `key` and the light's index. A light
  * sample counts where it lies above both the surface (ng: else the surface itself would block it) and the
  * shading normal (n: the lobes of a bumped surface). */
+/* The shadow segment from `origin` (already off its surface) to the light point q (within q_err of the light's
+ * plane): it ends at q pushed off the light toward the origin by q's error, and by that of the segment's
+ * direction, which rounds once: the segment's true end o + fl(q' - o) is within one rounding of |q' - o| of
+ * q' (pbrt-v4's SpawnRayTo, section 6.8.6). */
+inline Ray shadow_segment(vec3 origin, vec3 q, vfloat q_err, vec3 light_normal)
+{
+    vec3 to_origin = v3_sub(origin, q);
+    vec3 n = v3_scale(light_normal, select((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(light_normal, to_origin) < 0.0f));
+    vfloat err = q_err + GAMMA(2) * error_along(n, v3_abs(to_origin));
+    Ray r = {origin, v3_sub(offset_ray_origin(q, err, n), origin)};
+    return r;
+}
+
 inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const uint2 *light_samples,
                   vuint key, vfloat *rays)
 {
     vint surface = (hit.t < INFINITY) & (hit.material >= 0);
-    vec3 origin = offset_ray_origin(sp.p, sp.ng);
+    vec3 origin = offset_ray_origin(sp.p, sp.err, sp.ng); /* every lit sample is on ng's side */
     vec3 v = v3_scale(r.d, -1.0f);
     vec3 direct = v3_splat(0.0f, 0.0f, 0.0f);
     int n_samples = s->params->light_samples;
     for (int li = 0; li < s->params->n_lights && ANY(surface); ++li) {
         __global const Light *light = &s->lights[li];
         vuint light_key = stream_key(key, li);
+        vec3 light_normal = v3_uniform(light->shape.normal);
+        vfloat q_err = light_point_error(light);
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
             vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
@@ -45,8 +57,7 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
             if (!ANY(lit))
                 continue;
             *rays += MASK_TO_ONE(lit);
-            Ray shadow = {origin, v3_sub(q, origin)};
-            lit &= !occluded(s, shadow, (vfloat)(0.0f), (vfloat)(SHADOW_END));
+            lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal));
             sum += select((vfloat)(0.0f), phong_lobes(sp.n, l, v, sp.shininess), lit);
         }
         direct = v3_madd(direct, sum * (1.0f / n_samples), v3_uniform(light->colour));

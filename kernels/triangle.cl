@@ -41,8 +41,24 @@ inline vec3 shear_vertex(Vec3f v, Ray r, RayShear s)
     return v3(mad(s.sx, az, v3_component(a, s.kx)), mad(s.sy, az, v3_component(a, s.ky)), az * s.sz);
 }
 
-/* t in [tmin, tmax] or +inf; *b1, *b2: barycentric weights of v1 and v2. */
-inline vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s, vfloat tmin, vfloat tmax,
+inline vfloat max3(vfloat a, vfloat b, vfloat c) { return fmax(a, fmax(b, c)); }
+
+/* A bound on the rounding error of t (pbrt-v4 section 6.8.4, "Conservative Ray-Triangle t"), from the
+ * sheared vertices a, b, c, the edge functions e and 1/det; the division adds 5 roundings of t. */
+inline vfloat triangle_t_error(vec3 a, vec3 b, vec3 c, vec3 e, vfloat inv_det, vfloat t)
+{
+    vfloat max_z = max3(fabs(a.z), fabs(b.z), fabs(c.z));
+    vfloat max_x = max3(fabs(a.x), fabs(b.x), fabs(c.x)), max_y = max3(fabs(a.y), fabs(b.y), fabs(c.y));
+    vfloat delta_z = GAMMA(3) * max_z;
+    vfloat delta_x = GAMMA(5) * (max_x + max_z), delta_y = GAMMA(5) * (max_y + max_z);
+    vfloat delta_e = 2.0f * (GAMMA(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    vfloat max_e = max3(fabs(e.x), fabs(e.y), fabs(e.z));
+    return 3.0f * (GAMMA(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv_det)
+         + GAMMA(5) * fabs(t);
+}
+
+/* t of the hit or +inf; *dt: a bound on t's error; *b0, *b1, *b2: the barycentric weights of v0, v1, v2. */
+inline vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s, vfloat *dt, vfloat *b0,
                                  vfloat *b1, vfloat *b2)
 {
     /* No fused multiply-add in the edge functions: e(a, b) must be exactly -e(b, a), so that the two
@@ -56,10 +72,22 @@ inline vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s
     vfloat det = e0 + e1 + e2;
     vfloat inv_det = 1.0f / det;
     vfloat t = (e0 * a.z + e1 * b.z + e2 * c.z) * inv_det;
+    *dt = triangle_t_error(a, b, c, v3(e0, e1, e2), inv_det, t);
+    *b0 = e0 * inv_det;
     *b1 = e1 * inv_det;
     *b2 = e2 * inv_det;
-    vint hit = !mixed & (det != 0.0f) & (t >= tmin) & (t <= tmax);
-    return select((vfloat)(INFINITY), t, hit);
+    return select((vfloat)(INFINITY), t, !mixed & (det != 0.0f));
+}
+
+/* The hit point b0 v0 + b1 v1 + b2 v2 and *err, its distance from the triangle's plane along n: pbrt-v4's
+ * gamma(7) bound on the interpolation (section 6.8.5) plus 4 roundings for OpenCL's division in the b's. */
+inline vec3 triangle_point(__global const Triangle *tri, vfloat b0, vfloat b1, vfloat b2, vfloat *err)
+{
+    vec3 v0 = v3_uniform(tri->v0), v1 = v3_uniform(tri->v1), v2 = v3_uniform(tri->v2);
+    vec3 p = v3_madd(v3_madd(v3_scale(v2, b2), b1, v1), b0, v0);
+    vec3 box = v3_add(v3_abs(v3_scale(v0, b0)), v3_add(v3_abs(v3_scale(v1, b1)), v3_abs(v3_scale(v2, b2))));
+    *err = GAMMA(11) * error_along(v3_uniform(tri->normal), box);
+    return p;
 }
 
 #endif

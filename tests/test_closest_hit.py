@@ -15,7 +15,7 @@ __kernel void closest(int n, __constant const RenderParams *params, __global con
 {
     const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
     Ray r = {IN3(o), IN3(d)};
-    Hit hit = closest_hit(&s, r, (vfloat)(0.0f), (vfloat)(INFINITY));
+    Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);
     OUT3(nrm, hit.n);
     OUT(material, CONVERT_VFLOAT(hit.material));

@@ -11,11 +11,11 @@ from raytrace.scene import Ellipsoid
 SOURCE = """
 #include "ellipsoid.cl"
 __kernel void hit(int n, __global const Ellipsoid *e, __global const float *o, __global const float *d,
-                  float tmin, __global float *t, __global float *nrm)
+                  __global float *t, __global float *nrm)
 {
     Ray r = {IN3(o), IN3(d)};
     vec3 q;
-    vfloat th = intersect_ellipsoid(e, r, (vfloat)(tmin), (vfloat)(INFINITY), &q);
+    vfloat th = intersect_ellipsoid(e, r, &q);
     OUT(t, th);
     OUT3(nrm, ellipsoid_normal(e, q));
 }
@@ -38,8 +38,8 @@ CASES = {
 }
 
 
-def trace(harness, e, o, d, tmin=0.0):
-    args = [ellipsoid_structs([e]), planar(o), planar(d), np.float32(tmin)]
+def trace(harness, e, o, d):
+    args = [ellipsoid_structs([e]), planar(o), planar(d)]
     return harness.run(SOURCE, "hit", len(o), args, {"t": 1, "nrm": 3})
 
 

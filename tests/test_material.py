@@ -28,7 +28,7 @@ __kernel void shading(int n, __constant const Camera *camera, __constant const R
     const Scene s = {rects, tris, tri_uvs, ells, lights, materials, camera, params};
     const TextureStore ts = {textures, levels, texels, srgb};
     Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), 1.0f / params->width, 1.0f / params->height);
-    Hit hit = closest_hit(&s, r, (vfloat)(0.0f), (vfloat)(INFINITY));
+    Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     ShadingPoint sp = shading_point(&s, ts, r, hit);
     OUT3(k, sp.k);
     OUT3(nrm, sp.n);

@@ -13,7 +13,9 @@ __kernel void hit(int n, __global const Rectangle *rect, __global const float *o
                   float tmin, float tmax, __global float *t)
 {
     Ray r = {IN3(o), IN3(d)};
-    OUT(t, intersect_rectangle(rect, r, (vfloat)(tmin), (vfloat)(tmax)));
+    vfloat dt, u, v;
+    vfloat th = intersect_rectangle(rect, r, &dt, &u, &v);
+    OUT(t, select((vfloat)(INFINITY), th, hit_in_range(th, dt, (vfloat)(tmax)) & (th >= tmin)));
 }
 """
 

@@ -21,9 +21,10 @@ def small(cornell):
 def test_matches_reference_renderer(small):
     """Where both renders see the same surfaces and the same lit light samples, they differ only by float32
     rounding of smooth shading (terms <= 2, some tens of roundings of 2^-24: below 1e-5; bound 1e-4).
-    Elsewhere a (pixel sample, light sample) pair may flip: the kernel leaves surfaces from an offset
-    point (2^-12 of the scale), which moves shadow edges by ~1e-4 scene units, a few thousandths of a
-    pixel here, so about one pair in a hundred boundary pixels flips. One flip moves a pixel by at most
+    Elsewhere a (pixel sample, light sample) pair may flip: the kernel leaves surfaces from a point offset
+    by its float32 error bound and computes in float32, which moves shadow edges by far less than 1e-4
+    scene units, a few thousandths of a pixel here, so at most about one pair in a hundred boundary pixels
+    flips. One flip moves a pixel by at most
     k L (n.l + 1) / (spp N) <= 2/64 = 0.031; so at most 1% of the pixels may differ by more than 1e-4
     and the RMSE stays below sqrt(0.01) * 0.031 = 3.1e-3."""
     image, _, ref = small

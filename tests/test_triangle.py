@@ -13,8 +13,9 @@ __kernel void hit(int n, __global const Triangle *tri, __global const float *o, 
                   float tmin, float tmax, __global float *t, __global float *b1, __global float *b2)
 {
     Ray r = {IN3(o), IN3(d)};
-    vfloat u, v;
-    OUT(t, intersect_triangle(tri, r, ray_shear(r), (vfloat)(tmin), (vfloat)(tmax), &u, &v));
+    vfloat dt, w, u, v;
+    vfloat th = intersect_triangle(tri, r, ray_shear(r), &dt, &w, &u, &v);
+    OUT(t, select((vfloat)(INFINITY), th, hit_in_range(th, dt, (vfloat)(tmax)) & (th >= tmin)));
     OUT(b1, u);
     OUT(b2, v);
 }
