@@ -44,10 +44,13 @@ inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
     vec3 o = mat3_apply(e->world_to_unit, oc);
     vec3 d = mat3_apply(e->world_to_unit, r.d);
     vfloat a = v3_dot(d, d), h = v3_dot(o, d), c = v3_dot(o, o) - 1.0f;
-    vfloat dc = 2.0f * GAMMA(5) * v3_dot(v3_abs(o), mat3_apply_abs(e->world_to_unit, v3_abs(oc)))
-              + GAMMA(4) * (v3_dot(o, o) + 1.0f);
     vec3 f = v3_madd(o, -h / a, d);
     vfloat disc = a * (1.0f - v3_dot(f, f));
+    *q = o;
+    if (!ANY(disc >= 0.0f)) /* missed by every lane: skip the roots and the bound */
+        return (vfloat)(INFINITY);
+    vfloat dc = 2.0f * GAMMA(5) * v3_dot(v3_abs(o), mat3_apply_abs(e->world_to_unit, v3_abs(oc)))
+              + GAMMA(4) * (v3_dot(o, o) + 1.0f);
     vfloat root = -(h + copysign(sqrt(fmax(disc, 0.0f)), h));
     vfloat t_far_side = root / a;
     vfloat t_near_origin = select(c / root, (vfloat)(-INFINITY), fabs(c) <= dc);

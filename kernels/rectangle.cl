@@ -14,14 +14,18 @@ inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat 
 {
     vec3 n = v3_uniform(rect->normal);
     vec3 co = v3_sub(v3_uniform(rect->center), r.o);
-    vfloat num = v3_dot(co, n), den = v3_dot(r.d, n);
-    vfloat t = num / den;
-    vfloat e_num = GAMMA(5) * error_along(n, v3_abs(co)), e_den = GAMMA(4) * error_along(n, v3_abs(r.d));
-    *dt = fabs(t) * (e_num / fabs(num) + e_den / fabs(den) + GAMMA(5));
+    vfloat num = v3_dot(co, n), inv_den = 1.0f / v3_dot(r.d, n);
+    vfloat t = num * inv_den;
     vec3 rel = v3_madd(v3_scale(co, -1.0f), t, r.d); /* p - c, without forming p */
     *u = v3_dot(rel, v3_uniform(rect->tangent));
     *v = v3_dot(rel, v3_uniform(rect->bitangent));
-    return select((vfloat)(INFINITY), t, (fabs(*u) <= rect->half_x) & (fabs(*v) <= rect->half_y));
+    vint inside = (fabs(*u) <= rect->half_x) & (fabs(*v) <= rect->half_y);
+    if (!ANY(inside)) /* most shapes are missed by every lane: skip the bound */
+        return (vfloat)(INFINITY);
+    /* dt = |t| (e_num / |num| + e_den / |den| + gamma(5)), without the two divisions */
+    vfloat e_num = GAMMA(5) * error_along(n, v3_abs(co)), e_den = GAMMA(4) * error_along(n, v3_abs(r.d));
+    *dt = mad(fabs(t), e_den, e_num) * fabs(inv_den) + GAMMA(5) * fabs(t);
+    return select((vfloat)(INFINITY), t, inside);
 }
 
 /* The point at (u, v) on the rectangle, c + u t + v b, and *err: its distance from the plane (c, n), at most

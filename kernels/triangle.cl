@@ -70,13 +70,16 @@ inline vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s
     vfloat e2 = a.x * b.y - a.y * b.x; /* edge v0 v1: weight of v2 */
     vint mixed = ((e0 < 0.0f) | (e1 < 0.0f) | (e2 < 0.0f)) & ((e0 > 0.0f) | (e1 > 0.0f) | (e2 > 0.0f));
     vfloat det = e0 + e1 + e2;
+    vint inside = !mixed & (det != 0.0f);
+    if (!ANY(inside)) /* most triangles are missed by every lane: skip t and its bound */
+        return (vfloat)(INFINITY);
     vfloat inv_det = 1.0f / det;
     vfloat t = (e0 * a.z + e1 * b.z + e2 * c.z) * inv_det;
     *dt = triangle_t_error(a, b, c, v3(e0, e1, e2), inv_det, t);
     *b0 = e0 * inv_det;
     *b1 = e1 * inv_det;
     *b2 = e2 * inv_det;
-    return select((vfloat)(INFINITY), t, !mixed & (det != 0.0f));
+    return select((vfloat)(INFINITY), t, inside);
 }
 
 /* The hit point b0 v0 + b1 v1 + b2 v2 and *err, its distance from the triangle's plane along n: pbrt-v4's
