@@ -3,8 +3,9 @@
  *
  * One work-item renders LANES neighbouring pixels of one row: x = LANES * get_global_id(0) + lane,
  * y = row0 + get_global_id(1). A launch takes the pixel samples [sample0, sample0 + n_samples) of a
- * progressive render (the host accumulates passes). Output planes (each width * height floats): R, G, B
- * (sums over the launch's pixel samples, linear) and the number of rays traced for the pixel. */
+ * progressive render (the host accumulates passes). The output holds this launch's band of rows only, so
+ * its size is bounded whatever the image's: planes of width * get_global_size(1) floats, row y at y - row0:
+ * R, G, B (sums over the launch's pixel samples, linear) and the number of rays traced for the pixel. */
 #include "camera.cl"
 #include "shading.cl"
 
@@ -50,7 +51,7 @@ __kernel void render(__constant const Camera *camera, __constant const RenderPar
     }
     rays += (float)n_samples;
 
-    const int plane = width * height, index = y * width + x0;
+    const int plane = width * (int)get_global_size(1), index = (y - row0) * width + x0;
     store_lanes(out, index, sum.x, active);
     store_lanes(out + plane, index, sum.y, active);
     store_lanes(out + 2 * plane, index, sum.z, active);

@@ -1,4 +1,5 @@
-"""Writing images with OpenImageIO: 8-bit formats encoded as the course does, float formats linear."""
+"""Writing images with OpenImageIO: 8-bit formats encoded as the course does, float formats linear; written in
+bands of rows, so an image of any size is written with little more memory than it takes."""
 import os
 import tempfile
 from pathlib import Path
@@ -12,6 +13,7 @@ EIGHT_BIT = {".png", ".jpg", ".jpeg", ".bmp", ".tga"}
 FLOAT = {".exr", ".hdr"}
 SIXTEEN_BIT = {".tif", ".tiff"}
 FORMATS = EIGHT_BIT | FLOAT | SIXTEEN_BIT
+BAND_BYTES = 16 << 20  # rows of the float image encoded and written at a time
 
 
 def encode_8bit(image):
@@ -20,29 +22,55 @@ def encode_8bit(image):
     return np.ceil(255.0 * x ** (1.0 / 2.2) - 1e-9).astype(np.uint8)
 
 
+def _row_bands(image):
+    """Slices of at most BAND_BYTES of the image's rows (at least one row)."""
+    rows = max(1, BAND_BYTES // max(1, image[0].nbytes))
+    return [slice(r, min(r + rows, image.shape[0])) for r in range(0, image.shape[0], rows)]
+
+
+def _finite(image):
+    return all(np.isfinite(image[rows]).all() for rows in _row_bands(image))
+
+
+def _pixels(ext, image, variance):
+    """The file's pixels for some rows of `image` (and `variance`): encoded, in the written channel order."""
+    if ext in EIGHT_BIT:
+        return encode_8bit(image)
+    if ext in SIXTEEN_BIT:
+        return np.round(65535.0 * np.clip(image, 0, 1) ** (1 / 2.2)).astype(np.uint16)
+    if variance is None:
+        return np.ascontiguousarray(image, dtype=np.float32)
+    return np.concatenate([image, variance], axis=-1, dtype=np.float32)
+
+
+def _write(out, tmp, spec, ext, image, variance):
+    """Open `tmp`, write the image band by band, close; False at the first failure. OIIO 3.2's PNG writer
+    reports a failed write (a full disk) only in has_error, its calls all returning True."""
+    if out is None or not out.open(tmp, spec):
+        return False
+    for rows in _row_bands(image):
+        band_variance = None if variance is None else variance[rows]
+        if not out.write_scanlines(rows.start, rows.stop, 0, _pixels(ext, image[rows], band_variance)) or out.has_error:
+            return False
+    return out.close() and not out.has_error
+
+
 def write_image(path, image, metadata=None, variance=None):
     """Write H x W x 3 linear float `image` to `path`, atomically: a temporary file renamed into place,
     so a failed write leaves no partial file. An EXR file also carries `variance` (H x W x 3, the estimated
-    variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B."""
+    variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B.
+    Encoded and written in bands of rows, so that a large image needs no full-size copies."""
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in FORMATS:
         raise InputError("command line", "-o", str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
-    if not np.all(np.isfinite(image)) or (variance is not None and not np.all(np.isfinite(variance))):
+    variance = variance if ext == ".exr" else None
+    if not _finite(image) or (variance is not None and not _finite(variance)):
         raise ValueError("refusing to write NaN or Inf into an image")
-    if ext in EIGHT_BIT:
-        pixels = encode_8bit(image)
-    elif ext in SIXTEEN_BIT:
-        pixels = np.round(65535.0 * np.clip(image, 0, 1) ** (1 / 2.2)).astype(np.uint16)
-    else:
-        pixels = np.ascontiguousarray(image, dtype=np.float32)
-    channels = ["R", "G", "B"]
-    if ext == ".exr" and variance is not None:
-        pixels = np.ascontiguousarray(np.concatenate([pixels, np.asarray(variance, np.float32)], axis=-1))
-        channels += ["variance.R", "variance.G", "variance.B"]
+    channels = ["R", "G", "B"] + (["variance.R", "variance.G", "variance.B"] if variance is not None else [])
+    pixel_type = "uint8" if ext in EIGHT_BIT else "uint16" if ext in SIXTEEN_BIT else "float"
     height, width = image.shape[:2]
-    spec = oiio.ImageSpec(width, height, len(channels),
-                          oiio.TypeDesc(pixels.dtype.name if pixels.dtype != np.float32 else "float"))
+    spec = oiio.ImageSpec(width, height, len(channels), oiio.TypeDesc(pixel_type))
     spec.channelnames = channels
     for key, value in (metadata or {}).items():
         spec.attribute(f"raytrace:{key}", value)
@@ -55,9 +83,9 @@ def write_image(path, image, metadata=None, variance=None):
     os.close(fd)
     try:
         out = oiio.ImageOutput.create(tmp)
-        if out is None or not out.open(tmp, spec) or not out.write_image(pixels) or not out.close():
-            message = oiio.geterror() or (out.geterror() if out else "no writer")
-            raise InputError("command line", "-o", str(path), f"cannot write: {message}")
+        if not _write(out, tmp, spec, ext, image, variance):
+            message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
+            raise InputError("command line", "-o", str(path), f"cannot write: {message.splitlines()[0].strip()}")
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

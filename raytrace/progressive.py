@@ -9,73 +9,117 @@ samplers such as Cycles'). Halves by prefix, not alternate passes: the first 2^k
 are a net and so are the next 2^k, and the tables of the stratified patterns are in that order too, so
 both halves cover the pixel alike; alternate passes of a few samples each would be interleaved subsets of one
 net, each far worse than the whole, and the estimate would exceed the error many times over.
-float64 sums keep 65536 passes exact to far below the float32 image they become; the prefix sums are kept
-in float32, which rounds them once, by 2^-24 relative, far below the sampling noise of A - B."""
+float64 sums keep 65536 passes exact to far below the float32 image they become; the prefix sum is kept
+in float32, which rounds it once, by 2^-24 relative, far below the sampling noise of A - B.
+
+Memory, for images of any size: passes arrive in bands of rows, added in place. The prefix of 2^k samples
+is copied from the total, band by band, only when a pass goes past 2^k: until then the first half is still
+the prefix of 2^(k-1), so one prefix buffer does instead of two. The images and the error estimate are
+computed in chunks of rows, with no full-size temporaries. The host keeps at most BYTES_PER_PIXEL a pixel."""
 import math
 
 import numpy as np
 
 MIN_PASSES_FOR_TARGET = 4  # an error estimate from 2 passes has one degree of freedom per pixel
+CHANNELS = 3
+# The peak per pixel, reached in images(): the float64 total with the float32 prefix and the variance
+# image, then the total with both float32 images (the prefix released before the mean image is made).
+BYTES_PER_PIXEL = CHANNELS * (8 + 4 + 4)
+CHUNK_BYTES = 16 << 20  # float64 temporaries of the chunked computations, per chunk
 
 
 def _is_power_of_two(n):
     return n & (n - 1) == 0
 
 
+def row_chunks(height, row_bytes, budget=CHUNK_BYTES):
+    """Slices of rows covering [0, height), each of at most `budget` bytes at `row_bytes` a row (at least
+    one row)."""
+    rows = max(1, budget // row_bytes)
+    return [slice(r, min(r + rows, height)) for r in range(0, height, rows)]
+
+
 class Accumulator:
+    """The per-pixel sums of a progressive render, planar (CHANNELS x H x W)."""
+
     def __init__(self, shape):
         self.total = np.zeros(shape, np.float64)
-        self.prefix = self.previous_prefix = None  # sums of the first 2^k and 2^(k-1) samples, float32
-        self.n_prefix = self.n_previous = self.n_total = self.passes = 0
+        self.prefix = None  # float32 sum of the first n_prefix samples, n_prefix a power of two
+        self.n_prefix = self.n_total = self.passes = 0
 
-    def add(self, sums, n):
-        """Add one pass: `sums` over its n samples per pixel."""
-        self.total += sums
+    def _chunks(self):
+        return row_chunks(self.total.shape[1], self.total.shape[2] * self.total.shape[0] * 8)
+
+    def add_rows(self, row0, sums):
+        """Add the current pass's sums for the rows [row0, row0 + len); end_pass() counts the pass."""
+        rows = slice(row0, row0 + sums.shape[1])
+        if self.n_total > 0 and _is_power_of_two(self.n_total):
+            # The count is about to pass a power of two: the first half of every later estimate.
+            if self.prefix is None:
+                self.prefix = np.empty(self.total.shape, np.float32)
+            self.prefix[:, rows] = self.total[:, rows]
+        self.total[:, rows] += sums
+
+    def end_pass(self, n):
+        """The current pass, of n samples per pixel, has been added for every row."""
+        if self.n_total > 0 and _is_power_of_two(self.n_total):
+            self.n_prefix = self.n_total
         self.n_total += n
         self.passes += 1
-        if _is_power_of_two(self.n_total):
-            self.previous_prefix, self.n_previous = self.prefix, self.n_prefix
-            self.prefix, self.n_prefix = self.total.astype(np.float32), self.n_total
 
-    def mean(self):
-        return self.total / max(self.n_total, 1)
+    def add(self, sums, n):
+        """Add one pass over the whole image: `sums` over its n samples per pixel."""
+        self.add_rows(0, sums)
+        self.end_pass(n)
 
-    def halves(self):
-        """(sum of A, nA): the first half, the largest power-of-two prefix below the count; None if there
-        is none (before the second pass)."""
-        if self.n_prefix < self.n_total and self.prefix is not None:
-            return self.prefix, self.n_prefix
-        if self.previous_prefix is not None:
-            return self.previous_prefix, self.n_previous
-        return None
-
-    def half_difference(self):
-        """(A - B) sqrt(nA nB) / N per pixel, whose square estimates the variance of the mean; None
-        before the second pass."""
-        halves = self.halves()
-        if halves is None:
-            return None
-        first, n_first = halves
-        n_rest = self.n_total - n_first
-        scale = math.sqrt(n_first * n_rest) / self.n_total
-        rest = self.total - first
+    def _half_difference(self, rows):
+        """(A - B) sqrt(nA nB) / N for `rows` (float64, planar), whose square estimates the variance of
+        the mean: A the first n_prefix samples, B the rest. Only with a prefix."""
+        n_rest = self.n_total - self.n_prefix
+        scale = math.sqrt(self.n_prefix * n_rest) / self.n_total
+        first = self.prefix[:, rows]
+        rest = self.total[:, rows] - first
         rest *= -scale / n_rest
-        rest += first * (scale / n_first)
+        rest += first * (scale / self.n_prefix)
         return rest
 
+    def _interleaved(self, planar_rows):
+        """H x W x CHANNELS float32 from a function of a chunk of rows returning planar values."""
+        shape = self.total.shape
+        out = np.empty((shape[1], shape[2], shape[0]), np.float32)
+        for rows in self._chunks():
+            out[rows] = np.moveaxis(planar_rows(rows), 0, -1)
+        return out
+
+    def mean(self):
+        """The image: H x W x CHANNELS float32 mean of the samples."""
+        return self._interleaved(lambda rows: self.total[:, rows] / max(self.n_total, 1))
+
     def variance(self):
-        """Per-pixel estimated variance of the mean, or None before the second pass."""
-        d = self.half_difference()
-        return None if d is None else d * d
+        """H x W x CHANNELS float32 estimated variance of each pixel's mean, or None before the second
+        pass."""
+        if self.prefix is None:
+            return None
+        return self._interleaved(lambda rows: np.square(self._half_difference(rows)))
+
+    def images(self):
+        """(mean(), variance()) at the least memory, releasing the sums: this accumulator is spent."""
+        variance = self.variance()
+        self.prefix = None
+        image = self.mean()
+        self.total = None
+        return image, variance
 
     def estimated_rmse(self):
         """(estimated RMSE of the image over all pixels and channels, the same relative to the image's mean
         value), or (None, None) before the second pass."""
-        d = self.half_difference()
-        if d is None:
+        if self.prefix is None:
             return None, None
-        d = d.ravel()
-        rmse = math.sqrt(np.dot(d, d) / d.size)
+        squares = 0.0
+        for rows in self._chunks():
+            d = self._half_difference(rows).ravel()
+            squares += float(np.dot(d, d))
+        rmse = math.sqrt(squares / self.total.size)
         mean = float(np.mean(self.total)) / self.n_total
         return rmse, rmse / mean if mean > 0 else math.inf
 

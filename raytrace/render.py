@@ -1,5 +1,11 @@
 """Rendering a Scene: options, the specialised program, progressive passes of banded launches, statistics
-(the structs it sends are packed by raytrace/structs.py, passes accumulate in raytrace/progressive.py)."""
+(the structs it sends are packed by raytrace/structs.py, passes accumulate in raytrace/progressive.py).
+
+Renders of any size: a launch renders a band of whole rows into a device buffer of one band, which the host
+adds into its sums before the next launch, so device memory is bounded by max_band_bytes; host memory grows
+with the image (progressive.BYTES_PER_PIXEL), and a render it cannot hold is refused before any device work."""
+import os
+import resource
 import sys
 import time
 from dataclasses import dataclass, field
@@ -12,9 +18,13 @@ from .structs import scene_structs, texture_structs
 from .device import context_for, default_lanes, describe, select_device
 from .errors import InputError
 from .kernel import Features, render_program
-from .progressive import MIN_PASSES_FOR_TARGET, Accumulator, pass_size
+from .progressive import BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, Accumulator, pass_size, row_chunks
 
 MAX_SPP = 1 << 16
+OUTPUT_PLANES = CHANNELS + 1  # the kernel's output: R, G, B sums and the ray count, float32
+MAX_BAND_BYTES = 64 << 20     # the device output buffer: below the 128 MiB any full-profile device allows
+WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch, so that a launch stays short
+HEADROOM_BYTES = 512 << 20    # besides the sums and images: the runtime, the program, the band buffers
 
 
 @dataclass
@@ -33,6 +43,7 @@ class RenderOptions:
     lanes: int | None = None
     features: Features | None = None  # None: derived from the scene
     progress: bool | None = None      # None: a bar on stderr when the render takes over a second
+    max_band_bytes: int = MAX_BAND_BYTES  # the device output buffer's size, at least one row
 
 
 @dataclass
@@ -102,6 +113,28 @@ def resolve(scene, options):
     return width, height, spp, nl, pixel, light
 
 
+def available_memory():
+    """Bytes the host can still give this process: MemAvailable (free and reclaimable), else the free
+    physical pages, and at most the address-space limit (ulimit -v)."""
+    try:
+        with open("/proc/meminfo") as f:
+            fields = dict(line.split(":", 1) for line in f)
+        available = int(fields["MemAvailable"].split()[0]) * 1024
+    except (OSError, KeyError, ValueError):
+        available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    return available if limit == resource.RLIM_INFINITY else min(available, limit)
+
+
+def check_memory(width, height):
+    """Refuse a render whose host memory (its sums and images, progressive.BYTES_PER_PIXEL) cannot be had:
+    better one line now than a MemoryError, or the kernel's OOM killer, after minutes of rendering."""
+    needed, available = width * height * BYTES_PER_PIXEL + HEADROOM_BYTES, available_memory()
+    if needed > available:
+        raise InputError("command line", "--width/--height", f"{width}x{height}",
+                         f"needs about {needed / 2**30:.1f} GiB of memory, {available / 2**30:.1f} GiB available")
+
+
 def render(scene, **kwargs):
     """Render `scene`; returns (H x W x 3 float32 linear image, RenderStats)."""
     image, _, stats = render_progressive(scene, **kwargs)
@@ -128,11 +161,51 @@ class _Progress:
             self.bar.close()
 
 
+class _Bands:
+    """The image as bands of whole rows, one launch each, through one device output buffer of a band: at
+    most max_band_bytes (but at least one row) and WORK_PER_LAUNCH work units a launch."""
+
+    def __init__(self, context, width, height, columns, work_per_row, max_band_bytes):
+        row_bytes = OUTPUT_PLANES * np.dtype(np.float32).itemsize * width
+        self.rows = max(1, min(height, max_band_bytes // row_bytes, WORK_PER_LAUNCH // max(1, work_per_row)))
+        self.width, self.height, self.columns = width, height, columns
+        self.host = np.empty(OUTPUT_PLANES * self.rows * width, np.float32)
+        self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
+
+    def run_pass(self, queue, kernel, args, acc):
+        """Launch every band with the kernel's leading `args` and add its sums into `acc`; returns (kernel
+        seconds, rays traced)."""
+        seconds = rays = 0.0
+        for row0 in range(0, self.height, self.rows):
+            rows = min(self.rows, self.height - row0)
+            event = kernel(queue, (self.columns, rows), None, *args, np.int32(row0), self.device)
+            event.wait()
+            seconds += (event.profile.end - event.profile.start) * 1e-9
+            out = self.host[:OUTPUT_PLANES * rows * self.width].reshape(OUTPUT_PLANES, rows, self.width)
+            cl.enqueue_copy(queue, out, self.device)
+            acc.add_rows(row0, out[:CHANNELS])
+            rays += out[CHANNELS].sum(dtype=np.float64)
+        return seconds, rays
+
+
+def _zero_nonfinite(image):
+    """Zero the NaN and Inf values of an H x W x C image in place, chunk by chunk; returns their number.
+    They are a kernel bug, never to reach an image file, so they are counted in the stats."""
+    count = 0
+    for rows in row_chunks(image.shape[0], image[0].nbytes):
+        band = image[rows]
+        bad = ~np.isfinite(band)
+        count += int(np.count_nonzero(bad))
+        band[bad] = 0.0
+    return count
+
+
 def render_progressive(scene, **kwargs):
     """Render `scene` in passes until its spp, time limit or target error; returns (H x W x 3 float32
     linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats)."""
     options = RenderOptions(**kwargs)
     width, height, spp, n_light, pixel, light = resolve(scene, options)
+    check_memory(width, height)
     device = select_device(options.device)
     context, queue = context_for(device)
     features = options.features or Features.of(scene, options.lanes or default_lanes(device))
@@ -143,28 +216,21 @@ def render_progressive(scene, **kwargs):
     ro = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     structs = scene_structs(scene, width, height, spp, n_light, options.texture_filter, pixel, light, options.seed)
     buffers = [cl.Buffer(context, ro, hostbuf=a) for a in (*structs, *textures, pixel.table(), light.table())]
-    out = np.empty((4, height, width), np.float32)
-    out_buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
     kernel = cl.Kernel(program, "render")
 
     columns = -(-width // features.lanes)
     work = 1 + len(scene.lights) * n_light  # rays per pixel sample, at most
     per_pass = pass_size(spp, width * height * work)
-    band = max(1, min(height, (1 << 23) // max(1, columns * features.lanes * work * per_pass)))
-    acc, rays, render_seconds, history = Accumulator((3, height, width)), 0.0, 0.0, []
+    bands = _Bands(context, width, height, columns, columns * features.lanes * work * per_pass,
+                   options.max_band_bytes)
+    acc, rays, render_seconds, history = Accumulator((CHANNELS, height, width)), 0.0, 0.0, []
     progress, stopped_by = _Progress(spp, options.progress), "spp"
     start = time.perf_counter()
     while acc.n_total < spp:
         pass_start, n = time.perf_counter(), min(per_pass, spp - acc.n_total)
-        for row0 in range(0, height, band):
-            rows = min(band, height - row0)
-            event = kernel(queue, (columns, rows), None, *buffers, np.int32(acc.n_total), np.int32(n),
-                           np.int32(row0), out_buf)
-            event.wait()
-            render_seconds += (event.profile.end - event.profile.start) * 1e-9
-        cl.enqueue_copy(queue, out, out_buf)
-        acc.add(out[:3], n)
-        rays += out[3].sum(dtype=np.float64)
+        seconds, pass_rays = bands.run_pass(queue, kernel, [*buffers, np.int32(acc.n_total), np.int32(n)], acc)
+        acc.end_pass(n)
+        render_seconds, rays = render_seconds + seconds, rays + pass_rays
         now = time.perf_counter()
         rmse, relative = acc.estimated_rmse()
         history.append({"pass": acc.passes, "samples": acc.n_total, "seconds": now - start,
@@ -184,18 +250,11 @@ def render_progressive(scene, **kwargs):
     progress.close()
     wall_seconds = time.perf_counter() - start
 
-    planar = lambda a: np.ascontiguousarray(np.moveaxis(a, 0, -1), dtype=np.float32)  # noqa: E731
-    image, variance = planar(acc.mean()), acc.variance()
-    variance = None if variance is None else planar(variance)
-    nonfinite = 0
-    for a in (image, variance):  # a kernel bug, never to reach an image file: reported in the stats, zeroed
-        if a is not None:
-            finite = np.isfinite(a)
-            nonfinite += int(finite.size - np.count_nonzero(finite))
-            a[~finite] = 0.0
-    rmse, relative = acc.estimated_rmse()
+    image, variance = acc.images()  # rmse and relative are the last pass's
+    nonfinite = sum(_zero_nonfinite(a) for a in (image, variance) if a is not None)
     stats = RenderStats(render_seconds, wall_seconds, build_seconds, int(rays), rays / render_seconds / 1e6,
                         describe(device), [*features.options()], width, height, acc.n_total, spp, n_light,
                         pixel.name, light.name, options.texture_filter, options.seed, texture_bytes, acc.passes,
-                        stopped_by, rmse, relative, history, {"nonfinite_values": nonfinite})
+                        stopped_by, rmse, relative, history, {"nonfinite_values": nonfinite, "band_rows": bands.rows,
+                                                              "device_output_bytes": bands.host.nbytes})
     return image, variance, stats

@@ -16,9 +16,10 @@ from raytrace.render import render_progressive
 CORNELL = str(ROOT / "scenes" / "cornell.toml")
 
 
-def run(*args, cwd=None):
+def run(*args, **kwargs):
+    """`python -m raytrace ARGS`, its output captured; kwargs go to subprocess.run (cwd, preexec_fn)."""
     return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, env={**os.environ, "PYTHONPATH": str(ROOT)})
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, **kwargs)
 
 
 def read(path):

@@ -1,0 +1,57 @@
+"""Renders of any size (raytrace/render.py, kernels/render.cl): launches in bands of rows through a device
+buffer of one band, the same image whatever the band height, and the up-front refusal of a render whose
+host memory cannot be had."""
+import resource
+
+import numpy as np
+import pytest
+
+from raytrace.render import OUTPUT_PLANES, render_progressive
+from test_cli import CORNELL, run
+
+SIZE = dict(width=97, height=61, progress=False)  # odd sizes: 97 = 12 * 8 + 1 columns, the last 7 lanes masked
+ROW_BYTES = OUTPUT_PLANES * 4 * SIZE["width"]     # one row of the kernel's output, float32 planes
+
+
+@pytest.mark.parametrize("lanes", [1, 8])
+def test_many_bands_give_the_one_band_image_bit_for_bit(cornell, lanes):
+    """A budget of 4 rows cuts 61 rows into 15 bands of 4 and a last one of 1. Every pixel's samples depend
+    on its absolute position only, so any band height must give the same bits. It fails if a band writes or
+    is copied at the wrong offset (index not relative to row0, planes spaced by the image's height rather
+    than the band's, the short last band read with the full band's layout), if a band is launched twice or
+    not at all, or if the prefix sum for the error estimate misses bands (the variance would differ: 12
+    random samples in 3 passes of 4 take prefixes at 4 and 8 samples)."""
+    options = dict(spp=12, sampler="random", light_samples=4, lanes=lanes, **SIZE)
+    image, variance, stats = render_progressive(cornell, **options)
+    banded_image, banded_variance, banded = render_progressive(cornell, max_band_bytes=4 * ROW_BYTES, **options)
+    assert stats.extra["band_rows"] == 61 and banded.extra["band_rows"] == 4 and banded.passes == 3
+    np.testing.assert_array_equal(banded_image, image)
+    np.testing.assert_array_equal(banded_variance, variance)
+    assert banded.rays == stats.rays and banded.estimated_rmse == stats.estimated_rmse
+
+
+@pytest.mark.parametrize("budget,rows", [(ROW_BYTES - 1, 1), (ROW_BYTES, 1), (3 * ROW_BYTES + 5, 3),
+                                         (10**9, 61)])
+def test_device_buffer_within_the_budget(cornell, budget, rows):
+    """The device output buffer is as many whole rows as the budget holds (never more bytes than the
+    budget), one row when the budget is smaller than a row (a launch cannot do less), at most the image.
+    It fails if the band height ignores the budget or rounds up, or the buffer is sized for the image."""
+    _, _, stats = render_progressive(cornell, spp=1, light_samples=1, max_band_bytes=budget, **SIZE)
+    assert stats.extra["band_rows"] == rows
+    assert stats.extra["device_output_bytes"] == rows * ROW_BYTES <= max(budget, ROW_BYTES)
+
+
+def test_render_that_cannot_fit_in_memory_is_refused(tmp_path):
+    """Under a 4 GiB address-space limit (ulimit -v), a 16384 x 16384 render, about 13 GiB of sums and
+    images, is refused with one line naming --width/--height and the size, exit status 2 and no file. The
+    unknown --device would be reported by the first device work: the memory error comes before it. It fails
+    if the estimate misses the limit (the render would start, then die of a MemoryError), if the check
+    comes after device work, or if the refusal is a traceback or leaves a file."""
+    limit = 4 << 30
+    out = tmp_path / "big.png"
+    r = run("render", CORNELL, "-o", out, "--width", 16384, "--height", 16384, "--device", "no-such-device",
+            preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_AS, (limit, limit)))
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert "command line: --width/--height = '16384x16384': needs about" in r.stderr and "GiB" in r.stderr
+    assert list(tmp_path.iterdir()) == []
