@@ -55,6 +55,12 @@ def _write(out, tmp, spec, ext, image, variance):
     return out.close() and not out.has_error
 
 
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_image(path, image, metadata=None, variance=None):
     """Write H x W x 3 linear float `image` to `path`, atomically: a temporary file renamed into place,
     so a failed write leaves no partial file. An EXR file also carries `variance` (H x W x 3, the estimated
@@ -86,6 +92,7 @@ def write_image(path, image, metadata=None, variance=None):
         if not _write(out, tmp, spec, ext, image, variance):
             message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
             raise InputError("command line", "-o", str(path), f"cannot write: {message.splitlines()[0].strip()}")
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it 0600; a written image gets the usual mode
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
