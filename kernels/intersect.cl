@@ -1,5 +1,6 @@
-/* Closest hit over every shape and light, and the any-hit test of shadow rays. The loops are uniform
- * over lanes (every lane tests the same shape); the lanes' own results are merged with select(). */
+/* Closest hit over every shape and light, and the any-hit test of shadow rays: over a BVH (bvh.cl) when the
+ * host built one, else a loop over every shape. Either way a primitive is tested by all lanes at once (every
+ * lane tests the same shape); the lanes' own results are merged with select(). */
 #ifndef INTERSECT_CL
 #define INTERSECT_CL
 
@@ -11,11 +12,6 @@
 #if HAS_ELLIPSOIDS
 #include "ellipsoid.cl"
 #endif
-
-#define SHAPE_NONE 0 /* nothing, or a light */
-#define SHAPE_RECTANGLE 1
-#define SHAPE_TRIANGLE 2
-#define SHAPE_ELLIPSOID 3
 
 typedef struct {
     vfloat t;      /* +inf: nothing hit */
@@ -51,67 +47,122 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n
 #endif
 }
 
-/* The nearest hit along r in (0, tmax]; a ray leaving a surface never hits that surface (ray.h). */
-inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
+/* The closest-hit test of one primitive of each kind, merged into *hit for the lanes it is nearer for; tmax
+ * bounds t. Hit points and their error bounds are formed only where some lane's hit is nearer (ray.h). */
+inline void hit_rectangle(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
+{
+    __global const Rectangle *rect = &s->rectangles[i];
+    vfloat dt, u, v, err;
+    vfloat t = intersect_rectangle(rect, r, &dt, &u, &v);
+    t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+    if (ANY(t < hit->t)) {
+        vec3 p = rectangle_point(rect, u, v, &err);
+        hit_update(hit, r, t, p, err, v3_uniform(rect->normal), rect->material, (Vec3f){0.0f, 0.0f, 0.0f},
+                   SHAPE_RECTANGLE, i, (vfloat)(0.0f), (vfloat)(0.0f));
+    }
+}
+
+#if HAS_TRIANGLES
+inline void hit_triangle(const Scene *s, Hit *hit, Ray r, RayShear shear, int i, vfloat tmax)
+{
+    __global const Triangle *tri = &s->triangles[i];
+    vfloat dt, b0, b1, b2, err;
+    vfloat t = intersect_triangle(tri, r, shear, &dt, &b0, &b1, &b2);
+    t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+    if (ANY(t < hit->t)) {
+        vec3 p = triangle_point(tri, b0, b1, b2, &err);
+        hit_update(hit, r, t, p, err, v3_uniform(tri->normal), tri->material, (Vec3f){0.0f, 0.0f, 0.0f},
+                   SHAPE_TRIANGLE, i, b1, b2);
+    }
+}
+#endif
+
+#if HAS_ELLIPSOIDS
+inline void hit_ellipsoid(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
+{
+    __global const Ellipsoid *e = &s->ellipsoids[i];
+    vec3 q;
+    vfloat err;
+    vfloat t = intersect_ellipsoid(e, r, &q);
+    t = select((vfloat)(INFINITY), t, t <= tmax);
+    if (ANY(t < hit->t)) {
+        vec3 n = ellipsoid_normal(e, q);
+        vec3 p = ellipsoid_point(e, q, n, &err);
+        hit_update(hit, r, t, p, err, n, e->material, (Vec3f){0.0f, 0.0f, 0.0f}, SHAPE_ELLIPSOID, i,
+                   (vfloat)(0.0f), (vfloat)(0.0f));
+    }
+}
+#endif
+
+/* The any-hit test of one primitive of each kind against a shadow segment (t in (0, 1), ray.h). */
+inline vint blocks_rectangle(const Scene *s, Ray r, int i)
+{
+    vfloat dt, u, v;
+    return hit_on_segment(intersect_rectangle(&s->rectangles[i], r, &dt, &u, &v), dt);
+}
+
+#if HAS_TRIANGLES
+inline vint blocks_triangle(const Scene *s, Ray r, RayShear shear, int i)
+{
+    vfloat dt, b0, b1, b2;
+    return hit_on_segment(intersect_triangle(&s->triangles[i], r, shear, &dt, &b0, &b1, &b2), dt);
+}
+#endif
+
+#if HAS_ELLIPSOIDS
+inline vint blocks_ellipsoid(const Scene *s, Ray r, int i)
+{
+    vec3 q;
+    return hit_on_segment(intersect_ellipsoid(&s->ellipsoids[i], r, &q), (vfloat)(0.0f));
+}
+#endif
+
+#if HAS_BVH
+#include "bvh.cl"
+#endif
+
+inline Hit no_hit(void)
 {
     Hit hit;
     hit.t = (vfloat)(INFINITY);
-    hit.p = hit.n = v3_splat(0.0f, 0.0f, 0.0f);
+    hit.p = hit.n = hit.emitted = v3_splat(0.0f, 0.0f, 0.0f);
     hit.err = 0.0f;
     hit.material = (vint)(-1);
-    hit.emitted = hit.n;
 #if HAS_TEXTURES
     hit.kind = hit.index = (vint)(0);
     hit.b1 = hit.b2 = (vfloat)(0.0f);
 #endif
-    const Vec3f black = {0.0f, 0.0f, 0.0f};
-    const vfloat zero = 0.0f;
-    vfloat dt, u, v, err;
+    return hit;
+}
+
+/* The nearest hit along r in (0, tmax]; a ray leaving a surface never hits that surface (ray.h). */
+inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
+{
+    Hit hit = no_hit();
+#if HAS_BVH
+    bvh_closest_hit(s, &hit, r, tmax);
+#else
 #if HAS_RECTANGLES
-    for (int i = 0; i < s->params->n_rectangles; ++i) {
-        __global const Rectangle *rect = &s->rectangles[i];
-        vfloat t = intersect_rectangle(rect, r, &dt, &u, &v);
-        t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
-        if (ANY(t < hit.t)) {
-            vec3 p = rectangle_point(rect, u, v, &err);
-            hit_update(&hit, r, t, p, err, v3_uniform(rect->normal), rect->material, black, SHAPE_RECTANGLE, i,
-                       zero, zero);
-        }
-    }
+    for (int i = 0; i < s->params->n_rectangles; ++i)
+        hit_rectangle(s, &hit, r, i, tmax);
 #endif
 #if HAS_TRIANGLES
     RayShear shear = ray_shear(r);
-    for (int i = 0; i < s->params->n_triangles; ++i) {
-        __global const Triangle *tri = &s->triangles[i];
-        vfloat b0, b1, b2;
-        vfloat t = intersect_triangle(tri, r, shear, &dt, &b0, &b1, &b2);
-        t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
-        if (ANY(t < hit.t)) {
-            vec3 p = triangle_point(tri, b0, b1, b2, &err);
-            hit_update(&hit, r, t, p, err, v3_uniform(tri->normal), tri->material, black, SHAPE_TRIANGLE, i, b1,
-                       b2);
-        }
-    }
+    for (int i = 0; i < s->params->n_triangles; ++i)
+        hit_triangle(s, &hit, r, shear, i, tmax);
 #endif
 #if HAS_ELLIPSOIDS
-    for (int i = 0; i < s->params->n_ellipsoids; ++i) {
-        __global const Ellipsoid *e = &s->ellipsoids[i];
-        vec3 q;
-        vfloat t = intersect_ellipsoid(e, r, &q);
-        t = select((vfloat)(INFINITY), t, t <= tmax);
-        if (ANY(t < hit.t)) {
-            vec3 n = ellipsoid_normal(e, q);
-            vec3 p = ellipsoid_point(e, q, n, &err);
-            hit_update(&hit, r, t, p, err, n, e->material, black, SHAPE_ELLIPSOID, i, zero, zero);
-        }
-    }
+    for (int i = 0; i < s->params->n_ellipsoids; ++i)
+        hit_ellipsoid(s, &hit, r, i, tmax);
 #endif
+#endif
+    vfloat dt, u, v;
     for (int i = 0; i < s->params->n_lights; ++i) {
         __global const Light *light = &s->lights[i];
         vfloat t = intersect_rectangle(&light->shape, r, &dt, &u, &v);
         t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
-        hit_update(&hit, r, t, hit.p, zero, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
-                   zero, zero);
+        hit_update(&hit, r, t, hit.p, 0.0f, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
+                   (vfloat)(0.0f), (vfloat)(0.0f));
     }
     return hit;
 }
@@ -121,26 +172,25 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
  * every lane is blocked. */
 inline vint occluded(const Scene *s, Ray r)
 {
+#if HAS_BVH
+    return bvh_occluded(s, r);
+#else
     vint blocked = (vint)(0);
-    vfloat dt, u, v;
 #if HAS_RECTANGLES
     for (int i = 0; i < s->params->n_rectangles && !ALL(blocked); ++i)
-        blocked |= hit_on_segment(intersect_rectangle(&s->rectangles[i], r, &dt, &u, &v), dt);
+        blocked |= blocks_rectangle(s, r, i);
 #endif
 #if HAS_TRIANGLES
     RayShear shear = ray_shear(r);
-    for (int i = 0; i < s->params->n_triangles && !ALL(blocked); ++i) {
-        vfloat b0, b1, b2;
-        blocked |= hit_on_segment(intersect_triangle(&s->triangles[i], r, shear, &dt, &b0, &b1, &b2), dt);
-    }
+    for (int i = 0; i < s->params->n_triangles && !ALL(blocked); ++i)
+        blocked |= blocks_triangle(s, r, shear, i);
 #endif
 #if HAS_ELLIPSOIDS
-    for (int i = 0; i < s->params->n_ellipsoids && !ALL(blocked); ++i) {
-        vec3 q;
-        blocked |= hit_on_segment(intersect_ellipsoid(&s->ellipsoids[i], r, &q), (vfloat)(0.0f));
-    }
+    for (int i = 0; i < s->params->n_ellipsoids && !ALL(blocked); ++i)
+        blocked |= blocks_ellipsoid(s, r, i);
 #endif
     return blocked;
+#endif
 }
 
 #endif

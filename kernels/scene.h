@@ -1,7 +1,8 @@
 /* The scene as the kernel sees it: the host's buffers and counts, gathered in one private struct.
  * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
- * HAS_HEIGHT_MAPS (set by the host from the scene) leave out the code of what a scene lacks; the kernel's
- * arguments stay the same in every variant. */
+ * HAS_HEIGHT_MAPS (set by the host from the scene) leave out the code of what a scene lacks; HAS_BVH picks
+ * traversal of a hierarchy over a loop over every shape. The kernel's arguments stay the same in every
+ * variant. */
 #ifndef SCENE_H
 #define SCENE_H
 
@@ -19,6 +20,8 @@ typedef struct {
     __global const Material *materials;
     __constant const Camera *camera;
     __constant const RenderParams *params;
+    __global const BVHNode *nodes; /* HAS_BVH: the hierarchy over every shape (bvh.cl) */
+    __global const int *prims;     /* its leaves' primitive references, index * 4 + SHAPE_* */
 } Scene;
 
 /* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */

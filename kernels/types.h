@@ -41,6 +41,20 @@ typedef struct {
     int material;
 } Ellipsoid;
 
+/* Shape kinds; a primitive reference in the BVH's table is index * 4 + kind. */
+#define SHAPE_NONE 0 /* nothing, or a light */
+#define SHAPE_RECTANGLE 1
+#define SHAPE_TRIANGLE 2
+#define SHAPE_ELLIPSOID 3
+
+/* A node of the flattened BVH (bvh.cl), depth first: count > 0 is a leaf of the primitive references
+ * [offset, offset + count); count <= 0 an interior node whose first child is the next node, second child node
+ * `offset`, split along axis -count. Boxes are rounded outwards to float32. */
+typedef struct {
+    float lo[3], hi[3];
+    int offset, count;
+} BVHNode;
+
 typedef struct {
     Rectangle shape; /* shape.material is unused */
     Vec3f colour;

@@ -13,6 +13,9 @@ def kernel_dir():
     return checkout if (checkout / "render.cl").is_file() else here / "kernels"
 
 
+BVH_CROSSOVER = 16  # shapes from which traversing a BVH beats testing every shape (placeholder, measured later)
+
+
 @dataclass(frozen=True)
 class Features:
     """What a scene needs compiled in. Everything else (counts, sample tables, image size, seeds) is a
@@ -24,16 +27,18 @@ class Features:
     colour_maps: bool = True
     normal_maps: bool = True
     height_maps: bool = True
+    bvh: bool = False
 
     @classmethod
     def of(cls, scene, lanes):
         used = lambda attribute: any(getattr(m, attribute) >= 0 for m in scene.materials)  # noqa: E731
+        shapes = len(scene.rectangles) + len(scene.triangles) + len(scene.ellipsoids)
         return cls(lanes, bool(scene.rectangles), bool(scene.triangles), bool(scene.ellipsoids),
-                   used("colour_map"), used("normal_map"), used("height_map"))
+                   used("colour_map"), used("normal_map"), used("height_map"), shapes >= BVH_CROSSOVER)
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
-                 "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps}
+                 "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps, "BVH": self.bvh}
         return [f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
 
 

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from . import mipmap, samplers, types
+from . import bvh, mipmap, samplers, types
 
 
 def camera_struct(camera, width, height):
@@ -119,12 +119,37 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     return p
 
 
+def primitive_boxes(scene):
+    """(lo, hi, refs): the axis-aligned box of every shape (float64, (N, 3) each) and its reference,
+    index * 4 + kind (kernels/types.h). An ellipsoid c + A x, |x| = 1, reaches c_j +- |row j of A|."""
+    rect_corners = [r.center + np.outer([-1, 1], r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent))
+                    for r in scene.rectangles]
+    boxes = [(c[0], c[1]) for c in rect_corners]
+    boxes += [(t.vertices.min(0), t.vertices.max(0)) for t in scene.triangles]
+    boxes += [(e.center - np.linalg.norm(e.matrix, axis=1), e.center + np.linalg.norm(e.matrix, axis=1))
+              for e in scene.ellipsoids]
+    kinds = [(types.SHAPES["rectangle"], len(scene.rectangles)), (types.SHAPES["triangle"], len(scene.triangles)),
+             (types.SHAPES["ellipsoid"], len(scene.ellipsoids))]
+    refs = np.concatenate([np.arange(n, dtype=np.int32) * 4 + kind for kind, n in kinds])
+    lo, hi = (np.array([b[k] for b in boxes], np.float64).reshape(-1, 3) for k in (0, 1))
+    return lo, hi, refs
+
+
+def bvh_structs(scene, use_bvh):
+    """(nodes, primitive references) of the hierarchy over every shape, or one dummy of each without it."""
+    if not use_bvh:
+        return np.zeros(1, types.BVH_NODE), np.zeros(1, np.int32)
+    lo, hi, refs = primitive_boxes(scene)
+    nodes, order = bvh.build(lo, hi)
+    return nodes.astype(types.BVH_NODE), refs[order]
+
+
 def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixel_pattern=None, light_pattern=None,
-                  seed=0):
+                  seed=0, use_bvh=False):
     """The render kernel's scene buffers, in its argument order, up to the textures."""
     return [camera_struct(scene.camera, width, height),
             params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
                           seed),
             rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
             triangle_uv_structs(scene.triangles), ellipsoid_structs(scene.ellipsoids),
-            light_structs(scene.lights), material_structs(scene.materials)]
+            light_structs(scene.lights), material_structs(scene.materials), *bvh_structs(scene, use_bvh)]

@@ -17,6 +17,11 @@ TRIANGLE_UV = np.dtype([("uv", "<f4", (6,)), ("dpdu", *VEC3F), ("dpdv", *VEC3F),
 ELLIPSOID = np.dtype([("center", *VEC3F), ("world_to_unit", "<f4", (9,)), ("unit_to_world", "<f4", (9,)),
                       ("material", "<i4")])
 
+# kernels/types.h: SHAPE_*; a BVH primitive reference is index * 4 + kind
+SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3}
+
+BVH_NODE = np.dtype([("lo", "<f4", (3,)), ("hi", "<f4", (3,)), ("offset", "<i4"), ("count", "<i4")])
+
 LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F)])
 
 MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
@@ -45,4 +50,4 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
            "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
-           "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS}
+           "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE}

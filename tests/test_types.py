@@ -42,10 +42,11 @@ def test_no_struct_has_hidden_padding():
 
 
 def test_constants_match_device(cl_env):
-    """The WRAP_*, TEXELS_*, FILTER_* and RANDOMIZE_* macros of kernels/types.h against their mirrors in raytrace/types.py."""
+    """The WRAP_*, TEXELS_*, FILTER_*, RANDOMIZE_* and SHAPE_* macros of kernels/types.h against their mirrors in raytrace/types.py."""
     names = {f"WRAP_{k.upper()}": v for k, v in types.WRAP_MODES.items()}
     names |= {f"FILTER_{k.upper()}": v for k, v in types.FILTERS.items()}
     names |= {f"RANDOMIZE_{k.upper()}": v for k, v in types.RANDOMIZE.items()}
+    names |= {f"SHAPE_{k.upper()}": v for k, v in types.SHAPES.items()}
     names |= {"TEXELS_SRGB8": types.TEXELS_SRGB8, "TEXELS_UNORM8": types.TEXELS_UNORM8,
               "TEXELS_FLOAT": types.TEXELS_FLOAT}
     context, queue = cl_env

@@ -1,0 +1,129 @@
+/* Traversal of the bounding volume hierarchy built on the host (raytrace/bvh.py; pbrt-v4 section 7.3.5).
+ *
+ * Packets: the LANES rays of a work-item (neighbouring pixels, or their shadow rays towards one light sample)
+ * walk the tree together. A node is entered when any lane that is still looking meets its box; lanes that
+ * miss it are masked by the primitive tests' own t ranges. Children are visited near first, by the first
+ * lane's direction along the split axis (the packet's rays are nearly parallel), so that the closest hit
+ * found early culls the far subtrees. With LANES=1 (GPUs) this is ordinary single-ray traversal. */
+#ifndef BVH_CL
+#define BVH_CL
+
+#define BVH_STACK 64 /* the host refuses deeper trees */
+
+#if LANES == 1
+#define FIRST_LANE(v) (v)
+#else
+#define FIRST_LANE(v) ((v).s0)
+#endif
+
+/* Per ray: the reciprocal direction for the slab test. */
+typedef struct { vec3 inv_d; int negative[3]; } BoxRay;
+
+inline BoxRay box_ray(Ray r)
+{
+    BoxRay b;
+    b.inv_d = v3(1.0f / r.d.x, 1.0f / r.d.y, 1.0f / r.d.z);
+    b.negative[0] = FIRST_LANE(r.d.x) < 0.0f;
+    b.negative[1] = FIRST_LANE(r.d.y) < 0.0f;
+    b.negative[2] = FIRST_LANE(r.d.z) < 0.0f;
+    return b;
+}
+
+/* Lanes whose ray meets the node's box within [0, tmax]. The slab test on the reciprocal direction; the far
+ * distance is widened by 2 gamma(3), the bound on the rounding of both slab distances, so that a box is never
+ * missed by a ray that meets it (pbrt-v4 section 6.8.2). A zero direction component gives infinite slab
+ * distances (or NaN at 0 * inf, which fmin/fmax ignore). */
+inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax)
+{
+    vfloat t0x = (node->lo[0] - r.o.x) * b.inv_d.x, t1x = (node->hi[0] - r.o.x) * b.inv_d.x;
+    vfloat t0y = (node->lo[1] - r.o.y) * b.inv_d.y, t1y = (node->hi[1] - r.o.y) * b.inv_d.y;
+    vfloat t0z = (node->lo[2] - r.o.z) * b.inv_d.z, t1z = (node->hi[2] - r.o.z) * b.inv_d.z;
+    vfloat near = fmax(fmax(fmin(t0x, t1x), fmin(t0y, t1y)), fmax(fmin(t0z, t1z), 0.0f));
+    vfloat far = fmin(fmin(fmax(t0x, t1x), fmax(t0y, t1y)), fmin(fmax(t0z, t1z), tmax));
+    return near <= far * (1.0f + 2.0f * GAMMA(3));
+}
+
+/* The children of interior node `i` in the order to visit them: *first, then the returned second. */
+inline int order_children(__global const BVHNode *nodes, int i, BoxRay b, int *first)
+{
+    int right = nodes[i].offset, far_first = b.negative[-nodes[i].count];
+    *first = far_first ? right : i + 1;
+    return far_first ? i + 1 : right;
+}
+
+inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
+{
+    BoxRay b = box_ray(r);
+#if HAS_TRIANGLES
+    RayShear shear = ray_shear(r);
+#endif
+    int stack[BVH_STACK], top = 0, i = 0;
+    for (;;) {
+        __global const BVHNode *node = &s->nodes[i];
+        if (ANY(meets_box(node, r, b, fmin(tmax, hit->t)))) {
+            if (node->count <= 0) {
+                stack[top++] = order_children(s->nodes, i, b, &i);
+                continue;
+            }
+            for (int k = node->offset; k < node->offset + node->count; ++k) {
+                int ref = s->prims[k], index = ref >> 2, kind = ref & 3;
+#if HAS_TRIANGLES
+                if (kind == SHAPE_TRIANGLE)
+                    hit_triangle(s, hit, r, shear, index, tmax);
+#endif
+#if HAS_RECTANGLES
+                if (kind == SHAPE_RECTANGLE)
+                    hit_rectangle(s, hit, r, index, tmax);
+#endif
+#if HAS_ELLIPSOIDS
+                if (kind == SHAPE_ELLIPSOID)
+                    hit_ellipsoid(s, hit, r, index, tmax);
+#endif
+            }
+        }
+        if (top == 0)
+            return;
+        i = stack[--top];
+    }
+}
+
+inline vint bvh_occluded(const Scene *s, Ray r)
+{
+    BoxRay b = box_ray(r);
+#if HAS_TRIANGLES
+    RayShear shear = ray_shear(r);
+#endif
+    vint blocked = (vint)(0);
+    int stack[BVH_STACK], top = 0, i = 0;
+    for (;;) {
+        __global const BVHNode *node = &s->nodes[i];
+        if (ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !blocked)) {
+            if (node->count <= 0) {
+                stack[top++] = order_children(s->nodes, i, b, &i);
+                continue;
+            }
+            for (int k = node->offset; k < node->offset + node->count; ++k) {
+                int ref = s->prims[k], index = ref >> 2, kind = ref & 3;
+#if HAS_TRIANGLES
+                if (kind == SHAPE_TRIANGLE)
+                    blocked |= blocks_triangle(s, r, shear, index);
+#endif
+#if HAS_RECTANGLES
+                if (kind == SHAPE_RECTANGLE)
+                    blocked |= blocks_rectangle(s, r, index);
+#endif
+#if HAS_ELLIPSOIDS
+                if (kind == SHAPE_ELLIPSOID)
+                    blocked |= blocks_ellipsoid(s, r, index);
+#endif
+            }
+            if (ALL(blocked))
+                return blocked;
+        }
+        if (top == 0)
+            return blocked;
+        i = stack[--top];
+    }
+}
+
+#endif
