@@ -20,7 +20,7 @@ typedef struct {
     vec3 n;        /* unit geometric normal, facing the incoming ray */
     vint material; /* -1: nothing or a light */
     vec3 emitted;  /* colour of the light hit first, else 0 */
-#if HAS_TEXTURES   /* what surface.cl needs to find the texture coordinates */
+#if HAS_SURFACE_DATA /* what texturing and smooth normals need: the shape and where on it */
     vint kind, index; /* SHAPE_* and the shape's index in its table */
     vfloat b1, b2;    /* barycentrics of a triangle hit */
 #endif
@@ -39,7 +39,7 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n
     hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
     hit->material = select(hit->material, (vint)(material), nearer);
     hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
-#if HAS_TEXTURES
+#if HAS_SURFACE_DATA
     hit->kind = select(hit->kind, (vint)(kind), nearer);
     hit->index = select(hit->index, (vint)(index), nearer);
     hit->b1 = select(hit->b1, b1, nearer);
@@ -128,7 +128,7 @@ inline Hit no_hit(void)
     hit.p = hit.n = hit.emitted = v3_splat(0.0f, 0.0f, 0.0f);
     hit.err = 0.0f;
     hit.material = (vint)(-1);
-#if HAS_TEXTURES
+#if HAS_SURFACE_DATA
     hit.kind = hit.index = (vint)(0);
     hit.b1 = hit.b2 = (vfloat)(0.0f);
 #endif

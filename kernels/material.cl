@@ -101,6 +101,18 @@ inline void texture_lane(const Scene *s, TextureStore ts, __global const Materia
 
 #endif
 
+#if HAS_SMOOTH_NORMALS
+/* The shading normal of a smooth triangle at barycentrics (b1, b2): its corner normals interpolated, turned
+ * to the side the facing geometric normal ng was turned to (Phong shading of normals). */
+inline float3 smooth_normal(const Scene *s, int index, float b1, float b2, float3 ng)
+{
+    __global const TriangleNormals *c = &s->triangle_normals[index];
+    float3 n = normalize((1.0f - b1 - b2) * f3(c->n0) + b1 * f3(c->n1) + b2 * f3(c->n2));
+    float side = dot(f3(s->triangles[index].normal), ng) < 0.0f ? -1.0f : 1.0f;
+    return all(isfinite(n)) ? n * side : ng;
+}
+#endif
+
 /* The shading point of each lane's hit along r. */
 inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hit)
 {
@@ -112,14 +124,17 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     float sh[LANES];
     Lanes3 k = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
     VSTORE(hit.material, 0, m);
-#if HAS_TEXTURES
+#if HAS_SURFACE_DATA
     int kind[LANES], index[LANES];
     float b1[LANES], b2[LANES];
     VSTORE(hit.kind, 0, kind);
     VSTORE(hit.index, 0, index);
     VSTORE(hit.b1, 0, b1);
     VSTORE(hit.b2, 0, b2);
-    Lanes3 p = v3_spill(sp.p), n = v3_spill(sp.n), d = v3_spill(r.d);
+    Lanes3 n = v3_spill(sp.n);
+#endif
+#if HAS_TEXTURES
+    Lanes3 p = v3_spill(sp.p), d = v3_spill(r.d);
     float err[LANES];
     VSTORE(sp.err, 0, err);
 #endif
@@ -130,20 +145,30 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         __global const Material *mat = &s->materials[m[i]];
         sh[i] = mat->shininess;
         float3 colour = f3(mat->colour);
+#if HAS_SURFACE_DATA
+        float3 ng = lane3(&n, i);
+#endif
 #if HAS_TEXTURES
-        float3 pi = lane3(&p, i), ni = lane3(&n, i);
+        float3 pi = lane3(&p, i), ni = ng;
         texture_lane(s, ts, mat, kind[i], index[i], b1[i], b2[i], lane3(&d, i), &colour, &ni, &pi, &err[i]);
         set_lane3(&p, i, pi);
         set_lane3(&n, i, ni);
+#endif
+#if HAS_SMOOTH_NORMALS
+        /* a normal or height map defines its own shading normal, from the flat frame (a known limit) */
+        if (kind[i] == SHAPE_TRIANGLE && mat->normal_map < 0 && mat->height_map < 0)
+            set_lane3(&n, i, smooth_normal(s, index[i], b1[i], b2[i], ng));
 #endif
         set_lane3(&k, i, colour);
     }
     sp.k = v3_fill(&k);
     sp.shininess = VLOAD(0, sh);
+#if HAS_SURFACE_DATA
+    sp.n = v3_fill(&n);
+#endif
 #if HAS_TEXTURES
     sp.p = v3_fill(&p);
     sp.err = VLOAD(0, err);
-    sp.n = v3_fill(&n);
 #endif
     return sp;
 }

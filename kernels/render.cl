@@ -22,7 +22,8 @@ inline void store_lanes(__global float *plane, int index, vfloat value, vint act
 
 __kernel void render(__constant const Camera *camera, __constant const RenderParams *params,
                      __global const Rectangle *rectangles, __global const Triangle *triangles,
-                     __global const TriangleUV *triangle_uvs, __global const Ellipsoid *ellipsoids,
+                     __global const TriangleUV *triangle_uvs, __global const TriangleNormals *triangle_normals,
+                     __global const Ellipsoid *ellipsoids,
                      __global const Light *lights, __global const Material *materials,
                      __global const BVHNode *nodes, __global const int *prims,
                      __global const Texture *textures, __global const MipLevel *mip_levels,
@@ -31,8 +32,8 @@ __kernel void render(__constant const Camera *camera, __constant const RenderPar
                      int n_samples, int row0,
                      __global float *out)
 {
-    const Scene scene = {rectangles, triangles, triangle_uvs, ellipsoids, lights, materials, camera, params, nodes,
-                         prims};
+    const Scene scene = {rectangles, triangles, triangle_uvs, triangle_normals, ellipsoids, lights, materials, camera,
+                         params, nodes, prims};
     const TextureStore ts = {textures, mip_levels, texels, srgb_to_linear};
     const int width = params->width, height = params->height;
     const int x0 = LANES * get_global_id(0), y = row0 + get_global_id(1);

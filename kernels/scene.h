@@ -1,6 +1,7 @@
 /* The scene as the kernel sees it: the host's buffers and counts, gathered in one private struct.
  * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
- * HAS_HEIGHT_MAPS (set by the host from the scene) leave out the code of what a scene lacks; HAS_BVH picks
+ * HAS_HEIGHT_MAPS and HAS_SMOOTH_NORMALS (set by the host from the scene) leave out the code of what a scene
+ * lacks; HAS_BVH picks
  * traversal of a hierarchy over a loop over every shape. The kernel's arguments stay the same in every
  * variant. */
 #ifndef SCENE_H
@@ -10,11 +11,14 @@
 
 /* Any texture at all: hits then carry what is needed to find their texture coordinates. */
 #define HAS_TEXTURES (HAS_COLOUR_MAPS || HAS_NORMAL_MAPS || HAS_HEIGHT_MAPS)
+/* Hits carry their shape and barycentrics for texturing or for interpolating smooth normals. */
+#define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS)
 
 typedef struct {
     __global const Rectangle *rectangles;
     __global const Triangle *triangles;
     __global const TriangleUV *triangle_uvs;
+    __global const TriangleNormals *triangle_normals;
     __global const Ellipsoid *ellipsoids;
     __global const Light *lights;
     __global const Material *materials;

@@ -34,6 +34,10 @@ typedef struct {
     Vec3f tangent;        /* unit direction of dpdu */
 } TriangleUV;
 
+/* Shading normals at a triangle's corners, interpolated over a smooth mesh (the face's own normal, thrice,
+ * elsewhere); read only when shading, and only by kernels built with HAS_SMOOTH_NORMALS. */
+typedef struct { Vec3f n0, n1, n2; } TriangleNormals;
+
 typedef struct {
     Vec3f center;
     float world_to_unit[9]; /* row-major inverse of [a b c]: world offsets to unit-sphere space */

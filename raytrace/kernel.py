@@ -27,18 +27,24 @@ class Features:
     colour_maps: bool = True
     normal_maps: bool = True
     height_maps: bool = True
+    smooth_normals: bool = False
     bvh: bool = False
+
+    @property
+    def textures(self):
+        return self.colour_maps or self.normal_maps or self.height_maps
 
     @classmethod
     def of(cls, scene, lanes):
         used = lambda attribute: any(getattr(m, attribute) >= 0 for m in scene.materials)  # noqa: E731
-        shapes = len(scene.rectangles) + len(scene.triangles) + len(scene.ellipsoids)
-        return cls(lanes, bool(scene.rectangles), bool(scene.triangles), bool(scene.ellipsoids),
-                   used("colour_map"), used("normal_map"), used("height_map"), shapes >= BVH_CROSSOVER)
+        shapes = len(scene.rectangles) + scene.triangle_count + len(scene.ellipsoids)
+        return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
+                   used("colour_map"), used("normal_map"), used("height_map"),
+                   any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER)
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
-                 "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps, "BVH": self.bvh}
+                 "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps, "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh}
         return [f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
 
 

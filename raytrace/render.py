@@ -215,7 +215,7 @@ def render_progressive(scene, **kwargs):
     texture_bytes = textures[2].nbytes if scene.textures else 0  # the packed texels of every level
     ro = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     structs = scene_structs(scene, width, height, spp, n_light, options.texture_filter, pixel, light, options.seed,
-                            features.bvh)
+                            features)
     buffers = [cl.Buffer(context, ro, hostbuf=a) for a in (*structs, *textures, pixel.table(), light.table())]
     kernel = cl.Kernel(program, "render")
 

@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import samplers
+from . import meshes, meshgen, samplers
 from .errors import InputError
+from .transform import mesh_matrix
 from .textures import TextureCache
 from .types import WRAP_MODES
 
@@ -86,6 +87,16 @@ class Ellipsoid:
         return self.axes.T
 
 
+@dataclass(frozen=True)
+class MeshShape:
+    """A triangle mesh read from a file or generated (raytrace.meshes.Mesh), in world space. smooth: shade
+    with its per-vertex normals (the file's, else area-weighted ones) instead of each face's own."""
+    mesh: meshes.Mesh
+    material: int = 0
+    smooth: bool = False
+    dropped: int = 0  # degenerate faces left out on load
+
+
 @dataclass
 class Scene:
     path: str
@@ -103,6 +114,11 @@ class Scene:
     sampler: str = "grid"
     light_sampler: str = "grid"
     textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
+    meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
+
+    @property
+    def triangle_count(self):
+        return len(self.triangles) + sum(len(m.mesh.faces) for m in self.meshes)
 
 
 def _normalize(v):
@@ -220,6 +236,9 @@ def _load_shape(scene, r, material_index):
         _check_triangle(r, "vertices", vertices)
         uv = r.vectors("uv", 2, count=3) if r.has("uv") else None
         scene.triangles.append(Triangle(vertices, m, uv))
+    elif kind == "mesh" and (r.has("file") or r.has("generate")):
+        r.check_keys(sorted(common | MESH_KEYS))
+        scene.meshes.append(_mesh_shape(r, m))
     elif kind == "mesh":
         r.check_keys(sorted(common | {"vertices", "faces"}))
         vertices = r.vectors("vertices", 3)
@@ -239,6 +258,61 @@ def _load_shape(scene, r, material_index):
         if not abs(np.linalg.det(axes)) > 1e-6 * norms:
             r.fail("axes", axes.tolist(), "singular ellipsoid: the three axes must be linearly independent")
         scene.ellipsoids.append(Ellipsoid(r.vector("center", 3), axes, m))
+
+
+MESH_KEYS = {"file", "generate", "scale", "rotate", "translate", "matrix", "smooth"}
+GENERATORS = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshgen.terrain}
+
+
+def _mesh_source(r):
+    """The untransformed Mesh and the number of degenerate faces dropped: read from `file` (relative to the
+    scene file) or made by `generate = { shape = ..., triangles = N }`."""
+    if r.has("file") == r.has("generate"):
+        r.fail("file", r.raw("file", r.raw("generate")), "give exactly one of file and generate")
+    if r.has("file"):
+        return meshes.load_mesh(Path(r.path).parent / r.string("file"))
+    g = r.sub("generate")
+    g.check_keys(["shape", "triangles"])
+    shape = g.string("shape", choices=GENERATORS)
+    return GENERATORS[shape](g.integer("triangles", low=2, high=50_000_000)), 0
+
+
+def _transform(r):
+    """4 x 4 matrix of `matrix`, or of scale, then rotate, then translate."""
+    if r.has("matrix"):
+        for key in ("scale", "rotate", "translate"):
+            if r.has(key):
+                r.fail(key, r.raw(key), "give either matrix or scale/rotate/translate")
+        m = r.vectors("matrix", 4, count=4)
+        if not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
+            r.fail("matrix", m.tolist(), "must be affine (last row 0 0 0 1) and invertible")
+        return m
+    scale = r.raw("scale", 1.0)
+    scale = np.full(3, r.number("scale")) if isinstance(scale, (int, float)) else r.vector("scale", 3)
+    if np.any(scale == 0):
+        r.fail("scale", scale.tolist(), "must not be 0")
+    axis, degrees = np.array([0.0, 0.0, 1.0]), 0.0
+    if r.has("rotate"):
+        rot = r.sub("rotate")
+        rot.check_keys(["axis", "degrees"])
+        axis, degrees = rot.vector("axis", 3, nonzero=True), rot.number("degrees")
+    return mesh_matrix(scale, axis, degrees, r.vector("translate", 3, default=[0.0, 0.0, 0.0]))
+
+
+def _mesh_shape(r, material):
+    mesh, dropped = _mesh_source(r)
+    m = _transform(r)
+    vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
+    smooth = r.raw("smooth", False)
+    if not isinstance(smooth, bool):
+        r.fail("smooth", smooth, "must be true or false")
+    normals = None
+    if smooth:  # normals transform by the inverse transpose
+        normals = (mesh.normals @ np.linalg.inv(m[:3, :3]) if mesh.normals is not None
+                   else meshes.vertex_normals(vertices, mesh.faces))
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+    return MeshShape(meshes.Mesh(vertices, mesh.faces, normals, mesh.uvs), material, bool(smooth), dropped)
 
 
 MATERIAL_KEYS = ["colour", "height_map", "height_scale", "normal_map", "shininess", "texture", "uv_offset",

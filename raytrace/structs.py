@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 
+from dataclasses import dataclass
+
 from . import bvh, mipmap, samplers, types
 
 
@@ -26,45 +28,107 @@ def rectangle_structs(rects):
     return a
 
 
-def triangle_structs(tris):
-    a = np.zeros(max(len(tris), 1), types.TRIANGLE)
-    for s, t in zip(a, tris):
-        v0, v1, v2 = t.vertices
-        n = np.cross(v1 - v0, v2 - v1)
-        s["v0"], s["v1"], s["v2"], s["normal"], s["material"] = v0, v1, v2, n / np.linalg.norm(n), t.material
+def triangle_records(v, material):
+    """Triangle structs of the triangles v ((F, 3, 3): v0, v1, v2 each) with their material indices."""
+    a = np.zeros(max(len(v), 1), types.TRIANGLE)
+    if len(v):
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
+        a["v0"][:len(v)], a["v1"][:len(v)], a["v2"][:len(v)] = v[:, 0], v[:, 1], v[:, 2]
+        a["normal"][:len(v)] = n / np.linalg.norm(n, axis=1, keepdims=True)
+        a["material"][:len(v)] = material
     return a
+
+
+def triangle_structs(tris):
+    return triangle_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), [t.material for t in tris])
 
 
 DEFAULT_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # uv = (b1, b2)
 
 
 def _coordinate_system(n):
-    """Two unit vectors completing the unit vector n to an orthonormal basis (Duff et al., JCGT 2017)."""
-    sign = math.copysign(1.0, n[2])
-    a = -1.0 / (sign + n[2])
-    b = n[0] * n[1] * a
-    return np.array([1 + sign * n[0] ** 2 * a, sign * b, -sign * n[0]]), np.array([b, sign + n[1] ** 2 * a, -n[1]])
+    """Two unit vectors completing the unit vectors n ((F, 3)) to orthonormal bases (Duff et al., JCGT 2017)."""
+    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    return (np.stack([1 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], 1),
+            np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], 1))
+
+
+def triangle_uv_frames(v, uv):
+    """dp/du and dp/dv ((F, 3) each) of the affine maps from uv ((F, 3, 2)) to the triangles v ((F, 3, 3))
+    (pbrt-v4 section 6.5.4), in float64. A degenerate uv mapping (all uvs on a line) gets an orthonormal pair
+    in the triangle's plane instead."""
+    duv02, duv12, dp02, dp12 = uv[:, 0] - uv[:, 2], uv[:, 1] - uv[:, 2], v[:, 0] - v[:, 2], v[:, 1] - v[:, 2]
+    det = duv02[:, 0] * duv12[:, 1] - duv02[:, 1] * duv12[:, 0]
+    ok = np.abs(det) > 1e-9 * np.maximum(np.sum(duv02 ** 2, 1), np.sum(duv12 ** 2, 1))
+    safe = np.where(ok, det, 1.0)[:, None]
+    dpdu = (duv12[:, 1:] * dp02 - duv02[:, 1:] * dp12) / safe
+    dpdv = (duv02[:, :1] * dp12 - duv12[:, :1] * dp02) / safe
+    if not ok.all():
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
+        t, b = _coordinate_system(n / np.linalg.norm(n, axis=1, keepdims=True))
+        dpdu[~ok], dpdv[~ok] = t[~ok], b[~ok]
+    return dpdu, dpdv
 
 
 def triangle_uv_frame(vertices, uv):
-    """dp/du and dp/dv of the affine map from uv to the triangle (pbrt-v4 section 6.5.4), in float64. A
-    degenerate uv mapping (all uvs on a line) gets an orthonormal pair in the triangle's plane instead."""
+    """triangle_uv_frames of one triangle (uv None: the default uvs)."""
     uv = DEFAULT_UV if uv is None else np.asarray(uv, dtype=np.float64)
-    v0, v1, v2 = vertices
-    duv02, duv12, dp02, dp12 = uv[0] - uv[2], uv[1] - uv[2], v0 - v2, v1 - v2
-    det = duv02[0] * duv12[1] - duv02[1] * duv12[0]
-    if not abs(det) > 1e-9 * max(np.dot(duv02, duv02), np.dot(duv12, duv12)):
-        n = np.cross(v1 - v0, v2 - v1)
-        return _coordinate_system(n / np.linalg.norm(n))
-    return (duv12[1] * dp02 - duv02[1] * dp12) / det, (duv02[0] * dp12 - duv12[0] * dp02) / det
+    dpdu, dpdv = triangle_uv_frames(np.asarray(vertices, np.float64)[None], uv[None])
+    return dpdu[0], dpdv[0]
+
+
+def triangle_uv_records(v, uv):
+    a = np.zeros(max(len(v), 1), types.TRIANGLE_UV)
+    if len(v):
+        dpdu, dpdv = triangle_uv_frames(v, uv)
+        a["uv"][:len(v)] = uv.reshape(-1, 6)
+        a["dpdu"][:len(v)], a["dpdv"][:len(v)] = dpdu, dpdv
+        a["tangent"][:len(v)] = dpdu / np.linalg.norm(dpdu, axis=1, keepdims=True)
+    return a
 
 
 def triangle_uv_structs(tris):
-    a = np.zeros(max(len(tris), 1), types.TRIANGLE_UV)
-    for s, t in zip(a, tris):
-        dpdu, dpdv = triangle_uv_frame(t.vertices, t.uv)
-        s["uv"] = (DEFAULT_UV if t.uv is None else t.uv).ravel()
-        s["dpdu"], s["dpdv"], s["tangent"] = dpdu, dpdv, dpdu / np.linalg.norm(dpdu)
+    uv = np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)
+    return triangle_uv_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), uv)
+
+
+@dataclass
+class TriangleSoup:
+    """Every triangle of a scene in the kernel's order (the scene file's triangles, then each mesh's), as
+    arrays: corners v (F, 3, 3), per-corner uvs (F, 3, 2), per-corner shading normals (F, 3, 3; the face's
+    own normal where a mesh is not smooth), materials (F,)."""
+    v: np.ndarray
+    uv: np.ndarray
+    normals: np.ndarray
+    material: np.ndarray
+
+
+def triangle_soup(scene):
+    tris = scene.triangles
+    v = [np.array([t.vertices for t in tris], np.float64).reshape(-1, 3, 3)]
+    uv = [np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)]
+    normals, material = [None], [np.array([t.material for t in tris], np.int32)]
+    for shape in scene.meshes:
+        m = shape.mesh
+        v.append(m.vertices[m.faces])
+        uv.append(m.uvs[m.faces] if m.uvs is not None else np.broadcast_to(DEFAULT_UV, (len(m.faces), 3, 2)))
+        normals.append(m.normals[m.faces] if shape.smooth else None)
+        material.append(np.full(len(m.faces), shape.material, np.int32))
+    v = np.concatenate(v)
+    face = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
+    face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
+    flat = lambda part: np.repeat(face[part, None], 3, axis=1)  # noqa: E731
+    starts = np.cumsum([0] + [len(a) for a in material])
+    normals = [flat(slice(a, b)) if n is None else n for n, a, b in zip(normals, starts[:-1], starts[1:])]
+    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material))
+
+
+def triangle_normal_records(normals):
+    a = np.zeros(max(len(normals), 1), types.TRIANGLE_NORMALS)
+    if len(normals):
+        a["n0"][:len(normals)], a["n1"][:len(normals)], a["n2"][:len(normals)] = (normals[:, k] for k in range(3))
     return a
 
 
@@ -106,7 +170,7 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     """RenderParams; the patterns default to one centre sample (raytrace.samplers.Pattern)."""
     p = np.zeros((), types.RENDER_PARAMS)
     p["ambient"] = scene.ambient
-    p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), len(scene.triangles)
+    p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
     p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
     center = samplers.pattern("center", 1)
     p["pixel_sampler"] = (pixel_pattern or center).sampler_struct()
@@ -119,37 +183,47 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     return p
 
 
-def primitive_boxes(scene):
+def primitive_boxes(scene, soup):
     """(lo, hi, refs): the axis-aligned box of every shape (float64, (N, 3) each) and its reference,
     index * 4 + kind (kernels/types.h). An ellipsoid c + A x, |x| = 1, reaches c_j +- |row j of A|."""
     rect_corners = [r.center + np.outer([-1, 1], r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent))
                     for r in scene.rectangles]
     boxes = [(c[0], c[1]) for c in rect_corners]
-    boxes += [(t.vertices.min(0), t.vertices.max(0)) for t in scene.triangles]
     boxes += [(e.center - np.linalg.norm(e.matrix, axis=1), e.center + np.linalg.norm(e.matrix, axis=1))
               for e in scene.ellipsoids]
-    kinds = [(types.SHAPES["rectangle"], len(scene.rectangles)), (types.SHAPES["triangle"], len(scene.triangles)),
+    kinds = [(types.SHAPES["rectangle"], len(scene.rectangles)), (types.SHAPES["triangle"], len(soup.v)),
              (types.SHAPES["ellipsoid"], len(scene.ellipsoids))]
     refs = np.concatenate([np.arange(n, dtype=np.int32) * 4 + kind for kind, n in kinds])
     lo, hi = (np.array([b[k] for b in boxes], np.float64).reshape(-1, 3) for k in (0, 1))
+    n_rect = len(scene.rectangles)
+    lo = np.concatenate([lo[:n_rect], soup.v.min(axis=1), lo[n_rect:]])
+    hi = np.concatenate([hi[:n_rect], soup.v.max(axis=1), hi[n_rect:]])
     return lo, hi, refs
 
 
-def bvh_structs(scene, use_bvh):
+def bvh_structs(scene, use_bvh, soup=None):
     """(nodes, primitive references) of the hierarchy over every shape, or one dummy of each without it."""
     if not use_bvh:
         return np.zeros(1, types.BVH_NODE), np.zeros(1, np.int32)
-    lo, hi, refs = primitive_boxes(scene)
+    lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
     nodes, order = bvh.build(lo, hi)
     return nodes.astype(types.BVH_NODE), refs[order]
 
 
 def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixel_pattern=None, light_pattern=None,
-                  seed=0, use_bvh=False):
-    """The render kernel's scene buffers, in its argument order, up to the textures."""
+                  seed=0, features=None):
+    """The render kernel's scene buffers, in its argument order, up to the textures. Tables a variant
+    does not read (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one
+    dummy entry: features None packs them all."""
+    soup = triangle_soup(scene)
+    unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
+    uv = features is None or features.textures
+    smooth = features is None or features.smooth_normals
     return [camera_struct(scene.camera, width, height),
             params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
                           seed),
-            rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
-            triangle_uv_structs(scene.triangles), ellipsoid_structs(scene.ellipsoids),
-            light_structs(scene.lights), material_structs(scene.materials), *bvh_structs(scene, use_bvh)]
+            rectangle_structs(scene.rectangles), triangle_records(soup.v, soup.material),
+            triangle_uv_records(soup.v, soup.uv) if uv else unused(types.TRIANGLE_UV),
+            triangle_normal_records(soup.normals) if smooth else unused(types.TRIANGLE_NORMALS),
+            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials),
+            *bvh_structs(scene, features is not None and features.bvh, soup)]

@@ -20,6 +20,7 @@ def _map(scene, point, length):
         scene, camera=camera, lights=[rect(light) for light in scene.lights],
         rectangles=[rect(r) for r in scene.rectangles],
         triangles=[replace(t, vertices=point(t.vertices)) for t in scene.triangles],
+        meshes=[replace(m, mesh=replace(m.mesh, vertices=point(m.mesh.vertices))) for m in scene.meshes],
         ellipsoids=[replace(e, center=point(e.center), axes=length(e.axes)) for e in scene.ellipsoids])
 
 
@@ -36,3 +37,14 @@ def stored_back(scene, scale=1.0, offset=(0.0, 0.0, 0.0)):
     f32 = lambda x: np.asarray(x, np.float64).astype(np.float32).astype(np.float64)  # noqa: E731
     return _map(scene, lambda x: (f32(scale * np.asarray(x, np.float64) + offset) - offset) / scale,
                 lambda v: f32(scale * np.asarray(v)) / scale)
+
+
+def mesh_matrix(scale, axis, degrees, translate):
+    """4 x 4 matrix of x -> translate + R(axis, degrees) (scale * x), acting on column vectors (Rodrigues)."""
+    k = np.asarray(axis, np.float64) / np.linalg.norm(axis)
+    cross = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    angle = np.radians(degrees)
+    m = np.eye(4)
+    m[:3, :3] = (np.eye(3) + np.sin(angle) * cross + (1 - np.cos(angle)) * cross @ cross) @ np.diag(scale)
+    m[:3, 3] = translate
+    return m

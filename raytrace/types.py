@@ -12,6 +12,8 @@ RECTANGLE = np.dtype([("center", *VEC3F), ("normal", *VEC3F), ("tangent", *VEC3F
 
 TRIANGLE = np.dtype([("v0", *VEC3F), ("v1", *VEC3F), ("v2", *VEC3F), ("normal", *VEC3F), ("material", "<i4")])
 
+TRIANGLE_NORMALS = np.dtype([("n0", *VEC3F), ("n1", *VEC3F), ("n2", *VEC3F)])
+
 TRIANGLE_UV = np.dtype([("uv", "<f4", (6,)), ("dpdu", *VEC3F), ("dpdv", *VEC3F), ("tangent", *VEC3F)])
 
 ELLIPSOID = np.dtype([("center", *VEC3F), ("world_to_unit", "<f4", (9,)), ("unit_to_world", "<f4", (9,)),
@@ -48,6 +50,6 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
                           ("texture_filter", "<i4"), ("footprint_scale", "<f4")])
 
 # name in kernels/types.h -> dtype
-STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
+STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV, "TriangleNormals": TRIANGLE_NORMALS,
            "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
            "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE}

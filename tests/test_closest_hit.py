@@ -13,7 +13,7 @@ __kernel void closest(int n, __constant const RenderParams *params, __global con
                       __global const Material *materials, __global const float *o, __global const float *d,
                       __global float *t, __global float *nrm, __global float *material, __global float *emitted)
 {
-    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);

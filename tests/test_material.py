@@ -19,13 +19,14 @@ SOURCE = """
 #include "material.cl"
 __kernel void shading(int n, __constant const Camera *camera, __constant const RenderParams *params,
                       __global const Rectangle *rects, __global const Triangle *tris,
-                      __global const TriangleUV *tri_uvs, __global const Ellipsoid *ells,
+                      __global const TriangleUV *tri_uvs, __global const TriangleNormals *tri_normals,
+                      __global const Ellipsoid *ells,
                       __global const Light *lights, __global const Material *materials,
                       __global const BVHNode *nodes, __global const int *prims, __global const Texture *textures, __global const MipLevel *levels,
                       __global const uint *texels, __global const float *srgb, __global const float *xy,
                       __global float *k, __global float *nrm, __global float *pos)
 {
-    const Scene s = {rects, tris, tri_uvs, ells, lights, materials, camera, params, nodes, prims};
+    const Scene s = {rects, tris, tri_uvs, tri_normals, ells, lights, materials, camera, params, nodes, prims};
     const TextureStore ts = {textures, levels, texels, srgb};
     Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), 1.0f / params->width, 1.0f / params->height);
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
@@ -132,7 +133,7 @@ def expected_shading(scene, x, y, spp, filter_name):
 def kernel_shading(harness, scene, x, y, spp, filter_name):
     features = Features.of(scene, harness.lanes)
     defines = {o[2:].split("=")[0]: int(o.split("=")[1]) for o in features.options()[1:]}
-    args = [*scene_structs(scene, scene.width, scene.height, spp, 1, filter_name, use_bvh=features.bvh),
+    args = [*scene_structs(scene, scene.width, scene.height, spp, 1, filter_name, features=features),
             *texture_structs(scene),
             np.concatenate([x, y]).astype(np.float32)]
     return harness.run(SOURCE, "shading", len(x), args, {"k": 3, "nrm": 3, "pos": 3}, **defines)

@@ -23,7 +23,7 @@ __kernel void leave(int n, __constant const RenderParams *params, __global const
                     __global const float *w, __global float *t, __global float *p, __global float *err,
                     __global float *nrm, __global float *origin, __global float *again)
 {
-    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     vec3 out = IN3(w); /* any direction, turned to the side of the facing normal: away from the surface */

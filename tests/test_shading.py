@@ -31,7 +31,7 @@ __kernel void shadow(int n, __constant const RenderParams *params, __global cons
                      __global const Material *materials, __global const float *p, __global const float *q,
                      __global float *blocked)
 {
-    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
     vec3 from = IN3(p);
     Ray r = {from, v3_sub(IN3(q), from)};
     OUT(blocked, MASK_TO_ONE(occluded(&s, r)));
@@ -43,7 +43,7 @@ __kernel void leave(int n, __constant const RenderParams *params, __global const
                     __global const Material *materials, __global const float *o, __global const float *d,
                     __global const float *q, __global float *blocked)
 {
-    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     vec3 origin = offset_ray_origin(hit.p, hit.err, hit.n);

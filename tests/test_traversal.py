@@ -25,7 +25,7 @@ __kernel void trace(int n, __constant const RenderParams *params, __global const
                     __global const float *o, __global const float *d, __global float *t, __global float *nrm,
                     __global float *material, __global float *blocked)
 {
-    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params, nodes, prims};
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params, nodes, prims};
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);
