@@ -1,0 +1,82 @@
+"""How the renderer's cost grows with the triangle count: `python -m raytrace bench --scaling`.
+
+A procedural mesh (a displaced torus, raytrace/meshgen.py) of 10^2 ... 10^6 (10^7 with --max-triangles)
+triangles stands in scene 0's room instead of the tetrahedron and the ellipsoid; each is rendered at
+256 x 256 with 4 pixel samples x 4 light samples. With a BVH the time per ray should grow like log N;
+a loop over every shape grows like N. Writes scaling.csv and scaling.png (log-log: seconds per ray and BVH
+build seconds against the number of triangles)."""
+import csv
+import dataclasses
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import bvh, meshgen
+from .render import render
+from .scene import MeshShape, load_scene
+from .structs import primitive_boxes, triangle_soup
+
+OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
+COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",
+           "nominal_mrays_per_s"]
+
+
+def mesh_room(scene, triangles):
+    """Scene 0's room with a torus of about `triangles` triangles where its shapes stood."""
+    torus = meshgen.torus(triangles)
+    torus.vertices = torus.vertices * 0.45 + [0.0, 0.1, 0.75]
+    gold = len(scene.materials) - 2  # the course's yellow
+    return dataclasses.replace(scene, triangles=[], ellipsoids=[], meshes=[MeshShape(torus, gold, smooth=True)])
+
+
+def measure(scene):
+    """One row of the table: BVH build seconds (alone, as the render does it) and the best of two renders."""
+    lo, hi, _ = primitive_boxes(scene, triangle_soup(scene))
+    start = time.perf_counter()
+    bvh.build(lo, hi)
+    build_seconds = time.perf_counter() - start
+    render(scene, **OPTIONS)  # the kernel's build and first launch: not timed
+    stats = min((render(scene, **OPTIONS)[1] for _ in range(2)), key=lambda s: s.render_seconds)
+    nominal = OPTIONS["width"] * OPTIONS["height"] * OPTIONS["spp"] * (1 + OPTIONS["light_samples"])
+    return {"triangles": scene.triangle_count, "build_seconds": build_seconds,
+            "render_seconds": stats.render_seconds, "rays": stats.rays,
+            "seconds_per_ray": stats.render_seconds / stats.rays, "mrays_per_s": stats.mrays_per_s,
+            "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6}
+
+
+def scaling(scene_path, out_dir, max_triangles=10**6, out=None):
+    scene = load_scene(scene_path)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = []
+    counts = [10**k for k in range(2, 8) if 10**k <= max_triangles]
+    for n in counts:
+        rows.append(measure(mesh_room(scene, n)))
+        if out:
+            r = rows[-1]
+            print(f"{r['triangles']:>9d} triangles: BVH {r['build_seconds']:7.2f} s, render {r['render_seconds']:6.3f} s, "
+                  f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s", file=out, flush=True)
+    with open(out_dir / "scaling.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+    plot(rows, out_dir / "scaling.png")
+    return rows
+
+
+def plot(rows, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    n = np.array([r["triangles"] for r in rows], float)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.loglog(n, [r["seconds_per_ray"] * 1e9 for r in rows], "o-", label="render: ns per ray")
+    ax.loglog(n, [r["build_seconds"] * 1e3 for r in rows], "s-", label="BVH build: ms")
+    ax.set_xlabel("triangles")
+    ax.set_title("Cost against scene size (256x256, 4 spp x 4 light samples)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
