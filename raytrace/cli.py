@@ -1,5 +1,6 @@
-"""Command line: `python -m raytrace render SCENE -o OUT ...`, `python -m raytrace bench ...` and
-`python -m raytrace assets [--out DIR]`.
+"""Command line: `python -m raytrace render SCENE -o OUT ...`, `python -m raytrace bench ...`,
+`python -m raytrace assets [--out DIR]`, `python -m raytrace converge ...` and
+`python -m raytrace stability [--json PATH] [--lanes 1|8]`.
 
 Bad input ends with one line on stderr naming the file (or the command line), the key and the value,
 and exit status 2; no output file is left behind."""
@@ -23,8 +24,9 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):
         m = re.match(r"argument ([^:]+): (.*)", message)
         key = m.group(1).split("/")[-1] if m else self.prog
-        value = re.search(r"(?:value|choice): '([^']*)'", message)
-        raise InputError("command line", key, value.group(1) if value else None, m.group(2) if m else message)
+        value = re.search(r"(?:value|choice): (?:'([^']*)'|(\S+) \()", message)  # a number is not quoted
+        raise InputError("command line", key, value.group(1) or value.group(2) if value else None,
+                         m.group(2) if m else message)
 
 
 def _add_render_options(p):
@@ -75,6 +77,9 @@ def parser():
     c.add_argument("--crop", help="the montage's crop, X,Y,W,H in fractions of the image (default: "
                    "0.70,0.72,0.18,0.18, the ellipsoid's shadow in scenes/cornell.toml)")
     c.add_argument("--out", required=True, help="output directory")
+    s = sub.add_parser("stability", help="the numerical stability suite: float32 results against float64")
+    s.add_argument("--json", help="write the table's rows to this JSON file")
+    s.add_argument("--lanes", type=int, choices=[1, 8], help="pixels per work-item (default: the device's)")
     return p
 
 
@@ -146,11 +151,22 @@ def cmd_converge(args):
              crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout)
 
 
+def cmd_stability(args):
+    """Exit status 1 when a row of the table fails."""
+    from .device import default_lanes, select_device
+    from .stability import report
+
+    if args.json and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
+        raise InputError("command line", "--json", args.json, "is a directory or in no existing directory")
+    return 0 if report(args.lanes or default_lanes(select_device(None)), json_path=args.json) else 1
+
+
 def main(argv=None):
+    commands = {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets, "converge": cmd_converge,
+                "stability": cmd_stability}
     try:
         args = parser().parse_args(argv)
-        {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets, "converge": cmd_converge}[args.command](args)
+        return commands[args.command](args) or 0
     except InputError as e:
         print(f"raytrace: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    return 0

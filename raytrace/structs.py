@@ -142,7 +142,7 @@ def ellipsoid_structs(ells):
 
 
 def light_structs(lights):
-    a = np.zeros(len(lights), types.LIGHT)
+    a = np.zeros(max(len(lights), 1), types.LIGHT)  # a scene without lights (the API allows one) gets a dummy
     a["shape"] = rectangle_structs(lights)
     for s, light in zip(a, lights):
         s["colour"] = light.colour

@@ -167,3 +167,28 @@ def test_assets_are_reproducible(tmp_path):
     assert [p.name for p in committed] == sorted(p.name for p in tmp_path.iterdir())
     for path in committed:
         assert (tmp_path / path.name).read_bytes() == path.read_bytes(), path.name
+
+
+def test_stability_table_json_and_exit_status(tmp_path):
+    """`stability` prints one table row per JSON row, with its verdict, and exits with 1 exactly when a row
+    fails (tests/stability/ holds each row to its verdict)."""
+    r = run("stability", "--lanes", 8, "--json", tmp_path / "s.json")
+    data = json.loads((tmp_path / "s.json").read_text())
+    verdicts = [row["verdict"] for row in data["rows"]]
+    assert r.returncode == (1 if "FAIL" in verdicts else 0), r.stderr
+    lines = r.stdout.splitlines()
+    assert "LANES=8" in lines[0] and lines[1].split()[:3] == ["case", "measured", "max"]
+    assert len(lines) == len(data["rows"]) + 3 and data["lanes"] == 8
+    for line, row in zip(lines[2:], data["rows"]):
+        assert line.startswith(row["case"]) and row["measured"] in line and row["verdict"] in line
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--lanes", "3"], "command line: --lanes = '3'"),
+    (["--lanes", "x"], "command line: --lanes = 'x'"),
+    (["--json", "no/such/dir/s.json"], "command line: --json = 'no/such/dir/s.json'"),
+])
+def test_stability_bad_command_line(tmp_path, args, needle):
+    r = run("stability", *args, cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and needle in r.stderr and "Traceback" not in r.stderr
+    assert r.stdout == "" and list(tmp_path.iterdir()) == []

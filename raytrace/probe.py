@@ -1,0 +1,60 @@
+"""Running small kernels around the renderer's own OpenCL functions on numpy arrays, for
+`python -m raytrace stability` (tests/conftest.py has the test suite's own harness).
+
+Work-item i handles elements [i LANES, (i + 1) LANES) of planar arrays: a 3-vector array holds n x's, then
+n y's, then n z's. The macros below read and write them at either lane width."""
+import numpy as np
+import pyopencl as cl
+
+from .device import context_for, select_device
+from .kernel import build
+
+PRELUDE = """
+#include "lanes.h"
+#define I ((int)get_global_id(0))
+#define IN(p) VLOAD(I, (p))
+#define IN3(p) v3(VLOAD(I, (p)), VLOAD(I, (p) + n), VLOAD(I, (p) + 2 * n))
+#define OUT(p, v) VSTORE((v), I, (p))
+#define OUT3(p, v) do { vec3 v_ = (v); VSTORE(v_.x, I, (p)); VSTORE(v_.y, I, (p) + n); \\
+                        VSTORE(v_.z, I, (p) + 2 * n); } while (0)
+"""
+
+
+def planar(v):
+    """(n, 3) -> (3, n) float32, the layout IN3 reads."""
+    return np.ascontiguousarray(np.asarray(v, dtype=np.float64).T, dtype=np.float32)
+
+
+class Probe:
+    """Builds a kernel source once per (source, options) and runs it over numpy arrays."""
+    _programs = {}
+
+    def __init__(self, lanes, device=None):
+        self.lanes = lanes
+        self.context, self.queue = context_for(select_device(device))
+
+    def _program(self, source, defines):
+        options = [f"-DLANES={self.lanes}"] + [f"-D{k}={int(v)}" for k, v in defines.items()]
+        key = (self.context, source, tuple(options))
+        if key not in self._programs:
+            self._programs[key] = build(self.context, PRELUDE + source, options)[0]
+        return self._programs[key]
+
+    def _buffer(self, array):
+        array = np.ascontiguousarray(array.astype(np.float32) if array.dtype == np.float64 else array)
+        return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                         hostbuf=array if array.size else np.zeros(1, array.dtype))
+
+    def run(self, source, name, n, args, outputs, **defines):
+        """Run kernel `name` over n elements (n a multiple of LANES). It receives `int n`, the `args` (numpy
+        arrays are copied in, float64 as float32; numpy scalars pass as they are), then one float buffer per
+        entry of `outputs` ({name: components}). Returns {name: float64 array, (n,) or (components, n)}."""
+        if n % self.lanes:
+            raise ValueError(f"{n} elements is not a multiple of LANES={self.lanes}")
+        kernel_args = [np.int32(n)] + [self._buffer(a) if isinstance(a, np.ndarray) else a for a in args]
+        host = {k: np.empty((c, n), np.float32) for k, c in outputs.items()}
+        bufs = [cl.Buffer(self.context, cl.mem_flags.WRITE_ONLY, h.nbytes) for h in host.values()]
+        cl.Kernel(self._program(source, defines), name)(self.queue, (n // self.lanes,), None, *kernel_args, *bufs)
+        for h, b in zip(host.values(), bufs):
+            cl.enqueue_copy(self.queue, h, b)
+        return {k: (h[0] if outputs[k] == 1 else h).astype(np.float64) for k, h in host.items()}
