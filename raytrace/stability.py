@@ -112,7 +112,7 @@ __kernel void closest(int n, __constant const RenderParams *params, __global con
                       __global const Material *materials, __global const float *o, __global const float *d,
                       __global float *t, __global float *p, __global float *err, __global float *nrm)
 {
-    const Scene s = {rects, tris, 0, ells, lights, materials, 0, params};
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);
@@ -476,7 +476,7 @@ __kernel void shade_at(int n, __constant const RenderParams *params, __global co
                        __global const float *p, __global const float *nrm, __global const float *d,
                        __global float *colour)
 {
-    const Scene s = {0, 0, 0, 0, lights, materials, 0, params};
+    const Scene s = {0, 0, 0, 0, 0, lights, materials, 0, params};
     Ray r = {v3_sub(IN3(p), IN3(d)), IN3(d)};
     Hit hit;
     hit.t = 1.0f;

@@ -207,7 +207,7 @@ def bvh_structs(scene, use_bvh, soup=None):
         return np.zeros(1, types.BVH_NODE), np.zeros(1, np.int32)
     lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
     nodes, order = bvh.build(lo, hi)
-    return nodes.astype(types.BVH_NODE), refs[order]
+    return nodes, refs[order]
 
 
 def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixel_pattern=None, light_pattern=None,
