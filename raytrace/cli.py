@@ -29,8 +29,11 @@ class _Parser(argparse.ArgumentParser):
                          m.group(2) if m else message)
 
 
-def _add_render_options(p):
-    p.add_argument("scene", help="scene file (TOML)")
+def _add_render_options(p, scene_default=None):
+    if scene_default:
+        p.add_argument("scene", nargs="?", default=scene_default, help=f"scene file (TOML; default {scene_default})")
+    else:
+        p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
     p.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
     p.add_argument("--spp", type=int, help="pixel samples (a square number for the grid sampler)")
@@ -54,9 +57,12 @@ def parser():
     r.add_argument("--stats-json", help="write render statistics to this JSON file")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     b = sub.add_parser("bench", help="rays per second of the kernel variants, against a baseline")
-    _add_render_options(b)
+    _add_render_options(b, scene_default="scenes/cornell.toml")
     b.add_argument("--repeat", type=int, default=3, help="timed renders per variant (the best counts)")
     b.add_argument("--json", help="write the results to this JSON file")
+    b.add_argument("--scaling", metavar="DIR", help="instead: seconds per ray and BVH build seconds against "
+                   "the triangle count of a procedural mesh in the scene's room; scaling.csv and .png in DIR")
+    b.add_argument("--max-triangles", type=int, default=10**6, help="--scaling's largest mesh (default 10^6)")
     a = sub.add_parser("assets", help="generate the procedural textures the scenes use")
     a.add_argument("--out", default="assets/textures", help="output directory (default: assets/textures)")
     a.add_argument("--seed", type=int, default=0, help="seed of the textures' random patterns")
@@ -126,7 +132,15 @@ def cmd_render(args):
 
 def cmd_bench(args):
     from .bench import benchmark
+    from .scaling import scaling
 
+    if args.scaling:
+        if not 100 <= args.max_triangles <= 10**7:
+            raise InputError("command line", "--max-triangles", args.max_triangles, "must be in [100, 10^7]")
+        if not Path(args.scaling).parent.is_dir():
+            raise InputError("command line", "--scaling", args.scaling, "its parent directory does not exist")
+        scaling(args.scene, args.scaling, args.max_triangles, out=sys.stdout)
+        return
     results = benchmark(args.scene, repeat=args.repeat, **_render_kwargs(args))
     if args.json:
         _write_json(args.json, results)

@@ -288,7 +288,7 @@ def _transform(r):
             r.fail("matrix", m.tolist(), "must be affine (last row 0 0 0 1) and invertible")
         return m
     scale = r.raw("scale", 1.0)
-    scale = np.full(3, r.number("scale")) if isinstance(scale, (int, float)) else r.vector("scale", 3)
+    scale = np.full(3, r.number("scale", 1.0)) if isinstance(scale, (int, float)) else r.vector("scale", 3)
     if np.any(scale == 0):
         r.fail("scale", scale.tolist(), "must not be 0")
     axis, degrees = np.array([0.0, 0.0, 1.0]), 0.0
