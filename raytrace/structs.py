@@ -210,20 +210,38 @@ def bvh_structs(scene, use_bvh, soup=None):
     return nodes, refs[order]
 
 
+class _GeometryCache:
+    """The last scene's packed triangles and BVH: repeated renders of one Scene object (bench, converge, a
+    progressive render's callers) pack its triangles and build its BVH once. Keyed by the object itself, so
+    a scene changed in place must be a new object (dataclasses.replace), as everywhere in this package."""
+    scene = key = tables = None
+
+
+def _geometry_tables(scene, uv, smooth, use_bvh):
+    """Triangle, TriangleUV, TriangleNormals, BVHNode and primitive-reference tables."""
+    cache = _GeometryCache
+    if cache.scene is scene and cache.key == (uv, smooth, use_bvh):
+        return cache.tables
+    soup = triangle_soup(scene)
+    unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
+    tables = [triangle_records(soup.v, soup.material),
+              triangle_uv_records(soup.v, soup.uv) if uv else unused(types.TRIANGLE_UV),
+              triangle_normal_records(soup.normals) if smooth else unused(types.TRIANGLE_NORMALS),
+              *bvh_structs(scene, use_bvh, soup)]
+    cache.scene, cache.key, cache.tables = scene, (uv, smooth, use_bvh), tables
+    return tables
+
+
 def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixel_pattern=None, light_pattern=None,
                   seed=0, features=None):
     """The render kernel's scene buffers, in its argument order, up to the textures. Tables a variant
     does not read (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one
-    dummy entry: features None packs them all."""
-    soup = triangle_soup(scene)
-    unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
-    uv = features is None or features.textures
-    smooth = features is None or features.smooth_normals
+    dummy entry: features None packs them all but the BVH."""
+    triangles, uvs, normals, nodes, prims = _geometry_tables(
+        scene, features is None or features.textures, features is None or features.smooth_normals,
+        features is not None and features.bvh)
     return [camera_struct(scene.camera, width, height),
             params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
                           seed),
-            rectangle_structs(scene.rectangles), triangle_records(soup.v, soup.material),
-            triangle_uv_records(soup.v, soup.uv) if uv else unused(types.TRIANGLE_UV),
-            triangle_normal_records(soup.normals) if smooth else unused(types.TRIANGLE_NORMALS),
-            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials),
-            *bvh_structs(scene, features is not None and features.bvh, soup)]
+            rectangle_structs(scene.rectangles), triangles, uvs, normals, ellipsoid_structs(scene.ellipsoids),
+            light_structs(scene.lights), material_structs(scene.materials), nodes, prims]
