@@ -68,16 +68,17 @@ inline vec3 ellipsoid_normal(__global const Ellipsoid *e, vec3 q)
 
 /* The world point of the hit q, first put back on the unit sphere (pbrt-v4 section 6.8.5's reprojection),
  * and *err: its distance from the surface along the unit normal n. q / |q| is on the sphere to within 7
- * roundings (the dot product, rsqrt, the product); centre + [a b c] q adds 3 more; and [a b c] and its
- * stored inverse are each rounded from one float64 pair, which moves the surface they describe apart by at
- * most 3 roundings of |[a b c]| |q| along the normal: gamma(13) in all. */
+ * roundings (the dot product, rsqrt, the product); [a b c] q takes 3 more (a row of mads) and the sum with
+ * the centre one, which is also all the centre's term takes; and [a b c] and its stored inverse are each
+ * rounded from one float64 pair, which moves the surfaces they describe apart by at most 3 roundings of
+ * |[a b c]| |q| along the normal: gamma(14) of |[a b c]| |q| in all. */
 inline vec3 ellipsoid_point(__global const Ellipsoid *e, vec3 q, vec3 n, vfloat *err)
 {
     vec3 unit = v3_normalize(q);
     vec3 centre = v3_uniform(e->center);
     vec3 p = v3_add(centre, mat3_apply(e->unit_to_world, unit));
-    vec3 box = v3_add(v3_scale(v3_abs(centre), GAMMA(3)),
-                      v3_scale(mat3_apply_abs(e->unit_to_world, v3_abs(unit)), GAMMA(13)));
+    vec3 box = v3_add(v3_scale(v3_abs(centre), GAMMA(1)),
+                      v3_scale(mat3_apply_abs(e->unit_to_world, v3_abs(unit)), GAMMA(14)));
     *err = error_along(n, box);
     return p;
 }

@@ -167,9 +167,10 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
     return hit;
 }
 
-/* Mask of the lanes whose segment o + t d, t in (0, 1), is blocked by a shape: conservatively inside, so
- * neither the surface it leaves nor one it ends on counts (ray.h). Lights do not block. Stops as soon as
- * every lane is blocked. */
+/* Mask of the lanes whose segment o + t d, t in (0, 1), is blocked by a shape: for planes and triangles
+ * conservatively inside, so neither the surface it leaves nor one it ends on counts (ray.h); an ellipsoid
+ * blocks for 0 < t < 1, the segment's end being already pushed off the light (shading.cl). Lights do not
+ * block. Stops as soon as every lane is blocked. */
 inline vint occluded(const Scene *s, Ray r)
 {
 #if HAS_BVH

@@ -8,8 +8,9 @@
 /* t of the plane crossing where it lies inside the rectangle, else +inf (NaN for a ray in the plane);
  * *dt: a bound on t's rounding error; (*u, *v): the crossing's coordinates along the tangent and bitangent
  * from the centre. t = num / den with num = (c - o).n, the origin's distance from the plane, and den = d.n:
- * c - o rounds once and each 3-term dot product rounds at most four times, the division 5 (ray.h). A ray that
- * leaves the plane's own surface has |num| within its bound e_num, so dt >= |t| there: never a hit. */
+ * c - o rounds once and a 3-term dot product of mads at most three times (e_num takes 5, e_den 4), and
+ * t = num * (1 / den) six times (ray.h). An origin on the plane to within rounding has |num| <= e_num, so
+ * dt >= |t|: never a hit; one farther off is told apart by the sign of t. */
 inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat *dt, vfloat *u, vfloat *v)
 {
     vec3 n = v3_uniform(rect->normal);
@@ -20,11 +21,12 @@ inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat 
     *u = v3_dot(rel, v3_uniform(rect->tangent));
     *v = v3_dot(rel, v3_uniform(rect->bitangent));
     vint inside = (fabs(*u) <= rect->half_x) & (fabs(*v) <= rect->half_y);
+    *dt = 0.0f;
     if (!ANY(inside)) /* most shapes are missed by every lane: skip the bound */
         return (vfloat)(INFINITY);
     /* dt = |t| (e_num / |num| + e_den / |den| + gamma(5)), without the two divisions */
     vfloat e_num = GAMMA(5) * error_along(n, v3_abs(co)), e_den = GAMMA(4) * error_along(n, v3_abs(r.d));
-    *dt = mad(fabs(t), e_den, e_num) * fabs(inv_den) + GAMMA(5) * fabs(t);
+    *dt = mad(fabs(t), e_den, e_num) * fabs(inv_den) + GAMMA(6) * fabs(t);
     return select((vfloat)(INFINITY), t, inside);
 }
 

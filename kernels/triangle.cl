@@ -44,7 +44,9 @@ inline vec3 shear_vertex(Vec3f v, Ray r, RayShear s)
 inline vfloat max3(vfloat a, vfloat b, vfloat c) { return fmax(a, fmax(b, c)); }
 
 /* A bound on the rounding error of t (pbrt-v4 section 6.8.4, "Conservative Ray-Triangle t"), from the
- * sheared vertices a, b, c, the edge functions e and 1/det; the division adds 5 roundings of t. */
+ * sheared vertices a, b, c, the edge functions e and 1/det. pbrt-v4 takes the shear constants as given;
+ * here sz = 1/dz rounds like a division (5 roundings, ray.h), which scales every t by up to 5 roundings, and
+ * t = sum * (1 / det) takes 6 more: gamma(11) of |t| besides pbrt-v4's terms. */
 inline vfloat triangle_t_error(vec3 a, vec3 b, vec3 c, vec3 e, vfloat inv_det, vfloat t)
 {
     vfloat max_z = max3(fabs(a.z), fabs(b.z), fabs(c.z));
@@ -54,7 +56,7 @@ inline vfloat triangle_t_error(vec3 a, vec3 b, vec3 c, vec3 e, vfloat inv_det, v
     vfloat delta_e = 2.0f * (GAMMA(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
     vfloat max_e = max3(fabs(e.x), fabs(e.y), fabs(e.z));
     return 3.0f * (GAMMA(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv_det)
-         + GAMMA(5) * fabs(t);
+         + GAMMA(11) * fabs(t);
 }
 
 /* t of the hit or +inf; *dt: a bound on t's error; *b0, *b1, *b2: the barycentric weights of v0, v1, v2. */
@@ -71,6 +73,7 @@ inline vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s
     vint mixed = ((e0 < 0.0f) | (e1 < 0.0f) | (e2 < 0.0f)) & ((e0 > 0.0f) | (e1 > 0.0f) | (e2 > 0.0f));
     vfloat det = e0 + e1 + e2;
     vint inside = !mixed & (det != 0.0f);
+    *dt = *b0 = *b1 = *b2 = 0.0f;
     if (!ANY(inside)) /* most triangles are missed by every lane: skip t and its bound */
         return (vfloat)(INFINITY);
     vfloat inv_det = 1.0f / det;

@@ -184,3 +184,9 @@ def main(argv=None):
     except InputError as e:
         print(f"raytrace: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except MemoryError:  # the up-front check (render.check_memory) cannot see every other limit
+        print("raytrace: error: out of memory: try a smaller --width/--height", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as e:  # an output file that cannot be written: permissions, a full disk
+        print(f"raytrace: error: {e.filename or 'output'}: {e.strerror or e}", file=sys.stderr)
+        return EXIT_BAD_INPUT

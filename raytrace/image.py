@@ -8,6 +8,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from .errors import InputError
+from .progressive import row_chunks
 
 EIGHT_BIT = {".png", ".jpg", ".jpeg", ".bmp", ".tga"}
 FLOAT = {".exr", ".hdr"}
@@ -24,8 +25,7 @@ def encode_8bit(image):
 
 def _row_bands(image):
     """Slices of at most BAND_BYTES of the image's rows (at least one row)."""
-    rows = max(1, BAND_BYTES // max(1, image[0].nbytes))
-    return [slice(r, min(r + rows, image.shape[0])) for r in range(0, image.shape[0], rows)]
+    return row_chunks(image.shape[0], max(1, image[0].nbytes), BAND_BYTES)
 
 
 def _finite(image):
@@ -56,9 +56,12 @@ def _write(out, tmp, spec, ext, image, variance):
 
 
 def _umask():
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+    """The process's umask, read without setting it (os.umask would change it for every thread meanwhile)."""
+    try:
+        with open("/proc/self/status") as f:
+            return next(int(line.split()[1], 8) for line in f if line.startswith("Umask:"))
+    except (OSError, StopIteration, ValueError):
+        return 0o022
 
 
 def write_image(path, image, metadata=None, variance=None):

@@ -1,5 +1,5 @@
-"""Running small kernels around the renderer's own OpenCL functions on numpy arrays, for
-`python -m raytrace stability` (tests/conftest.py has the test suite's own harness).
+"""Running small kernels around the renderer's own OpenCL functions on numpy arrays: the stability suite
+(`python -m raytrace stability`) and the test suite (tests/conftest.py's `harness`) both use it.
 
 Work-item i handles elements [i LANES, (i + 1) LANES) of planar arrays: a 3-vector array holds n x's, then
 n y's, then n z's. The macros below read and write them at either lane width."""
@@ -29,9 +29,10 @@ class Probe:
     """Builds a kernel source once per (source, options) and runs it over numpy arrays."""
     _programs = {}
 
-    def __init__(self, lanes, device=None):
+    def __init__(self, lanes, device=None, env=None):
+        """env: an existing (context, queue) to share, so that programs built once are reused."""
         self.lanes = lanes
-        self.context, self.queue = context_for(select_device(device))
+        self.context, self.queue = env or context_for(select_device(device))
 
     def _program(self, source, defines):
         options = [f"-DLANES={self.lanes}"] + [f"-D{k}={int(v)}" for k, v in defines.items()]

@@ -19,10 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from . import samplers
+from .converge import rmse
 from .errors import InputError
 from .probe import Probe, planar
 from .render import render
 from .scene import Ellipsoid, Light, Rectangle, Triangle, load_scene
+from .transform import f32
 from .structs import (camera_struct, ellipsoid_structs, light_structs, material_structs, params_struct,
                       rectangle_structs, triangle_structs)
 
@@ -64,11 +66,6 @@ class Env:
         """(image, its NaN and Inf values: render() zeroes them and counts them in its stats)."""
         image, stats = render(scene, lanes=self.lanes, device=self.device, progress=False, **kwargs)
         return image, stats.extra["nonfinite_values"]
-
-
-def f32(x):
-    """x as float32 stores it, back in float64."""
-    return np.asarray(x, np.float64).astype(np.float32).astype(np.float64)
 
 
 def unit(v):
@@ -656,10 +653,6 @@ def seen_from(scene, distance, shift=(0.0, 0.0, 0.0)):
     return dataclasses.replace(scene, camera=camera)
 
 
-def rmse(a, b):
-    return float(np.sqrt(np.mean((a.astype(np.float64) - b) ** 2)))
-
-
 def far_camera(env):
     """Scene 0 seen from 1e5 units away on the course camera's axis, through the field of view (1.4e-3
     degrees) that frames the look_at plane as the course camera does; 48 x 48, 16 x 16 grid samples.
@@ -673,16 +666,19 @@ def far_camera(env):
     there moves a hit point across the ray by u 1e5 = 6e-3 units (0.11 pixels), and the camera ray, the
     crossing's (u, v) and the triangle test's shear each take a few; the ellipsoid's normal, computed from its
     unit-sphere hit 3e5 radii from the ray's origin, tilts by about u 3e5 = 0.02 rad per rounding. A known
-    limit, held to what a one-pixel misregistration costs: the RMSE between the near view and itself moved
-    by one pixel (the smaller of x and y)."""
+    limit, held to what a misregistration by that resolution costs: u 1e5 over the pixel's width in scene
+    units (0.12 pixels here) times the RMSE between the near view and itself moved by one pixel (the smaller
+    of x and y)."""
     far = seen_from(env.cornell, 1e5)
     image, bad = env.render(far, width=48, height=48, spp=16, light_samples=16)
     moved = f32(far.camera.position) - far.camera.position
     near, bad_near = env.render(seen_from(env.cornell, 1e3, moved), width=48, height=48, spp=16, light_samples=16)
     shifted = min(rmse(near[1:], near[:-1]), rmse(near[:, 1:], near[:, :-1]))
+    pixel = 2 * np.tan(np.radians(far.camera.fov_deg) / 2) * 1e5 / 48  # scene units across one pixel
+    resolution = 2.0**-24 * 1e5 / pixel
     return [Row("camera 1e5 away, fov 1.4e-3 deg: RMSE against the same view from 1e3 away", rmse(image, near),
-                "", shifted, "a one-pixel shift of the near view", bad + bad_near + nonfinite(image, near),
-                known_limit=True)]
+                "", resolution * shifted, f"a shift by float32's resolution there, {resolution:.2f} pixels",
+                bad + bad_near + nonfinite(image, near), known_limit=True)]
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -24,6 +24,11 @@ def _map(scene, point, length):
         ellipsoids=[replace(e, center=point(e.center), axes=length(e.axes)) for e in scene.ellipsoids])
 
 
+def f32(x):
+    """x as float32 stores it, back in float64."""
+    return np.asarray(x, np.float64).astype(np.float32).astype(np.float64)
+
+
 def transformed(scene, scale=1.0, offset=(0.0, 0.0, 0.0)):
     """A copy of `scene` with every point x at scale * x + offset and every length times scale (scale > 0)."""
     offset = np.asarray(offset, dtype=np.float64)
@@ -34,7 +39,6 @@ def stored_back(scene, scale=1.0, offset=(0.0, 0.0, 0.0)):
     """`scene` as `transformed(scene, scale, offset)` stores it in float32, mapped back by the inverse
     transform in float64: the same geometry as the transformed scene's, placed where float32 resolves it."""
     offset = np.asarray(offset, dtype=np.float64)
-    f32 = lambda x: np.asarray(x, np.float64).astype(np.float32).astype(np.float64)  # noqa: E731
     return _map(scene, lambda x: (f32(scale * np.asarray(x, np.float64) + offset) - offset) / scale,
                 lambda v: f32(scale * np.asarray(v)) / scale)
 

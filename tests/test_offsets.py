@@ -13,7 +13,7 @@ from conftest import planar
 from test_closest_hit import scene_args
 from raytrace.scene import Ellipsoid, Rectangle, Triangle
 from raytrace.structs import ellipsoid_structs, rectangle_structs, triangle_structs
-from raytrace.transform import transformed
+from raytrace.transform import f32, transformed
 
 SOURCE = """
 #include "intersect.cl"
@@ -102,7 +102,6 @@ def rays_at(scene, rng, n):
     target = rng.uniform(lo, hi, (n, 3))
     d = rng.normal(size=(n, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    f32 = lambda a: a.astype(np.float32).astype(np.float64)  # noqa: E731
     return f32(target - 4 * size * d), f32(d), size
 
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import raytrace
+from raytrace.converge import rmse
 from raytrace.progressive import Accumulator, pass_size
 from raytrace.render import render_progressive
 
@@ -16,10 +17,6 @@ def truth(cornell):
     of its own): its estimated RMSE is about 1e-4, a tenth of the smallest error tested against it."""
     image, _, stats = render_progressive(cornell, spp=4096, sampler="sobol", light_sampler="sobol", seed=99, **SMALL)
     return image, stats.estimated_rmse
-
-
-def rmse(a, b):
-    return float(np.sqrt(np.mean((a.astype(np.float64) - b) ** 2)))
 
 
 def test_65536_passes_of_a_constant_give_the_constant():

@@ -42,7 +42,7 @@ def test_device_buffer_within_the_budget(cornell, budget, rows):
 
 
 def test_render_that_cannot_fit_in_memory_is_refused(tmp_path):
-    """Under a 4 GiB address-space limit (ulimit -v), a 16384 x 16384 render, about 13 GiB of sums and
+    """Under a 4 GiB address-space limit (ulimit -v), a 16384 x 16384 render, about 12.5 GiB of sums and
     images, is refused with one line naming --width/--height and the size, exit status 2 and no file. The
     unknown --device would be reported by the first device work: the memory error comes before it. It fails
     if the estimate misses the limit (the render would start, then die of a MemoryError), if the check
