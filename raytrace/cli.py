@@ -113,6 +113,9 @@ def cmd_render(args):
     if not (output.parent if str(output.parent) else Path(".")).is_dir():
         raise InputError("command line", "-o", args.output, "the output directory does not exist")
     scene = load_scene(args.scene)
+    for mesh in scene.meshes:
+        if mesh.dropped:
+            print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)
     image, variance, stats = render_progressive(scene, **_render_kwargs(args),
                                                 progress=False if args.no_progress else None)
     metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,

@@ -95,6 +95,7 @@ class MeshShape:
     material: int = 0
     smooth: bool = False
     dropped: int = 0  # degenerate faces left out on load
+    source: str = ""  # the file it was read from, or the generator
 
 
 @dataclass
@@ -265,16 +266,17 @@ GENERATORS = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshg
 
 
 def _mesh_source(r):
-    """The untransformed Mesh and the number of degenerate faces dropped: read from `file` (relative to the
-    scene file) or made by `generate = { shape = ..., triangles = N }`."""
+    """(the untransformed Mesh, the number of degenerate faces dropped, where it came from): read from
+    `file` (relative to the scene file) or made by `generate = { shape = ..., triangles = N }`."""
     if r.has("file") == r.has("generate"):
         r.fail("file", r.raw("file", r.raw("generate")), "give exactly one of file and generate")
     if r.has("file"):
-        return meshes.load_mesh(Path(r.path).parent / r.string("file"))
+        path = Path(r.path).parent / r.string("file")
+        return (*meshes.load_mesh(path), str(path))
     g = r.sub("generate")
     g.check_keys(["shape", "triangles"])
     shape = g.string("shape", choices=GENERATORS)
-    return GENERATORS[shape](g.integer("triangles", low=2, high=50_000_000)), 0
+    return GENERATORS[shape](g.integer("triangles", low=2, high=50_000_000)), 0, f"generate {shape}"
 
 
 def _transform(r):
@@ -300,7 +302,7 @@ def _transform(r):
 
 
 def _mesh_shape(r, material):
-    mesh, dropped = _mesh_source(r)
+    mesh, dropped, source = _mesh_source(r)
     m = _transform(r)
     vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
     smooth = r.raw("smooth", False)
@@ -312,7 +314,7 @@ def _mesh_shape(r, material):
                    else meshes.vertex_normals(vertices, mesh.faces))
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-    return MeshShape(meshes.Mesh(vertices, mesh.faces, normals, mesh.uvs), material, bool(smooth), dropped)
+    return MeshShape(meshes.Mesh(vertices, mesh.faces, normals, mesh.uvs), material, bool(smooth), dropped, source)
 
 
 MATERIAL_KEYS = ["colour", "height_map", "height_scale", "normal_map", "shininess", "texture", "uv_offset",

@@ -141,3 +141,18 @@ def test_mesh_cornell_renders(tmp_path):
     assert np.all(np.isfinite(image)) and stats.extra["nonfinite_values"] == 0
     changed = np.abs(image - plain).max(axis=-1) > 0.05
     assert 0.03 < changed.mean() < 0.3
+
+
+def test_degenerate_faces_are_left_out_and_counted(tmp_path):
+    """A face with a repeated index and a zero-area one are dropped at load, counted, and the render says
+    so in one note; the rest of the file renders."""
+    (tmp_path / "m.obj").write_text(OBJ + "f 1/1/1 1/1/1 2/2/1\nf 1/1/1 2/2/1 5/2/1\n")  # a repeated index; collinear
+    path = tmp_path / "s.toml"
+    path.write_text(HEADER + '[[shapes]]\ntype = "mesh"\nfile = "m.obj"\nmaterial = "white"\n')
+    (mesh,) = load_scene(path).meshes
+    assert len(mesh.mesh.faces) == 3 and mesh.dropped == 2 and mesh.source.endswith("m.obj")
+    out = tmp_path / "x.png"
+    r = run("render", path, "-o", out, "--width", 8, "--height", 8, "--spp", 1, "--light-samples", 1)
+    assert r.returncode == 0 and out.exists()
+    notes = [line for line in r.stderr.splitlines() if line.startswith("raytrace: note:")]
+    assert notes == [f"raytrace: note: {mesh.source}: 2 degenerate faces left out"]
