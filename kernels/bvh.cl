@@ -29,17 +29,28 @@ inline BoxRay box_ray(Ray r)
     return b;
 }
 
-/* Lanes whose ray meets the node's box within [0, tmax]. The slab test on the reciprocal direction; the far
- * distance is widened by 2 gamma(3), the bound on the rounding of both slab distances, so that a box is never
- * missed by a ray that meets it (pbrt-v4 section 6.8.2). A zero direction component gives infinite slab
- * distances (or NaN at 0 * inf, which fmin/fmax ignore). */
+/* The ray's parameter interval within the slab [lo, hi] of one axis: (*near, *far). A ray parallel to the
+ * slab gets infinite distances: both of one sign outside it, -inf and +inf inside. With its origin exactly on
+ * a face (or in a flat box's plane) one is 0 * inf = NaN: the ray runs in the closed slab, which then does not
+ * limit it at all (fmin/fmax alone would keep the other infinity and miss the box). */
+inline void slab(float lo, float hi, vfloat o, vfloat inv_d, vfloat *near, vfloat *far)
+{
+    vfloat t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
+    vint in_face = isnan(t0) | isnan(t1);
+    *near = select(fmin(t0, t1), (vfloat)(-INFINITY), in_face);
+    *far = select(fmax(t0, t1), (vfloat)(INFINITY), in_face);
+}
+
+/* Lanes whose ray meets the node's box within [0, tmax]: the slabs' intervals intersected, the far distance
+ * widened by 2 gamma(3), the bound on the rounding of both slab distances, so that a box is never missed by
+ * a ray that meets it (pbrt-v4 section 6.8.2). */
 inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax)
 {
-    vfloat t0x = (node->lo[0] - r.o.x) * b.inv_d.x, t1x = (node->hi[0] - r.o.x) * b.inv_d.x;
-    vfloat t0y = (node->lo[1] - r.o.y) * b.inv_d.y, t1y = (node->hi[1] - r.o.y) * b.inv_d.y;
-    vfloat t0z = (node->lo[2] - r.o.z) * b.inv_d.z, t1z = (node->hi[2] - r.o.z) * b.inv_d.z;
-    vfloat near = fmax(fmax(fmin(t0x, t1x), fmin(t0y, t1y)), fmax(fmin(t0z, t1z), 0.0f));
-    vfloat far = fmin(fmin(fmax(t0x, t1x), fmax(t0y, t1y)), fmin(fmax(t0z, t1z), tmax));
+    vfloat nx, fx, ny, fy, nz, fz;
+    slab(node->lo[0], node->hi[0], r.o.x, b.inv_d.x, &nx, &fx);
+    slab(node->lo[1], node->hi[1], r.o.y, b.inv_d.y, &ny, &fy);
+    slab(node->lo[2], node->hi[2], r.o.z, b.inv_d.z, &nz, &fz);
+    vfloat near = fmax(fmax(nx, ny), fmax(nz, 0.0f)), far = fmin(fmin(fx, fy), fmin(fz, tmax));
     return near <= far * (1.0f + 2.0f * GAMMA(3));
 }
 

@@ -102,14 +102,16 @@ inline void texture_lane(const Scene *s, TextureStore ts, __global const Materia
 #endif
 
 #if HAS_SMOOTH_NORMALS
-/* The shading normal of a smooth triangle at barycentrics (b1, b2): its corner normals interpolated, turned
- * to the side the facing geometric normal ng was turned to (Phong shading of normals). */
+/* The shading normal of a smooth triangle at barycentrics (b1, b2): its corner normals interpolated (Phong
+ * shading of normals). They lie on the side of the face's own normal (the mesh's winding, kept
+ * counter-clockwise from the front on load), so they are turned as the facing normal ng was turned from it.
+ * Where they cancel (back-to-back faces sharing vertices), ng itself. */
 inline float3 smooth_normal(const Scene *s, int index, float b1, float b2, float3 ng)
 {
     __global const TriangleNormals *c = &s->triangle_normals[index];
-    float3 n = normalize((1.0f - b1 - b2) * f3(c->n0) + b1 * f3(c->n1) + b2 * f3(c->n2));
+    float3 n = (1.0f - b1 - b2) * f3(c->n0) + b1 * f3(c->n1) + b2 * f3(c->n2);
     float side = dot(f3(s->triangles[index].normal), ng) < 0.0f ? -1.0f : 1.0f;
-    return all(isfinite(n)) ? n * side : ng;
+    return dot(n, n) > 0.0f ? normalize(n) * side : ng;
 }
 #endif
 

@@ -45,11 +45,12 @@ class Features:
         shapes = len(scene.rectangles) + scene.triangle_count + len(scene.ellipsoids)
         return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
                    used("colour_map"), used("normal_map"), used("height_map"),
-                   any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER[lanes])
+                   any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
-                 "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps, "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh}
+                 "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps,
+                 "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh}
         return [f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
 
 

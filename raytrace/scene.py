@@ -301,20 +301,37 @@ def _transform(r):
     return mesh_matrix(scale, axis, degrees, r.vector("translate", 3, default=[0.0, 0.0, 0.0]))
 
 
+def _transformed_faces(r, key, vertices, faces):
+    """The faces that keep an area once the transformed vertices are stored in float32, and how many do not;
+    a transform that leaves a vertex outside float32's range, or no face at all, is an error."""
+    if not np.abs(vertices).max() <= 1e30:  # also NaN; beyond it, float32 sums of coordinates overflow
+        r.fail(key, r.raw(key), "puts the mesh outside float32's range")
+    stored = vertices.astype(np.float32)
+    degenerate = meshes.degenerate_faces(stored.astype(np.float64), faces)
+    if degenerate.all():
+        r.fail(key, r.raw(key), "leaves every face without area in float32")
+    return faces[~degenerate], int(degenerate.sum())
+
+
 def _mesh_shape(r, material):
     mesh, dropped, source = _mesh_source(r)
     m = _transform(r)
     vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
+    key = "matrix" if r.has("matrix") else "scale"
+    faces, collapsed = _transformed_faces(r, key, vertices, mesh.faces)
+    if np.linalg.det(m[:3, :3]) < 0:  # a mirror: keep the faces counter-clockwise seen from the front
+        faces = faces[:, ::-1]
     smooth = r.raw("smooth", False)
     if not isinstance(smooth, bool):
         r.fail("smooth", smooth, "must be true or false")
     normals = None
     if smooth:  # normals transform by the inverse transpose
         normals = (mesh.normals @ np.linalg.inv(m[:3, :3]) if mesh.normals is not None
-                   else meshes.vertex_normals(vertices, mesh.faces))
+                   else meshes.vertex_normals(vertices, faces))
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-    return MeshShape(meshes.Mesh(vertices, mesh.faces, normals, mesh.uvs), material, bool(smooth), dropped, source)
+    return MeshShape(meshes.Mesh(vertices, faces, normals, mesh.uvs), material, bool(smooth), dropped + collapsed,
+                     source)
 
 
 MATERIAL_KEYS = ["colour", "height_map", "height_scale", "normal_map", "shininess", "texture", "uv_offset",

@@ -1,12 +1,12 @@
 """Packing the scene into the structs of kernels/types.h (their numpy mirrors are in raytrace/types.py):
 the one place where host values become what the kernel reads."""
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from dataclasses import dataclass
-
 from . import bvh, mipmap, samplers, types
+from .errors import InputError
 
 
 def camera_struct(camera, width, height):
@@ -206,7 +206,10 @@ def bvh_structs(scene, use_bvh, soup=None):
     if not use_bvh:
         return np.zeros(1, types.BVH_NODE), np.zeros(1, np.int32)
     lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
-    nodes, order = bvh.build(lo, hi)
+    try:
+        nodes, order = bvh.build(lo, hi)
+    except ValueError as e:  # a tree deeper than the kernel's stack
+        raise InputError(scene.path, "shapes", f"{len(refs)} shapes", str(e)) from None
     return nodes, refs[order]
 
 

@@ -84,3 +84,29 @@ def test_flattened_tree_is_what_the_kernel_expects(mesh_scene):
             stack += [(i + 1, level + 1), (nodes["offset"][i], level + 1)]
     assert depth < 64
     assert bvh.sah_cost(nodes) > 0
+
+
+def test_rays_in_box_faces(harness, cornell):
+    """Rays parallel to an axis with their origin exactly in the planes of the boxes' faces: flat triangles
+    on a grid (their boxes have lo == hi in z, and share x and y faces), rays straight down through the
+    grid's lines and vertices, and rays along x in the grid's plane. A zero direction component makes the
+    slab distances 0 * inf = NaN there: a box test that lets the NaN pick the other infinity misses every one
+    of these (measured: all 64 downward rays lost)."""
+    k = np.arange(9, dtype=np.float64) * 0.25 - 1.0
+    corners = np.stack(np.meshgrid(k, k, indexing="ij"), -1)
+    quads = np.stack([corners[:-1, :-1], corners[1:, :-1], corners[1:, 1:], corners[:-1, 1:]], 2).reshape(-1, 4, 2)
+    flat = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    vertices = np.concatenate([flat, np.full((len(flat), 3, 1), 0.5)], -1)
+    scene = dataclasses.replace(cornell, rectangles=[], ellipsoids=[], triangles=[Triangle(v) for v in vertices])
+    rng = np.random.default_rng(37)
+    n = 128
+    down = np.stack([rng.choice(k, n // 2), rng.uniform(-1, 1, n // 2), np.full(n // 2, 1.0)], 1)
+    down[::2, 1] = rng.choice(k, n // 4)  # through vertices too
+    along = np.stack([np.full(n // 2, -2.0), rng.choice(k, n // 2), np.full(n // 2, 0.5)], 1)
+    o = np.concatenate([down, along])
+    d = np.concatenate([np.tile([0.0, 0.0, -2.0], (n // 2, 1)), np.tile([4.0, 0.0, 0.0], (n // 2, 1))])
+    loop = trace(harness, scene, o, d, False)
+    tree = trace(harness, scene, o, d, True)
+    assert np.isfinite(loop["t"][: n // 2]).all()
+    for key in ("t", "blocked"):
+        np.testing.assert_array_equal(tree[key], loop[key], err_msg=key)
