@@ -16,8 +16,9 @@
 #define FIRST_LANE(v) ((v).s0)
 #endif
 
-/* Per ray: the reciprocal direction for the slab test. */
-typedef struct { vec3 inv_d; int negative[3]; } BoxRay;
+/* Per ray: the reciprocal direction for the slab test, the signs that order the children, and whether any
+ * lane's direction has a zero component (the slab test's special case, below). */
+typedef struct { vec3 inv_d; int negative[3], any_zero; } BoxRay;
 
 inline BoxRay box_ray(Ray r)
 {
@@ -26,19 +27,25 @@ inline BoxRay box_ray(Ray r)
     b.negative[0] = FIRST_LANE(r.d.x) < 0.0f;
     b.negative[1] = FIRST_LANE(r.d.y) < 0.0f;
     b.negative[2] = FIRST_LANE(r.d.z) < 0.0f;
+    b.any_zero = ANY((r.d.x == 0.0f) | (r.d.y == 0.0f) | (r.d.z == 0.0f));
     return b;
 }
 
-/* The ray's parameter interval within the slab [lo, hi] of one axis: (*near, *far). A ray parallel to the
- * slab gets infinite distances: both of one sign outside it, -inf and +inf inside. With its origin exactly on
- * a face (or in a flat box's plane) one is 0 * inf = NaN: the ray runs in the closed slab, which then does not
- * limit it at all (fmin/fmax alone would keep the other infinity and miss the box). */
-inline void slab(float lo, float hi, vfloat o, vfloat inv_d, vfloat *near, vfloat *far)
+/* The ray's parameter interval within the slab [lo, hi] of one axis, (*near, *far). A ray parallel to the
+ * slab gets infinite distances: both of one sign outside it, -inf and +inf inside. With its origin exactly in
+ * a face (or in a flat box's plane) one of them is 0 * inf = NaN, and fmin/fmax would keep the other
+ * infinity and miss the box (every axis-parallel ray through a grid's vertex lines did): the ray runs in the
+ * closed slab, which then does not limit it at all. t0 + t1 is NaN exactly in those cases and inside. */
+inline void slab(float lo, float hi, vfloat o, vfloat inv_d, int any_zero, vfloat *near, vfloat *far)
 {
     vfloat t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
-    vint in_face = isnan(t0) | isnan(t1);
-    *near = select(fmin(t0, t1), (vfloat)(-INFINITY), in_face);
-    *far = select(fmax(t0, t1), (vfloat)(INFINITY), in_face);
+    *near = fmin(t0, t1);
+    *far = fmax(t0, t1);
+    if (any_zero) { /* uniform over the packet: the common case pays nothing */
+        vint unlimited = isnan(t0 + t1);
+        *near = select(*near, (vfloat)(-INFINITY), unlimited);
+        *far = select(*far, (vfloat)(INFINITY), unlimited);
+    }
 }
 
 /* Lanes whose ray meets the node's box within [0, tmax]: the slabs' intervals intersected, the far distance
@@ -47,9 +54,9 @@ inline void slab(float lo, float hi, vfloat o, vfloat inv_d, vfloat *near, vfloa
 inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax)
 {
     vfloat nx, fx, ny, fy, nz, fz;
-    slab(node->lo[0], node->hi[0], r.o.x, b.inv_d.x, &nx, &fx);
-    slab(node->lo[1], node->hi[1], r.o.y, b.inv_d.y, &ny, &fy);
-    slab(node->lo[2], node->hi[2], r.o.z, b.inv_d.z, &nz, &fz);
+    slab(node->lo[0], node->hi[0], r.o.x, b.inv_d.x, b.any_zero, &nx, &fx);
+    slab(node->lo[1], node->hi[1], r.o.y, b.inv_d.y, b.any_zero, &ny, &fy);
+    slab(node->lo[2], node->hi[2], r.o.z, b.inv_d.z, b.any_zero, &nz, &fz);
     vfloat near = fmax(fmax(nx, ny), fmax(nz, 0.0f)), far = fmin(fmin(fx, fy), fmin(fz, tmax));
     return near <= far * (1.0f + 2.0f * GAMMA(3));
 }
