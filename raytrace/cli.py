@@ -83,6 +83,10 @@ def parser():
     c.add_argument("--crop", help="the montage's crop, X,Y,W,H in fractions of the image (default: "
                    "0.70,0.72,0.18,0.18, the ellipsoid's shadow in scenes/cornell.toml)")
     c.add_argument("--out", required=True, help="output directory")
+    k = sub.add_parser("compile", help="compile a scene's kernel for a target device with clang (or PoCL)")
+    k.add_argument("scene", help="scene file (TOML)")
+    k.add_argument("--target", required=True, help="pocl, nvptx, amdgcn or spir")
+    k.add_argument("--lanes", type=int, choices=[1, 4, 8, 16], help="lane width (default: 1, or the CPU's for pocl)")
     s = sub.add_parser("stability", help="the numerical stability suite: float32 results against float64")
     s.add_argument("--json", help="write the table's rows to this JSON file")
     s.add_argument("--lanes", type=int, choices=[1, 8], help="pixels per work-item (default: the device's)")
@@ -168,6 +172,20 @@ def cmd_converge(args):
              crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout)
 
 
+def cmd_compile(args):
+    """Exit status 1 when the compiler rejects the kernel."""
+    from .compile import compile_scene
+    from .scene import load_scene
+
+    scene = load_scene(args.scene)
+    try:
+        r = compile_scene(scene, args.target, args.lanes)
+    except RuntimeError as e:
+        print(f"{args.scene}: {args.target}: FAILED: {e}", file=sys.stderr)
+        return 1
+    print(f"{args.scene}: {r['target']}: ok, {r['bytes']} bytes in {r['seconds']:.2f} s ({' '.join(r['options'])})")
+
+
 def cmd_stability(args):
     """Exit status 1 when a row of the table fails."""
     from .device import default_lanes, select_device
@@ -180,7 +198,7 @@ def cmd_stability(args):
 
 def main(argv=None):
     commands = {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets, "converge": cmd_converge,
-                "stability": cmd_stability}
+                "compile": cmd_compile, "stability": cmd_stability}
     try:
         args = parser().parse_args(argv)
         return commands[args.command](args) or 0
