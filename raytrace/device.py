@@ -43,14 +43,24 @@ def list_devices():
     return [(p, d) for p in cl.get_platforms() for d in p.get_devices()]
 
 
+DEVICE_TYPES = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU}
+
+
 def select_device(spec=None):
-    """`spec`: None (the first CPU device, else the first device), "P:D" indices, or a name substring."""
+    """`spec`: None (the first CPU device, else the first device), "cpu" or "gpu" (the first of that type),
+    "P:D" indices, or a name substring."""
     devices = list_devices()
     if not devices:
         raise InputError("command line", "--device", spec, "no OpenCL device found")
     if spec is None:
         cpus = [d for _, d in devices if d.type & cl.device_type.CPU]
         device = (cpus or [devices[0][1]])[0]
+    elif spec.lower() in DEVICE_TYPES:
+        of_type = [d for _, d in devices if d.type & DEVICE_TYPES[spec.lower()]]
+        if not of_type:
+            names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)
+            raise InputError("command line", "--device", spec, f"no {spec.upper()} device (have: {names})")
+        device = of_type[0]
     elif ":" in spec and all(part.isdigit() for part in spec.split(":")):
         p, d = (int(x) for x in spec.split(":"))
         platforms = cl.get_platforms()

@@ -192,3 +192,16 @@ def test_stability_bad_command_line(tmp_path, args, needle):
     r = run("stability", *args, cwd=tmp_path)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and needle in r.stderr and "Traceback" not in r.stderr
     assert r.stdout == "" and list(tmp_path.iterdir()) == []
+
+
+def test_device_by_type():
+    """--device cpu picks a CPU device (PoCL here); --device gpu a GPU, or one line naming --device and the
+    devices there are when there is none (this machine)."""
+    import pyopencl as cl
+    from raytrace.device import select_device
+    from raytrace.errors import InputError
+    assert select_device("cpu").type & cl.device_type.CPU
+    try:
+        assert select_device("GPU").type & cl.device_type.GPU
+    except InputError as e:
+        assert "--device = 'GPU': no GPU device (have: " in str(e)
