@@ -85,3 +85,17 @@ def test_texture_features_follow_the_scene():
     for name, flags in expect.items():
         options = Features.of(raytrace.load_scene(ROOT / "scenes" / f"{name}.toml"), 8).options()
         assert options[-5:-2] == [f"-DHAS_{m}_MAPS={f}" for m, f in zip(("COLOUR", "NORMAL", "HEIGHT"), flags)]
+
+
+def test_image_size_and_sample_counts_never_rebuild(cornell):
+    """Image size, pixel and light sample counts are kernel arguments (RenderParams and launch sizes): after
+    the first render of this variant in the process, each of these reports build seconds 0, and the program
+    cache holds one program for the variant."""
+    from raytrace import kernel
+    raytrace.render(cornell, width=8, height=8, spp=1, light_samples=1, progress=False)
+    before = len(kernel._programs)
+    for width, height, spp, light in ((33, 7, 4, 9), (1, 64, 2, 3), (17, 17, 9, 1)):
+        _, stats = raytrace.render(cornell, width=width, height=height, spp=spp, light_samples=light,
+                                   sampler="jittered", light_sampler="jittered", progress=False)
+        assert stats.build_seconds == 0
+    assert len(kernel._programs) == before
