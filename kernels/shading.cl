@@ -19,10 +19,6 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
     return fmax(ndotl, 0.0f) + phong_power(fmax(v3_dot(r, v), 0.0f), shininess);
 }
 
-/* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. The light
- * samples come from the light sample pattern, randomised under `key` and the light's index. A light
- * sample counts where it lies above both the surface (ng: else the surface itself would block it) and the
- * shading normal (n: the lobes of a bumped surface). */
 /* The shadow segment from `origin` (already off its surface) to the light point q (within q_err of the light's
  * plane): it ends at q pushed off the light toward the origin by q's error, and by that of the segment's
  * direction, which rounds once: the segment's true end o + fl(q' - o) is within one rounding of |q' - o| of
@@ -36,6 +32,10 @@ inline Ray shadow_segment(vec3 origin, vec3 q, vfloat q_err, vec3 light_normal)
     return r;
 }
 
+/* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. The light
+ * samples come from the light sample pattern, randomised under `key` and the light's index. A light
+ * sample counts where it lies above both the surface (ng: else the surface itself would block it) and the
+ * shading normal (n: the lobes of a bumped surface). */
 inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const uint2 *light_samples,
                   vuint key, vfloat *rays)
 {

@@ -8,6 +8,8 @@ import pyopencl as cl
 
 from .device import context_for, select_device
 from .kernel import build
+from .structs import (ellipsoid_structs, light_structs, material_structs, params_struct, rectangle_structs,
+                      triangle_structs)
 
 PRELUDE = """
 #include "lanes.h"
@@ -59,3 +61,33 @@ class Probe:
         for h, b in zip(host.values(), bufs):
             cl.enqueue_copy(self.queue, h, b)
         return {k: (h[0] if outputs[k] == 1 else h).astype(np.float64) for k, h in host.items()}
+
+
+# The renderer's closest_hit over a scene's shapes and lights (without a BVH), every field of the Hit a test
+# looks at: run it with scene_args(scene), the rays' planar o and d, and CLOSEST_HIT_OUTPUTS.
+CLOSEST_HIT = """
+#include "intersect.cl"
+__kernel void closest(int n, __constant const RenderParams *params, __global const Rectangle *rects,
+                      __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
+                      __global const Material *materials, __global const float *o, __global const float *d,
+                      __global float *t, __global float *p, __global float *err, __global float *nrm,
+                      __global float *material, __global float *emitted)
+{
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
+    Ray r = {IN3(o), IN3(d)};
+    Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
+    OUT(t, hit.t);
+    OUT3(p, hit.p);
+    OUT(err, hit.err);
+    OUT3(nrm, hit.n);
+    OUT(material, CONVERT_VFLOAT(hit.material));
+    OUT(emitted, hit.emitted.x);
+}
+"""
+CLOSEST_HIT_OUTPUTS = {"t": 1, "p": 3, "err": 1, "nrm": 3, "material": 1, "emitted": 1}
+
+
+def scene_args(scene):
+    """The shape, light and material tables CLOSEST_HIT (and kernels like it) take, in its order."""
+    return [params_struct(scene), rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
+            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials)]

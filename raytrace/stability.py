@@ -21,12 +21,12 @@ import numpy as np
 from . import samplers
 from .converge import rmse
 from .errors import InputError
-from .probe import Probe, planar
+from .probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, Probe, planar, scene_args
 from .render import render
 from .scene import Ellipsoid, Light, Rectangle, Triangle, load_scene
 from .transform import f32
 from .structs import (camera_struct, ellipsoid_structs, light_structs, material_structs, params_struct,
-                      rectangle_structs, triangle_structs)
+                      rectangle_structs)
 
 U = 2.0**-24  # float32 unit roundoff: one rounding moves a value by at most u of itself
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
@@ -102,24 +102,6 @@ def outside(images, limit):
 # ---------------------------------------------------------------------------------------------------------
 # closest_hit over a scene of a few shapes
 
-CLOSEST = """
-#include "intersect.cl"
-__kernel void closest(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                      __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                      __global const Material *materials, __global const float *o, __global const float *d,
-                      __global float *t, __global float *p, __global float *err, __global float *nrm)
-{
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
-    Ray r = {IN3(o), IN3(d)};
-    Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
-    OUT(t, hit.t);
-    OUT3(p, hit.p);
-    OUT(err, hit.err);
-    OUT3(nrm, hit.n);
-}
-"""
-
-
 def shapes(env, rectangles=(), triangles=(), ellipsoids=()):
     """Scene 0's materials and camera with only these shapes and no lights."""
     return dataclasses.replace(env.cornell, lights=[], rectangles=list(rectangles), triangles=list(triangles),
@@ -132,10 +114,7 @@ def closest_hit(env, scene, o, d):
     n = len(o)
     padded = -(-n // env.lanes) * env.lanes
     o, d = (np.concatenate([a, np.repeat(a[-1:], padded - n, axis=0)]) for a in (o, d))
-    args = [params_struct(scene), rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
-            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials),
-            planar(o), planar(d)]
-    out = env.probe.run(CLOSEST, "closest", padded, args, {"t": 1, "p": 3, "err": 1, "nrm": 3},
+    out = env.probe.run(CLOSEST_HIT, "closest", padded, [*scene_args(scene), planar(o), planar(d)], CLOSEST_HIT_OUTPUTS,
                         HAS_RECTANGLES=bool(scene.rectangles), HAS_TRIANGLES=bool(scene.triangles),
                         HAS_ELLIPSOIDS=bool(scene.ellipsoids))
     return {"t": out["t"][:n], "p": out["p"].T[:n], "err": out["err"][:n], "n": out["nrm"].T[:n]}

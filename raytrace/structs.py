@@ -72,13 +72,6 @@ def triangle_uv_frames(v, uv):
     return dpdu, dpdv
 
 
-def triangle_uv_frame(vertices, uv):
-    """triangle_uv_frames of one triangle (uv None: the default uvs)."""
-    uv = DEFAULT_UV if uv is None else np.asarray(uv, dtype=np.float64)
-    dpdu, dpdv = triangle_uv_frames(np.asarray(vertices, np.float64)[None], uv[None])
-    return dpdu[0], dpdv[0]
-
-
 def triangle_uv_records(v, uv):
     a = np.zeros(max(len(v), 1), types.TRIANGLE_UV)
     if len(v):

@@ -3,7 +3,6 @@ import numpy as np
 import pytest
 
 import reference
-from conftest import planar
 from raytrace.structs import camera_struct
 
 SOURCE = """

@@ -3,30 +3,7 @@ import numpy as np
 
 import reference
 from conftest import planar
-from raytrace.structs import (ellipsoid_structs, params_struct, light_structs, material_structs, rectangle_structs,
-                             triangle_structs)
-
-SOURCE = """
-#include "intersect.cl"
-__kernel void closest(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                      __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                      __global const Material *materials, __global const float *o, __global const float *d,
-                      __global float *t, __global float *nrm, __global float *material, __global float *emitted)
-{
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
-    Ray r = {IN3(o), IN3(d)};
-    Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
-    OUT(t, hit.t);
-    OUT3(nrm, hit.n);
-    OUT(material, CONVERT_VFLOAT(hit.material));
-    OUT(emitted, hit.emitted.x);
-}
-"""
-
-
-def scene_args(scene):
-    return [params_struct(scene), rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
-            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials)]
+from raytrace.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
 
 
 def random_rays(scene, n, seed):
@@ -44,8 +21,8 @@ def test_closest_hit_matches_reference(harness, cornell):
     1e-4 of each other (float32 may order them either way); t relative 1e-5; face-forwarded normals 1e-4."""
     n = 2048
     o, d = random_rays(cornell, n, 11)
-    out = harness.run(SOURCE, "closest", n, [*scene_args(cornell), planar(o), planar(d)],
-                      {"t": 1, "nrm": 3, "material": 1, "emitted": 1}, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
+    out = harness.run(CLOSEST_HIT, "closest", n, [*scene_args(cornell), planar(o), planar(d)],
+                      CLOSEST_HIT_OUTPUTS, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
                       HAS_ELLIPSOIDS=1)
     ref = reference.closest_hit(cornell, o, d, tmin=0.0)
     beyond = np.where(np.isfinite(ref["t"]), ref["t"], 0) + 1e-4
@@ -70,9 +47,9 @@ def test_shape_kinds_can_be_left_out(harness, cornell):
     d = e.center - o
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     args = [*scene_args(cornell), planar(o), planar(d)]
-    outputs = {"t": 1, "nrm": 3, "material": 1, "emitted": 1}
-    full = harness.run(SOURCE, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)
-    without = harness.run(SOURCE, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
+    outputs = CLOSEST_HIT_OUTPUTS
+    full = harness.run(CLOSEST_HIT, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)
+    without = harness.run(CLOSEST_HIT, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
                           HAS_ELLIPSOIDS=0)
     assert np.all(full["material"] == e.material)
     assert np.all(without["material"] != e.material) and np.all(without["t"] > full["t"])

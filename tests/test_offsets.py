@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import planar
-from test_closest_hit import scene_args
+from raytrace.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
 from raytrace.scene import Ellipsoid, Rectangle, Triangle
 from raytrace.structs import ellipsoid_structs, rectangle_structs, triangle_structs
 from raytrace.transform import f32, transformed
@@ -192,7 +192,6 @@ def test_rays_starting_on_the_surface(harness, cornell, name, scale, offset):
     triangles, |c| within its bound for an ellipsoid's origin). Truth is float64 on the same float32 values.
     Without those bounds the routines report crossings from the wrong side (measured: without dt, 12 of
     the rectangle and 8 of the triangle cases fail; without the ellipsoid's bound on c, 14 of its cases)."""
-    from test_closest_hit import SOURCE as CLOSEST
     scene = scene_of(cornell, name, scale, offset)
     rng = np.random.default_rng(29)
     n = 1024
@@ -204,8 +203,7 @@ def test_rays_starting_on_the_surface(harness, cornell, name, scale, offset):
         crosses = distance(o) < 0  # inside, going out: it meets the surface once, at a tiny t
     else:
         crosses = -distance(o) / np.sum(d * outward(o), axis=1) > 0
-    out = harness.run(CLOSEST, "closest", n, [*scene_args(scene), planar(o), planar(d)],
-                      {"t": 1, "nrm": 3, "material": 1, "emitted": 1},
+    out = harness.run(CLOSEST_HIT, "closest", n, [*scene_args(scene), planar(o), planar(d)], CLOSEST_HIT_OUTPUTS,
                       HAS_RECTANGLES=int(bool(scene.rectangles)), HAS_TRIANGLES=int(bool(scene.triangles)),
                       HAS_ELLIPSOIDS=int(bool(scene.ellipsoids)))
     hit = np.isfinite(out["t"])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from raytrace import samplers, types
+from raytrace import samplers
 
 M32 = np.uint64(0xFFFFFFFF)
 

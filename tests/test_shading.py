@@ -7,7 +7,7 @@ import reference
 from conftest import planar
 from raytrace import samplers
 from raytrace.structs import light_structs
-from test_closest_hit import scene_args
+from raytrace.probe import scene_args
 
 PHONG = """
 #include "shading.cl"

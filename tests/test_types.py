@@ -8,7 +8,7 @@ from raytrace.kernel import build
 
 
 def layout_source():
-    lines, checks = [], []
+    checks = []
     for struct, dtype in types.STRUCTS.items():
         checks.append(f"sizeof({struct})")
         checks += [f"__builtin_offsetof({struct}, {field})" for field in dtype.names]
