@@ -17,7 +17,8 @@
 #endif
 
 /* Per ray: the reciprocal direction for the slab test, the signs that order the children, and whether any
- * lane's direction has a zero component (the slab test's special case, below). */
+ * lane's reciprocal direction has an infinite component (a zero or subnormal one in the direction: the slab
+ * test's special case, below). */
 typedef struct { vec3 inv_d; int negative[3], any_zero; } BoxRay;
 
 inline BoxRay box_ray(Ray r)
@@ -27,24 +28,24 @@ inline BoxRay box_ray(Ray r)
     b.negative[0] = FIRST_LANE(r.d.x) < 0.0f;
     b.negative[1] = FIRST_LANE(r.d.y) < 0.0f;
     b.negative[2] = FIRST_LANE(r.d.z) < 0.0f;
-    b.any_zero = ANY((r.d.x == 0.0f) | (r.d.y == 0.0f) | (r.d.z == 0.0f));
+    b.any_zero = ANY((vabs(b.inv_d.x) == INFINITY) | (vabs(b.inv_d.y) == INFINITY) | (vabs(b.inv_d.z) == INFINITY));
     return b;
 }
 
 /* The ray's parameter interval within the slab [lo, hi] of one axis, (*near, *far). A ray parallel to the
  * slab gets infinite distances: both of one sign outside it, -inf and +inf inside. With its origin exactly in
- * a face (or in a flat box's plane) one of them is 0 * inf = NaN, and fmin/fmax would keep the other
- * infinity and miss the box (every axis-parallel ray through a grid's vertex lines did): the ray runs in the
- * closed slab, which then does not limit it at all. t0 + t1 is NaN exactly in those cases and inside. */
+ * a face (or in a flat box's plane) one of them is 0 * inf = NaN, and a min or max would keep the other
+ * infinity (or the NaN) and miss the box (every axis-parallel ray through a grid's vertex lines did): the ray
+ * runs in the closed slab, which then does not limit it at all. t0 + t1 is NaN exactly in those cases and inside. */
 inline void slab(float lo, float hi, vfloat o, vfloat inv_d, int any_zero, vfloat *near, vfloat *far)
 {
     vfloat t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
-    *near = fmin(t0, t1);
-    *far = fmax(t0, t1);
+    *near = vmin(t0, t1);
+    *far = vmax(t0, t1);
     if (any_zero) { /* uniform over the packet: the common case pays nothing */
-        vint unlimited = isnan(t0 + t1);
-        *near = select(*near, (vfloat)(-INFINITY), unlimited);
-        *far = select(*far, (vfloat)(INFINITY), unlimited);
+        vint unlimited = (t0 + t1) != (t0 + t1); /* NaN */
+        *near = SELECT(*near, (vfloat)(-INFINITY), unlimited);
+        *far = SELECT(*far, (vfloat)(INFINITY), unlimited);
     }
 }
 
@@ -57,7 +58,7 @@ inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax
     slab(node->lo[0], node->hi[0], r.o.x, b.inv_d.x, b.any_zero, &nx, &fx);
     slab(node->lo[1], node->hi[1], r.o.y, b.inv_d.y, b.any_zero, &ny, &fy);
     slab(node->lo[2], node->hi[2], r.o.z, b.inv_d.z, b.any_zero, &nz, &fz);
-    vfloat near = fmax(fmax(nx, ny), fmax(nz, 0.0f)), far = fmin(fmin(fx, fy), fmin(fz, tmax));
+    vfloat near = vmax(vmax(nx, ny), vmax(nz, 0.0f)), far = vmin(vmin(fx, fy), vmin(fz, tmax));
     return near <= far * (1.0f + 2.0f * GAMMA(3));
 }
 
@@ -78,7 +79,7 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
     int stack[BVH_STACK], top = 0, i = 0;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
-        if (ANY(meets_box(node, r, b, fmin(tmax, hit->t)))) {
+        if (ANY(meets_box(node, r, b, vmin(tmax, hit->t)))) {
             if (node->count <= 0) {
                 stack[top++] = order_children(s->nodes, i, b, &i);
                 continue;

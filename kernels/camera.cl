@@ -8,8 +8,8 @@
 /* (x, y): continuous pixel coordinates, x in [0, W) to the right, y in [0, H) downwards (row 0 on top). */
 inline Ray generate_camera_ray(__constant const Camera *cam, vfloat x, vfloat y, float inv_w, float inv_h)
 {
-    vfloat sx = mad(2.0f * inv_w, x, -1.0f) * cam->scale_x;
-    vfloat sy = mad(-2.0f * inv_h, y, 1.0f) * cam->scale_y;
+    vfloat sx = MAD(2.0f * inv_w, x, -1.0f) * cam->scale_x;
+    vfloat sy = MAD(-2.0f * inv_h, y, 1.0f) * cam->scale_y;
     vec3 d = v3_scale(v3_uniform(cam->forward), (vfloat)(cam->focal_length));
     d = v3_madd(d, sx, v3_uniform(cam->right));
     d = v3_madd(d, sy, v3_uniform(cam->up));

@@ -8,21 +8,21 @@
 
 inline vec3 mat3_apply(const __global float *m, vec3 v) /* row-major m times v */
 {
-    return v3(mad(m[0], v.x, mad(m[1], v.y, m[2] * v.z)), mad(m[3], v.x, mad(m[4], v.y, m[5] * v.z)),
-              mad(m[6], v.x, mad(m[7], v.y, m[8] * v.z)));
+    return v3(MAD(m[0], v.x, MAD(m[1], v.y, m[2] * v.z)), MAD(m[3], v.x, MAD(m[4], v.y, m[5] * v.z)),
+              MAD(m[6], v.x, MAD(m[7], v.y, m[8] * v.z)));
 }
 
 inline vec3 mat3_apply_abs(const __global float *m, vec3 v) /* |m| times v, for error bounds */
 {
-    return v3(mad(fabs(m[0]), v.x, mad(fabs(m[1]), v.y, fabs(m[2]) * v.z)),
-              mad(fabs(m[3]), v.x, mad(fabs(m[4]), v.y, fabs(m[5]) * v.z)),
-              mad(fabs(m[6]), v.x, mad(fabs(m[7]), v.y, fabs(m[8]) * v.z)));
+    return v3(MAD(vabs(m[0]), v.x, MAD(vabs(m[1]), v.y, vabs(m[2]) * v.z)),
+              MAD(vabs(m[3]), v.x, MAD(vabs(m[4]), v.y, vabs(m[5]) * v.z)),
+              MAD(vabs(m[6]), v.x, MAD(vabs(m[7]), v.y, vabs(m[8]) * v.z)));
 }
 
 inline vec3 mat3_apply_transposed(const __global float *m, vec3 v)
 {
-    return v3(mad(m[0], v.x, mad(m[3], v.y, m[6] * v.z)), mad(m[1], v.x, mad(m[4], v.y, m[7] * v.z)),
-              mad(m[2], v.x, mad(m[5], v.y, m[8] * v.z)));
+    return v3(MAD(m[0], v.x, MAD(m[3], v.y, m[6] * v.z)), MAD(m[1], v.x, MAD(m[4], v.y, m[7] * v.z)),
+              MAD(m[2], v.x, MAD(m[5], v.y, m[8] * v.z)));
 }
 
 /* t of the hit (the near root if it is ahead, else the far one; +inf for none) and *q, the hit in unit-sphere
@@ -51,13 +51,13 @@ inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
         return (vfloat)(INFINITY);
     vfloat dc = 2.0f * GAMMA(5) * v3_dot(v3_abs(o), mat3_apply_abs(e->world_to_unit, v3_abs(oc)))
               + GAMMA(4) * (v3_dot(o, o) + 1.0f);
-    vfloat root = -(h + copysign(sqrt(fmax(disc, 0.0f)), h));
+    vfloat root = -(h + vcopysign(sqrt(vmax(disc, 0.0f)), h));
     vfloat t_far_side = root / a;
-    vfloat t_near_origin = select(c / root, (vfloat)(-INFINITY), fabs(c) <= dc);
-    vfloat t_near = fmin(t_far_side, t_near_origin), t_far = fmax(t_far_side, t_near_origin);
-    vfloat t = select(t_far, t_near, t_near > 0.0f);
+    vfloat t_near_origin = SELECT(c / root, (vfloat)(-INFINITY), vabs(c) <= dc);
+    vfloat t_near = vmin(t_far_side, t_near_origin), t_far = vmax(t_far_side, t_near_origin);
+    vfloat t = SELECT(t_far, t_near, t_near > 0.0f);
     *q = v3_madd(o, t, d);
-    return select((vfloat)(INFINITY), t, (disc >= 0.0f) & (t > 0.0f));
+    return SELECT((vfloat)(INFINITY), t, (disc >= 0.0f) & (t > 0.0f));
 }
 
 /* World-space unit normal at unit-sphere point q: the inverse-transpose of [a b c] applied to q. */

@@ -1,6 +1,6 @@
 /* Closest hit over every shape and light, and the any-hit test of shadow rays: over a BVH (bvh.cl) when the
  * host built one, else a loop over every shape. Either way a primitive is tested by all lanes at once (every
- * lane tests the same shape); the lanes' own results are merged with select(). */
+ * lane tests the same shape); the lanes' own results are merged with SELECT(). */
 #ifndef INTERSECT_CL
 #define INTERSECT_CL
 
@@ -32,18 +32,18 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n
                        int kind, int index, vfloat b1, vfloat b2)
 {
     vint nearer = t_new < hit->t;
-    vfloat facing = select((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, r.d) > 0.0f);
-    hit->t = select(hit->t, t_new, nearer);
+    vfloat facing = SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, r.d) > 0.0f);
+    hit->t = SELECT(hit->t, t_new, nearer);
     hit->p = v3_select(hit->p, p, nearer);
-    hit->err = select(hit->err, err, nearer);
+    hit->err = SELECT(hit->err, err, nearer);
     hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
-    hit->material = select(hit->material, (vint)(material), nearer);
+    hit->material = SELECT(hit->material, (vint)(material), nearer);
     hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
 #if HAS_SURFACE_DATA
-    hit->kind = select(hit->kind, (vint)(kind), nearer);
-    hit->index = select(hit->index, (vint)(index), nearer);
-    hit->b1 = select(hit->b1, b1, nearer);
-    hit->b2 = select(hit->b2, b2, nearer);
+    hit->kind = SELECT(hit->kind, (vint)(kind), nearer);
+    hit->index = SELECT(hit->index, (vint)(index), nearer);
+    hit->b1 = SELECT(hit->b1, b1, nearer);
+    hit->b2 = SELECT(hit->b2, b2, nearer);
 #endif
 }
 
@@ -54,7 +54,7 @@ inline void hit_rectangle(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
     __global const Rectangle *rect = &s->rectangles[i];
     vfloat dt, u, v, err;
     vfloat t = intersect_rectangle(rect, r, &dt, &u, &v);
-    t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+    t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
     if (ANY(t < hit->t)) {
         vec3 p = rectangle_point(rect, u, v, &err);
         hit_update(hit, r, t, p, err, v3_uniform(rect->normal), rect->material, (Vec3f){0.0f, 0.0f, 0.0f},
@@ -68,7 +68,7 @@ inline void hit_triangle(const Scene *s, Hit *hit, Ray r, RayShear shear, int i,
     __global const Triangle *tri = &s->triangles[i];
     vfloat dt, b0, b1, b2, err;
     vfloat t = intersect_triangle(tri, r, shear, &dt, &b0, &b1, &b2);
-    t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+    t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
     if (ANY(t < hit->t)) {
         vec3 p = triangle_point(tri, b0, b1, b2, &err);
         hit_update(hit, r, t, p, err, v3_uniform(tri->normal), tri->material, (Vec3f){0.0f, 0.0f, 0.0f},
@@ -84,7 +84,7 @@ inline void hit_ellipsoid(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
     vec3 q;
     vfloat err;
     vfloat t = intersect_ellipsoid(e, r, &q);
-    t = select((vfloat)(INFINITY), t, t <= tmax);
+    t = SELECT((vfloat)(INFINITY), t, t <= tmax);
     if (ANY(t < hit->t)) {
         vec3 n = ellipsoid_normal(e, q);
         vec3 p = ellipsoid_point(e, q, n, &err);
@@ -160,7 +160,7 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
     for (int i = 0; i < s->params->n_lights; ++i) {
         __global const Light *light = &s->lights[i];
         vfloat t = intersect_rectangle(&light->shape, r, &dt, &u, &v);
-        t = select((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+        t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
         hit_update(&hit, r, t, hit.p, 0.0f, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
                    (vfloat)(0.0f), (vfloat)(0.0f));
     }

@@ -24,13 +24,14 @@ typedef uint vuint;
 #define VSTORE(v, i, p) ((p)[i] = (v))
 #define LANE_IDS 0
 #define CONVERT_VFLOAT(v) ((float)(v))
-#define AS_VUINT(v) ((uint)(v))
+#define AS_VUINT(v) as_uint(v)
+#define AS_VFLOAT(v) as_float(v)
 #else
 typedef CAT(float, LANES) vfloat;
 typedef CAT(int, LANES) vint;
 typedef CAT(uint, LANES) vuint;
-#define ANY(m) any(m)
-#define ALL(m) all(m)
+#define ANY(m) (or_lanes(m) < 0)
+#define ALL(m) (and_lanes(m) < 0)
 #define VLOAD(i, p) CAT(vload, LANES)(i, p)
 #define VSTORE(v, i, p) CAT(vstore, LANES)(v, i, p)
 #if LANES == 4
@@ -44,10 +45,39 @@ typedef CAT(uint, LANES) vuint;
 #endif
 #define CONVERT_VFLOAT(v) CAT(convert_float, LANES)(v)
 #define AS_VUINT(v) CAT(as_uint, LANES)(v)
+#define AS_VFLOAT(v) CAT(as_float, LANES)(v)
+#endif
+
+/* Lane-wise primitives written with operators. PoCL builds its builtin library for a generic x86-64 CPU
+ * and the kernel for the host's, so LLVM will not inline one into the other: every vector select(), mad(),
+ * fabs(), fmin(), any() ... stays an out-of-line call, and every call spills all vector registers (the
+ * render kernel made 155 calls to mad alone). These compile to one or two instructions on any target. The
+ * vector ?: is select() with the mask's most significant bit, a scalar ?: tests m != 0: the same rule as
+ * select() in both widths. */
+#define SELECT(a, b, m) ((m) ? (b) : (a)) /* b where m, else a */
+#define MAD(a, b, c) ((a) * (b) + (c))    /* contracted to an fma where the target has one */
+inline vfloat vabs(vfloat x) { return AS_VFLOAT(AS_VUINT(x) & 0x7fffffffU); }
+/* min and max of numbers; unlike fmin and fmax, a NaN in a propagates (callers never pass one). */
+inline vfloat vmin(vfloat a, vfloat b) { return SELECT(a, b, b < a); }
+inline vfloat vmax(vfloat a, vfloat b) { return SELECT(a, b, b > a); }
+/* |x| with the sign of s */
+inline vfloat vcopysign(vfloat x, vfloat s)
+{
+    return AS_VFLOAT((AS_VUINT(x) & 0x7fffffffU) | (AS_VUINT(s) & 0x80000000U));
+}
+#if LANES == 4
+inline int or_lanes(int4 m) { int2 t = m.lo | m.hi; return t.x | t.y; }
+inline int and_lanes(int4 m) { int2 t = m.lo & m.hi; return t.x & t.y; }
+#elif LANES == 8
+inline int or_lanes(int8 m) { int4 t = m.lo | m.hi; int2 u = t.lo | t.hi; return u.x | u.y; }
+inline int and_lanes(int8 m) { int4 t = m.lo & m.hi; int2 u = t.lo & t.hi; return u.x & u.y; }
+#elif LANES == 16
+inline int or_lanes(int16 m) { int8 t = m.lo | m.hi; int4 u = t.lo | t.hi; int2 w = u.lo | u.hi; return w.x | w.y; }
+inline int and_lanes(int16 m) { int8 t = m.lo & m.hi; int4 u = t.lo & t.hi; int2 w = u.lo & u.hi; return w.x & w.y; }
 #endif
 
 /* A mask as 0/1 floats, e.g. to count rays per lane. */
-#define MASK_TO_ONE(m) select((vfloat)(0.0f), (vfloat)(1.0f), (m))
+#define MASK_TO_ONE(m) SELECT((vfloat)(0.0f), (vfloat)(1.0f), (m))
 
 /* Three coordinates, one vfloat each: structure of arrays, so that LANES rays share one register each. */
 typedef struct { vfloat x, y, z; } vec3;
@@ -58,8 +88,8 @@ inline vec3 v3_sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z);
 inline vec3 v3_scale(vec3 a, vfloat s) { return v3(a.x * s, a.y * s, a.z * s); }
 inline vec3 v3_mul(vec3 a, vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
 /* a + s * b, the ray-point form o + t d */
-inline vec3 v3_madd(vec3 a, vfloat s, vec3 b) { return v3(mad(s, b.x, a.x), mad(s, b.y, a.y), mad(s, b.z, a.z)); }
-inline vfloat v3_dot(vec3 a, vec3 b) { return mad(a.x, b.x, mad(a.y, b.y, a.z * b.z)); }
+inline vec3 v3_madd(vec3 a, vfloat s, vec3 b) { return v3(MAD(s, b.x, a.x), MAD(s, b.y, a.y), MAD(s, b.z, a.z)); }
+inline vfloat v3_dot(vec3 a, vec3 b) { return MAD(a.x, b.x, MAD(a.y, b.y, a.z * b.z)); }
 inline vec3 v3_cross(vec3 a, vec3 b)
 {
     return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
@@ -67,10 +97,10 @@ inline vec3 v3_cross(vec3 a, vec3 b)
 inline vec3 v3_normalize(vec3 a) { return v3_scale(a, rsqrt(v3_dot(a, a))); }
 inline vec3 v3_select(vec3 a, vec3 b, vint m) /* b where m, else a */
 {
-    return v3(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m));
+    return v3(SELECT(a.x, b.x, m), SELECT(a.y, b.y, m), SELECT(a.z, b.z, m));
 }
 inline vec3 v3_splat(float x, float y, float z) { return v3((vfloat)(x), (vfloat)(y), (vfloat)(z)); }
-inline vfloat v3_max_abs(vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z))); }
+inline vfloat v3_max_abs(vec3 a) { return vmax(vabs(a.x), vmax(vabs(a.y), vabs(a.z))); }
 
 /* The way between lane-generic code and scalar code run once per lane (gathers such as texture lookups):
  * spill a vec3 to per-lane arrays, read or write lane i as a float3, and load the arrays back. */

@@ -10,9 +10,9 @@ inline vec3 light_point(__global const Light *light, vec2 uv)
 {
     __global const Rectangle *r = &light->shape;
     vfloat du = (2.0f * uv.x - 1.0f) * r->half_x, dv = (2.0f * uv.y - 1.0f) * r->half_y;
-    return v3(mad(du, r->tangent.x, mad(dv, r->bitangent.x, r->center.x)),
-              mad(du, r->tangent.y, mad(dv, r->bitangent.y, r->center.y)),
-              mad(du, r->tangent.z, mad(dv, r->bitangent.z, r->center.z)));
+    return v3(MAD(du, r->tangent.x, MAD(dv, r->bitangent.x, r->center.x)),
+              MAD(du, r->tangent.y, MAD(dv, r->bitangent.y, r->center.y)),
+              MAD(du, r->tangent.z, MAD(dv, r->bitangent.z, r->center.z)));
 }
 
 /* A bound on the distance of every light_point() from the light's plane: four roundings of the sum c + du t + dv b

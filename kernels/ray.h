@@ -18,15 +18,21 @@ inline vec3 ray_at(Ray r, vfloat t) { return v3_madd(r.o, t, r.d); }
 
 /* gamma(n) = n u / (1 - n u), u = 2^-24: the relative error bound of n float32 roundings (Higham; pbrt-v4
  * section 6.8.1). OpenCL C allows 2.5 ulp for division and 2 ulp for rsqrt (OpenCL 1.2, section 7.4): they
- * count as 5 and 4 roundings below. mad() may round once or twice: it counts as two. */
+ * count as 5 and 4 roundings below. MAD() may round once or twice: it counts as two. */
 #define GAMMA(n) ((float)(n) * 0x1p-24f / (1.0f - (float)(n) * 0x1p-24f))
 
-inline vec3 v3_abs(vec3 a) { return v3(fabs(a.x), fabs(a.y), fabs(a.z)); }
+inline vec3 v3_abs(vec3 a) { return v3(vabs(a.x), vabs(a.y), vabs(a.z)); }
 
-/* The next float beyond x in the direction of `towards` where `away` is set. */
+/* The next float beyond x in the direction of `towards` where `away` is set (nextafter, written on the bits:
+ * the builtin is an out-of-line call on PoCL, lanes.h). For finite x, stepping the bit pattern by one moves
+ * away from zero, or towards it when the directions differ; from +-0 the next float is the smallest
+ * subnormal of towards' sign. Infinite x stays. */
 inline vfloat round_away(vfloat x, vfloat towards, vint away)
 {
-    return select(x, nextafter(x, copysign((vfloat)(INFINITY), towards)), away);
+    vuint bits = AS_VUINT(x), sign = AS_VUINT(towards) & 0x80000000U;
+    vuint next = SELECT(bits - 1U, bits + 1U, (bits & 0x80000000U) == sign);
+    next = SELECT(next, sign | 1U, (bits << 1) == 0U);
+    return SELECT(x, AS_VFLOAT(next), away & (vabs(x) < INFINITY));
 }
 
 /* Where a ray leaves a point p that is within err of a surface with unit normal n, to n's side: p + err n,

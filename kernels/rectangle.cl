@@ -20,14 +20,14 @@ inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat 
     vec3 rel = v3_madd(v3_scale(co, -1.0f), t, r.d); /* p - c, without forming p */
     *u = v3_dot(rel, v3_uniform(rect->tangent));
     *v = v3_dot(rel, v3_uniform(rect->bitangent));
-    vint inside = (fabs(*u) <= rect->half_x) & (fabs(*v) <= rect->half_y);
+    vint inside = (vabs(*u) <= rect->half_x) & (vabs(*v) <= rect->half_y);
     *dt = 0.0f;
     if (!ANY(inside)) /* most shapes are missed by every lane: skip the bound */
         return (vfloat)(INFINITY);
     /* dt = |t| (e_num / |num| + e_den / |den| + gamma(5)), without the two divisions */
     vfloat e_num = GAMMA(5) * error_along(n, v3_abs(co)), e_den = GAMMA(4) * error_along(n, v3_abs(r.d));
-    *dt = mad(fabs(t), e_den, e_num) * fabs(inv_den) + GAMMA(6) * fabs(t);
-    return select((vfloat)(INFINITY), t, inside);
+    *dt = MAD(vabs(t), e_den, e_num) * vabs(inv_den) + GAMMA(6) * vabs(t);
+    return SELECT((vfloat)(INFINITY), t, inside);
 }
 
 /* The point at (u, v) on the rectangle, c + u t + v b, and *err: its distance from the plane (c, n), at most
@@ -38,7 +38,7 @@ inline vec3 rectangle_point(__global const Rectangle *rect, vfloat u, vfloat v, 
     vec3 t = v3_uniform(rect->tangent), b = v3_uniform(rect->bitangent);
     vec3 p = v3_madd(v3_madd(v3_uniform(rect->center), v, b), u, t);
     vec3 box = v3_add(v3_abs(v3_uniform(rect->center)), v3_add(v3_abs(v3_scale(t, u)), v3_abs(v3_scale(b, v))));
-    *err = GAMMA(4) * error_along(v3_uniform(rect->normal), box) + GAMMA(2) * (fabs(u) + fabs(v));
+    *err = GAMMA(4) * error_along(v3_uniform(rect->normal), box) + GAMMA(2) * (vabs(u) + vabs(v));
     return p;
 }
 

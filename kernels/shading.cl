@@ -16,7 +16,7 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
 {
     vfloat ndotl = v3_dot(n, l);
     vec3 r = v3_sub(v3_scale(n, 2.0f * ndotl), l);
-    return fmax(ndotl, 0.0f) + phong_power(fmax(v3_dot(r, v), 0.0f), shininess);
+    return vmax(ndotl, 0.0f) + phong_power(vmax(v3_dot(r, v), 0.0f), shininess);
 }
 
 /* The shadow segment from `origin` (already off its surface) to the light point q (within q_err of the light's
@@ -26,7 +26,7 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
 inline Ray shadow_segment(vec3 origin, vec3 q, vfloat q_err, vec3 light_normal)
 {
     vec3 to_origin = v3_sub(origin, q);
-    vec3 n = v3_scale(light_normal, select((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(light_normal, to_origin) < 0.0f));
+    vec3 n = v3_scale(light_normal, SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(light_normal, to_origin) < 0.0f));
     vfloat err = q_err + GAMMA(2) * error_along(n, v3_abs(to_origin));
     Ray r = {origin, v3_sub(offset_ray_origin(q, err, n), origin)};
     return r;
@@ -58,7 +58,7 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
                 continue;
             *rays += MASK_TO_ONE(lit);
             lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal));
-            sum += select((vfloat)(0.0f), phong_lobes(sp.n, l, v, sp.shininess), lit);
+            sum += SELECT((vfloat)(0.0f), phong_lobes(sp.n, l, v, sp.shininess), lit);
         }
         direct = v3_madd(direct, sum * (1.0f / n_samples), v3_uniform(light->colour));
     }

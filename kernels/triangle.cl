@@ -12,19 +12,19 @@
 /* The per-ray part: axis permutation (kx, ky, kz) with kz the largest |d| component, and the shear. */
 typedef struct { vint kx, ky, kz; vfloat sx, sy, sz; } RayShear;
 
-inline vfloat v3_component(vec3 v, vint k) { return select(select(v.z, v.y, k == 1), v.x, k == 0); }
+inline vfloat v3_component(vec3 v, vint k) { return SELECT(SELECT(v.z, v.y, k == 1), v.x, k == 0); }
 
 inline RayShear ray_shear(Ray r)
 {
-    vfloat ax = fabs(r.d.x), ay = fabs(r.d.y), az = fabs(r.d.z);
-    vint kz = select(select((vint)(2), (vint)(1), ay > az), (vint)(0), (ax > ay) & (ax > az));
-    vint kx = select(kz + 1, (vint)(0), kz == 2);
-    vint ky = select(kx + 1, (vint)(0), kx == 2);
+    vfloat ax = vabs(r.d.x), ay = vabs(r.d.y), az = vabs(r.d.z);
+    vint kz = SELECT(SELECT((vint)(2), (vint)(1), ay > az), (vint)(0), (ax > ay) & (ax > az));
+    vint kx = SELECT(kz + 1, (vint)(0), kz == 2);
+    vint ky = SELECT(kx + 1, (vint)(0), kx == 2);
     vfloat dz = v3_component(r.d, kz);
     vint flip = dz < 0.0f; /* keep the winding: swap kx and ky when looking down -z */
     vint tmp = kx;
-    kx = select(kx, ky, flip);
-    ky = select(ky, tmp, flip);
+    kx = SELECT(kx, ky, flip);
+    ky = SELECT(ky, tmp, flip);
     RayShear s;
     s.kx = kx; s.ky = ky; s.kz = kz;
     s.sz = 1.0f / dz;
@@ -38,10 +38,10 @@ inline vec3 shear_vertex(Vec3f v, Ray r, RayShear s)
 {
     vec3 a = v3_sub(v3_uniform(v), r.o);
     vfloat az = v3_component(a, s.kz);
-    return v3(mad(s.sx, az, v3_component(a, s.kx)), mad(s.sy, az, v3_component(a, s.ky)), az * s.sz);
+    return v3(MAD(s.sx, az, v3_component(a, s.kx)), MAD(s.sy, az, v3_component(a, s.ky)), az * s.sz);
 }
 
-inline vfloat max3(vfloat a, vfloat b, vfloat c) { return fmax(a, fmax(b, c)); }
+inline vfloat max3(vfloat a, vfloat b, vfloat c) { return vmax(a, vmax(b, c)); }
 
 /* A bound on the rounding error of t (pbrt-v4 section 6.8.4, "Conservative Ray-Triangle t"), from the
  * sheared vertices a, b, c, the edge functions e and 1/det. pbrt-v4 takes the shear constants as given;
@@ -49,14 +49,14 @@ inline vfloat max3(vfloat a, vfloat b, vfloat c) { return fmax(a, fmax(b, c)); }
  * t = sum * (1 / det) takes 6 more: gamma(11) of |t| besides pbrt-v4's terms. */
 inline vfloat triangle_t_error(vec3 a, vec3 b, vec3 c, vec3 e, vfloat inv_det, vfloat t)
 {
-    vfloat max_z = max3(fabs(a.z), fabs(b.z), fabs(c.z));
-    vfloat max_x = max3(fabs(a.x), fabs(b.x), fabs(c.x)), max_y = max3(fabs(a.y), fabs(b.y), fabs(c.y));
+    vfloat max_z = max3(vabs(a.z), vabs(b.z), vabs(c.z));
+    vfloat max_x = max3(vabs(a.x), vabs(b.x), vabs(c.x)), max_y = max3(vabs(a.y), vabs(b.y), vabs(c.y));
     vfloat delta_z = GAMMA(3) * max_z;
     vfloat delta_x = GAMMA(5) * (max_x + max_z), delta_y = GAMMA(5) * (max_y + max_z);
     vfloat delta_e = 2.0f * (GAMMA(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
-    vfloat max_e = max3(fabs(e.x), fabs(e.y), fabs(e.z));
-    return 3.0f * (GAMMA(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv_det)
-         + GAMMA(11) * fabs(t);
+    vfloat max_e = max3(vabs(e.x), vabs(e.y), vabs(e.z));
+    return 3.0f * (GAMMA(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * vabs(inv_det)
+         + GAMMA(11) * vabs(t);
 }
 
 /* t of the hit or +inf; *dt: a bound on t's error; *b0, *b1, *b2: the barycentric weights of v0, v1, v2. */
@@ -82,7 +82,7 @@ inline vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s
     *b0 = e0 * inv_det;
     *b1 = e1 * inv_det;
     *b2 = e2 * inv_det;
-    return select((vfloat)(INFINITY), t, inside);
+    return SELECT((vfloat)(INFINITY), t, inside);
 }
 
 /* The hit point b0 v0 + b1 v1 + b2 v2 and *err, its distance from the triangle's plane along n: pbrt-v4's
