@@ -20,8 +20,8 @@ typedef int vint;
 typedef uint vuint;
 #define ANY(m) (m)
 #define ALL(m) (m)
-#define VLOAD(i, p) ((p)[i])
-#define VSTORE(v, i, p) ((p)[i] = (v))
+#define VLOAD(p) ((p)[0])
+#define VSTORE(v, p) ((p)[0] = (v))
 #define LANE_IDS 0
 #define CONVERT_VFLOAT(v) ((float)(v))
 #define AS_VUINT(v) as_uint(v)
@@ -32,14 +32,25 @@ typedef CAT(int, LANES) vint;
 typedef CAT(uint, LANES) vuint;
 #define ANY(m) (or_lanes(m) < 0)
 #define ALL(m) (and_lanes(m) < 0)
-#define VLOAD(i, p) CAT(vload, LANES)(i, p)
-#define VSTORE(v, i, p) CAT(vstore, LANES)(v, i, p)
+/* A vector to and from LANES consecutive private values (float for VLOAD), one component at a time: vloadN
+ * and vstoreN are out-of-line calls on PoCL (see the primitives below). */
 #if LANES == 4
 #define LANE_IDS ((int4)(0, 1, 2, 3))
+#define VLOAD(p) ((float4)((p)[0], (p)[1], (p)[2], (p)[3]))
+#define VSTORE(v, p) ((p)[0] = (v).s0, (p)[1] = (v).s1, (p)[2] = (v).s2, (p)[3] = (v).s3)
 #elif LANES == 8
 #define LANE_IDS ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#define VLOAD(p) ((float8)((p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7]))
+#define VSTORE(v, p) ((p)[0] = (v).s0, (p)[1] = (v).s1, (p)[2] = (v).s2, (p)[3] = (v).s3, \
+                      (p)[4] = (v).s4, (p)[5] = (v).s5, (p)[6] = (v).s6, (p)[7] = (v).s7)
 #elif LANES == 16
 #define LANE_IDS ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#define VLOAD(p) ((float16)((p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7], (p)[8], (p)[9], \
+                            (p)[10], (p)[11], (p)[12], (p)[13], (p)[14], (p)[15]))
+#define VSTORE(v, p) ((p)[0] = (v).s0, (p)[1] = (v).s1, (p)[2] = (v).s2, (p)[3] = (v).s3, \
+                      (p)[4] = (v).s4, (p)[5] = (v).s5, (p)[6] = (v).s6, (p)[7] = (v).s7, \
+                      (p)[8] = (v).s8, (p)[9] = (v).s9, (p)[10] = (v).sa, (p)[11] = (v).sb, \
+                      (p)[12] = (v).sc, (p)[13] = (v).sd, (p)[14] = (v).se, (p)[15] = (v).sf)
 #else
 #error "LANES must be 1, 4, 8 or 16"
 #endif
@@ -109,13 +120,13 @@ typedef struct { float x[LANES], y[LANES], z[LANES]; } Lanes3;
 inline Lanes3 v3_spill(vec3 v)
 {
     Lanes3 a;
-    VSTORE(v.x, 0, a.x);
-    VSTORE(v.y, 0, a.y);
-    VSTORE(v.z, 0, a.z);
+    VSTORE(v.x, a.x);
+    VSTORE(v.y, a.y);
+    VSTORE(v.z, a.z);
     return a;
 }
 inline float3 lane3(const Lanes3 *a, int i) { return (float3)(a->x[i], a->y[i], a->z[i]); }
 inline void set_lane3(Lanes3 *a, int i, float3 v) { a->x[i] = v.x; a->y[i] = v.y; a->z[i] = v.z; }
-inline vec3 v3_fill(const Lanes3 *a) { return v3(VLOAD(0, a->x), VLOAD(0, a->y), VLOAD(0, a->z)); }
+inline vec3 v3_fill(const Lanes3 *a) { return v3(VLOAD(a->x), VLOAD(a->y), VLOAD(a->z)); }
 
 #endif

@@ -125,20 +125,20 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     int m[LANES];
     float sh[LANES];
     Lanes3 k = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
-    VSTORE(hit.material, 0, m);
+    VSTORE(hit.material, m);
 #if HAS_SURFACE_DATA
     int kind[LANES], index[LANES];
     float b1[LANES], b2[LANES];
-    VSTORE(hit.kind, 0, kind);
-    VSTORE(hit.index, 0, index);
-    VSTORE(hit.b1, 0, b1);
-    VSTORE(hit.b2, 0, b2);
+    VSTORE(hit.kind, kind);
+    VSTORE(hit.index, index);
+    VSTORE(hit.b1, b1);
+    VSTORE(hit.b2, b2);
     Lanes3 n = v3_spill(sp.n);
 #endif
 #if HAS_TEXTURES
     Lanes3 p = v3_spill(sp.p), d = v3_spill(r.d);
     float err[LANES];
-    VSTORE(sp.err, 0, err);
+    VSTORE(sp.err, err);
 #endif
     for (int i = 0; i < LANES; ++i) {
         sh[i] = 1.0f;
@@ -164,13 +164,13 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         set_lane3(&k, i, colour);
     }
     sp.k = v3_fill(&k);
-    sp.shininess = VLOAD(0, sh);
+    sp.shininess = VLOAD(sh);
 #if HAS_SURFACE_DATA
     sp.n = v3_fill(&n);
 #endif
 #if HAS_TEXTURES
     sp.p = v3_fill(&p);
-    sp.err = VLOAD(0, err);
+    sp.err = VLOAD(err);
 #endif
     return sp;
 }

@@ -25,8 +25,8 @@ inline void store_lanes(__global float *plane, int index, vfloat value, vint act
 {
     float v[LANES];
     int a[LANES];
-    VSTORE(value, 0, v);
-    VSTORE(active, 0, a);
+    VSTORE(value, v);
+    VSTORE(active, a);
     for (int i = 0; i < LANES; ++i)
         if (a[i])
             plane[index + i] = v[i];

@@ -7,9 +7,11 @@
 
 #include "lights.cl"
 #include "material.cl"
+#include "vmath.h"
 
-/* x^n for x in [0, 1], as exp2(n log2 x): the builtin pow costs more than all the rest of the shading. */
-inline vfloat phong_power(vfloat x, vfloat n) { return exp2(n * log2(x)); }
+/* x^n for x in [0, 1], as exp2(n log2 x) (vmath.h): the builtin pow costs more than all the rest of the
+ * shading. */
+inline vfloat phong_power(vfloat x, vfloat n) { return vexp2(n * vlog2(x)); }
 
 /* Diffuse + specular factor of one light sample, without colours: max(0, n.l) + max(0, r.v)^shininess. */
 inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
@@ -52,7 +54,7 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
             vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
-            vec3 l = v3_normalize(v3_sub(q, sp.p));
+            vec3 l = v3_direction(v3_sub(q, sp.p));
             vint lit = surface & (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f);
             if (!ANY(lit))
                 continue;

@@ -14,11 +14,15 @@ from .structs import (ellipsoid_structs, light_structs, material_structs, params
 PRELUDE = """
 #include "lanes.h"
 #define I ((int)get_global_id(0))
-#define IN(p) VLOAD(I, (p))
-#define IN3(p) v3(VLOAD(I, (p)), VLOAD(I, (p) + n), VLOAD(I, (p) + 2 * n))
-#define OUT(p, v) VSTORE((v), I, (p))
-#define OUT3(p, v) do { vec3 v_ = (v); VSTORE(v_.x, I, (p)); VSTORE(v_.y, I, (p) + n); \\
-                        VSTORE(v_.z, I, (p) + 2 * n); } while (0)
+#if LANES == 1
+#define IN(p) ((p)[I])
+#define OUT(p, v) ((p)[I] = (v))
+#else
+#define IN(p) CAT(vload, LANES)(I, (p))
+#define OUT(p, v) CAT(vstore, LANES)((v), I, (p))
+#endif
+#define IN3(p) v3(IN(p), IN((p) + n), IN((p) + 2 * n))
+#define OUT3(p, v) do { vec3 v_ = (v); OUT((p), v_.x); OUT((p) + n, v_.y); OUT((p) + 2 * n, v_.z); } while (0)
 """
 
 

@@ -23,8 +23,8 @@ __kernel void samples(int n, __global const uint2 *table, __global const Sampler
         key = stream_key(key, stream - 1);
     for (int i = 0; i < count; ++i) {
         vec2 u = sample_2d(table, i, *sampler, key);
-        VSTORE(u.x, I, out + i * n);
-        VSTORE(u.y, I, out + (count + i) * n);
+        OUT(out + i * n, u.x);
+        OUT(out + (count + i) * n, u.y);
     }
 }
 """

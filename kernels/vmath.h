@@ -1,0 +1,72 @@
+/* exp2, log2 and 1/sqrt on lanes, written out for the shading loop.
+ *
+ * PoCL leaves its builtins as out-of-line calls (lanes.h), and the loop over light samples would make three
+ * of them per sample, each spilling every live vector register. These run inline on any target, with error
+ * bounds of their own (below, measured in tests/test_vmath.py); u = 2^-24, a float32 rounding. The
+ * intersection routines keep the builtins: their error bounds count OpenCL's own ulp limits. */
+#ifndef VMATH_H
+#define VMATH_H
+
+#include "lanes.h"
+
+#if LANES == 1
+#define AS_VINT(v) as_int(v)
+#define CONVERT_VINT(v) ((int)(v))
+#else
+#define AS_VINT(v) CAT(as_int, LANES)(v)
+#define CONVERT_VINT(v) CAT(convert_int, LANES)(v)
+#endif
+
+/* log2 x for x > 0 (subnormal x counts as 0, and 0 gives -inf). x = 2^e m with m in [1/sqrt2, sqrt2), and
+ * log2 m = (2 / ln 2) atanh s, s = (m - 1) / (m + 1), |s| <= 0.172: atanh s = s (1 + s^2/3 + ... + s^8/9),
+ * the next term below 2e-9 (0.04u). m - 1 is exact (Sterbenz), m + 1 and the division round at most 3.5
+ * times (OpenCL's 2.5 ulp division), the polynomial and the two products 3 more: log2 m within 7u relative,
+ * and e + log2 m within 7u |log2 m| + u |log2 x| <= 8u |log2 x| (|log2 m| <= 1/2 <= |log2 x| when e != 0).
+ * Near x = 1, e = 0 and the error stays relative to the small log2 x. */
+inline vfloat vlog2(vfloat x)
+{
+    vint bits = AS_VINT(x);
+    vfloat m = AS_VFLOAT((bits & 0x007fffff) | 0x3f800000); /* [1, 2) */
+    vint e = (bits >> 23) - 127, high = m > 1.41421356f;
+    m = SELECT(m, 0.5f * m, high);
+    e = SELECT(e, e + 1, high);
+    vfloat s = (m - 1.0f) / (m + 1.0f), s2 = s * s;
+    vfloat series = MAD(s2, MAD(s2, MAD(s2, MAD(s2, 1.0f / 9.0f, 1.0f / 7.0f), 1.0f / 5.0f), 1.0f / 3.0f), 1.0f);
+    vfloat l = CONVERT_VFLOAT(e) + (2.0f * 1.44269504f) * s * series;
+    return SELECT(l, (vfloat)(-INFINITY), x < 0x1p-126f);
+}
+
+/* 2^z for z <= 0 (-inf gives 0). z = i + f with i an integer and f in (-1/2, 1/2], exact; 2^f = e^(f ln 2) by
+ * Taylor to degree 7 (the remainder below 3e-9, 0.05u), in Horner's form: the last step 1 + f q rounds once
+ * and carries q's error scaled by |f q| <= 0.3, so the polynomial is within 2u (3u without fused
+ * multiply-adds); 2^i is exact. Below 2^-126 the result is 0 or subnormal: only its size is kept. */
+inline vfloat vexp2(vfloat z)
+{
+    z = vmax(z, -127.0f);
+    vint i = CONVERT_VINT(z - 0.5f); /* rounds toward 0: i = ceil(z - 1/2) for z <= 0 */
+    vfloat f = z - CONVERT_VFLOAT(i);
+    vfloat p = MAD(f, 1.5252734e-05f, 1.5403530e-04f); /* (ln 2)^k / k!, k = 7, 6, ... */
+    p = MAD(f, p, 1.3333558e-03f);
+    p = MAD(f, p, 9.6181291e-03f);
+    p = MAD(f, p, 5.5504109e-02f);
+    p = MAD(f, p, 2.4022651e-01f);
+    p = MAD(f, p, 6.9314718e-01f);
+    p = MAD(f, p, 1.0f);
+    return p * AS_VFLOAT((i + 127) << 23); /* i = -127 scales by 0 */
+}
+
+/* 1 / sqrt(x) for normal x > 0: the classic bit-level first guess (relative error below 3.5e-2), then three
+ * Newton steps y (3/2 - x y^2 / 2), each taking the error e to about 3/2 e^2 (1.8e-3, 4.6e-6, 3.2e-11); the
+ * last step rounds at most 3 times: within 4u. For directions whose length only scales what they are
+ * compared with (shading), never for error-bounded points. */
+inline vfloat vrsqrt(vfloat x)
+{
+    vfloat y = AS_VFLOAT(0x5f375a86 - (AS_VINT(x) >> 1)), half_x = 0.5f * x;
+    y = y * (1.5f - half_x * y * y);
+    y = y * (1.5f - half_x * y * y);
+    return y * (1.5f - half_x * y * y);
+}
+
+inline vec3 v3_direction(vec3 a) { return v3_scale(a, vrsqrt(v3_dot(a, a))); }
+
+#endif

@@ -1,0 +1,77 @@
+"""The kernel's inline log2, exp2 and 1/sqrt (kernels/vmath.h) against float64 numpy, at both lane widths.
+
+The bounds are the ones argued in vmath.h, in u = 2^-24 (one float32 rounding); the inputs cover every binade
+the shading can feed them, the values next to 1 where Phong highlights peak, and the special cases."""
+import numpy as np
+import pytest
+
+U = 2.0**-24
+TINY = 2.0**-126
+
+VMATH = """
+#include "vmath.h"
+__kernel void log2_(int n, __global const float *x, __global float *out) { OUT(out, vlog2(IN(x))); }
+__kernel void exp2_(int n, __global const float *z, __global float *out) { OUT(out, vexp2(IN(z))); }
+__kernel void rsqrt_(int n, __global const float *x, __global float *out) { OUT(out, vrsqrt(IN(x))); }
+"""
+
+
+def run(harness, name, x):
+    x = np.asarray(x, np.float32)
+    pad = (-len(x)) % 8
+    x = np.concatenate([x, np.ones(pad, np.float32)])
+    return harness.run(VMATH, name, len(x), [x], {"out": 1})["out"][:len(x) - pad], x[:len(x) - pad]
+
+
+def log_inputs(rng):
+    """Random mantissas in every normal binade, the 2000 floats on either side of 1, the binade edges and
+    sqrt(2) (where the reduction switches), 1 itself."""
+    binades = 2.0 ** rng.integers(-126, 128, 20000) * rng.uniform(1, 2, 20000)
+    near_one = np.concatenate([1 - np.arange(1, 2001) * U, 1 + np.arange(1, 2001) * 2 * U])
+    edges = np.concatenate([2.0 ** np.arange(-126, 127), np.sqrt(2) * (1 + np.arange(-8, 9) * 2 * U), [1.0]])
+    return np.concatenate([binades, near_one, edges]).astype(np.float32)
+
+
+def test_log2(harness):
+    """Within 8u of |log2 x| (vmath.h: 3.5 roundings in s, 3 more in the series and products, one in the sum
+    with the exponent); log2 1 = 0 exactly."""
+    out, x = run(harness, "log2_", log_inputs(np.random.default_rng(1)))
+    ref = np.log2(x.astype(np.float64))
+    nonzero = ref != 0
+    assert np.all(out[~nonzero] == 0)
+    assert np.max(np.abs(out - ref)[nonzero] / np.abs(ref[nonzero])) <= 8 * U
+
+
+def test_log2_special(harness):
+    """0 and subnormals give -inf (so that x^n = exp2(n log2 x) is 0, never NaN)."""
+    out, _ = run(harness, "log2_", [0.0, 1e-45, 1e-40, TINY / 2])
+    assert np.all(out == -np.inf)
+
+
+def test_exp2(harness):
+    """Within 3u of 2^z for every z in [-126, 0] (vmath.h: Taylor remainder 0.05u, Horner 2-3u, 2^i exact),
+    including the integers and half-integers where the reduction switches."""
+    rng = np.random.default_rng(2)
+    z = np.concatenate([rng.uniform(-126, 0, 20000), -10.0 ** rng.uniform(-8, 0, 4000), -np.arange(127.0),
+                        -np.arange(126) - 0.5, [0.0]]).astype(np.float32)
+    out, z = run(harness, "exp2_", z)
+    ref = np.exp2(z.astype(np.float64))
+    assert np.max(np.abs(out - ref) / ref) <= 3 * U
+    assert out[z == 0][0] == 1.0
+
+
+def test_exp2_underflow(harness):
+    """Below 2^-126 only the size is kept: in [0, 2^-125]; -inf gives exactly 0."""
+    out, _ = run(harness, "exp2_", [-126.3, -126.9, -127.0, -200.0, -1e30, -np.inf])
+    assert np.all((out >= 0) & (out <= 2 * TINY))
+    assert out[-1] == 0
+
+
+@pytest.mark.parametrize("scale", [1e-30, 1.0, 1e30])
+def test_rsqrt(harness, scale):
+    """Within 4u of 1/sqrt(x): three Newton steps leave 3e-11 of the first guess's error, and the last step
+    rounds at most 3 times (vmath.h); over a range of magnitudes, since the first guess works on the bits."""
+    x = (np.random.default_rng(3).uniform(0.25, 4, 8000) * scale).astype(np.float32)
+    out, x = run(harness, "rsqrt_", x)
+    ref = 1 / np.sqrt(x.astype(np.float64))
+    assert np.max(np.abs(out - ref) / ref) <= 4 * U
