@@ -74,7 +74,8 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
 {
     BoxRay b = box_ray(r);
 #if HAS_TRIANGLES
-    RayShear shear = ray_shear(r);
+    RayShear shear; /* formed at the first triangle: most rays of a room never reach a mesh's leaves */
+    int sheared = 0;
 #endif
     int stack[BVH_STACK], top = 0, i = 0;
     for (;;) {
@@ -87,8 +88,13 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
             for (int k = node->offset; k < node->offset + node->count; ++k) {
                 int ref = s->prims[k], index = ref >> 2, kind = ref & 3;
 #if HAS_TRIANGLES
-                if (kind == SHAPE_TRIANGLE)
+                if (kind == SHAPE_TRIANGLE) {
+                    if (!sheared) {
+                        shear = ray_shear(r);
+                        sheared = 1;
+                    }
                     hit_triangle(s, hit, r, shear, index, tmax);
+                }
 #endif
 #if HAS_RECTANGLES
                 if (kind == SHAPE_RECTANGLE)
@@ -110,7 +116,8 @@ inline vint bvh_occluded(const Scene *s, Ray r)
 {
     BoxRay b = box_ray(r);
 #if HAS_TRIANGLES
-    RayShear shear = ray_shear(r);
+    RayShear shear; /* formed at the first triangle: most rays of a room never reach a mesh's leaves */
+    int sheared = 0;
 #endif
     vint blocked = (vint)(0);
     int stack[BVH_STACK], top = 0, i = 0;
@@ -124,8 +131,13 @@ inline vint bvh_occluded(const Scene *s, Ray r)
             for (int k = node->offset; k < node->offset + node->count; ++k) {
                 int ref = s->prims[k], index = ref >> 2, kind = ref & 3;
 #if HAS_TRIANGLES
-                if (kind == SHAPE_TRIANGLE)
+                if (kind == SHAPE_TRIANGLE) {
+                    if (!sheared) {
+                        shear = ray_shear(r);
+                        sheared = 1;
+                    }
                     blocked |= blocks_triangle(s, r, shear, index);
+                }
 #endif
 #if HAS_RECTANGLES
                 if (kind == SHAPE_RECTANGLE)

@@ -53,7 +53,7 @@ inline void hit_rectangle(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
 {
     __global const Rectangle *rect = &s->rectangles[i];
     vfloat dt, u, v, err;
-    vfloat t = intersect_rectangle(rect, r, &dt, &u, &v);
+    vfloat t = intersect_rectangle(rect, r, vmin(tmax, hit->t), &dt, &u, &v);
     t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
     if (ANY(t < hit->t)) {
         vec3 p = rectangle_point(rect, u, v, &err);
@@ -98,7 +98,7 @@ inline void hit_ellipsoid(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
 inline vint blocks_rectangle(const Scene *s, Ray r, int i)
 {
     vfloat dt, u, v;
-    return hit_on_segment(intersect_rectangle(&s->rectangles[i], r, &dt, &u, &v), dt);
+    return hit_on_segment(intersect_rectangle(&s->rectangles[i], r, (vfloat)(1.0f), &dt, &u, &v), dt);
 }
 
 #if HAS_TRIANGLES
@@ -159,7 +159,7 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
     vfloat dt, u, v;
     for (int i = 0; i < s->params->n_lights; ++i) {
         __global const Light *light = &s->lights[i];
-        vfloat t = intersect_rectangle(&light->shape, r, &dt, &u, &v);
+        vfloat t = intersect_rectangle(&light->shape, r, vmin(tmax, hit.t), &dt, &u, &v);
         t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
         hit_update(&hit, r, t, hit.p, 0.0f, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
                    (vfloat)(0.0f), (vfloat)(0.0f));

@@ -5,23 +5,27 @@
 #include "ray.h"
 #include "types.h"
 
-/* t of the plane crossing where it lies inside the rectangle, else +inf (NaN for a ray in the plane);
+/* t of the plane crossing where it lies inside the rectangle, else +inf (also for a ray in the plane);
  * *dt: a bound on t's rounding error; (*u, *v): the crossing's coordinates along the tangent and bitangent
  * from the centre. t = num / den with num = (c - o).n, the origin's distance from the plane, and den = d.n:
  * c - o rounds once and a 3-term dot product of mads at most three times (e_num takes 5, e_den 4), and
  * t = num * (1 / den) six times (ray.h). An origin on the plane to within rounding has |num| <= e_num, so
- * dt >= |t|: never a hit; one farther off is told apart by the sign of t. */
-inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat *dt, vfloat *u, vfloat *v)
+ * dt >= |t|: never a hit; one farther off is told apart by the sign of t. Where no lane's t lies in
+ * (0, tmax], no caller can take the hit (ray.h's ranges need t > dt >= 0): the rest is skipped. */
+inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat tmax, vfloat *dt, vfloat *u,
+                                  vfloat *v)
 {
     vec3 n = v3_uniform(rect->normal);
     vec3 co = v3_sub(v3_uniform(rect->center), r.o);
     vfloat num = v3_dot(co, n), inv_den = 1.0f / v3_dot(r.d, n);
     vfloat t = num * inv_den;
+    *dt = *u = *v = 0.0f;
+    if (!ANY((t > 0.0f) & (t <= tmax))) /* behind every lane, or beyond: most planes of a room */
+        return (vfloat)(INFINITY);
     vec3 rel = v3_madd(v3_scale(co, -1.0f), t, r.d); /* p - c, without forming p */
     *u = v3_dot(rel, v3_uniform(rect->tangent));
     *v = v3_dot(rel, v3_uniform(rect->bitangent));
     vint inside = (vabs(*u) <= rect->half_x) & (vabs(*v) <= rect->half_y);
-    *dt = 0.0f;
     if (!ANY(inside)) /* most shapes are missed by every lane: skip the bound */
         return (vfloat)(INFINITY);
     /* dt = |t| (e_num / |num| + e_den / |den| + gamma(5)), without the two divisions */

@@ -14,7 +14,7 @@ __kernel void hit(int n, __global const Rectangle *rect, __global const float *o
 {
     Ray r = {IN3(o), IN3(d)};
     vfloat dt, u, v;
-    vfloat th = intersect_rectangle(rect, r, &dt, &u, &v);
+    vfloat th = intersect_rectangle(rect, r, (vfloat)(tmax), &dt, &u, &v);
     OUT(t, select((vfloat)(INFINITY), th, hit_in_range(th, dt, (vfloat)(tmax)) & (th >= tmin)));
 }
 """
