@@ -10,12 +10,6 @@
 
 #define BVH_STACK 64 /* the host refuses deeper trees */
 
-#if LANES == 1
-#define FIRST_LANE(v) (v)
-#else
-#define FIRST_LANE(v) ((v).s0)
-#endif
-
 /* Per ray: the reciprocal direction for the slab test, the signs that order the children, and whether any
  * lane's reciprocal direction has an infinite component (a zero or subnormal one in the direction: the slab
  * test's special case, below). */

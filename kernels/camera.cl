@@ -4,6 +4,7 @@
 
 #include "ray.h"
 #include "types.h"
+#include "vmath.h"
 
 /* (x, y): continuous pixel coordinates, x in [0, W) to the right, y in [0, H) downwards (row 0 on top). */
 inline Ray generate_camera_ray(__constant const Camera *cam, vfloat x, vfloat y, float inv_w, float inv_h)
@@ -24,12 +25,12 @@ inline void camera_footprint(__constant const Camera *cam, float spacing, float 
                              float3 p, float3 n, float3 *dpdx, float3 *dpdy)
 {
     float3 o = f3(cam->position);
-    float3 dir = d * (cam->focal_length / dot(d, f3(cam->forward))); /* f forward + sx right + sy up */
+    float3 dir = d * (cam->focal_length / dot3(d, f3(cam->forward))); /* f forward + sx right + sy up */
     float3 dx = dir + f3(cam->right) * (2.0f * spacing * inv_w * cam->scale_x);
     float3 dy = dir - f3(cam->up) * (2.0f * spacing * inv_h * cam->scale_y);
-    float plane = dot(p - o, n);
-    *dpdx = o + dx * (plane / dot(dx, n)) - p;
-    *dpdy = o + dy * (plane / dot(dy, n)) - p;
+    float plane = dot3(p - o, n);
+    *dpdx = o + dx * (plane / dot3(dx, n)) - p;
+    *dpdy = o + dy * (plane / dot3(dy, n)) - p;
 }
 
 #endif

@@ -26,6 +26,7 @@ typedef uint vuint;
 #define CONVERT_VFLOAT(v) ((float)(v))
 #define AS_VUINT(v) as_uint(v)
 #define AS_VFLOAT(v) as_float(v)
+#define FIRST_LANE(v) (v)
 #else
 typedef CAT(float, LANES) vfloat;
 typedef CAT(int, LANES) vint;
@@ -57,6 +58,7 @@ typedef CAT(uint, LANES) vuint;
 #define CONVERT_VFLOAT(v) CAT(convert_float, LANES)(v)
 #define AS_VUINT(v) CAT(as_uint, LANES)(v)
 #define AS_VFLOAT(v) CAT(as_float, LANES)(v)
+#define FIRST_LANE(v) ((v).s0)
 #endif
 
 /* Lane-wise primitives written with operators. PoCL builds its builtin library for a generic x86-64 CPU

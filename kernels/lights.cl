@@ -4,6 +4,7 @@
 
 #include "ray.h"
 #include "samplers.cl"
+#include "vmath.h"
 
 /* The point of the light at (u, v) in [0, 1)^2: c + (u - 1/2) sx t + (v - 1/2) sy b. */
 inline vec3 light_point(__global const Light *light, vec2 uv)
@@ -21,9 +22,9 @@ inline vec3 light_point(__global const Light *light, vec2 uv)
 inline float light_point_error(__global const Light *light)
 {
     __global const Rectangle *r = &light->shape;
-    float3 n = fabs(f3(r->normal));
-    float3 box = fabs(f3(r->center)) + fabs(f3(r->tangent)) * r->half_x + fabs(f3(r->bitangent)) * r->half_y;
-    return GAMMA(4) * dot(n, box) + GAMMA(2) * (r->half_x + r->half_y);
+    float3 n = abs3(f3(r->normal));
+    float3 box = abs3(f3(r->center)) + abs3(f3(r->tangent)) * r->half_x + abs3(f3(r->bitangent)) * r->half_y;
+    return GAMMA(4) * dot3(n, box) + GAMMA(2) * (r->half_x + r->half_y);
 }
 
 #endif

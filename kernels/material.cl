@@ -44,9 +44,9 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
  * dual basis e_u = (dpdv x n) / a, e_v = (n x dpdu) / a, a = n.(dpdu x dpdv). Where a is 0, n is kept. */
 inline float3 bump_normal(float3 dpdu, float3 dpdv, float3 n, float dh_du, float dh_dv)
 {
-    float a = dot(n, cross(dpdu, dpdv));
-    float3 bumped = normalize(n - (cross(dpdv, n) * dh_du + cross(n, dpdu) * dh_dv) / a);
-    return all(isfinite(bumped)) ? bumped : n;
+    float a = dot3(n, cross3(dpdu, dpdv));
+    float3 bumped = normalize3(n - (cross3(dpdv, n) * dh_du + cross3(n, dpdu) * dh_dv) / a);
+    return finite3(bumped) ? bumped : n;
 }
 
 /* Everything textured about one lane's hit: *k, *n (starts as the facing geometric normal ng), *p and its
@@ -61,14 +61,14 @@ inline void texture_lane(const Scene *s, TextureStore ts, __global const Materia
                      &dpdx, &dpdy);
     /* the material's uv transform, then (s, t) = (u, 1 - v) of the image */
     float2 scale = (float2)(m->uv_scale[0], m->uv_scale[1]);
-    float2 uv = mad(sp.uv, scale, (float2)(m->uv_offset[0], m->uv_offset[1]));
+    float2 uv = sp.uv * scale + (float2)(m->uv_offset[0], m->uv_offset[1]);
     float4 duv = uv_derivatives(sp, dpdx, dpdy) * scale.xyxy;
     float2 st = (float2)(uv.x, 1.0f - uv.y);
     float4 dst = duv * (float4)(1.0f, -1.0f, 1.0f, -1.0f);
     const int filter = params->texture_filter, wrap = m->wrap;
     float3 ng = *n;
     Frame frame = shading_frame(sp);
-    float side = dot(frame.n, ng) < 0.0f ? -1.0f : 1.0f; /* the frame's normal seen from the ray's side */
+    float side = dot3(frame.n, ng) < 0.0f ? -1.0f : 1.0f; /* the frame's normal seen from the ray's side */
     float3 shading = frame.n;
 #if HAS_COLOUR_MAPS
     if (m->colour_map >= 0)
@@ -76,16 +76,16 @@ inline void texture_lane(const Scene *s, TextureStore ts, __global const Materia
 #endif
 #if HAS_NORMAL_MAPS
     if (m->normal_map >= 0) { /* tangent space: rgb = (x, y, z) / 2 + 1/2 */
-        float3 c = mad(texture_lookup(ts, m->normal_map, st, dst, filter, wrap).xyz, 2.0f, -1.0f);
-        float3 mapped = normalize(frame.t * c.x + frame.b * c.y + frame.n * c.z);
-        shading = all(isfinite(mapped)) ? mapped : frame.n;
+        float3 c = texture_lookup(ts, m->normal_map, st, dst, filter, wrap).xyz * 2.0f - 1.0f;
+        float3 mapped = normalize3(frame.t * c.x + frame.b * c.y + frame.n * c.z);
+        shading = finite3(mapped) ? mapped : frame.n;
     }
 #endif
 #if HAS_HEIGHT_MAPS
     if (m->height_map >= 0) {
         MipLevel top = mip_level(ts, m->height_map, 0);
-        float du = fmax(0.5f * (fabs(duv.x) + fabs(duv.z)), 0.5f / top.width);
-        float dv = fmax(0.5f * (fabs(duv.y) + fabs(duv.w)), 0.5f / top.height);
+        float du = max1(0.5f * (abs1(duv.x) + abs1(duv.z)), 0.5f / top.width);
+        float dv = max1(0.5f * (abs1(duv.y) + abs1(duv.w)), 0.5f / top.height);
         float h = texture_lookup(ts, m->height_map, st, dst, filter, wrap).x;
         float hu = texture_lookup(ts, m->height_map, st + (float2)(du, 0.0f), dst, filter, wrap).x;
         float hv = texture_lookup(ts, m->height_map, st - (float2)(0.0f, dv), dst, filter, wrap).x;
@@ -93,7 +93,7 @@ inline void texture_lane(const Scene *s, TextureStore ts, __global const Materia
         shading = bump_normal(sp.dpdu / scale.x, sp.dpdv / scale.y, shading, kh * (hu - h) / du,
                               kh * (hv - h) / dv);
         *p += ng * (kh * h); /* outwards (kh h >= 0): the surface stays behind; the sum rounds once more */
-        *err += GAMMA(2) * dot(fabs(ng), fabs(*p));
+        *err += GAMMA(2) * dot3(abs3(ng), abs3(*p));
     }
 #endif
     *n = shading * side;
@@ -110,8 +110,8 @@ inline float3 smooth_normal(const Scene *s, int index, float b1, float b2, float
 {
     __global const TriangleNormals *c = &s->triangle_normals[index];
     float3 n = (1.0f - b1 - b2) * f3(c->n0) + b1 * f3(c->n1) + b2 * f3(c->n2);
-    float side = dot(f3(s->triangles[index].normal), ng) < 0.0f ? -1.0f : 1.0f;
-    return dot(n, n) > 0.0f ? normalize(n) * side : ng;
+    float side = dot3(f3(s->triangles[index].normal), ng) < 0.0f ? -1.0f : 1.0f;
+    return dot3(n, n) > 0.0f ? normalize3(n) * side : ng;
 }
 #endif
 

@@ -14,11 +14,11 @@
 inline float4 texture_at_width(TextureStore ts, int texture, float2 st, float width, int wrap)
 {
     int top = ts.textures[texture].n_levels - 1;
-    float d = fmin(fmax(log2(width), 0.0f), (float)top); /* fmax: a width of 0 or NaN gives level 0 */
+    float d = width > 0.0f ? min1(max1(log2_1(width), 0.0f), (float)top) : 0.0f; /* width 0 or NaN: level 0 */
     int l0 = (int)d;
     float f = d - l0;
     float4 fine = texture_bilinear(ts, texture, l0, st, wrap);
-    return f > 0.0f ? mix(fine, texture_bilinear(ts, texture, min(l0 + 1, top), st, wrap), f) : fine;
+    return f > 0.0f ? mix4(fine, texture_bilinear(ts, texture, (l0 < top ? l0 + 1 : top), st, wrap), f) : fine;
 }
 
 /* The two footprint axes in level-0 texels. */
@@ -35,7 +35,7 @@ inline float4 texture_trilinear(TextureStore ts, int texture, float2 st, float4 
 {
     float2 ax, ay;
     footprint_axes(ts, texture, dst, &ax, &ay);
-    return texture_at_width(ts, texture, st, fmax(length(ax), length(ay)), wrap);
+    return texture_at_width(ts, texture, st, max1(length2(ax), length2(ay)), wrap);
 }
 
 /* Anisotropic: up to MAX_ANISOTROPY trilinear probes spread along the major axis of the footprint, each
@@ -44,11 +44,11 @@ inline float4 texture_anisotropic(TextureStore ts, int texture, float2 st, float
 {
     float2 ax, ay;
     footprint_axes(ts, texture, dst, &ax, &ay);
-    float lx = length(ax), ly = length(ay);
-    float major = fmax(lx, ly), width = fmax(fmin(lx, ly), major / MAX_ANISOTROPY);
+    float lx = length2(ax), ly = length2(ay);
+    float major = max1(lx, ly), width = max1(min1(lx, ly), major / MAX_ANISOTROPY);
     if (!(width > 0.0f))
         return texture_bilinear(ts, texture, 0, st, wrap);
-    int n = clamp((int)ceil(major / width - 1e-3f), 1, MAX_ANISOTROPY);
+    int n = clamp_int((int)ceil(major / width - 1e-3f), 1, MAX_ANISOTROPY);
     float2 axis_st = lx >= ly ? dst.s01 : dst.s23;
     float4 sum = (float4)(0.0f);
     for (int k = 0; k < n; ++k)

@@ -7,6 +7,7 @@
 #define SURFACE_CL
 
 #include "types.h"
+#include "vmath.h"
 
 typedef struct {
     float2 uv;
@@ -19,14 +20,14 @@ typedef struct { float3 t, b, n; } Frame;
 
 inline float3 mat3_mul(const __global float *m, float3 v) /* row-major m times v */
 {
-    return (float3)(dot((float3)(m[0], m[1], m[2]), v), dot((float3)(m[3], m[4], m[5]), v),
-                    dot((float3)(m[6], m[7], m[8]), v));
+    return (float3)(dot3((float3)(m[0], m[1], m[2]), v), dot3((float3)(m[3], m[4], m[5]), v),
+                    dot3((float3)(m[6], m[7], m[8]), v));
 }
 
 inline float3 mat3_mul_transposed(const __global float *m, float3 v)
 {
-    return (float3)(dot((float3)(m[0], m[3], m[6]), v), dot((float3)(m[1], m[4], m[7]), v),
-                    dot((float3)(m[2], m[5], m[8]), v));
+    return (float3)(dot3((float3)(m[0], m[3], m[6]), v), dot3((float3)(m[1], m[4], m[7]), v),
+                    dot3((float3)(m[2], m[5], m[8]), v));
 }
 
 /* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (the README's model,
@@ -35,7 +36,7 @@ inline SurfacePoint surface_rectangle(__global const Rectangle *r, float3 p)
 {
     float3 rel = p - f3(r->center), t = f3(r->tangent), b = f3(r->bitangent);
     SurfacePoint sp;
-    sp.uv = (float2)(dot(rel, t) / (2.0f * r->half_x) + 0.5f, dot(rel, b) / (2.0f * r->half_y) + 0.5f);
+    sp.uv = (float2)(dot3(rel, t) / (2.0f * r->half_x) + 0.5f, dot3(rel, b) / (2.0f * r->half_y) + 0.5f);
     sp.dpdu = t * (2.0f * r->half_x);
     sp.dpdv = b * (2.0f * r->half_y);
     sp.n = f3(r->normal);
@@ -66,16 +67,16 @@ inline SurfacePoint surface_triangle(__global const Triangle *tri, __global cons
  * which repeat wrapping ignores, and the derivatives are analytic, so the seam has no footprint of its own. */
 inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
 {
-    float3 q = normalize(mat3_mul(e->world_to_unit, p - f3(e->center)));
-    float sin_phi = length(q.xy);
+    float3 q = normalize3(mat3_mul(e->world_to_unit, p - f3(e->center)));
+    float sin_phi = length2(q.xy);
     float cos_theta = sin_phi > 0.0f ? q.x / sin_phi : 1.0f, sin_theta = sin_phi > 0.0f ? q.y / sin_phi : 0.0f;
     const float pi = M_PI_F;
     SurfacePoint sp;
     sp.uv = (float2)(atan2(q.y, q.x) / (2.0f * pi) + 0.5f, 1.0f - atan2(sin_phi, q.z) / pi);
     sp.dpdu = mat3_mul(e->unit_to_world, (float3)(-q.y, q.x, 0.0f) * (2.0f * pi));
     sp.dpdv = mat3_mul(e->unit_to_world, (float3)(q.z * cos_theta, q.z * sin_theta, -sin_phi) * -pi);
-    sp.n = normalize(mat3_mul_transposed(e->world_to_unit, q)); /* the inverse-transpose, as ellipsoid.cl */
-    sp.tangent = normalize(mat3_mul(e->unit_to_world, (float3)(-sin_theta, cos_theta, 0.0f)));
+    sp.n = normalize3(mat3_mul_transposed(e->world_to_unit, q)); /* the inverse-transpose, as ellipsoid.cl */
+    sp.tangent = normalize3(mat3_mul(e->unit_to_world, (float3)(-sin_theta, cos_theta, 0.0f)));
     return sp;
 }
 
@@ -91,11 +92,11 @@ inline float3 any_perpendicular(float3 n)
 inline Frame shading_frame(SurfacePoint sp)
 {
     Frame f;
-    float3 t = sp.tangent - sp.n * dot(sp.n, sp.tangent);
-    float len2 = dot(t, t);
-    f.t = len2 > 0.0f ? t * rsqrt(len2) : any_perpendicular(sp.n);
-    f.n = dot(sp.n, cross(sp.dpdu, sp.dpdv)) < 0.0f ? -sp.n : sp.n;
-    f.b = cross(f.n, f.t);
+    float3 t = sp.tangent - sp.n * dot3(sp.n, sp.tangent);
+    float len2 = dot3(t, t);
+    f.t = len2 > 0.0f ? t * rsqrt1(len2) : any_perpendicular(sp.n);
+    f.n = dot3(sp.n, cross3(sp.dpdu, sp.dpdv)) < 0.0f ? -sp.n : sp.n;
+    f.b = cross3(f.n, f.t);
     return f;
 }
 
@@ -104,10 +105,10 @@ inline Frame shading_frame(SurfacePoint sp)
  * parameterisation degenerates (a pole) the system is singular: the result is 0, not NaN. */
 inline float4 uv_derivatives(SurfacePoint sp, float3 dpdx, float3 dpdy)
 {
-    float a00 = dot(sp.dpdu, sp.dpdu), a01 = dot(sp.dpdu, sp.dpdv), a11 = dot(sp.dpdv, sp.dpdv);
+    float a00 = dot3(sp.dpdu, sp.dpdu), a01 = dot3(sp.dpdu, sp.dpdv), a11 = dot3(sp.dpdv, sp.dpdv);
     float inv_det = 1.0f / (a00 * a11 - a01 * a01);
-    inv_det = isfinite(inv_det) ? inv_det : 0.0f;
-    float bx0 = dot(sp.dpdu, dpdx), bx1 = dot(sp.dpdv, dpdx), by0 = dot(sp.dpdu, dpdy), by1 = dot(sp.dpdv, dpdy);
+    inv_det = finite1(inv_det) ? inv_det : 0.0f;
+    float bx0 = dot3(sp.dpdu, dpdx), bx1 = dot3(sp.dpdv, dpdx), by0 = dot3(sp.dpdu, dpdy), by1 = dot3(sp.dpdv, dpdy);
     float4 d = (float4)(a11 * bx0 - a01 * bx1, a00 * bx1 - a01 * bx0, a11 * by0 - a01 * by1, a00 * by1 - a01 * by0)
                * inv_det;
     return select(clamp(d, -1e8f, 1e8f), (float4)(0.0f), isnan(d));

@@ -69,4 +69,32 @@ inline vfloat vrsqrt(vfloat x)
 
 inline vec3 v3_direction(vec3 a) { return v3_scale(a, vrsqrt(v3_dot(a, a))); }
 
+/* The same for the scalar code that runs once per lane (texturing: textures.cl, mipmap.cl, surface.cl,
+ * material.cl): the builtins below would each be a call there too. The formulas are OpenCL's own (mix is
+ * a + (b - a) t); max1 and min1 give b where a is NaN, as fmax and fmin do (not where b is). */
+inline float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline float3 cross3(float3 a, float3 b)
+{
+    return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+inline float abs1(float x) { return as_float(as_uint(x) & 0x7fffffffU); }
+inline float3 abs3(float3 v) { return (float3)(abs1(v.x), abs1(v.y), abs1(v.z)); }
+inline int finite1(float x) { return abs1(x) < INFINITY; }
+inline int finite3(float3 v) { return finite1(v.x) & finite1(v.y) & finite1(v.z); }
+inline float max1(float a, float b) { return a > b ? a : b; }
+inline float min1(float a, float b) { return a < b ? a : b; }
+inline int clamp_int(int i, int lo, int hi) { return i < lo ? lo : (i > hi ? hi : i); }
+inline float4 mix4(float4 a, float4 b, float t) { return a + (b - a) * t; }
+/* One lane of the lane versions above: the same cost as a scalar version, without a second copy. */
+inline float log2_1(float x) { return FIRST_LANE(vlog2((vfloat)(x))); }
+inline float rsqrt1(float x) { return FIRST_LANE(vrsqrt((vfloat)(x))); }
+inline float3 normalize3(float3 v) { return v * rsqrt1(dot3(v, v)); }
+inline float length2(float2 v) { float d = v.x * v.x + v.y * v.y; return d * rsqrt1(d); }
+/* Beyond 2^23 every float is an integer (and NaN stays NaN); below, truncation corrected downwards. */
+inline float floor1(float x)
+{
+    float t = (float)(int)x;
+    return abs1(x) < 0x1p23f ? (t > x ? t - 1.0f : t) : x;
+}
+
 #endif

@@ -118,7 +118,7 @@ class Accumulator:
         squares = 0.0
         for rows in self._chunks():
             d = self._half_difference(rows).ravel()
-            squares += float(np.dot(d, d))
+            squares += float(np.sum(np.square(d)))  # not np.dot: BLAS threads would spin on the render's cores
         rmse = math.sqrt(squares / self.total.size)
         mean = float(np.mean(self.total)) / self.n_total
         return rmse, rmse / mean if mean > 0 else math.inf

@@ -202,3 +202,26 @@ def test_bilinear_matches_openimageio(harness, tmp_path):
     want = openimageio_lookup(tmp_path, image, oiio.MipMode.NoMIP, s, t)
     got = kernel_lookup(harness, [make_texture(image, "float", "colour")], 0, "bilinear", "repeat", s, t)
     np.testing.assert_allclose(got, want, atol=2e-6)
+
+
+WRAP = """
+#include "textures.cl"
+__kernel void wrap(int n, __global const float *i, int size, int mode, __global float *out)
+{
+    for (int k = 0; k < LANES; ++k)
+        out[I * LANES + k] = wrap_index((int)i[I * LANES + k], size, mode);
+}
+"""
+
+
+def test_wrap_index_over_many_periods(harness):
+    """wrap_index against numpy's modulo for indices within a period of [0, n) (the cheap path) and far
+    beyond (integer division), negative ones included: exact."""
+    size = 7
+    i = np.concatenate([np.arange(-3 * size, 4 * size), [-10**6 - 3, -1000, 1000, 10**6 + 5]])
+    i = np.concatenate([i, np.zeros((-len(i)) % 8)])
+    for mode, expect in [("repeat", i % size), ("clamp", np.clip(i, 0, size - 1)),
+                         ("mirror", np.where((i // size) % 2 == 0, i % size, size - 1 - i % size))]:
+        out = harness.run(WRAP, "wrap", len(i), [i.astype(np.float32), np.int32(size),
+                                                 np.int32(types.WRAP_MODES[mode])], {"out": 1})["out"]
+        np.testing.assert_array_equal(out, expect, err_msg=mode)

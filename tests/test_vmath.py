@@ -75,3 +75,25 @@ def test_rsqrt(harness, scale):
     out, x = run(harness, "rsqrt_", x)
     ref = 1 / np.sqrt(x.astype(np.float64))
     assert np.max(np.abs(out - ref) / ref) <= 4 * U
+
+
+FLOOR = """
+#include "vmath.h"
+__kernel void floor_(int n, __global const float *x, __global float *out)
+{
+    for (int k = 0; k < LANES; ++k)
+        out[I * LANES + k] = floor1(x[I * LANES + k]);
+}
+"""
+
+
+def test_floor1():
+    """floor1 is exactly floor: integers, halves and values next to them on both sides of 0, values from
+    2^22 to 2^31 (where truncation to int would overflow), infinities; NaN stays NaN."""
+    from raytrace.probe import Probe
+    near = np.nextafter(np.float32([1, -1, 2**22, -2**22, 0.5, -0.5]), np.float32(0))
+    x = np.concatenate([np.arange(-20, 20) * 0.5, near, [2.0**22 + 0.5, 2.0**23, 2.0**31, -2.0**31, 3e38, -3e38,
+                                                         np.inf, -np.inf, 0.0, -0.0, 1e-45, -1e-45, np.nan]])
+    x = np.concatenate([x, np.zeros((-len(x)) % 8)]).astype(np.float32)
+    out = Probe(8).run(FLOOR, "floor_", len(x), [x], {"out": 1})["out"]
+    np.testing.assert_array_equal(out, np.floor(x))
