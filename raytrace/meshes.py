@@ -23,8 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from trimesh.exchange.obj import load_obj
-from trimesh.exchange.ply import load_ply
 
 from .errors import InputError
 
@@ -109,6 +107,7 @@ def _read_obj(path, data):
         raise InputError(path, "file", None, "is binary data, not OBJ text")
     text = data.decode("latin-1")  # only ASCII matters; names and comments in other encodings pass
     _check_obj_indices(path, text)
+    from trimesh.exchange.obj import load_obj  # here, not at the top: importing trimesh takes 0.5 s
     try:
         parts = load_obj(io.StringIO(text), skip_materials=True, group_material=False).get("geometry", {})
     except IndexError:
@@ -147,6 +146,7 @@ def _check_obj_indices(path, text):
 
 def _read_ply(path, data):
     """The file's (vertices, polygons, normals, uvs). fix_texture=False keeps the file's vertex order."""
+    from trimesh.exchange.ply import load_ply
     try:
         read = load_ply(io.BytesIO(data), fix_texture=False, skip_materials=True)
     except IndexError:
