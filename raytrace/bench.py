@@ -1,10 +1,58 @@
-"""The benchmark: rays per second of the renderer's kernel variants, each against a baseline (the scalar
-kernel, LANES=1, on the same device) run in the same process, so that machines and loads cancel out."""
-import sys
+"""The benchmark suite: `python -m raytrace bench [SCENE ...]`.
 
+Per scene: rays per second of the renderer's kernel (as `render` picks it for the device) against the
+scalar kernel (LANES=1) on the same device in the same process, so that machines and loads cancel out in
+the ratio; then the whole `python -m raytrace render` in child processes, with an empty kernel cache
+(cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory."""
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from . import samplers
+from .device import default_lanes, select_device
 from .kernel import Features
-from .render import render
+from .render import RenderOptions, render, resolve
 from .scene import load_scene
+from .structs import scene_structs, texture_structs
+
+ROOT = Path(__file__).resolve().parent.parent
+# Scene 0, textures, texture filtering under strong minification, and the largest mesh scene that renders
+# in seconds (10^5 triangles; mesh_million's BVH build alone takes longer than the rest of the suite).
+SUITE = ["cornell.toml", "textured_cornell.toml", "grid_floor.toml", "mesh_cornell.toml"]
+
+
+class BenchError(Exception):
+    """A child render failed: not the user's input, so exit status 1 rather than 2."""
+
+
+def suite_scenes():
+    """The default suite's scene files, relative to the working directory where possible."""
+    return [Path(os.path.relpath(ROOT / "scenes" / name)) for name in SUITE]
+
+
+def cpu_model():
+    try:
+        with open("/proc/cpuinfo") as f:
+            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
+    except OSError:
+        names = []
+    return names[0] if names else platform.processor()
+
+
+def device_bytes(scene, stats, features):
+    """Bytes of every device buffer render() allocated for `stats`: the scene's structs, the textures and
+    the two sample tables, packed again by the same functions, plus the band output buffer."""
+    pixel = samplers.pattern(stats.sampler, stats.max_spp)
+    light = samplers.pattern(stats.light_sampler, stats.light_samples)
+    structs = scene_structs(scene, stats.width, stats.height, stats.max_spp, stats.light_samples,
+                            stats.texture_filter, pixel, light, stats.seed, features)
+    inputs = [*structs, *texture_structs(scene), pixel.table(), light.table()]
+    return sum(a.nbytes for a in inputs) + stats.extra["device_output_bytes"]
 
 
 def _best(scene, repeat, **kwargs):
@@ -13,24 +61,112 @@ def _best(scene, repeat, **kwargs):
     return min(runs, key=lambda s: s.render_seconds)
 
 
-def benchmark(scene_path, repeat=3, out=sys.stdout, **kwargs):
-    scene = load_scene(scene_path)
-    lanes = 8
-    variants = {
-        "baseline: scalar (LANES=1), specialised": dict(features=Features.of(scene, 1)),
-        f"LANES={lanes}, specialised": dict(features=Features.of(scene, lanes)),
-        f"LANES={lanes}, all features": dict(features=Features(lanes)),
-    }
-    results, base = [], None
-    for name, extra in variants.items():
-        stats = _best(scene, repeat, **kwargs, **extra)
-        base = base or stats.mrays_per_s
-        results.append({"variant": name, "mrays_per_s": stats.mrays_per_s, "ratio": stats.mrays_per_s / base,
-                        "render_seconds": stats.render_seconds, "rays": stats.rays,
-                        "build_options": stats.build_options})
-        print(f"{name:42s} {stats.mrays_per_s:8.2f} Mrays/s  x{stats.mrays_per_s / base:5.2f}  "
-              f"({stats.rays} rays in {stats.render_seconds:.3f} s)", file=out, flush=True)
-    print(f"scene {scene_path}, {stats.width}x{stats.height}, {stats.spp} spp x {stats.light_samples} "
-          f"light samples, {stats.device}, best of {repeat}", file=out)
-    return {"scene": str(scene_path), "width": stats.width, "height": stats.height, "spp": stats.spp,
-            "light_samples": stats.light_samples, "device": stats.device, "results": results}
+def _render_argv(kwargs):
+    """The command-line options of `render` that give these render() keyword arguments."""
+    return [a for key, value in kwargs.items() if value is not None
+            for a in ("--" + key.replace("_", "-"), str(value))]
+
+
+def run_child(scene_path, kwargs, cache_dir, work_dir):
+    """`python -m raytrace render` of the scene in a child process with PoCL's kernel cache in cache_dir:
+    its wall seconds, its own peak RSS and the build times from its --stats-json."""
+    stats_path, log = work_dir / "stats.json", work_dir / "stderr.txt"
+    argv = [sys.executable, "-m", "raytrace", "render", str(scene_path), "-o", str(work_dir / "out.png"),
+            "--no-progress", "--stats-json", str(stats_path), *_render_argv(kwargs)]
+    # The child runs this checkout's package; CUDA_CACHE_PATH makes "cold" mean the same on NVIDIA's driver.
+    env = {**os.environ, "POCL_CACHE_DIR": str(cache_dir), "CUDA_CACHE_PATH": str(cache_dir),
+           "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    with open(log, "w") as err:
+        start = time.perf_counter()
+        child = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, env=env)
+        # wait4 gives this child's own peak RSS; RUSAGE_CHILDREN would be the largest of all children so far
+        _, status, usage = os.wait4(child.pid, 0)
+        seconds = time.perf_counter() - start
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode:
+        lines = log.read_text().strip().splitlines() or ["no message"]
+        raise BenchError(f"{scene_path}: the child render exited with status {child.returncode}: {lines[-1]}")
+    stats = json.loads(stats_path.read_text())
+    first = stats["history"][0]
+    # PoCL generates the kernel's code at its first launch, outside the profiled kernel time: the first
+    # pass's time beyond its kernel seconds is that code generation (and one pass's accumulation).
+    first_launch = first["pass_seconds"] - first["kernel_seconds"]
+    return {"process_seconds": seconds, "peak_rss_bytes": usage.ru_maxrss * 1024,
+            "build_seconds": stats["build_seconds"], "first_launch_seconds": first_launch,
+            "build_and_first_launch_seconds": stats["build_seconds"] + first_launch}
+
+
+def _processes(scene_path, kwargs):
+    """A cold child render (a fresh, empty kernel cache) and a warm one (the cache it filled)."""
+    with tempfile.TemporaryDirectory(prefix="raytrace-bench-") as tmp:
+        cache = Path(tmp) / "kernel-cache"
+        cache.mkdir()
+        return run_child(scene_path, kwargs, cache, Path(tmp)), run_child(scene_path, kwargs, cache, Path(tmp))
+
+
+def measure(scene_path, scene, repeat, kwargs):
+    """One row of the table (and of the JSON)."""
+    say = lambda what: print(f"bench: {scene_path}: {what}", file=sys.stderr, flush=True)  # noqa: E731
+    features = Features.of(scene, default_lanes(select_device(kwargs.get("device"))))
+    say(f"LANES={features.lanes}, best of {repeat}")
+    stats = _best(scene, repeat, features=features, **kwargs)
+    say(f"scalar baseline (LANES=1), best of {repeat}")
+    scalar = _best(scene, repeat, features=Features.of(scene, 1), **kwargs)
+    say("child processes, cold and warm kernel cache")
+    cold, warm = _processes(scene_path, kwargs)
+    nominal = stats.width * stats.height * stats.spp * (1 + stats.light_samples * len(scene.lights))
+    return {"scene": str(scene_path), "lights": len(scene.lights), "triangles": scene.triangle_count,
+            "width": stats.width, "height": stats.height, "spp": stats.spp, "light_samples": stats.light_samples,
+            "lanes": features.lanes, "build_options": stats.build_options,
+            "rays": stats.rays, "render_seconds": stats.render_seconds, "mrays_per_s": stats.mrays_per_s,
+            "nominal_rays": nominal, "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6,
+            "scalar_render_seconds": scalar.render_seconds, "scalar_mrays_per_s": scalar.mrays_per_s,
+            "ratio_to_scalar": stats.mrays_per_s / scalar.mrays_per_s,
+            "build_seconds_cold": cold["build_and_first_launch_seconds"],
+            "build_seconds_warm": warm["build_and_first_launch_seconds"],
+            "process_seconds_cold": cold["process_seconds"], "process_seconds_warm": warm["process_seconds"],
+            "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
+            "device_bytes": device_bytes(scene, stats, features), "device": stats.device,
+            "cold": cold, "warm": warm}
+
+
+MIB = 2**20
+COLUMNS = [("scene", lambda r: r["scene"]),
+           ("Mrays/s", lambda r: f"{r['mrays_per_s']:.2f}"),
+           ("nominal Mrays/s", lambda r: f"{r['nominal_mrays_per_s']:.2f}"),
+           ("render s", lambda r: f"{r['render_seconds']:.3f}"),
+           ("build cold s", lambda r: f"{r['build_seconds_cold']:.2f}"),
+           ("build warm s", lambda r: f"{r['build_seconds_warm']:.2f}"),
+           ("process cold s", lambda r: f"{r['process_seconds_cold']:.2f}"),
+           ("process warm s", lambda r: f"{r['process_seconds_warm']:.2f}"),
+           ("host peak MiB", lambda r: f"{r['peak_host_bytes'] / MIB:.0f}"),
+           ("device MiB", lambda r: f"{r['device_bytes'] / MIB:.1f}"),
+           ("x scalar", lambda r: f"{r['ratio_to_scalar']:.2f}")]
+
+
+def table(rows):
+    """The rows as plain aligned text: the scene left-aligned, the numbers right-aligned."""
+    cells = [[name for name, _ in COLUMNS]] + [[cell(r) for _, cell in COLUMNS] for r in rows]
+    widths = [max(len(row[k]) for row in cells) for k in range(len(COLUMNS))]
+    return "\n".join("  ".join([row[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(row[1:], widths[1:])])
+                     for row in cells)
+
+
+def machine(device):
+    return {"device": device, "cpu": cpu_model(), "cpu_count": os.cpu_count(), "platform": platform.platform(),
+            "python": platform.python_version()}
+
+
+def benchmark(scene_paths, repeat=3, out=sys.stdout, **kwargs):
+    """Measure every scene (all loaded and their options checked first, so that bad input costs no
+    minutes of measuring); prints the table and the machine line, returns everything as one dict."""
+    scenes = [(path, load_scene(path)) for path in scene_paths]
+    for _, scene in scenes:
+        resolve(scene, RenderOptions(**kwargs))
+    select_device(kwargs.get("device"))
+    rows = [measure(path, scene, repeat, kwargs) for path, scene in scenes]
+    info, first = machine(rows[0]["device"]), rows[0]
+    print(table(rows), file=out)
+    print(f"{info['device']}; {first['width']}x{first['height']}, {first['spp']} spp x {first['light_samples']} "
+          f"light samples; best of {repeat}; CPU: {info['cpu']} ({info['cpu_count']} cores)", file=out, flush=True)
+    return {"machine": info, "repeat": repeat, "scenes": rows}

@@ -29,9 +29,9 @@ class _Parser(argparse.ArgumentParser):
                          m.group(2) if m else message)
 
 
-def _add_render_options(p, scene_default=None):
-    if scene_default:
-        p.add_argument("scene", nargs="?", default=scene_default, help=f"scene file (TOML; default {scene_default})")
+def _add_render_options(p, scene_help=None):
+    if scene_help:
+        p.add_argument("scene", nargs="*", help=scene_help)
     else:
         p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
@@ -56,10 +56,13 @@ def parser():
     r.add_argument("-o", "--output", required=True, help=f"image file ({', '.join(sorted(FORMATS))})")
     r.add_argument("--stats-json", help="write render statistics to this JSON file")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
-    b = sub.add_parser("bench", help="rays per second of the kernel variants, against a baseline")
-    _add_render_options(b, scene_default="scenes/cornell.toml")
-    b.add_argument("--repeat", type=int, default=3, help="timed renders per variant (the best counts)")
-    b.add_argument("--json", help="write the results to this JSON file")
+    b = sub.add_parser("bench", help="the benchmark suite: rays per second against the scalar kernel, build and "
+                       "process seconds, memory (default: 512 x 512, 16 spp x 16 light samples)")
+    _add_render_options(b, scene_help="scene files (TOML; default: the suite, scenes/cornell.toml, "
+                        "textured_cornell.toml, grid_floor.toml and mesh_cornell.toml)")
+    b.set_defaults(width=512, height=512, spp=16, light_samples=16)  # the same work for every scene
+    b.add_argument("--repeat", type=int, default=3, help="timed renders per kernel (the best counts)")
+    b.add_argument("--json", help="write the table, with the machine, to this JSON file")
     b.add_argument("--scaling", metavar="DIR", help="instead: seconds per ray and BVH build seconds against "
                    "the triangle count of a procedural mesh in the scene's room; scaling.csv and .png in DIR")
     b.add_argument("--max-triangles", type=int, default=10**6, help="--scaling's largest mesh (default 10^6)")
@@ -138,17 +141,28 @@ def cmd_render(args):
 
 
 def cmd_bench(args):
-    from .bench import benchmark
+    """Exit status 1 when a child render fails."""
+    from .bench import BenchError, benchmark, suite_scenes
     from .scaling import scaling
 
     if args.scaling:
+        if len(args.scene) > 1:
+            raise InputError("command line", "scene", " ".join(args.scene), "--scaling takes one scene")
         if not 100 <= args.max_triangles <= 10**7:
             raise InputError("command line", "--max-triangles", args.max_triangles, "must be in [100, 10^7]")
         if not Path(args.scaling).parent.is_dir():
             raise InputError("command line", "--scaling", args.scaling, "its parent directory does not exist")
-        scaling(args.scene, args.scaling, args.max_triangles, out=sys.stdout)
+        scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout)
         return
-    results = benchmark(args.scene, repeat=args.repeat, **_render_kwargs(args))
+    if args.repeat < 1:
+        raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
+    if args.json and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
+        raise InputError("command line", "--json", args.json, "is a directory or in no existing directory")
+    try:
+        results = benchmark(args.scene or suite_scenes(), repeat=args.repeat, **_render_kwargs(args))
+    except BenchError as e:
+        print(f"raytrace: error: {e}", file=sys.stderr)
+        return 1
     if args.json:
         _write_json(args.json, results)
 

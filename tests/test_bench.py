@@ -1,0 +1,73 @@
+"""The benchmark suite (`python -m raytrace bench`) as a user runs it: one real, tiny run through the command
+line with its JSON checked field by field, bad input answered before any measuring, and the suite's scenes."""
+import json
+import math
+
+import pyopencl as cl
+import pytest
+
+from conftest import ROOT
+from raytrace import bench
+from raytrace.kernel import Features
+from raytrace.render import render
+from raytrace.scene import load_scene
+from test_cli import CORNELL, run
+
+TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1, "--repeat", 1]
+FIELDS = ["scene", "lights", "width", "height", "spp", "light_samples", "rays", "render_seconds", "mrays_per_s",
+          "nominal_rays", "nominal_mrays_per_s", "scalar_render_seconds", "scalar_mrays_per_s", "ratio_to_scalar",
+          "build_seconds_cold", "build_seconds_warm", "process_seconds_cold", "process_seconds_warm",
+          "peak_host_bytes", "device_bytes", "device", "build_options", "cold", "warm"]
+
+
+def test_bench_json_and_table(tmp_path):
+    """Scene 0 (one light) at 16 x 16, 1 x 1 samples: nominal rays are W * H * spp * (1 + L * lights)."""
+    out = tmp_path / "bench.json"
+    r = run("bench", CORNELL, *TINY, "--json", out, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    data = json.loads(out.read_text())
+    assert data["repeat"] == 1 and data["machine"]["cpu"] and data["machine"]["device"]
+    [row] = data["scenes"]
+    assert not [key for key in FIELDS if key not in row]
+    assert row["lights"] == 1 and row["nominal_rays"] == 16 * 16 * 1 * (1 + 1)
+    assert row["nominal_mrays_per_s"] == pytest.approx(512 / row["render_seconds"] / 1e6)
+    assert 0 < row["rays"] <= row["nominal_rays"]
+    for key in ("mrays_per_s", "scalar_mrays_per_s", "ratio_to_scalar", "process_seconds_cold",
+                "process_seconds_warm", "build_seconds_warm"):
+        assert 0 < row[key] < math.inf, key
+    assert row["build_seconds_cold"] >= row["build_seconds_warm"]
+    assert row["peak_host_bytes"] > 0 and row["device_bytes"] > 0
+    header, line, machine = r.stdout.strip().splitlines()
+    assert header.split()[:2] == ["scene", "Mrays/s"] and line.startswith(row["scene"])
+    assert "16x16, 1 spp x 1 light samples; best of 1" in machine and data["machine"]["cpu"] in machine
+
+
+@pytest.mark.parametrize("args", [["no/such.toml"], [CORNELL, "no/such.toml"], [CORNELL, "--repeat", 0]],
+                         ids=["missing", "missing-second", "repeat-0"])
+def test_bad_input_one_line_before_measuring(args):
+    r = run("bench", *args, *TINY[:8])
+    assert r.returncode == 2 and r.stdout == ""
+    assert len(r.stderr.strip().splitlines()) == 1 and r.stderr.startswith("raytrace: error: ")
+
+
+@pytest.mark.parametrize("name", ["cornell.toml", "textured_cornell.toml"])
+def test_device_bytes_are_the_buffers_render_allocates(monkeypatch, name):
+    scene = load_scene(ROOT / "scenes" / name)
+    features = Features.of(scene, 8)
+    allocated, buffer = [], cl.Buffer
+
+    def counting(context, flags, size=0, hostbuf=None):
+        allocated.append(size or hostbuf.nbytes)
+        return buffer(context, flags, size, hostbuf)
+
+    monkeypatch.setattr(cl, "Buffer", counting)
+    _, stats = render(scene, width=24, height=8, spp=4, light_samples=4, features=features, progress=False)
+    assert bench.device_bytes(scene, stats, features) == sum(allocated)
+
+
+def test_suite_scenes():
+    """The default suite: scene 0, the textured scenes and the largest mesh scene that renders in seconds."""
+    scenes = bench.suite_scenes()
+    assert [p.name for p in scenes] == ["cornell.toml", "textured_cornell.toml", "grid_floor.toml",
+                                        "mesh_cornell.toml"]
+    assert all((ROOT / "scenes" / p.name).is_file() and p.resolve() == ROOT / "scenes" / p.name for p in scenes)
