@@ -157,7 +157,22 @@ def machine(device):
             "python": platform.python_version()}
 
 
-def benchmark(scene_paths, repeat=3, out=sys.stdout, **kwargs):
+def run_peer(command):
+    """Another renderer's benchmark, run by the shell: its last line of output must be a JSON object with
+    its `mrays_per_s` counted the nominal way (every shadow ray of every camera ray)."""
+    done = subprocess.run(command, shell=True, capture_output=True, text=True)
+    lines = done.stdout.strip().splitlines()
+    try:
+        result = json.loads(lines[-1])
+        float(result["mrays_per_s"])
+    except (IndexError, ValueError, KeyError, TypeError):
+        last = (done.stderr.strip().splitlines() or lines or ["no output"])[-1]
+        raise BenchError(f"--peer {command!r} (exit status {done.returncode}) printed no JSON line with "
+                         f"mrays_per_s: {last}") from None
+    return result
+
+
+def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, **kwargs):
     """Measure every scene (all loaded and their options checked first, so that bad input costs no
     minutes of measuring); prints the table and the machine line, returns everything as one dict."""
     scenes = [(path, load_scene(path)) for path in scene_paths]
@@ -169,4 +184,11 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, **kwargs):
     print(table(rows), file=out)
     print(f"{info['device']}; {first['width']}x{first['height']}, {first['spp']} spp x {first['light_samples']} "
           f"light samples; best of {repeat}; CPU: {info['cpu']} ({info['cpu_count']} cores)", file=out, flush=True)
-    return {"machine": info, "repeat": repeat, "scenes": rows}
+    results = {"machine": info, "repeat": repeat, "scenes": rows}
+    if peer:
+        print(f"bench: --peer {peer}", file=sys.stderr, flush=True)
+        results["peer"] = run_peer(peer)
+        results["peer"]["ratio"] = first["nominal_mrays_per_s"] / float(results["peer"]["mrays_per_s"])
+        print(f"peer: {float(results['peer']['mrays_per_s']):.2f} nominal Mrays/s; {first['scene']} is "
+              f"{results['peer']['ratio']:.2f}x that", file=out, flush=True)
+    return results

@@ -63,6 +63,8 @@ def parser():
     b.set_defaults(width=512, height=512, spp=16, light_samples=16)  # the same work for every scene
     b.add_argument("--repeat", type=int, default=3, help="timed renders per kernel (the best counts)")
     b.add_argument("--json", help="write the table, with the machine, to this JSON file")
+    b.add_argument("--peer", metavar="COMMAND", help="also run another renderer's benchmark (a shell command "
+                   "whose last output line is JSON with its nominal mrays_per_s) and report the first scene's ratio")
     b.add_argument("--scaling", metavar="DIR", help="instead: seconds per ray and BVH build seconds against "
                    "the triangle count of a procedural mesh in the scene's room; scaling.csv and .png in DIR")
     b.add_argument("--max-triangles", type=int, default=10**6, help="--scaling's largest mesh (default 10^6)")
@@ -159,7 +161,7 @@ def cmd_bench(args):
     if args.json and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
         raise InputError("command line", "--json", args.json, "is a directory or in no existing directory")
     try:
-        results = benchmark(args.scene or suite_scenes(), repeat=args.repeat, **_render_kwargs(args))
+        results = benchmark(args.scene or suite_scenes(), repeat=args.repeat, peer=args.peer, **_render_kwargs(args))
     except BenchError as e:
         print(f"raytrace: error: {e}", file=sys.stderr)
         return 1

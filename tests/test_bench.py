@@ -71,3 +71,19 @@ def test_suite_scenes():
     assert [p.name for p in scenes] == ["cornell.toml", "textured_cornell.toml", "grid_floor.toml",
                                         "mesh_cornell.toml"]
     assert all((ROOT / "scenes" / p.name).is_file() and p.resolve() == ROOT / "scenes" / p.name for p in scenes)
+
+
+def test_peer_ratio_and_bad_peer(tmp_path):
+    """--peer runs the command in the same bench run and reports scene 0's nominal rate against the peer's;
+    a peer that prints no JSON line with mrays_per_s ends the run with one error line and exit status 1."""
+    out = tmp_path / "bench.json"
+    peer = 'echo starting; echo \'{"mrays_per_s": 0.5, "variant": "fake"}\''
+    r = run("bench", CORNELL, *TINY, "--json", out, "--peer", peer, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    data = json.loads(out.read_text())
+    assert data["peer"]["variant"] == "fake"
+    assert data["peer"]["ratio"] == pytest.approx(data["scenes"][0]["nominal_mrays_per_s"] / 0.5)
+    assert r.stdout.strip().splitlines()[-1].startswith("peer: 0.50 nominal Mrays/s;")
+    r = run("bench", CORNELL, *TINY, "--peer", "echo no json", cwd=ROOT)
+    error = r.stderr.strip().splitlines()[-1]  # after the progress lines
+    assert r.returncode == 1 and error.startswith("raytrace: error: --peer") and "mrays_per_s" in error
