@@ -13,12 +13,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from . import samplers
 from .device import default_lanes, select_device
 from .kernel import Features
 from .render import RenderOptions, render, resolve
 from .scene import load_scene
-from .structs import scene_structs, texture_structs
 
 ROOT = Path(__file__).resolve().parent.parent
 # Scene 0, textures, texture filtering under strong minification, and the largest mesh scene that renders
@@ -42,17 +40,6 @@ def cpu_model():
     except OSError:
         names = []
     return names[0] if names else platform.processor()
-
-
-def device_bytes(scene, stats, features):
-    """Bytes of every device buffer render() allocated for `stats`: the scene's structs, the textures and
-    the two sample tables, packed again by the same functions, plus the band output buffer."""
-    pixel = samplers.pattern(stats.sampler, stats.max_spp)
-    light = samplers.pattern(stats.light_sampler, stats.light_samples)
-    structs = scene_structs(scene, stats.width, stats.height, stats.max_spp, stats.light_samples,
-                            stats.texture_filter, pixel, light, stats.seed, features)
-    inputs = [*structs, *texture_structs(scene), pixel.table(), light.table()]
-    return sum(a.nbytes for a in inputs) + stats.extra["device_output_bytes"]
 
 
 def _best(scene, repeat, **kwargs):
@@ -126,7 +113,7 @@ def measure(scene_path, scene, repeat, kwargs):
             "build_seconds_warm": warm["build_and_first_launch_seconds"],
             "process_seconds_cold": cold["process_seconds"], "process_seconds_warm": warm["process_seconds"],
             "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
-            "device_bytes": device_bytes(scene, stats, features), "device": stats.device,
+            "device_bytes": stats.extra["device_bytes"], "device": stats.device,
             "cold": cold, "warm": warm}
 
 

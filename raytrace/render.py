@@ -271,6 +271,7 @@ def render_progressive(scene, **kwargs):
     stats = RenderStats(render_seconds, wall_seconds, build_seconds, int(rays), rays / render_seconds / 1e6,
                         describe(device), [*features.options()], width, height, acc.n_total, spp, n_light,
                         pixel.name, light.name, options.texture_filter, options.seed, texture_bytes, acc.passes,
-                        stopped_by, rmse, relative, history, {"nonfinite_values": nonfinite, "band_rows": bands.rows,
-                                                              "device_output_bytes": bands.host.nbytes})
+                        stopped_by, rmse, relative, history,
+                        {"nonfinite_values": nonfinite, "band_rows": bands.rows, "device_output_bytes": bands.host.nbytes,
+                         "device_bytes": sum(b.size for b in buffers) + bands.device.size})
     return image, variance, stats

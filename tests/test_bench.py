@@ -62,7 +62,7 @@ def test_device_bytes_are_the_buffers_render_allocates(monkeypatch, name):
 
     monkeypatch.setattr(cl, "Buffer", counting)
     _, stats = render(scene, width=24, height=8, spp=4, light_samples=4, features=features, progress=False)
-    assert bench.device_bytes(scene, stats, features) == sum(allocated)
+    assert stats.extra["device_bytes"] == sum(allocated)
 
 
 def test_suite_scenes():
