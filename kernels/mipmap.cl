@@ -35,7 +35,7 @@ inline float4 texture_trilinear(TextureStore ts, int texture, float2 st, float4 
 {
     float2 ax, ay;
     footprint_axes(ts, texture, dst, &ax, &ay);
-    return texture_at_width(ts, texture, st, max1(length2(ax), length2(ay)), wrap);
+    return texture_at_width(ts, texture, st, max1(length_of(ax), length_of(ay)), wrap);
 }
 
 /* Anisotropic: up to MAX_ANISOTROPY trilinear probes spread along the major axis of the footprint, each
@@ -44,7 +44,7 @@ inline float4 texture_anisotropic(TextureStore ts, int texture, float2 st, float
 {
     float2 ax, ay;
     footprint_axes(ts, texture, dst, &ax, &ay);
-    float lx = length2(ax), ly = length2(ay);
+    float lx = length_of(ax), ly = length_of(ay);
     float major = max1(lx, ly), width = max1(min1(lx, ly), major / MAX_ANISOTROPY);
     if (!(width > 0.0f))
         return texture_bilinear(ts, texture, 0, st, wrap);

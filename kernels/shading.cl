@@ -18,7 +18,8 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
 {
     vfloat ndotl = v3_dot(n, l);
     vec3 r = v3_sub(v3_scale(n, 2.0f * ndotl), l);
-    return vmax(ndotl, 0.0f) + phong_power(vmax(v3_dot(r, v), 0.0f), shininess);
+    /* r.v can round above 1 at a highlight's centre: x^n is taken on [0, 1] */
+    return vmax(ndotl, 0.0f) + phong_power(vmin(vmax(v3_dot(r, v), 0.0f), 1.0f), shininess);
 }
 
 /* The shadow segment from `origin` (already off its surface) to the light point q (within q_err of the light's

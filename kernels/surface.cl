@@ -68,7 +68,7 @@ inline SurfacePoint surface_triangle(__global const Triangle *tri, __global cons
 inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
 {
     float3 q = normalize3(mat3_mul(e->world_to_unit, p - f3(e->center)));
-    float sin_phi = length2(q.xy);
+    float sin_phi = length_of(q.xy);
     float cos_theta = sin_phi > 0.0f ? q.x / sin_phi : 1.0f, sin_theta = sin_phi > 0.0f ? q.y / sin_phi : 0.0f;
     const float pi = M_PI_F;
     SurfacePoint sp;

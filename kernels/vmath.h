@@ -17,12 +17,13 @@
 #define CONVERT_VINT(v) CAT(convert_int, LANES)(v)
 #endif
 
-/* log2 x for x > 0 (subnormal x counts as 0, and 0 gives -inf). x = 2^e m with m in [1/sqrt2, sqrt2), and
- * log2 m = (2 / ln 2) atanh s, s = (m - 1) / (m + 1), |s| <= 0.172: atanh s = s (1 + s^2/3 + ... + s^8/9),
- * the next term below 2e-9 (0.04u). m - 1 is exact (Sterbenz), m + 1 and the division round at most 3.5
- * times (OpenCL's 2.5 ulp division), the polynomial and the two products 3 more: log2 m within 7u relative,
- * and e + log2 m within 7u |log2 m| + u |log2 x| <= 8u |log2 x| (|log2 m| <= 1/2 <= |log2 x| when e != 0).
- * Near x = 1, e = 0 and the error stays relative to the small log2 x. */
+/* log2 x for finite x >= 0 (subnormal x counts as 0, and 0 gives -inf). x = 2^e m with m in [1/sqrt2,
+ * sqrt2), and log2 m = (2 / ln 2) atanh s, s = (m - 1) / (m + 1), |s| <= 0.172: atanh s = s (1 + s^2/3 + ...
+ * + s^8/9), the next term below 2e-9 (0.04u). m - 1 is exact (Sterbenz); m + 1 rounds once and the
+ * division counts as 5 roundings (OpenCL's 2.5 ulp, ray.h); the polynomial and the two products 3 more, the
+ * constant 2 / ln 2 one: log2 m within 10u relative, and e + log2 m within 10u |log2 m| + u |log2 x| <=
+ * 11u |log2 x| (|log2 m| <= 1/2 <= |log2 x| when e != 0). Near x = 1, e = 0 and the error stays relative
+ * to the small log2 x. (PoCL's division rounds correctly: 2.8u measured.) */
 inline vfloat vlog2(vfloat x)
 {
     vint bits = AS_VINT(x);
@@ -36,13 +37,14 @@ inline vfloat vlog2(vfloat x)
     return SELECT(l, (vfloat)(-INFINITY), x < 0x1p-126f);
 }
 
-/* 2^z for z <= 0 (-inf gives 0). z = i + f with i an integer and f in (-1/2, 1/2], exact; 2^f = e^(f ln 2) by
- * Taylor to degree 7 (the remainder below 3e-9, 0.05u), in Horner's form: the last step 1 + f q rounds once
- * and carries q's error scaled by |f q| <= 0.3, so the polynomial is within 2u (3u without fused
- * multiply-adds); 2^i is exact. Below 2^-126 the result is 0 or subnormal: only its size is kept. */
+/* 2^z for z <= 0 (-inf gives 0; z > 0 is taken as 0). z = i + f with i an integer and f in (-1/2, 1/2],
+ * exact; 2^f = e^(f ln 2) by Taylor to degree 7 (the remainder below 7e-9 relative, 0.12u), in Horner's
+ * form: the last step 1 + f q rounds once and carries q's error scaled by |f q| <= 0.42, so the polynomial
+ * is within 2u (3u without fused multiply-adds); 2^i is exact. Below 2^-126 the result is 0 or subnormal:
+ * only its size is kept. */
 inline vfloat vexp2(vfloat z)
 {
-    z = vmax(z, -127.0f);
+    z = vmin(vmax(z, -127.0f), 0.0f);
     vint i = CONVERT_VINT(z - 0.5f); /* rounds toward 0: i = ceil(z - 1/2) for z <= 0 */
     vfloat f = z - CONVERT_VFLOAT(i);
     vfloat p = MAD(f, 1.5252734e-05f, 1.5403530e-04f); /* (ln 2)^k / k!, k = 7, 6, ... */
@@ -55,7 +57,7 @@ inline vfloat vexp2(vfloat z)
     return p * AS_VFLOAT((i + 127) << 23); /* i = -127 scales by 0 */
 }
 
-/* 1 / sqrt(x) for normal x > 0: the classic bit-level first guess (relative error below 3.5e-2), then three
+/* 1 / sqrt(x) for normal, finite x > 0 (not for 0, subnormals or inf): the classic bit-level first guess (relative error below 3.5e-2), then three
  * Newton steps y (3/2 - x y^2 / 2), each taking the error e to about 3/2 e^2 (1.8e-3, 4.6e-6, 3.2e-11); the
  * last step rounds at most 3 times: within 4u. For directions whose length only scales what they are
  * compared with (shading), never for error-bounded points. */
@@ -88,8 +90,10 @@ inline float4 mix4(float4 a, float4 b, float t) { return a + (b - a) * t; }
 /* One lane of the lane versions above: the same cost as a scalar version, without a second copy. */
 inline float log2_1(float x) { return FIRST_LANE(vlog2((vfloat)(x))); }
 inline float rsqrt1(float x) { return FIRST_LANE(vrsqrt((vfloat)(x))); }
-inline float3 normalize3(float3 v) { return v * rsqrt1(dot3(v, v)); }
-inline float length2(float2 v) { float d = v.x * v.x + v.y * v.y; return d * rsqrt1(d); }
+/* Outside rsqrt1's domain (|v|^2 zero, subnormal or overflowing) the builtins, which rescale. */
+inline int normal_square(float d) { return d >= 0x1p-126f && d < INFINITY; }
+inline float3 normalize3(float3 v) { float d = dot3(v, v); return normal_square(d) ? v * rsqrt1(d) : normalize(v); }
+inline float length_of(float2 v) { float d = v.x * v.x + v.y * v.y; return normal_square(d) ? d * rsqrt1(d) : length(v); }
 /* Beyond 2^23 every float is an integer (and NaN stays NaN); below, truncation corrected downwards. */
 inline float floor1(float x)
 {

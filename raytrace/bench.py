@@ -5,6 +5,7 @@ scalar kernel (LANES=1) on the same device in the same process, so that machines
 the ratio; then the whole `python -m raytrace render` in child processes, with an empty kernel cache
 (cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory."""
 import json
+import math
 import os
 import platform
 import subprocess
@@ -147,19 +148,20 @@ def machine(device):
 def run_peer(command):
     """Another renderer's benchmark, run by the shell: its last line of output must be a JSON object with
     its `mrays_per_s` counted the nominal way (every shadow ray of every camera ray)."""
-    done = subprocess.run(command, shell=True, capture_output=True, text=True)
+    done = subprocess.run(command, shell=True, capture_output=True, text=True, errors="replace")
     lines = done.stdout.strip().splitlines()
     try:
         result = json.loads(lines[-1])
-        float(result["mrays_per_s"])
+        if not 0 < float(result["mrays_per_s"]) < math.inf:
+            raise ValueError("not a positive rate")
     except (IndexError, ValueError, KeyError, TypeError):
         last = (done.stderr.strip().splitlines() or lines or ["no output"])[-1]
-        raise BenchError(f"--peer {command!r} (exit status {done.returncode}) printed no JSON line with "
-                         f"mrays_per_s: {last}") from None
+        raise BenchError(f"--peer {command!r} (exit status {done.returncode}) printed no JSON line with a "
+                         f"positive mrays_per_s: {last}") from None
     return result
 
 
-def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, **kwargs):
+def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwargs):
     """Measure every scene (all loaded and their options checked first, so that bad input costs no
     minutes of measuring); prints the table and the machine line, returns everything as one dict."""
     scenes = [(path, load_scene(path)) for path in scene_paths]
@@ -172,10 +174,14 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, **kwargs):
     print(f"{info['device']}; {first['width']}x{first['height']}, {first['spp']} spp x {first['light_samples']} "
           f"light samples; best of {repeat}; CPU: {info['cpu']} ({info['cpu_count']} cores)", file=out, flush=True)
     results = {"machine": info, "repeat": repeat, "scenes": rows}
+    if save:
+        save(results)  # before the peer, whose failure must not lose minutes of measurements
     if peer:
         print(f"bench: --peer {peer}", file=sys.stderr, flush=True)
         results["peer"] = run_peer(peer)
-        results["peer"]["ratio"] = first["nominal_mrays_per_s"] / float(results["peer"]["mrays_per_s"])
+        results["ratio_to_peer"] = first["nominal_mrays_per_s"] / float(results["peer"]["mrays_per_s"])
         print(f"peer: {float(results['peer']['mrays_per_s']):.2f} nominal Mrays/s; {first['scene']} is "
-              f"{results['peer']['ratio']:.2f}x that", file=out, flush=True)
+              f"{results['ratio_to_peer']:.2f}x that", file=out, flush=True)
+        if save:
+            save(results)
     return results

@@ -161,12 +161,12 @@ def cmd_bench(args):
     if args.json and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
         raise InputError("command line", "--json", args.json, "is a directory or in no existing directory")
     try:
-        results = benchmark(args.scene or suite_scenes(), repeat=args.repeat, peer=args.peer, **_render_kwargs(args))
+        save = (lambda results: _write_json(args.json, results)) if args.json else None
+        benchmark(args.scene or suite_scenes(), repeat=args.repeat, peer=args.peer, save=save,
+                  **_render_kwargs(args))
     except BenchError as e:
         print(f"raytrace: error: {e}", file=sys.stderr)
         return 1
-    if args.json:
-        _write_json(args.json, results)
 
 
 def cmd_assets(args):

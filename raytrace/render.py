@@ -175,12 +175,12 @@ class _Bands:
     """The image as bands of whole rows, one launch each, through one device output buffer of a band: at
     most max_band_bytes (but at least one row) and WORK_PER_LAUNCH work units a launch."""
 
-    def __init__(self, context, width, height, columns, work_per_row, max_band_bytes):
-        # One work-item per work-group on CPUs: PoCL then runs no work-item loop around the kernel, and the
-        # two cores share out the small groups evenly (measured 10% faster than the default shape on scene
-        # 0); GPUs keep the driver's choice.
+    def __init__(self, context, width, height, columns, work_per_row, max_band_bytes, lanes):
+        # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
+        # around it, and the two cores share out the small groups evenly (measured 10% faster than the
+        # default shape on scene 0); the scalar kernel and GPUs keep the runtime's choice.
         cpu = all(d.type & cl.device_type.CPU for d in context.devices)
-        self.local_size = (1, 1) if cpu else None
+        self.local_size = (1, 1) if cpu and lanes > 1 else None
         row_bytes = OUTPUT_PLANES * np.dtype(np.float32).itemsize * width
         self.rows = max(1, min(height, max_band_bytes // row_bytes, WORK_PER_LAUNCH // max(1, work_per_row)))
         self.width, self.height, self.columns = width, height, columns
@@ -238,7 +238,7 @@ def render_progressive(scene, **kwargs):
     work = 1 + len(scene.lights) * n_light  # rays per pixel sample, at most
     per_pass = pass_size(spp, width * height * work)
     bands = _Bands(context, width, height, columns, columns * features.lanes * work * per_pass,
-                   options.max_band_bytes)
+                   options.max_band_bytes, features.lanes)
     acc, rays, render_seconds, history = Accumulator((CHANNELS, height, width)), 0.0, 0.0, []
     progress, stopped_by = _Progress(spp, options.progress), "spp"
     start = time.perf_counter()

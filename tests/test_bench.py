@@ -82,8 +82,10 @@ def test_peer_ratio_and_bad_peer(tmp_path):
     assert r.returncode == 0, r.stderr
     data = json.loads(out.read_text())
     assert data["peer"]["variant"] == "fake"
-    assert data["peer"]["ratio"] == pytest.approx(data["scenes"][0]["nominal_mrays_per_s"] / 0.5)
+    assert data["ratio_to_peer"] == pytest.approx(data["scenes"][0]["nominal_mrays_per_s"] / 0.5)
     assert r.stdout.strip().splitlines()[-1].startswith("peer: 0.50 nominal Mrays/s;")
-    r = run("bench", CORNELL, *TINY, "--peer", "echo no json", cwd=ROOT)
-    error = r.stderr.strip().splitlines()[-1]  # after the progress lines
-    assert r.returncode == 1 and error.startswith("raytrace: error: --peer") and "mrays_per_s" in error
+    for bad in ["echo no json", "echo '{\"mrays_per_s\": 0}'", "echo '[1]'", "echo '{\"mrays_per_s\": \"nan\"}'"]:
+        r = run("bench", CORNELL, *TINY, "--json", out, "--peer", bad, cwd=ROOT)
+        error = r.stderr.strip().splitlines()[-1]  # after the progress lines
+        assert r.returncode == 1 and error.startswith("raytrace: error: --peer") and "mrays_per_s" in error, bad
+        assert "peer" not in json.loads(out.read_text())  # the scenes' figures were saved before the peer ran

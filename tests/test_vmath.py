@@ -33,13 +33,13 @@ def log_inputs(rng):
 
 
 def test_log2(harness):
-    """Within 8u of |log2 x| (vmath.h: 3.5 roundings in s, 3 more in the series and products, one in the sum
-    with the exponent); log2 1 = 0 exactly."""
+    """Within 11u of |log2 x| (vmath.h: 6 roundings in s, 4 more in the series, products and constant, one
+    in the sum with the exponent); log2 1 = 0 exactly."""
     out, x = run(harness, "log2_", log_inputs(np.random.default_rng(1)))
     ref = np.log2(x.astype(np.float64))
     nonzero = ref != 0
     assert np.all(out[~nonzero] == 0)
-    assert np.max(np.abs(out - ref)[nonzero] / np.abs(ref[nonzero])) <= 8 * U
+    assert np.max(np.abs(out - ref)[nonzero] / np.abs(ref[nonzero])) <= 11 * U
 
 
 def test_log2_special(harness):
@@ -49,7 +49,7 @@ def test_log2_special(harness):
 
 
 def test_exp2(harness):
-    """Within 3u of 2^z for every z in [-126, 0] (vmath.h: Taylor remainder 0.05u, Horner 2-3u, 2^i exact),
+    """Within 3u of 2^z for every z in [-126, 0] (vmath.h: Taylor remainder 0.12u, Horner 2-3u, 2^i exact),
     including the integers and half-integers where the reduction switches."""
     rng = np.random.default_rng(2)
     z = np.concatenate([rng.uniform(-126, 0, 20000), -10.0 ** rng.uniform(-8, 0, 4000), -np.arange(127.0),
@@ -97,3 +97,32 @@ def test_floor1():
     x = np.concatenate([x, np.zeros((-len(x)) % 8)]).astype(np.float32)
     out = Probe(8).run(FLOOR, "floor_", len(x), [x], {"out": 1})["out"]
     np.testing.assert_array_equal(out, np.floor(x))
+
+
+def test_exp2_above_zero_is_one(harness):
+    """z > 0 is outside the domain (x^n for x <= 1): taken as 0, so a rounding of r.v above 1 at a highlight
+    with a huge shininess gives 1, not a wrapped exponent (a negative colour)."""
+    out, _ = run(harness, "exp2_", [1e-7, 1.0, 200.0, 1e12])
+    assert np.all(out == 1.0)
+
+
+SCALAR = """
+#include "vmath.h"
+__kernel void scalar(int n, __global const float *v, __global float *out)
+{
+    for (int k = 0; k < LANES; ++k) {
+        int i = I * LANES + k;
+        float3 u = normalize3((float3)(v[i], 2.0f * v[i], 2.0f * v[i]));
+        out[i] = u.x + length_of((float2)(3.0f * v[i], 4.0f * v[i])) / (5.0f * v[i]);
+    }
+}
+"""
+
+
+def test_normalize_and_length_at_every_magnitude(harness):
+    """normalize3 and length_of stay exact to a few u where |v|^2 is subnormal or overflows (the builtins
+    take over there): (1, 2, 2) / 3 has x = 1/3, and |(3, 4)| / 5 = 1, at 1e-30 .. 1e30."""
+    v = np.float32(10.0) ** np.arange(-30, 31, 4, dtype=np.float32)
+    v = np.concatenate([v, np.ones((-len(v)) % 8, np.float32)])
+    out = harness.run(SCALAR, "scalar", len(v), [v], {"out": 1})["out"]
+    np.testing.assert_allclose(out, 1 / 3 + 1, rtol=8 * U)
