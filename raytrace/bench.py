@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .device import default_lanes, select_device
 from .kernel import Features
-from .render import RenderOptions, render, resolve
+from .render import RenderOptions, check_memory, render, resolve
 from .scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -166,7 +166,8 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwa
     minutes of measuring); prints the table and the machine line, returns everything as one dict."""
     scenes = [(path, load_scene(path)) for path in scene_paths]
     for _, scene in scenes:
-        resolve(scene, RenderOptions(**kwargs))
+        width, height = resolve(scene, RenderOptions(**kwargs))[:2]
+        check_memory(width, height)
     select_device(kwargs.get("device"))
     rows = [measure(path, scene, repeat, kwargs) for path, scene in scenes]
     info, first = machine(rows[0]["device"]), rows[0]

@@ -89,3 +89,8 @@ def test_peer_ratio_and_bad_peer(tmp_path):
         error = r.stderr.strip().splitlines()[-1]  # after the progress lines
         assert r.returncode == 1 and error.startswith("raytrace: error: --peer") and "mrays_per_s" in error, bad
         assert "peer" not in json.loads(out.read_text())  # the scenes' figures were saved before the peer ran
+
+
+def test_too_large_an_image_is_refused_before_measuring():
+    r = run("bench", CORNELL, "--width", 400000, "--height", 400000, "--repeat", 1)
+    assert r.returncode == 2 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1
