@@ -91,6 +91,7 @@ def test_peer_ratio_and_bad_peer(tmp_path):
         assert "peer" not in json.loads(out.read_text())  # the scenes' figures were saved before the peer ran
 
 
-def test_too_large_an_image_is_refused_before_measuring():
+def test_image_size_out_of_range_is_refused_before_measuring():
+    """The size checks, the memory check with them, come before any render."""
     r = run("bench", CORNELL, "--width", 400000, "--height", 400000, "--repeat", 1)
     assert r.returncode == 2 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1
