@@ -26,6 +26,8 @@ typedef uint vuint;
 #define CONVERT_VFLOAT(v) ((float)(v))
 #define AS_VUINT(v) as_uint(v)
 #define AS_VFLOAT(v) as_float(v)
+#define AS_VINT(v) as_int(v)
+#define CONVERT_VINT(v) ((int)(v))
 #define FIRST_LANE(v) (v)
 #else
 typedef CAT(float, LANES) vfloat;
@@ -58,6 +60,8 @@ typedef CAT(uint, LANES) vuint;
 #define CONVERT_VFLOAT(v) CAT(convert_float, LANES)(v)
 #define AS_VUINT(v) CAT(as_uint, LANES)(v)
 #define AS_VFLOAT(v) CAT(as_float, LANES)(v)
+#define AS_VINT(v) CAT(as_int, LANES)(v)
+#define CONVERT_VINT(v) CAT(convert_int, LANES)(v)
 #define FIRST_LANE(v) ((v).s0)
 #endif
 

@@ -9,14 +9,6 @@
 
 #include "lanes.h"
 
-#if LANES == 1
-#define AS_VINT(v) as_int(v)
-#define CONVERT_VINT(v) ((int)(v))
-#else
-#define AS_VINT(v) CAT(as_int, LANES)(v)
-#define CONVERT_VINT(v) CAT(convert_int, LANES)(v)
-#endif
-
 /* log2 x for finite x >= 0 (subnormal x counts as 0, and 0 gives -inf). x = 2^e m with m in [1/sqrt2,
  * sqrt2), and log2 m = (2 / ln 2) atanh s, s = (m - 1) / (m + 1), |s| <= 0.172: atanh s = s (1 + s^2/3 + ...
  * + s^8/9), the next term below 2e-9 (0.04u). m - 1 is exact (Sterbenz); m + 1 rounds once and the
