@@ -20,7 +20,7 @@ typedef int vint;
 typedef uint vuint;
 #define ANY(m) (m)
 #define ALL(m) (m)
-#define VLOAD(p) ((p)[0])
+#define VLOADT(T, p) ((p)[0])
 #define VSTORE(v, p) ((p)[0] = (v))
 #define LANE_IDS 0
 #define CONVERT_VFLOAT(v) ((float)(v))
@@ -35,21 +35,21 @@ typedef CAT(int, LANES) vint;
 typedef CAT(uint, LANES) vuint;
 #define ANY(m) (or_lanes(m) < 0)
 #define ALL(m) (and_lanes(m) < 0)
-/* A vector to and from LANES consecutive private values (float for VLOAD), one component at a time: vloadN
- * and vstoreN are out-of-line calls on PoCL (see the primitives below). */
+/* A vector of type T to and from LANES consecutive private values, one component at a time: vloadN and
+ * vstoreN are out-of-line calls on PoCL (see the primitives below). */
 #if LANES == 4
 #define LANE_IDS ((int4)(0, 1, 2, 3))
-#define VLOAD(p) ((float4)((p)[0], (p)[1], (p)[2], (p)[3]))
+#define VLOADT(T, p) ((T)((p)[0], (p)[1], (p)[2], (p)[3]))
 #define VSTORE(v, p) ((p)[0] = (v).s0, (p)[1] = (v).s1, (p)[2] = (v).s2, (p)[3] = (v).s3)
 #elif LANES == 8
 #define LANE_IDS ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
-#define VLOAD(p) ((float8)((p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7]))
+#define VLOADT(T, p) ((T)((p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7]))
 #define VSTORE(v, p) ((p)[0] = (v).s0, (p)[1] = (v).s1, (p)[2] = (v).s2, (p)[3] = (v).s3, \
                       (p)[4] = (v).s4, (p)[5] = (v).s5, (p)[6] = (v).s6, (p)[7] = (v).s7)
 #elif LANES == 16
 #define LANE_IDS ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
-#define VLOAD(p) ((float16)((p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7], (p)[8], (p)[9], \
-                            (p)[10], (p)[11], (p)[12], (p)[13], (p)[14], (p)[15]))
+#define VLOADT(T, p) ((T)((p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7], (p)[8], (p)[9], \
+                               (p)[10], (p)[11], (p)[12], (p)[13], (p)[14], (p)[15]))
 #define VSTORE(v, p) ((p)[0] = (v).s0, (p)[1] = (v).s1, (p)[2] = (v).s2, (p)[3] = (v).s3, \
                       (p)[4] = (v).s4, (p)[5] = (v).s5, (p)[6] = (v).s6, (p)[7] = (v).s7, \
                       (p)[8] = (v).s8, (p)[9] = (v).s9, (p)[10] = (v).sa, (p)[11] = (v).sb, \
@@ -64,6 +64,9 @@ typedef CAT(uint, LANES) vuint;
 #define CONVERT_VINT(v) CAT(convert_int, LANES)(v)
 #define FIRST_LANE(v) ((v).s0)
 #endif
+#define VLOAD(p) VLOADT(vfloat, p)
+#define VLOAD_INT(p) VLOADT(vint, p)
+#define VLOAD_UINT(p) VLOADT(vuint, p)
 
 /* Lane-wise primitives written with operators. PoCL builds its builtin library for a generic x86-64 CPU
  * and the kernel for the host's, so LLVM will not inline one into the other: every vector select(), mad(),
@@ -96,7 +99,9 @@ inline int and_lanes(int16 m) { int8 t = m.lo & m.hi; int4 u = t.lo & t.hi; int2
 /* A mask as 0/1 floats, e.g. to count rays per lane. */
 #define MASK_TO_ONE(m) SELECT((vfloat)(0.0f), (vfloat)(1.0f), (m))
 
-/* Three coordinates, one vfloat each: structure of arrays, so that LANES rays share one register each. */
+/* Two or three coordinates, one vfloat each: structure of arrays, so that LANES rays share one register
+ * each. */
+typedef struct { vfloat x, y; } vec2;
 typedef struct { vfloat x, y, z; } vec3;
 
 inline vec3 v3(vfloat x, vfloat y, vfloat z) { vec3 r = {x, y, z}; return r; }
@@ -117,6 +122,7 @@ inline vec3 v3_select(vec3 a, vec3 b, vint m) /* b where m, else a */
     return v3(SELECT(a.x, b.x, m), SELECT(a.y, b.y, m), SELECT(a.z, b.z, m));
 }
 inline vec3 v3_splat(float x, float y, float z) { return v3((vfloat)(x), (vfloat)(y), (vfloat)(z)); }
+inline vec3 v3_mix(vec3 a, vec3 b, vfloat t) { return v3_madd(a, t, v3_sub(b, a)); } /* a + (b - a) t */
 inline vfloat v3_max_abs(vec3 a) { return vmax(vabs(a.x), vmax(vabs(a.y), vabs(a.z))); }
 
 /* The way between lane-generic code and scalar code run once per lane (gathers such as texture lookups):

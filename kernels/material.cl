@@ -1,8 +1,9 @@
 /* The material at a hit: its colour (the material's, or its colour map's), shininess, and where and with
  * which normal it is shaded (normal map, bump map and displacement: the README's Textures section).
  *
- * Without textures (HAS_TEXTURES 0) this is a gather of the material table; with them, every lane runs
- * the scalar texturing code below for its own hit. */
+ * Without textures (HAS_TEXTURES 0) this is a gather of the material table. With them, each lane's hit
+ * geometry (surface.cl) is found one lane at a time, then the lookups and what follows from them run
+ * lane-parallel, once per textured material among the lanes (neighbouring pixels mostly share one). */
 #ifndef MATERIAL_CL
 #define MATERIAL_CL
 
@@ -37,66 +38,114 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
     return surface_rectangle(&s->rectangles[index], p);
 }
 
+/* What texturing needs of each lane's hit, found one lane at a time (the shapes that lanes hit differ; this
+ * part is gathers and per-shape formulas): texture coordinates (s, t) after the material's uv transform,
+ * their footprint dst, the shading frame, and dp/du, dp/dv per unit of the transformed u and v. */
+typedef struct {
+    float s[LANES], t[LANES], dst[4][LANES];
+    Lanes3 tangent, bitangent, normal, dpdu, dpdv;
+} TexturedLanes;
+
+inline void texture_geometry(const Scene *s, __global const Material *m, int kind, int index, float b1, float b2,
+                             float3 d, float3 p, float3 ng, TexturedLanes *g, int i)
+{
+    __constant const RenderParams *params = s->params;
+    SurfacePoint sp = surface_point(s, kind, index, p, b1, b2);
+    float3 dpdx, dpdy;
+    camera_footprint(s->camera, params->footprint_scale, 1.0f / params->width, 1.0f / params->height, d, p, ng,
+                     &dpdx, &dpdy);
+    float2 scale = (float2)(m->uv_scale[0], m->uv_scale[1]);
+    float2 uv = sp.uv * scale + (float2)(m->uv_offset[0], m->uv_offset[1]);
+    float4 duv = uv_derivatives(sp, dpdx, dpdy) * scale.xyxy;
+    /* (s, t) = (u, 1 - v) of the image */
+    g->s[i] = uv.x;
+    g->t[i] = 1.0f - uv.y;
+    g->dst[0][i] = duv.x;
+    g->dst[1][i] = -duv.y;
+    g->dst[2][i] = duv.z;
+    g->dst[3][i] = -duv.w;
+    Frame frame = shading_frame(sp);
+    set_lane3(&g->tangent, i, frame.t);
+    set_lane3(&g->bitangent, i, frame.b);
+    set_lane3(&g->normal, i, frame.n);
+    set_lane3(&g->dpdu, i, sp.dpdu / scale.x);
+    set_lane3(&g->dpdv, i, sp.dpdv / scale.y);
+}
+
+/* A lane without a textured hit: finite values for the lane-parallel code, which runs on every lane. */
+inline void texture_geometry_none(TexturedLanes *g, int i)
+{
+    float3 zero = (float3)(0.0f);
+    g->s[i] = g->t[i] = g->dst[0][i] = g->dst[1][i] = g->dst[2][i] = g->dst[3][i] = 0.0f;
+    set_lane3(&g->tangent, i, zero);
+    set_lane3(&g->bitangent, i, zero);
+    set_lane3(&g->normal, i, zero);
+    set_lane3(&g->dpdu, i, zero);
+    set_lane3(&g->dpdv, i, zero);
+}
+
+inline int is_textured(__global const Material *m)
+{
+    return m->colour_map >= 0 || m->normal_map >= 0 || m->height_map >= 0;
+}
+
 /* The height map's bump: the shading normal of the surface displaced by h along n, from the partial
  * derivatives dh_du, dh_dv (scene units per unit of u and v), without forming the displaced dp/du x dp/dv
  * (pbrt-v4 section 10.5.1), which loses the u direction where dp/du vanishes (an ellipsoid's pole):
  * (dpdu + dh_du n) x (dpdv + dh_dv n) is a multiple of n - grad h, grad h = dh_du e_u + dh_dv e_v with the
  * dual basis e_u = (dpdv x n) / a, e_v = (n x dpdu) / a, a = n.(dpdu x dpdv). Where a is 0, n is kept. */
-inline float3 bump_normal(float3 dpdu, float3 dpdv, float3 n, float dh_du, float dh_dv)
+inline vec3 bump_normal(vec3 dpdu, vec3 dpdv, vec3 n, vfloat dh_du, vfloat dh_dv)
 {
-    float a = dot3(n, cross3(dpdu, dpdv));
-    float3 bumped = normalize3(n - (cross3(dpdv, n) * dh_du + cross3(n, dpdu) * dh_dv) / a);
-    return finite3(bumped) ? bumped : n;
+    vfloat a = v3_dot(n, v3_cross(dpdu, dpdv));
+    vec3 grad = v3_add(v3_scale(v3_cross(dpdv, n), dh_du), v3_scale(v3_cross(n, dpdu), dh_dv));
+    return v3_unit_or(v3_sub(n, v3_scale(grad, 1.0f / a)), n);
 }
 
-/* Everything textured about one lane's hit: *k, *n (starts as the facing geometric normal ng), *p and its
- * error bound *err (ray.h). */
-inline void texture_lane(const Scene *s, TextureStore ts, __global const Material *m, int kind, int index,
-                         float b1, float b2, float3 d, float3 *k, float3 *n, float3 *p, float *err)
+/* Material m's textures on the lanes of `mask` (their hits' geometry in g): the colour *k, the shading
+ * normal *n (a normal or height map; it starts as the facing geometric normal ng), and the shading point
+ * *p displaced by a height map, with its error bound *err (ray.h). Every lane computes; only the mask's
+ * lanes keep the results. */
+inline void texture_material(TextureStore ts, __global const Material *m, int filter, const TexturedLanes *g,
+                             vint mask, vec3 ng, vec3 *k, vec3 *n, vec3 *p, vfloat *err)
 {
-    __constant const RenderParams *params = s->params;
-    SurfacePoint sp = surface_point(s, kind, index, *p, b1, b2);
-    float3 dpdx, dpdy;
-    camera_footprint(s->camera, params->footprint_scale, 1.0f / params->width, 1.0f / params->height, d, *p, *n,
-                     &dpdx, &dpdy);
-    /* the material's uv transform, then (s, t) = (u, 1 - v) of the image */
-    float2 scale = (float2)(m->uv_scale[0], m->uv_scale[1]);
-    float2 uv = sp.uv * scale + (float2)(m->uv_offset[0], m->uv_offset[1]);
-    float4 duv = uv_derivatives(sp, dpdx, dpdy) * scale.xyxy;
-    float2 st = (float2)(uv.x, 1.0f - uv.y);
-    float4 dst = duv * (float4)(1.0f, -1.0f, 1.0f, -1.0f);
-    const int filter = params->texture_filter, wrap = m->wrap;
-    float3 ng = *n;
-    Frame frame = shading_frame(sp);
-    float side = dot3(frame.n, ng) < 0.0f ? -1.0f : 1.0f; /* the frame's normal seen from the ray's side */
-    float3 shading = frame.n;
+    vec2 st = {VLOAD(g->s), VLOAD(g->t)};
+    Footprint dst = {VLOAD(g->dst[0]), VLOAD(g->dst[1]), VLOAD(g->dst[2]), VLOAD(g->dst[3])};
+    const int wrap = m->wrap;
+    vec3 frame_n = v3_fill(&g->normal), shading = frame_n;
 #if HAS_COLOUR_MAPS
     if (m->colour_map >= 0)
-        *k = texture_lookup(ts, m->colour_map, st, dst, filter, wrap).xyz;
+        *k = v3_select(*k, texture_lookup(ts, m->colour_map, st, dst, filter, wrap), mask);
 #endif
 #if HAS_NORMAL_MAPS
     if (m->normal_map >= 0) { /* tangent space: rgb = (x, y, z) / 2 + 1/2 */
-        float3 c = texture_lookup(ts, m->normal_map, st, dst, filter, wrap).xyz * 2.0f - 1.0f;
-        float3 mapped = normalize3(frame.t * c.x + frame.b * c.y + frame.n * c.z);
-        shading = finite3(mapped) ? mapped : frame.n;
+        vec3 c = texture_lookup(ts, m->normal_map, st, dst, filter, wrap);
+        vec3 mapped = v3_scale(v3_fill(&g->tangent), MAD(c.x, 2.0f, -1.0f));
+        mapped = v3_madd(mapped, MAD(c.y, 2.0f, -1.0f), v3_fill(&g->bitangent));
+        mapped = v3_madd(mapped, MAD(c.z, 2.0f, -1.0f), frame_n);
+        shading = v3_unit_or(mapped, frame_n);
     }
 #endif
 #if HAS_HEIGHT_MAPS
-    if (m->height_map >= 0) {
-        MipLevel top = mip_level(ts, m->height_map, 0);
-        float du = max1(0.5f * (abs1(duv.x) + abs1(duv.z)), 0.5f / top.width);
-        float dv = max1(0.5f * (abs1(duv.y) + abs1(duv.w)), 0.5f / top.height);
-        float h = texture_lookup(ts, m->height_map, st, dst, filter, wrap).x;
-        float hu = texture_lookup(ts, m->height_map, st + (float2)(du, 0.0f), dst, filter, wrap).x;
-        float hv = texture_lookup(ts, m->height_map, st - (float2)(0.0f, dv), dst, filter, wrap).x;
-        float kh = m->height_scale;
-        shading = bump_normal(sp.dpdu / scale.x, sp.dpdv / scale.y, shading, kh * (hu - h) / du,
-                              kh * (hv - h) / dv);
-        *p += ng * (kh * h); /* outwards (kh h >= 0): the surface stays behind; the sum rounds once more */
-        *err += GAMMA(2) * dot3(abs3(ng), abs3(*p));
+    if (m->height_map >= 0) { /* finite differences over about half the footprint, at least half a texel */
+        MipLevel top = ts.levels[ts.textures[m->height_map].first_level];
+        vfloat du = vmax(0.5f * (vabs(dst.s_x) + vabs(dst.s_y)), (vfloat)(0.5f / top.width));
+        vfloat dv = vmax(0.5f * (vabs(dst.t_x) + vabs(dst.t_y)), (vfloat)(0.5f / top.height));
+        vec2 st_u = {st.x + du, st.y}, st_v = {st.x, st.y - dv};
+        vfloat h = texture_lookup(ts, m->height_map, st, dst, filter, wrap).x;
+        vfloat hu = texture_lookup(ts, m->height_map, st_u, dst, filter, wrap).x;
+        vfloat hv = texture_lookup(ts, m->height_map, st_v, dst, filter, wrap).x;
+        vfloat kh = m->height_scale;
+        shading = bump_normal(v3_fill(&g->dpdu), v3_fill(&g->dpdv), shading, kh * (hu - h) / du, kh * (hv - h) / dv);
+        /* outwards (kh h >= 0): the surface stays behind; the sum rounds once more */
+        vec3 displaced = v3_madd(*p, kh * h, ng);
+        *p = v3_select(*p, displaced, mask);
+        *err = SELECT(*err, *err + GAMMA(2) * error_along(ng, v3_abs(displaced)), mask);
     }
 #endif
-    *n = shading * side;
+    if (m->normal_map >= 0 || m->height_map >= 0) { /* the frame's normal seen from the ray's side */
+        vfloat side = SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(frame_n, ng) < 0.0f);
+        *n = v3_select(*n, v3_scale(shading, side), mask);
+    }
 }
 
 #endif
@@ -115,7 +164,8 @@ inline float3 smooth_normal(const Scene *s, int index, float b1, float b2, float
 }
 #endif
 
-/* The shading point of each lane's hit along r. */
+/* The shading point of each lane's hit along r: the material's per lane (a gather), then each textured
+ * material's textures on the lanes that hit it, lane-parallel. */
 inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hit)
 {
     ShadingPoint sp;
@@ -137,31 +187,29 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #endif
 #if HAS_TEXTURES
     Lanes3 p = v3_spill(sp.p), d = v3_spill(r.d);
-    float err[LANES];
-    VSTORE(sp.err, err);
+    TexturedLanes g;
+    int textured[LANES];
 #endif
     for (int i = 0; i < LANES; ++i) {
         sh[i] = 1.0f;
+#if HAS_TEXTURES
+        textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
+        if (textured[i])
+            texture_geometry(s, &s->materials[m[i]], kind[i], index[i], b1[i], b2[i], lane3(&d, i), lane3(&p, i),
+                             lane3(&n, i), &g, i);
+        else
+            texture_geometry_none(&g, i);
+#endif
         if (m[i] < 0)
             continue;
         __global const Material *mat = &s->materials[m[i]];
         sh[i] = mat->shininess;
-        float3 colour = f3(mat->colour);
-#if HAS_SURFACE_DATA
-        float3 ng = lane3(&n, i);
-#endif
-#if HAS_TEXTURES
-        float3 pi = lane3(&p, i), ni = ng;
-        texture_lane(s, ts, mat, kind[i], index[i], b1[i], b2[i], lane3(&d, i), &colour, &ni, &pi, &err[i]);
-        set_lane3(&p, i, pi);
-        set_lane3(&n, i, ni);
-#endif
+        set_lane3(&k, i, f3(mat->colour));
 #if HAS_SMOOTH_NORMALS
         /* a normal or height map defines its own shading normal, from the flat frame (a known limit) */
         if (kind[i] == SHAPE_TRIANGLE && mat->normal_map < 0 && mat->height_map < 0)
-            set_lane3(&n, i, smooth_normal(s, index[i], b1[i], b2[i], ng));
+            set_lane3(&n, i, smooth_normal(s, index[i], b1[i], b2[i], lane3(&n, i)));
 #endif
-        set_lane3(&k, i, colour);
     }
     sp.k = v3_fill(&k);
     sp.shininess = VLOAD(sh);
@@ -169,8 +217,16 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     sp.n = v3_fill(&n);
 #endif
 #if HAS_TEXTURES
-    sp.p = v3_fill(&p);
-    sp.err = VLOAD(err);
+    for (int i = 0; i < LANES; ++i) {
+        if (!textured[i])
+            continue;
+        int first = 1; /* each material once, at its first lane */
+        for (int j = 0; j < i; ++j)
+            first &= m[j] != m[i];
+        if (first)
+            texture_material(ts, &s->materials[m[i]], s->params->texture_filter, &g, hit.material == m[i], sp.ng,
+                             &sp.k, &sp.n, &sp.p, &sp.err);
+    }
 #endif
     return sp;
 }

@@ -11,8 +11,6 @@
 
 #include "types.h"
 
-typedef struct { vfloat x, y; } vec2;
-
 /* A 32-bit integer hash with low bias (Wellons' "lowbias32", https://nullprogram.com/blog/2018/07/31/). */
 inline vuint hash(vuint x)
 {

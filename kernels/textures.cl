@@ -1,4 +1,4 @@
-/* Texel fetches, wrap modes and bilinear filtering inside one MIP level.
+/* Texel fetches, wrap modes and bilinear filtering inside one MIP level, for LANES points of one texture.
  *
  * All levels of all textures live in one buffer of 32-bit words (the host packs them; raytrace/mipmap.py).
  * 8-bit textures keep one word per RGBA texel on the device, a quarter of float4's memory and bandwidth,
@@ -6,93 +6,129 @@
  * maps by / 255. Coordinates follow OpenImageIO's (s, t): texel (i, j), row j from the top, has its centre
  * at ((i + 1/2) / W, (j + 1/2) / H); the renderer's v runs up the image, so t = 1 - v.
  *
- * This file is scalar: a texture lookup is a gather that differs per pixel, so the lane-generic callers
- * (material.cl) run it once per lane. */
+ * The texture is the same for every lane (material.cl groups lanes by material); the points, and so the
+ * levels and texels, differ per lane: the arithmetic runs on lanes, and only the loads are one per lane.
+ * Lookups give RGB: no caller reads alpha. */
 #ifndef TEXTURES_CL
 #define TEXTURES_CL
 
 #include "scene.h"
 #include "vmath.h"
 
-inline float4 unpack_rgba8(uint word) { return convert_float4(as_uchar4(word)); }
+/* Where each lane's level starts in the texel buffer, and its size: lanes may sit on different levels. */
+typedef struct { vint offset, width, height; } Levels;
 
-inline float4 texel_fetch(TextureStore ts, int encoding, MipLevel level, int i, int j)
+inline Levels mip_levels(TextureStore ts, int texture, vint level)
 {
-    int index = j * level.width + i;
-    if (encoding == TEXELS_FLOAT)
-    {
-        __global const float *t = (__global const float *)ts.texels + level.offset + 4 * index;
-        return (float4)(t[0], t[1], t[2], t[3]);
+    int l[LANES], offset[LANES], width[LANES], height[LANES];
+    VSTORE(level, l);
+    __global const MipLevel *levels = ts.levels + ts.textures[texture].first_level;
+    for (int i = 0; i < LANES; ++i) {
+        MipLevel m = levels[l[i]];
+        offset[i] = m.offset;
+        width[i] = m.width;
+        height[i] = m.height;
     }
-    uint word = ts.texels[level.offset + index];
+    Levels r = {VLOAD_INT(offset), VLOAD_INT(width), VLOAD_INT(height)};
+    return r;
+}
+
+/* The 8-bit channel at bit `shift` of each lane's word, as a float in [0, 255]. */
+inline vfloat channel8(vuint word, int shift) { return CONVERT_VFLOAT(AS_VINT((word >> shift) & 0xffU)); }
+
+/* Texel (i, j) of each lane's level, decoded to linear RGB: one load per lane and word (three more through
+ * the sRGB table), the decoding on lanes. */
+inline vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
+{
+    int at[LANES];
+    float r[LANES], g[LANES], b[LANES];
+    vint index = j * level.width + i;
+    if (encoding == TEXELS_FLOAT) {
+        VSTORE(level.offset + 4 * index, at);
+        __global const float *texels = (__global const float *)ts.texels;
+        for (int k = 0; k < LANES; ++k) {
+            r[k] = texels[at[k]];
+            g[k] = texels[at[k] + 1];
+            b[k] = texels[at[k] + 2];
+        }
+        return v3(VLOAD(r), VLOAD(g), VLOAD(b));
+    }
+    uint words[LANES];
+    VSTORE(level.offset + index, at);
+    for (int k = 0; k < LANES; ++k)
+        words[k] = ts.texels[at[k]];
+    vuint word = VLOAD_UINT(words); /* r in the low byte */
     if (encoding == TEXELS_UNORM8)
-        return unpack_rgba8(word) * (1.0f / 255.0f);
-    uchar4 c = as_uchar4(word);
-    return (float4)(ts.srgb_to_linear[c.x], ts.srgb_to_linear[c.y], ts.srgb_to_linear[c.z], c.w * (1.0f / 255.0f));
+        return v3_scale(v3(channel8(word, 0), channel8(word, 8), channel8(word, 16)), (vfloat)(1.0f / 255.0f));
+    for (int k = 0; k < LANES; ++k) {
+        r[k] = ts.srgb_to_linear[words[k] & 0xffU];
+        g[k] = ts.srgb_to_linear[(words[k] >> 8) & 0xffU];
+        b[k] = ts.srgb_to_linear[(words[k] >> 16) & 0xffU];
+    }
+    return v3(VLOAD(r), VLOAD(g), VLOAD(b));
 }
 
 /* i mod n in [0, n). The callers' indices come from reduce_coordinate, within a period of [0, n), where one
- * addition or subtraction does; integer division (tens of cycles) only for anything else. */
-inline int modulo(int i, int n)
+ * addition or subtraction does; integer division (tens of cycles a lane) only for anything else. */
+inline vint modulo(vint i, vint n)
 {
-    if (i < -n || i >= 2 * n)
-        i %= n;
-    return i < 0 ? i + n : (i >= n ? i - n : i);
+    vint far = (i < -n) | (i >= 2 * n);
+    if (ANY(far))
+        i = SELECT(i, i % n, far);
+    i = SELECT(i, i + n, i < 0);
+    return SELECT(i, i - n, i >= n);
 }
 
 /* An integer texel index i into [0, n) by the wrap mode. */
-inline int wrap_index(int i, int n, int mode)
+inline vint wrap_index(vint i, vint n, int mode)
 {
     if (mode == WRAP_CLAMP)
-        return clamp_int(i, 0, n - 1);
+        return SELECT(SELECT(i, 0, i < 0), n - 1, i >= n);
     if (mode == WRAP_MIRROR) {
-        int m = modulo(i, 2 * n);
-        return m < n ? m : 2 * n - 1 - m;
+        vint m = modulo(i, 2 * n);
+        return SELECT(m, 2 * n - 1 - m, m >= n);
     }
     return modulo(i, n);
 }
 
 /* A continuous texel coordinate x brought near [0, n) without changing what wrap_index makes of it, so
  * that its floor fits an int however large u grows (uv_scale 1e6, a grazing floor). NaN becomes 0. */
-inline float reduce_coordinate(float x, int n, int mode)
+inline vfloat reduce_coordinate(vfloat x, vint n, int mode)
 {
-    if (!finite1(x))
-        return 0.0f;
+    vfloat size = CONVERT_VFLOAT(n);
+    x = SELECT((vfloat)(0.0f), x, vabs(x) < INFINITY);
     if (mode == WRAP_CLAMP)
-        return min1(max1(x, -1.0f), (float)n);
-    float period = mode == WRAP_MIRROR ? 2.0f * n : (float)n;
-    return x - period * floor1(x / period);
-}
-
-inline MipLevel mip_level(TextureStore ts, int texture, int level)
-{
-    return ts.levels[ts.textures[texture].first_level + level];
+        return vmin(vmax(x, -1.0f), size);
+    vfloat period = mode == WRAP_MIRROR ? 2.0f * size : size;
+    return x - period * vfloor(x / period);
 }
 
 /* Level 0, the texel whose cell contains st. */
-inline float4 texture_nearest(TextureStore ts, int texture, float2 st, int wrap)
+inline vec3 texture_nearest(TextureStore ts, int texture, vec2 st, int wrap)
 {
-    MipLevel level = mip_level(ts, texture, 0);
-    float x = reduce_coordinate(st.x * level.width, level.width, wrap);
-    float y = reduce_coordinate(st.y * level.height, level.height, wrap);
-    int i = wrap_index((int)floor1(x), level.width, wrap), j = wrap_index((int)floor1(y), level.height, wrap);
+    Levels level = mip_levels(ts, texture, (vint)(0));
+    vfloat x = reduce_coordinate(st.x * CONVERT_VFLOAT(level.width), level.width, wrap);
+    vfloat y = reduce_coordinate(st.y * CONVERT_VFLOAT(level.height), level.height, wrap);
+    vint i = wrap_index(CONVERT_VINT(vfloor(x)), level.width, wrap);
+    vint j = wrap_index(CONVERT_VINT(vfloor(y)), level.height, wrap);
     return texel_fetch(ts, ts.textures[texture].encoding, level, i, j);
 }
 
-/* Bilinear interpolation between the four texel centres around st in one level. */
-inline float4 texture_bilinear(TextureStore ts, int texture, int level_index, float2 st, int wrap)
+/* Bilinear interpolation between the four texel centres around st in each lane's level. */
+inline vec3 texture_bilinear(TextureStore ts, int texture, vint level_index, vec2 st, int wrap)
 {
-    MipLevel level = mip_level(ts, texture, level_index);
+    Levels level = mip_levels(ts, texture, level_index);
     int encoding = ts.textures[texture].encoding;
-    float x = reduce_coordinate(st.x * level.width - 0.5f, level.width, wrap);
-    float y = reduce_coordinate(st.y * level.height - 0.5f, level.height, wrap);
-    float fx = floor1(x), fy = floor1(y);
-    float wx = x - fx, wy = y - fy;
-    int i0 = wrap_index((int)fx, level.width, wrap), i1 = wrap_index((int)fx + 1, level.width, wrap);
-    int j0 = wrap_index((int)fy, level.height, wrap), j1 = wrap_index((int)fy + 1, level.height, wrap);
-    float4 top = mix4(texel_fetch(ts, encoding, level, i0, j0), texel_fetch(ts, encoding, level, i1, j0), wx);
-    float4 bottom = mix4(texel_fetch(ts, encoding, level, i0, j1), texel_fetch(ts, encoding, level, i1, j1), wx);
-    return mix4(top, bottom, wy);
+    vfloat x = reduce_coordinate(st.x * CONVERT_VFLOAT(level.width) - 0.5f, level.width, wrap);
+    vfloat y = reduce_coordinate(st.y * CONVERT_VFLOAT(level.height) - 0.5f, level.height, wrap);
+    vfloat fx = vfloor(x), fy = vfloor(y);
+    vfloat wx = x - fx, wy = y - fy;
+    vint ix = CONVERT_VINT(fx), iy = CONVERT_VINT(fy);
+    vint i0 = wrap_index(ix, level.width, wrap), i1 = wrap_index(ix + 1, level.width, wrap);
+    vint j0 = wrap_index(iy, level.height, wrap), j1 = wrap_index(iy + 1, level.height, wrap);
+    vec3 top = v3_mix(texel_fetch(ts, encoding, level, i0, j0), texel_fetch(ts, encoding, level, i1, j0), wx);
+    vec3 bottom = v3_mix(texel_fetch(ts, encoding, level, i0, j1), texel_fetch(ts, encoding, level, i1, j1), wx);
+    return v3_mix(top, bottom, wy);
 }
 
 #endif

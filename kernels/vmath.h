@@ -1,4 +1,5 @@
-/* exp2, log2 and 1/sqrt on lanes, written out for the shading loop.
+/* exp2, log2 and 1/sqrt on lanes, written out for the shading loop; floor, unit vectors and lengths for
+ * texturing.
  *
  * PoCL leaves its builtins as out-of-line calls (lanes.h), and the loop over light samples would make three
  * of them per sample, each spilling every live vector register. These run inline on any target, with error
@@ -63,9 +64,36 @@ inline vfloat vrsqrt(vfloat x)
 
 inline vec3 v3_direction(vec3 a) { return v3_scale(a, vrsqrt(v3_dot(a, a))); }
 
-/* The same for the scalar code that runs once per lane (texturing: textures.cl, mipmap.cl, surface.cl,
- * material.cl): the builtins below would each be a call there too. The formulas are OpenCL's own (mix is
- * a + (b - a) t); max1 and min1 give b where a is NaN, as fmax and fmin do (not where b is). */
+/* a / |a| for any finite a: divided by its largest |coordinate| first (exact to a rounding), |a|^2 lies in
+ * [1, 3], inside vrsqrt's domain, whatever a's size (a normal map's float texels, a flat bump). Where a is
+ * 0 or not finite, the fallback. */
+inline vec3 v3_unit_or(vec3 a, vec3 fallback)
+{
+    vfloat m = v3_max_abs(a);
+    vint ok = m > 0.0f & m < INFINITY;
+    vec3 b = v3_scale(a, 1.0f / SELECT((vfloat)(1.0f), m, ok));
+    return v3_select(fallback, v3_direction(b), ok);
+}
+
+/* The length of (x, y) for |(x, y)|^2 finite (texture footprints: uv_derivatives clamps them); where it is
+ * below the normal range (a footprint far under a texel), 0. */
+inline vfloat v2_length(vfloat x, vfloat y)
+{
+    vfloat d = x * x + y * y;
+    vint normal = d >= 0x1p-126f;
+    return SELECT((vfloat)(0.0f), d * vrsqrt(SELECT((vfloat)(1.0f), d, normal)), normal);
+}
+
+/* Beyond 2^23 every float is an integer (and NaN stays NaN); below, truncation corrected downwards. */
+inline vfloat vfloor(vfloat x)
+{
+    vfloat t = CONVERT_VFLOAT(CONVERT_VINT(x));
+    return SELECT(x, SELECT(t, t - 1.0f, t > x), vabs(x) < 0x1p23f);
+}
+
+/* The same for the scalar code that runs once per lane (a hit's surface geometry for texturing: surface.cl,
+ * camera.cl's footprint, material.cl; the light's frame): the builtins below would each be a call there
+ * too. The formulas are OpenCL's own. */
 inline float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 inline float3 cross3(float3 a, float3 b)
 {
@@ -74,23 +102,11 @@ inline float3 cross3(float3 a, float3 b)
 inline float abs1(float x) { return as_float(as_uint(x) & 0x7fffffffU); }
 inline float3 abs3(float3 v) { return (float3)(abs1(v.x), abs1(v.y), abs1(v.z)); }
 inline int finite1(float x) { return abs1(x) < INFINITY; }
-inline int finite3(float3 v) { return finite1(v.x) & finite1(v.y) & finite1(v.z); }
-inline float max1(float a, float b) { return a > b ? a : b; }
-inline float min1(float a, float b) { return a < b ? a : b; }
-inline int clamp_int(int i, int lo, int hi) { return i < lo ? lo : (i > hi ? hi : i); }
-inline float4 mix4(float4 a, float4 b, float t) { return a + (b - a) * t; }
 /* One lane of the lane versions above: the same cost as a scalar version, without a second copy. */
-inline float log2_1(float x) { return FIRST_LANE(vlog2((vfloat)(x))); }
 inline float rsqrt1(float x) { return FIRST_LANE(vrsqrt((vfloat)(x))); }
 /* Outside rsqrt1's domain (|v|^2 zero, subnormal or overflowing) the builtins, which rescale. */
 inline int normal_square(float d) { return d >= 0x1p-126f && d < INFINITY; }
 inline float3 normalize3(float3 v) { float d = dot3(v, v); return normal_square(d) ? v * rsqrt1(d) : normalize(v); }
 inline float length_of(float2 v) { float d = v.x * v.x + v.y * v.y; return normal_square(d) ? d * rsqrt1(d) : length(v); }
-/* Beyond 2^23 every float is an integer (and NaN stays NaN); below, truncation corrected downwards. */
-inline float floor1(float x)
-{
-    float t = (float)(int)x;
-    return abs1(x) < 0x1p23f ? (t > x ? t - 1.0f : t) : x;
-}
 
 #endif

@@ -191,3 +191,41 @@ def test_flat_normal_map_and_zero_height_change_nothing(tmp_path, lanes):
         assert "-DHAS_NORMAL_MAPS=1" in stats.build_options and "-DHAS_HEIGHT_MAPS=1" in stats.build_options
         assert a.max() > 0.3
         np.testing.assert_allclose(b, a, atol=2e-5, err_msg=shape)
+
+
+def test_lanes_with_different_materials_match_one_lane(cl_env, maps):
+    """Neighbouring lanes that hit different materials: material.cl runs each textured material's lookups
+    on all lanes and keeps them on that material's lanes only. Random pixels (so each group of 8 mixes a
+    colour-mapped wall, a normal- and height-mapped wall with another uv transform and wrap mode, an
+    untextured ellipsoid and misses) at LANES=8 against LANES=1, which the tests above check against the
+    float64 reference lane by lane. Both widths run the same float32 operations; only where the compiler
+    fuses a multiply-add can a rounding differ (~1e-7), which the bump's division by du (>= 1/2 texel of a
+    64-texel map at uv_scale 3) and height_scale 0.05 amplify by < 0.05 * 384 = 20: bound 1e-5."""
+    from conftest import Probe
+    table = {"camera": {"position": [0.0, -3.0, 1.0], "look_at": [0.0, 0.0, 1.0], "up": [0.0, 0.0, 1.0],
+                        "fov": 60.0},
+             "image": {"width": 48, "height": 40}, "ambient": [0.1, 0.1, 0.1],
+             "lights": [{"center": [0.0, -1.0, 3.0], "size": [0.5, 0.3], "normal": [0.0, 0.0, -1.0],
+                         "tangent": [1.0, 0.0, 0.0], "colour": [1.0, 1.0, 1.0]}],
+             "materials": {"painted": {"texture": maps["colour"], "uv_scale": [2.0, 1.0], "wrap": "mirror"},
+                           "bumpy": {"colour": [0.8, 0.7, 0.6], "normal_map": maps["normal"], "height_map": maps["height"],
+                                     "height_scale": 0.05, "uv_scale": [3.0, 3.0], "uv_offset": [0.2, 0.1]},
+                           "plain": {"colour": [0.3, 0.6, 0.2]}},
+             "shapes": [{"type": "rectangle", "center": [-1.0, 0.5, 1.0], "size": [2.0, 2.0],
+                         "normal": [0.0, -1.0, 0.0], "tangent": [1.0, 0.0, 0.0], "material": "painted"},
+                        {"type": "rectangle", "center": [1.0, 0.5, 1.0], "size": [2.0, 2.0],
+                         "normal": [0.0, -1.0, 0.0], "tangent": [1.0, 0.0, 0.0], "material": "bumpy"},
+                        {"type": "ellipsoid", "center": [0.0, -0.5, 1.2], "axes": [[0.4, 0, 0], [0, 0.4, 0],
+                                                                                     [0, 0, 0.4]],
+                         "material": "plain"}]}
+    scene = parse_scene(table, str(ROOT / "scenes" / "test.toml"))
+    rng = np.random.default_rng(10)
+    x, y = rng.uniform(0, scene.width, 1024), rng.uniform(0, scene.height * 1.1, 1024)
+    one = kernel_shading(Probe(1, env=cl_env), scene, x, y, 4, "trilinear")
+    eight = kernel_shading(Probe(8, env=cl_env), scene, x, y, 4, "trilinear")
+    red = one["k"][0].reshape(-1, 8)  # 0.8 on "bumpy", 0.3 on "plain", a colour map's texel or 0 (a miss)
+    kinds = [len({0.8 if np.isclose(r, 0.8) else 0.3 if np.isclose(r, 0.3) else 0 if r == 0 else 1 for r in g})
+             for g in red]
+    assert np.mean(np.array(kinds) >= 3) > 0.5, "most groups of 8 lanes mix three kinds of hit"
+    for key in ("k", "nrm", "pos"):
+        np.testing.assert_allclose(eight[key], one[key], atol=1e-5, err_msg=key)

@@ -12,16 +12,15 @@ from raytrace.textures import load_texture, make_texture
 
 LOOKUP = """
 #include "mipmap.cl"
-/* Scalar lookups, one per element: work-item I does elements [I LANES, (I + 1) LANES). */
+/* LANES lookups per work-item, each lane its own point and footprint (and so its own levels). */
 __kernel void lookup(int n, __global const Texture *textures, __global const MipLevel *levels,
                      __global const uint *texels, __global const float *srgb, int texture, int filter, int wrap,
                      __global const float *st, __global const float *dst, __global float *out)
 {
     TextureStore ts = {textures, levels, texels, srgb};
-    for (int i = I * LANES; i < (I + 1) * LANES; ++i) {
-        float4 c = texture_lookup(ts, texture, vload2(i, st), vload4(i, dst), filter, wrap);
-        out[i] = c.x; out[i + n] = c.y; out[i + 2 * n] = c.z; out[i + 3 * n] = c.w;
-    }
+    vec2 p = {IN(st), IN(st + n)};
+    Footprint f = {IN(dst), IN(dst + n), IN(dst + 2 * n), IN(dst + 3 * n)};
+    OUT3(out, texture_lookup(ts, texture, p, f, filter, wrap));
 }
 """
 
@@ -35,8 +34,8 @@ def kernel_lookup(harness, textures, index, filter_name, wrap, s, t, derivs=None
     texels, levels, table = mipmap.pack(textures)
     args = [table, levels, texels, mipmap.SRGB8_TO_LINEAR.astype(np.float32), np.int32(index),
             np.int32(types.FILTERS[filter_name]), np.int32(types.WRAP_MODES[wrap]),
-            np.stack([s, t], axis=1).astype(np.float32), np.asarray(derivs).T.astype(np.float32)]
-    return harness.run(LOOKUP, "lookup", n, args, {"out": 4})["out"][:3, :count].T
+            np.stack([s, t]).astype(np.float32), np.asarray(derivs).astype(np.float32)]
+    return harness.run(LOOKUP, "lookup", n, args, {"out": 3})["out"][:, :count].T
 
 
 def stored_levels(texture):
@@ -208,8 +207,7 @@ WRAP = """
 #include "textures.cl"
 __kernel void wrap(int n, __global const float *i, int size, int mode, __global float *out)
 {
-    for (int k = 0; k < LANES; ++k)
-        out[I * LANES + k] = wrap_index((int)i[I * LANES + k], size, mode);
+    OUT(out, CONVERT_VFLOAT(wrap_index(CONVERT_VINT(IN(i)), (vint)(size), mode)));
 }
 """
 

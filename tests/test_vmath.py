@@ -79,23 +79,18 @@ def test_rsqrt(harness, scale):
 
 FLOOR = """
 #include "vmath.h"
-__kernel void floor_(int n, __global const float *x, __global float *out)
-{
-    for (int k = 0; k < LANES; ++k)
-        out[I * LANES + k] = floor1(x[I * LANES + k]);
-}
+__kernel void floor_(int n, __global const float *x, __global float *out) { OUT(out, vfloor(IN(x))); }
 """
 
 
-def test_floor1():
-    """floor1 is exactly floor: integers, halves and values next to them on both sides of 0, values from
+def test_vfloor(harness):
+    """vfloor is exactly floor: integers, halves and values next to them on both sides of 0, values from
     2^22 to 2^31 (where truncation to int would overflow), infinities; NaN stays NaN."""
-    from raytrace.probe import Probe
     near = np.nextafter(np.float32([1, -1, 2**22, -2**22, 0.5, -0.5]), np.float32(0))
     x = np.concatenate([np.arange(-20, 20) * 0.5, near, [2.0**22 + 0.5, 2.0**23, 2.0**31, -2.0**31, 3e38, -3e38,
                                                          np.inf, -np.inf, 0.0, -0.0, 1e-45, -1e-45, np.nan]])
     x = np.concatenate([x, np.zeros((-len(x)) % 8)]).astype(np.float32)
-    out = Probe(8).run(FLOOR, "floor_", len(x), [x], {"out": 1})["out"]
+    out = harness.run(FLOOR, "floor_", len(x), [x], {"out": 1})["out"]
     np.testing.assert_array_equal(out, np.floor(x))
 
 
@@ -126,3 +121,34 @@ def test_normalize_and_length_at_every_magnitude(harness):
     v = np.concatenate([v, np.ones((-len(v)) % 8, np.float32)])
     out = harness.run(SCALAR, "scalar", len(v), [v], {"out": 1})["out"]
     np.testing.assert_allclose(out, 1 / 3 + 1, rtol=8 * U)
+
+
+UNIT = """
+#include "vmath.h"
+__kernel void unit(int n, __global const float *v, __global float *out)
+{
+    vfloat x = IN(v);
+    OUT3(out, v3_unit_or(v3(x, -2.0f * x, 2.0f * x), v3_splat(7.0f, 8.0f, 9.0f)));
+    OUT(out + 3 * n, v2_length(3.0f * x, 4.0f * x) / (5.0f * x));
+}
+"""
+
+
+def test_unit_vector_and_length_at_every_magnitude(harness):
+    """v3_unit_or((1, -2, 2) x) = (1, -2, 2) / 3 for x from 1e-38 (subnormal squares) to 1e38 (overflowing
+    ones): dividing by the largest coordinate (1 rounding) puts |a|^2 in [1, 3], then vrsqrt (4u) and the
+    products (2u): bound 8u. 0, inf and NaN give the fallback. v2_length((3, 4) x) / 5x = 1 within 8u
+    (squares and sum 3u, vrsqrt 4u, product 1u) where 25 x^2 is a normal float, and 0 below."""
+    normal = np.float32(10.0) ** np.arange(-18, 19, 2, dtype=np.float32)
+    tiny = np.float32([1e-38, 1e-30, 1e-20])
+    odd = np.float32([0.0, np.inf, np.nan])
+    v = np.concatenate([normal, tiny, np.float32([1e30, 1e38]), odd])
+    v = np.concatenate([v, np.ones((-len(v)) % 8, np.float32)])
+    out = harness.run(UNIT, "unit", len(v), [v], {"out": 4})["out"]
+    finite = np.isfinite(v) & (v != 0)
+    np.testing.assert_allclose(out[:3, finite].T, np.broadcast_to([1 / 3, -2 / 3, 2 / 3], (finite.sum(), 3)),
+                               rtol=8 * U)
+    assert np.all(out[:3, ~finite].T == [7, 8, 9])
+    ratio = out[3, :len(normal)]
+    np.testing.assert_allclose(ratio, 1, rtol=8 * U)
+    assert np.all(out[3, len(normal):len(normal) + len(tiny)] == 0), "|v|^2 below the normal range: 0"
