@@ -131,9 +131,10 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
         vfloat du = vmax(0.5f * (vabs(dst.s_x) + vabs(dst.s_y)), (vfloat)(0.5f / top.width));
         vfloat dv = vmax(0.5f * (vabs(dst.t_x) + vabs(dst.t_y)), (vfloat)(0.5f / top.height));
         vec2 st_u = {st.x + du, st.y}, st_v = {st.x, st.y - dv};
-        vfloat h = texture_lookup(ts, m->height_map, st, dst, filter, wrap).x;
-        vfloat hu = texture_lookup(ts, m->height_map, st_u, dst, filter, wrap).x;
-        vfloat hv = texture_lookup(ts, m->height_map, st_v, dst, filter, wrap).x;
+        TextureFilter tf = texture_filter(ts, m->height_map, dst, filter);
+        vfloat h = texture_filtered(ts, &tf, st, wrap).x;
+        vfloat hu = texture_filtered(ts, &tf, st_u, wrap).x;
+        vfloat hv = texture_filtered(ts, &tf, st_v, wrap).x;
         vfloat kh = m->height_scale;
         shading = bump_normal(v3_fill(&g->dpdu), v3_fill(&g->dpdv), shading, kh * (hu - h) / du, kh * (hv - h) / dv);
         /* outwards (kh h >= 0): the surface stays behind; the sum rounds once more */

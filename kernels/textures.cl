@@ -20,9 +20,15 @@ typedef struct { vint offset, width, height; } Levels;
 
 inline Levels mip_levels(TextureStore ts, int texture, vint level)
 {
+    __global const MipLevel *levels = ts.levels + ts.textures[texture].first_level;
+    int first = FIRST_LANE(level);
+    if (ALL(level == first)) { /* the common case: neighbouring pixels share a level */
+        MipLevel m = levels[first];
+        Levels r = {(vint)(m.offset), (vint)(m.width), (vint)(m.height)};
+        return r;
+    }
     int l[LANES], offset[LANES], width[LANES], height[LANES];
     VSTORE(level, l);
-    __global const MipLevel *levels = ts.levels + ts.textures[texture].first_level;
     for (int i = 0; i < LANES; ++i) {
         MipLevel m = levels[l[i]];
         offset[i] = m.offset;
@@ -37,8 +43,8 @@ inline Levels mip_levels(TextureStore ts, int texture, vint level)
 inline vfloat channel8(vuint word, int shift) { return CONVERT_VFLOAT(AS_VINT((word >> shift) & 0xffU)); }
 
 /* Texel (i, j) of each lane's level, decoded to linear RGB: one load per lane and word (three more through
- * the sRGB table), the decoding on lanes. */
-inline vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
+ * the sRGB table), the decoding on lanes. Inlined: its result would otherwise pass through memory. */
+__attribute__((always_inline)) inline vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
 {
     int at[LANES];
     float r[LANES], g[LANES], b[LANES];
@@ -103,22 +109,19 @@ inline vfloat reduce_coordinate(vfloat x, vint n, int mode)
     return x - period * vfloor(x / period);
 }
 
-/* Level 0, the texel whose cell contains st. */
-inline vec3 texture_nearest(TextureStore ts, int texture, vec2 st, int wrap)
+/* The texel of each lane's level whose cell contains st. */
+inline vec3 texture_nearest(TextureStore ts, int encoding, Levels level, vec2 st, int wrap)
 {
-    Levels level = mip_levels(ts, texture, (vint)(0));
     vfloat x = reduce_coordinate(st.x * CONVERT_VFLOAT(level.width), level.width, wrap);
     vfloat y = reduce_coordinate(st.y * CONVERT_VFLOAT(level.height), level.height, wrap);
     vint i = wrap_index(CONVERT_VINT(vfloor(x)), level.width, wrap);
     vint j = wrap_index(CONVERT_VINT(vfloor(y)), level.height, wrap);
-    return texel_fetch(ts, ts.textures[texture].encoding, level, i, j);
+    return texel_fetch(ts, encoding, level, i, j);
 }
 
 /* Bilinear interpolation between the four texel centres around st in each lane's level. */
-inline vec3 texture_bilinear(TextureStore ts, int texture, vint level_index, vec2 st, int wrap)
+inline vec3 texture_bilinear(TextureStore ts, int encoding, Levels level, vec2 st, int wrap)
 {
-    Levels level = mip_levels(ts, texture, level_index);
-    int encoding = ts.textures[texture].encoding;
     vfloat x = reduce_coordinate(st.x * CONVERT_VFLOAT(level.width) - 0.5f, level.width, wrap);
     vfloat y = reduce_coordinate(st.y * CONVERT_VFLOAT(level.height) - 0.5f, level.height, wrap);
     vfloat fx = vfloor(x), fy = vfloor(y);
