@@ -20,17 +20,17 @@ inline Ray generate_camera_ray(__constant const Camera *cam, vfloat x, vfloat y,
 
 /* Ray differentials (Igehy 1999; pbrt-v4 section 10.1): where the camera rays of the neighbouring pixel
  * samples, `spacing` pixels to the right and below, meet the tangent plane (point p, normal n) of the hit
- * of the ray with unit direction d. Returns their offsets from p. Scalar: for one lane. */
-inline void camera_footprint(__constant const Camera *cam, float spacing, float inv_w, float inv_h, float3 d,
-                             float3 p, float3 n, float3 *dpdx, float3 *dpdy)
+ * of the ray with unit direction d. Returns their offsets from p. */
+inline void camera_footprint(__constant const Camera *cam, float spacing, float inv_w, float inv_h, vec3 d, vec3 p,
+                             vec3 n, vec3 *dpdx, vec3 *dpdy)
 {
-    float3 o = f3(cam->position);
-    float3 dir = d * (cam->focal_length / dot3(d, f3(cam->forward))); /* f forward + sx right + sy up */
-    float3 dx = dir + f3(cam->right) * (2.0f * spacing * inv_w * cam->scale_x);
-    float3 dy = dir - f3(cam->up) * (2.0f * spacing * inv_h * cam->scale_y);
-    float plane = dot3(p - o, n);
-    *dpdx = o + dx * (plane / dot3(dx, n)) - p;
-    *dpdy = o + dy * (plane / dot3(dy, n)) - p;
+    vec3 o = v3_uniform(cam->position);
+    vec3 dir = v3_scale(d, cam->focal_length / v3_dot(d, v3_uniform(cam->forward))); /* f forward + sx right + sy up */
+    vec3 dx = v3_madd(dir, (vfloat)(2.0f * spacing * inv_w * cam->scale_x), v3_uniform(cam->right));
+    vec3 dy = v3_madd(dir, (vfloat)(-2.0f * spacing * inv_h * cam->scale_y), v3_uniform(cam->up));
+    vfloat plane = v3_dot(v3_sub(p, o), n);
+    *dpdx = v3_sub(v3_madd(o, plane / v3_dot(dx, n), dx), p);
+    *dpdy = v3_sub(v3_madd(o, plane / v3_dot(dy, n), dy), p);
 }
 
 #endif

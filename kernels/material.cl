@@ -38,50 +38,25 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
     return surface_rectangle(&s->rectangles[index], p);
 }
 
-/* What texturing needs of each lane's hit, found one lane at a time (the shapes that lanes hit differ; this
- * part is gathers and per-shape formulas): texture coordinates (s, t) after the material's uv transform,
- * their footprint dst, the shading frame, and dp/du, dp/dv per unit of the transformed u and v. */
+/* What texturing needs of the lanes' hits, before a material's uv transform: the surface points, their
+ * shading frames and the footprints of the pixel samples in (u, v). */
 typedef struct {
-    float s[LANES], t[LANES], dst[4][LANES];
-    Lanes3 tangent, bitangent, normal, dpdu, dpdv;
-} TexturedLanes;
+    Surface surface;
+    Frame frame;
+    UVDerivatives duv;
+} TexturedHits;
 
-inline void texture_geometry(const Scene *s, __global const Material *m, int kind, int index, float b1, float b2,
-                             float3 d, float3 p, float3 ng, TexturedLanes *g, int i)
+inline TexturedHits textured_hits(const Scene *s, const SurfaceLanes *lanes, vec3 d, vec3 p, vec3 ng)
 {
     __constant const RenderParams *params = s->params;
-    SurfacePoint sp = surface_point(s, kind, index, p, b1, b2);
-    float3 dpdx, dpdy;
+    TexturedHits h;
+    h.surface = surface_fill(lanes);
+    h.frame = shading_frame(h.surface);
+    vec3 dpdx, dpdy;
     camera_footprint(s->camera, params->footprint_scale, 1.0f / params->width, 1.0f / params->height, d, p, ng,
                      &dpdx, &dpdy);
-    float2 scale = (float2)(m->uv_scale[0], m->uv_scale[1]);
-    float2 uv = sp.uv * scale + (float2)(m->uv_offset[0], m->uv_offset[1]);
-    float4 duv = uv_derivatives(sp, dpdx, dpdy) * scale.xyxy;
-    /* (s, t) = (u, 1 - v) of the image */
-    g->s[i] = uv.x;
-    g->t[i] = 1.0f - uv.y;
-    g->dst[0][i] = duv.x;
-    g->dst[1][i] = -duv.y;
-    g->dst[2][i] = duv.z;
-    g->dst[3][i] = -duv.w;
-    Frame frame = shading_frame(sp);
-    set_lane3(&g->tangent, i, frame.t);
-    set_lane3(&g->bitangent, i, frame.b);
-    set_lane3(&g->normal, i, frame.n);
-    set_lane3(&g->dpdu, i, sp.dpdu / scale.x);
-    set_lane3(&g->dpdv, i, sp.dpdv / scale.y);
-}
-
-/* A lane without a textured hit: finite values for the lane-parallel code, which runs on every lane. */
-inline void texture_geometry_none(TexturedLanes *g, int i)
-{
-    float3 zero = (float3)(0.0f);
-    g->s[i] = g->t[i] = g->dst[0][i] = g->dst[1][i] = g->dst[2][i] = g->dst[3][i] = 0.0f;
-    set_lane3(&g->tangent, i, zero);
-    set_lane3(&g->bitangent, i, zero);
-    set_lane3(&g->normal, i, zero);
-    set_lane3(&g->dpdu, i, zero);
-    set_lane3(&g->dpdv, i, zero);
+    h.duv = uv_derivatives(h.surface, dpdx, dpdy);
+    return h;
 }
 
 inline int is_textured(__global const Material *m)
@@ -101,17 +76,19 @@ inline vec3 bump_normal(vec3 dpdu, vec3 dpdv, vec3 n, vfloat dh_du, vfloat dh_dv
     return v3_unit_or(v3_sub(n, v3_scale(grad, 1.0f / a)), n);
 }
 
-/* Material m's textures on the lanes of `mask` (their hits' geometry in g): the colour *k, the shading
- * normal *n (a normal or height map; it starts as the facing geometric normal ng), and the shading point
- * *p displaced by a height map, with its error bound *err (ray.h). Every lane computes; only the mask's
- * lanes keep the results. */
-inline void texture_material(TextureStore ts, __global const Material *m, int filter, const TexturedLanes *g,
+/* Material m's textures on the lanes of `mask` (their hits in h): the colour *k, the shading normal *n (a
+ * normal or height map; it starts as the facing geometric normal ng), and the shading point *p displaced by
+ * a height map, with its error bound *err (ray.h). Every lane computes; only the mask's lanes keep the
+ * results. */
+inline void texture_material(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
                              vint mask, vec3 ng, vec3 *k, vec3 *n, vec3 *p, vfloat *err)
 {
-    vec2 st = {VLOAD(g->s), VLOAD(g->t)};
-    Footprint dst = {VLOAD(g->dst[0]), VLOAD(g->dst[1]), VLOAD(g->dst[2]), VLOAD(g->dst[3])};
+    /* the material's uv transform, then (s, t) = (u, 1 - v) of the image */
+    const float scale_u = m->uv_scale[0], scale_v = m->uv_scale[1];
+    vec2 st = {MAD(h->surface.uv.x, scale_u, m->uv_offset[0]), 1.0f - MAD(h->surface.uv.y, scale_v, m->uv_offset[1])};
+    Footprint dst = {h->duv.u_x * scale_u, -(h->duv.v_x * scale_v), h->duv.u_y * scale_u, -(h->duv.v_y * scale_v)};
     const int wrap = m->wrap;
-    vec3 frame_n = v3_fill(&g->normal), shading = frame_n;
+    vec3 frame_n = h->frame.n, shading = frame_n;
 #if HAS_COLOUR_MAPS
     if (m->colour_map >= 0)
         *k = v3_select(*k, texture_lookup(ts, m->colour_map, st, dst, filter, wrap), mask);
@@ -119,8 +96,8 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
 #if HAS_NORMAL_MAPS
     if (m->normal_map >= 0) { /* tangent space: rgb = (x, y, z) / 2 + 1/2 */
         vec3 c = texture_lookup(ts, m->normal_map, st, dst, filter, wrap);
-        vec3 mapped = v3_scale(v3_fill(&g->tangent), MAD(c.x, 2.0f, -1.0f));
-        mapped = v3_madd(mapped, MAD(c.y, 2.0f, -1.0f), v3_fill(&g->bitangent));
+        vec3 mapped = v3_scale(h->frame.t, MAD(c.x, 2.0f, -1.0f));
+        mapped = v3_madd(mapped, MAD(c.y, 2.0f, -1.0f), h->frame.b);
         mapped = v3_madd(mapped, MAD(c.z, 2.0f, -1.0f), frame_n);
         shading = v3_unit_or(mapped, frame_n);
     }
@@ -132,13 +109,14 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
         vfloat dv = vmax(0.5f * (vabs(dst.t_x) + vabs(dst.t_y)), (vfloat)(0.5f / top.height));
         vec2 st_u = {st.x + du, st.y}, st_v = {st.x, st.y - dv};
         TextureFilter tf = texture_filter(ts, m->height_map, dst, filter);
-        vfloat h = texture_filtered(ts, &tf, st, wrap).x;
+        vfloat height = texture_filtered(ts, &tf, st, wrap).x;
         vfloat hu = texture_filtered(ts, &tf, st_u, wrap).x;
         vfloat hv = texture_filtered(ts, &tf, st_v, wrap).x;
         vfloat kh = m->height_scale;
-        shading = bump_normal(v3_fill(&g->dpdu), v3_fill(&g->dpdv), shading, kh * (hu - h) / du, kh * (hv - h) / dv);
+        shading = bump_normal(v3_scale(h->surface.dpdu, 1.0f / scale_u), v3_scale(h->surface.dpdv, 1.0f / scale_v),
+                              shading, kh * (hu - height) / du, kh * (hv - height) / dv);
         /* outwards (kh h >= 0): the surface stays behind; the sum rounds once more */
-        vec3 displaced = v3_madd(*p, kh * h, ng);
+        vec3 displaced = v3_madd(*p, kh * height, ng);
         *p = v3_select(*p, displaced, mask);
         *err = SELECT(*err, *err + GAMMA(2) * error_along(ng, v3_abs(displaced)), mask);
     }
@@ -187,19 +165,18 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     Lanes3 n = v3_spill(sp.n);
 #endif
 #if HAS_TEXTURES
-    Lanes3 p = v3_spill(sp.p), d = v3_spill(r.d);
-    TexturedLanes g;
-    int textured[LANES];
+    Lanes3 p = v3_spill(sp.p);
+    SurfaceLanes surface;
+    int textured[LANES], any_textured = 0;
 #endif
     for (int i = 0; i < LANES; ++i) {
         sh[i] = 1.0f;
 #if HAS_TEXTURES
         textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
-        if (textured[i])
-            texture_geometry(s, &s->materials[m[i]], kind[i], index[i], b1[i], b2[i], lane3(&d, i), lane3(&p, i),
-                             lane3(&n, i), &g, i);
-        else
-            texture_geometry_none(&g, i);
+        any_textured |= textured[i];
+        SurfacePoint none = {(float2)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f)};
+        set_surface_lane(&surface, i,
+                         textured[i] ? surface_point(s, kind[i], index[i], lane3(&p, i), b1[i], b2[i]) : none);
 #endif
         if (m[i] < 0)
             continue;
@@ -218,6 +195,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     sp.n = v3_fill(&n);
 #endif
 #if HAS_TEXTURES
+    if (!any_textured)
+        return sp;
+    TexturedHits h = textured_hits(s, &surface, r.d, sp.p, sp.ng);
     for (int i = 0; i < LANES; ++i) {
         if (!textured[i])
             continue;
@@ -225,7 +205,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         for (int j = 0; j < i; ++j)
             first &= m[j] != m[i];
         if (first)
-            texture_material(ts, &s->materials[m[i]], s->params->texture_filter, &g, hit.material == m[i], sp.ng,
+            texture_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i], sp.ng,
                              &sp.k, &sp.n, &sp.p, &sp.err);
     }
 #endif

@@ -2,7 +2,8 @@
  * the shape's uv parameterisation, the shading frame they define, and the (u, v) footprint of a pixel
  * sample from ray differentials (pbrt-v4 sections 6.1-6.5 and 10.1).
  *
- * Scalar code, run once per lane (material.cl): the shapes that lanes hit differ. */
+ * A hit's surface point is scalar code, run once per lane (material.cl): the shapes that lanes hit differ.
+ * The frame and the footprint then run on lanes. */
 #ifndef SURFACE_CL
 #define SURFACE_CL
 
@@ -15,8 +16,6 @@ typedef struct {
     float3 n;       /* the shape's own unit normal, not turned toward the ray */
     float3 tangent; /* unit direction of dpdu, defined where dpdu vanishes (an ellipsoid's poles) too */
 } SurfacePoint;
-
-typedef struct { float3 t, b, n; } Frame;
 
 inline float3 mat3_mul(const __global float *m, float3 v) /* row-major m times v */
 {
@@ -80,38 +79,73 @@ inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
     return sp;
 }
 
-/* Some unit vector orthogonal to the unit vector n (Duff et al., JCGT 2017). */
-inline float3 any_perpendicular(float3 n)
+/* The surface points of the lanes' hits, found one lane at a time (the shapes that lanes hit differ) and
+ * moved into lanes for the rest of texturing. */
+typedef struct { vec2 uv; vec3 dpdu, dpdv, n, tangent; } Surface;
+typedef struct { float u[LANES], v[LANES]; Lanes3 dpdu, dpdv, n, tangent; } SurfaceLanes;
+
+inline void set_surface_lane(SurfaceLanes *a, int i, SurfacePoint sp)
 {
-    float sign = copysign(1.0f, n.z), a = -1.0f / (sign + n.z), b = n.x * n.y * a;
-    return (float3)(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    a->u[i] = sp.uv.x;
+    a->v[i] = sp.uv.y;
+    set_lane3(&a->dpdu, i, sp.dpdu);
+    set_lane3(&a->dpdv, i, sp.dpdv);
+    set_lane3(&a->n, i, sp.n);
+    set_lane3(&a->tangent, i, sp.tangent);
+}
+
+inline Surface surface_fill(const SurfaceLanes *a)
+{
+    Surface s = {{VLOAD(a->u), VLOAD(a->v)}, v3_fill(&a->dpdu), v3_fill(&a->dpdv), v3_fill(&a->n),
+                 v3_fill(&a->tangent)};
+    return s;
+}
+
+typedef struct { vec3 t, b, n; } Frame;
+
+/* Some unit vector orthogonal to the unit vector n (Duff et al., JCGT 2017). */
+inline vec3 any_perpendicular(vec3 n)
+{
+    vfloat sign = vcopysign(1.0f, n.z), a = -1.0f / (sign + n.z), b = n.x * n.y * a;
+    return v3(MAD(sign * n.x * n.x, a, 1.0f), sign * b, -sign * n.x);
 }
 
 /* The orthonormal, right-handed tangent frame (t, b, n) of the uv parameterisation: t along dp/du,
  * b on dp/dv's side, n the shape's normal turned to dp/du x dp/dv's side. */
-inline Frame shading_frame(SurfacePoint sp)
+inline Frame shading_frame(Surface sp)
 {
     Frame f;
-    float3 t = sp.tangent - sp.n * dot3(sp.n, sp.tangent);
-    float len2 = dot3(t, t);
-    f.t = len2 > 0.0f ? t * rsqrt1(len2) : any_perpendicular(sp.n);
-    f.n = dot3(sp.n, cross3(sp.dpdu, sp.dpdv)) < 0.0f ? -sp.n : sp.n;
-    f.b = cross3(f.n, f.t);
+    vec3 t = v3_sub(sp.tangent, v3_scale(sp.n, v3_dot(sp.n, sp.tangent)));
+    f.t = v3_unit_or(t, any_perpendicular(sp.n));
+    f.n = v3_select(sp.n, v3_scale(sp.n, -1.0f), v3_dot(sp.n, v3_cross(sp.dpdu, sp.dpdv)) < 0.0f);
+    f.b = v3_cross(f.n, f.t);
     return f;
+}
+
+typedef struct { vfloat u_x, v_x, u_y, v_y; } UVDerivatives; /* du/dx, dv/dx, du/dy, dv/dy */
+
+/* A derivative clamped to +-1e8, and 0 for NaN. */
+inline vfloat finite_derivative(vfloat d)
+{
+    d = vmin(vmax(d, -1e8f), 1e8f);
+    return SELECT((vfloat)(0.0f), d, d == d);
 }
 
 /* (du/dx, dv/dx, du/dy, dv/dy) from the offsets dpdx, dpdy of the point on the tangent plane: the
  * least-squares solution of dpdx = du/dx dp/du + dv/dx dp/dv (pbrt-v4 section 10.1.1). Where the
  * parameterisation degenerates (a pole) the system is singular: the result is 0, not NaN. */
-inline float4 uv_derivatives(SurfacePoint sp, float3 dpdx, float3 dpdy)
+inline UVDerivatives uv_derivatives(Surface sp, vec3 dpdx, vec3 dpdy)
 {
-    float a00 = dot3(sp.dpdu, sp.dpdu), a01 = dot3(sp.dpdu, sp.dpdv), a11 = dot3(sp.dpdv, sp.dpdv);
-    float inv_det = 1.0f / (a00 * a11 - a01 * a01);
-    inv_det = finite1(inv_det) ? inv_det : 0.0f;
-    float bx0 = dot3(sp.dpdu, dpdx), bx1 = dot3(sp.dpdv, dpdx), by0 = dot3(sp.dpdu, dpdy), by1 = dot3(sp.dpdv, dpdy);
-    float4 d = (float4)(a11 * bx0 - a01 * bx1, a00 * bx1 - a01 * bx0, a11 * by0 - a01 * by1, a00 * by1 - a01 * by0)
-               * inv_det;
-    return select(clamp(d, -1e8f, 1e8f), (float4)(0.0f), isnan(d));
+    vfloat a00 = v3_dot(sp.dpdu, sp.dpdu), a01 = v3_dot(sp.dpdu, sp.dpdv), a11 = v3_dot(sp.dpdv, sp.dpdv);
+    vfloat inv_det = 1.0f / (a00 * a11 - a01 * a01);
+    inv_det = SELECT((vfloat)(0.0f), inv_det, vabs(inv_det) < INFINITY);
+    vfloat bx0 = v3_dot(sp.dpdu, dpdx), bx1 = v3_dot(sp.dpdv, dpdx);
+    vfloat by0 = v3_dot(sp.dpdu, dpdy), by1 = v3_dot(sp.dpdv, dpdy);
+    UVDerivatives d = {finite_derivative((a11 * bx0 - a01 * bx1) * inv_det),
+                       finite_derivative((a00 * bx1 - a01 * bx0) * inv_det),
+                       finite_derivative((a11 * by0 - a01 * by1) * inv_det),
+                       finite_derivative((a00 * by1 - a01 * by0) * inv_det)};
+    return d;
 }
 
 #endif

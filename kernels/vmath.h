@@ -50,9 +50,9 @@ inline vfloat vexp2(vfloat z)
     return p * AS_VFLOAT((i + 127) << 23); /* i = -127 scales by 0 */
 }
 
-/* 1 / sqrt(x) for normal, finite x > 0 (not for 0, subnormals or inf): the classic bit-level first guess (relative error below 3.5e-2), then three
- * Newton steps y (3/2 - x y^2 / 2), each taking the error e to about 3/2 e^2 (1.8e-3, 4.6e-6, 3.2e-11); the
- * last step rounds at most 3 times: within 4u. For directions whose length only scales what they are
+/* 1 / sqrt(x) for normal, finite x > 0 (not for 0, subnormals or inf): the classic bit-level first guess
+ * (relative error below 3.5e-2), then three Newton steps y (3/2 - x y^2 / 2), each taking the error e to
+ * about 3/2 e^2 (1.8e-3, 4.6e-6, 3.2e-11); the last step rounds at most 3 times: within 4u. For directions whose length only scales what they are
  * compared with (shading), never for error-bounded points. */
 inline vfloat vrsqrt(vfloat x)
 {

@@ -13,31 +13,38 @@ from raytrace.structs import (camera_struct, ellipsoid_structs, rectangle_struct
 SOURCE = """
 #include "camera.cl"
 #include "surface.cl"
-/* The 20 outputs of a surface point: uv, dpdu, dpdv, n, then the frame's t, b, n. */
-inline void put(int n, int i, __global float *out, SurfacePoint sp)
+/* The 20 outputs of the lanes' surface points: uv, dpdu, dpdv, n, then the frame's t, b, n. */
+inline void put(int n, __global float *out, const SurfaceLanes *lanes)
 {
+    Surface sp = surface_fill(lanes);
     Frame f = shading_frame(sp);
-    float v[20] = {sp.uv.x, sp.uv.y, sp.dpdu.x, sp.dpdu.y, sp.dpdu.z, sp.dpdv.x, sp.dpdv.y, sp.dpdv.z,
-                   sp.n.x, sp.n.y, sp.n.z, f.t.x, f.t.y, f.t.z, f.b.x, f.b.y, f.b.z, f.n.x, f.n.y, f.n.z};
-    for (int c = 0; c < 20; ++c)
-        out[c * n + i] = v[c];
+    OUT(out, sp.uv.x);
+    OUT(out + n, sp.uv.y);
+    vec3 v[6] = {sp.dpdu, sp.dpdv, sp.n, f.t, f.b, f.n};
+    for (int c = 0; c < 6; ++c)
+        OUT3(out + (2 + 3 * c) * n, v[c]);
 }
-#define EACH for (int i = I * LANES; i < (I + 1) * LANES; ++i)
+/* Lane k of work-item I is element i = I LANES + k; each lane's surface point is scalar code. */
+#define EACH(point) SurfaceLanes lanes; \
+    for (int k = 0, i = I * LANES; k < LANES; ++k, ++i) set_surface_lane(&lanes, k, point)
 
 __kernel void rectangle(int n, __global const Rectangle *r, __global const float *p, __global float *out)
 {
-    EACH put(n, i, out, surface_rectangle(r, (float3)(p[i], p[i + n], p[i + 2 * n])));
+    EACH(surface_rectangle(r, (float3)(p[i], p[i + n], p[i + 2 * n])));
+    put(n, out, &lanes);
 }
 
 __kernel void triangle(int n, __global const Triangle *t, __global const TriangleUV *uv,
                        __global const float *b, __global float *out)
 {
-    EACH put(n, i, out, surface_triangle(t, uv, b[i], b[i + n]));
+    EACH(surface_triangle(t, uv, b[i], b[i + n]));
+    put(n, out, &lanes);
 }
 
 __kernel void ellipsoid(int n, __global const Ellipsoid *e, __global const float *p, __global float *out)
 {
-    EACH put(n, i, out, surface_ellipsoid(e, (float3)(p[i], p[i + n], p[i + 2 * n])));
+    EACH(surface_ellipsoid(e, (float3)(p[i], p[i + n], p[i + 2 * n])));
+    put(n, out, &lanes);
 }
 
 /* (du/dx, dv/dx, du/dy, dv/dy) on a rectangle for camera rays with unit directions d hitting at p. */
@@ -45,14 +52,15 @@ __kernel void footprint(int n, __constant const Camera *cam, __global const Rect
                         float inv_w, float inv_h, __global const float *d, __global const float *p,
                         __global float *out)
 {
-    EACH {
-        float3 pi = (float3)(p[i], p[i + n], p[i + 2 * n]), di = (float3)(d[i], d[i + n], d[i + 2 * n]);
-        SurfacePoint sp = surface_rectangle(r, pi);
-        float3 dpdx, dpdy;
-        camera_footprint(cam, spacing, inv_w, inv_h, di, pi, sp.n, &dpdx, &dpdy);
-        float4 duv = uv_derivatives(sp, dpdx, dpdy);
-        out[i] = duv.x; out[i + n] = duv.y; out[i + 2 * n] = duv.z; out[i + 3 * n] = duv.w;
-    }
+    EACH(surface_rectangle(r, (float3)(p[i], p[i + n], p[i + 2 * n])));
+    Surface sp = surface_fill(&lanes);
+    vec3 dpdx, dpdy;
+    camera_footprint(cam, spacing, inv_w, inv_h, IN3(d), IN3(p), sp.n, &dpdx, &dpdy);
+    UVDerivatives duv = uv_derivatives(sp, dpdx, dpdy);
+    OUT(out, duv.u_x);
+    OUT(out + n, duv.v_x);
+    OUT(out + 2 * n, duv.u_y);
+    OUT(out + 3 * n, duv.v_y);
 }
 """
 
