@@ -91,17 +91,12 @@ inline vfloat vfloor(vfloat x)
     return SELECT(x, SELECT(t, t - 1.0f, t > x), vabs(x) < 0x1p23f);
 }
 
-/* The same for the scalar code that runs once per lane (a hit's surface geometry for texturing: surface.cl,
- * camera.cl's footprint, material.cl; the light's frame): the builtins below would each be a call there
+/* The same for scalar code: a textured hit's surface point, found once per lane (surface.cl), smooth
+ * normals (material.cl) and the lights' constants (lights.cl). The builtins would each be a call there
  * too. The formulas are OpenCL's own. */
 inline float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline float3 cross3(float3 a, float3 b)
-{
-    return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
 inline float abs1(float x) { return as_float(as_uint(x) & 0x7fffffffU); }
 inline float3 abs3(float3 v) { return (float3)(abs1(v.x), abs1(v.y), abs1(v.z)); }
-inline int finite1(float x) { return abs1(x) < INFINITY; }
 /* One lane of the lane versions above: the same cost as a scalar version, without a second copy. */
 inline float rsqrt1(float x) { return FIRST_LANE(vrsqrt((vfloat)(x))); }
 /* Outside rsqrt1's domain (|v|^2 zero, subnormal or overflowing) the builtins, which rescale. */
