@@ -106,7 +106,8 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
     }
 }
 
-inline vint bvh_occluded(const Scene *s, Ray r)
+/* intersect.cl's occluded() over the hierarchy: the `skip`ped rectangles are not tested. */
+inline vint bvh_occluded(const Scene *s, Ray r, uint skip)
 {
     BoxRay b = box_ray(r);
 #if HAS_TRIANGLES
@@ -134,7 +135,7 @@ inline vint bvh_occluded(const Scene *s, Ray r)
                 }
 #endif
 #if HAS_RECTANGLES
-                if (kind == SHAPE_RECTANGLE)
+                if (kind == SHAPE_RECTANGLE && !skipped(skip, index))
                     blocked |= blocks_rectangle(s, r, index);
 #endif
 #if HAS_ELLIPSOIDS

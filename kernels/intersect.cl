@@ -117,6 +117,9 @@ inline vint blocks_ellipsoid(const Scene *s, Ray r, int i)
 }
 #endif
 
+/* Rectangle i is among the `skipped` ones (bit i of the first 32). */
+inline int skipped(uint rectangles, int i) { return i < 32 && ((rectangles >> i) & 1u); }
+
 #if HAS_BVH
 #include "bvh.cl"
 #endif
@@ -167,19 +170,44 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
     return hit;
 }
 
-/* Mask of the lanes whose segment o + t d, t in (0, 1), is blocked by a shape: for planes and triangles
- * conservatively inside, so neither the surface it leaves nor one it ends on counts (ray.h); an ellipsoid
- * blocks for 0 < t < 1, the segment's end being already pushed off the light (shading.cl). Lights do not
- * block. Stops as soon as every lane is blocked. */
-inline vint occluded(const Scene *s, Ray r)
+/* The rectangles (of the first 32) that no shadow segment from o to the light can block, in every lane of
+ * `lanes`. The host's bits (types.h) say that the light lies wholly on one side of the plane, with margins
+ * for how shadow rays sample the light and end. Then a lane's segment cannot cross the plane when o is
+ * certainly on that side too, beyond num's rounding e (rectangle.cl's num = (c - o).n and e_num, computed
+ * here the same way); and where |num| <= e, rectangle.cl itself never reports a hit (dt >= |t|). So the
+ * rectangle test could only answer "not blocked": skipping it changes no result. Once per hit and light,
+ * for every shadow ray towards that light: the walls of a room are not tested again. */
+inline uint rectangles_out_of_reach(const Scene *s, __global const Light *light, vec3 o, vint lanes)
+{
+    uint front = light->planes_in_front, behind = light->planes_behind, out = 0u;
+    for (int i = 0; i < s->params->n_rectangles && i < 32; ++i) {
+        uint bit = 1u << i;
+        if (!((front | behind) & bit))
+            continue;
+        __global const Rectangle *rect = &s->rectangles[i];
+        vec3 n = v3_uniform(rect->normal), co = v3_sub(v3_uniform(rect->center), o);
+        vfloat num = v3_dot(co, n), e = GAMMA(5) * error_along(n, v3_abs(co));
+        vint beyond_reach = (front & bit) ? num <= e : num >= -e; /* (o - c).n = -num */
+        if (ALL(beyond_reach | (lanes == 0)))
+            out |= bit;
+    }
+    return out;
+}
+
+/* Mask of the lanes whose segment o + t d, t in (0, 1), is blocked by a shape other than the `skip`ped
+ * rectangles: for planes and triangles conservatively inside, so neither the surface it leaves nor one it
+ * ends on counts (ray.h); an ellipsoid blocks for 0 < t < 1, the segment's end being already pushed off the
+ * light (shading.cl). Lights do not block. Stops as soon as every lane is blocked. */
+inline vint occluded(const Scene *s, Ray r, uint skip)
 {
 #if HAS_BVH
-    return bvh_occluded(s, r);
+    return bvh_occluded(s, r, skip);
 #else
     vint blocked = (vint)(0);
 #if HAS_RECTANGLES
     for (int i = 0; i < s->params->n_rectangles && !ALL(blocked); ++i)
-        blocked |= blocks_rectangle(s, r, i);
+        if (!skipped(skip, i))
+            blocked |= blocks_rectangle(s, r, i);
 #endif
 #if HAS_TRIANGLES
     RayShear shear = ray_shear(r);

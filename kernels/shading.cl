@@ -52,6 +52,7 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
         vuint light_key = stream_key(key, li);
         vec3 light_normal = v3_uniform(light->shape.normal);
         vfloat q_err = light_point_error(light);
+        uint skip = rectangles_out_of_reach(s, light, origin, surface);
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
             vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
@@ -60,7 +61,7 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
             if (!ANY(lit))
                 continue;
             *rays += MASK_TO_ONE(lit);
-            lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal));
+            lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal), skip);
             sum += SELECT((vfloat)(0.0f), phong_lobes(sp.n, l, v, sp.shininess), lit);
         }
         direct = v3_madd(direct, sum * (1.0f / n_samples), v3_uniform(light->colour));

@@ -134,12 +134,55 @@ def ellipsoid_structs(ells):
     return a
 
 
-def light_structs(lights):
+U = 2.0**-24  # float32 unit roundoff
+CULLED_RECTANGLES = 32  # rectangles that shadow rays may skip, one bit each in a Light's masks (types.h)
+
+
+def light_structs(lights, rectangles=(), extent=0.0):
+    """Light structs; with the scene's `rectangles` and `extent` (a bound on every coordinate of its shapes,
+    lights and displaced shading points), each light's bits of the rectangles whose plane it lies wholly
+    in front of or behind (planes_in_front, planes_behind)."""
     a = np.zeros(max(len(lights), 1), types.LIGHT)  # a scene without lights (the API allows one) gets a dummy
     a["shape"] = rectangle_structs(lights)
+    planes = rectangle_structs(rectangles[:CULLED_RECTANGLES]) if len(rectangles) else None
     for s, light in zip(a, lights):
         s["colour"] = light.colour
+        if planes is not None:
+            s["planes_in_front"], s["planes_behind"] = light_sides(s["shape"], planes, extent)
     return a
+
+
+def light_sides(light, planes, extent):
+    """(bits of `planes` with the light strictly in front, bits with it strictly behind), from the stored
+    float32 values. The kernel's shadow rays end near a light point q = c + du t + dv b (two fused
+    multiply-adds, du and dv rounded once: within gamma(2) (|c| + hx + hy) of the rectangle per
+    coordinate), pushed off the light by its error bound, at most q's gamma(4) sqrt(3) S + gamma(2) (hx +
+    hy) plus gamma(2) |n|.|o - q| <= gamma(2) sqrt(3) 2 S, then rounded one float further and reached along
+    a direction that rounds once (shading.cl): within 21u (S + hx + hy) of the rectangle per coordinate for
+    coordinates bounded by S; gamma(32) is taken, sqrt(3) of it along a unit normal. float64 arithmetic on
+    the stored values adds nothing comparable."""
+    f64 = lambda key: np.asarray(light[key], np.float64)  # noqa: E731
+    hx, hy = float(light["half_x"]), float(light["half_y"])
+    signs = np.array([[-1, -1], [-1, 1], [1, -1], [1, 1]], np.float64) * [hx, hy]
+    corners = f64("center") + signs @ np.stack([f64("tangent"), f64("bitangent")])
+    n, c = planes["normal"].astype(np.float64), planes["center"].astype(np.float64)
+    distance = corners @ n.T - np.einsum("ij,ij->i", c, n)  # (corner, plane)
+    n_gamma = 32 * U / (1 - 32 * U)
+    margin = math.sqrt(3) * n_gamma * (extent + hx + hy)
+    bits = np.left_shift(1, np.arange(len(planes)), dtype=np.int64)
+    front, behind = np.all(distance > margin, axis=0), np.all(distance < -margin, axis=0)
+    return int(bits[front].sum()), int(bits[behind].sum())
+
+
+def scene_extent(scene, triangles):
+    """A bound on every coordinate of the scene's shapes (the packed `triangles` for meshes), lights and
+    height-displaced shading points."""
+    parts = [np.abs(np.concatenate([triangles[k] for k in ("v0", "v1", "v2")])).max(initial=0.0)]
+    for r in [*scene.rectangles, *scene.lights]:
+        parts.append((np.abs(r.center) + r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent)).max())
+    for e in scene.ellipsoids:
+        parts.append((np.abs(e.center) + np.linalg.norm(e.matrix, axis=1)).max())
+    return float(max(parts)) + max([abs(m.height_scale) for m in scene.materials], default=0.0)
 
 
 def material_structs(materials):
@@ -240,4 +283,5 @@ def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixe
             params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
                           seed),
             rectangle_structs(scene.rectangles), triangles, uvs, normals, ellipsoid_structs(scene.ellipsoids),
-            light_structs(scene.lights), material_structs(scene.materials), nodes, prims]
+            light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
+            material_structs(scene.materials), nodes, prims]

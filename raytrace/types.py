@@ -24,7 +24,7 @@ SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3}
 
 BVH_NODE = np.dtype([("lo", "<f4", (3,)), ("hi", "<f4", (3,)), ("offset", "<i4"), ("count", "<i4")])
 
-LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F)])
+LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", "<u4"), ("planes_behind", "<u4")])
 
 MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
                      ("height_map", "<i4"), ("wrap", "<i4"), ("height_scale", "<f4"), ("uv_scale", "<f4", (2,)),

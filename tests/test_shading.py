@@ -5,8 +5,10 @@ import numpy as np
 
 import reference
 from conftest import planar
-from raytrace import samplers
-from raytrace.structs import light_structs
+import raytrace
+from raytrace import samplers, structs
+from raytrace.scene import Light, Rectangle
+from raytrace.structs import light_sides, light_structs, rectangle_structs
 from raytrace.probe import scene_args
 
 PHONG = """
@@ -34,7 +36,7 @@ __kernel void shadow(int n, __constant const RenderParams *params, __global cons
     const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
     vec3 from = IN3(p);
     Ray r = {from, v3_sub(IN3(q), from)};
-    OUT(blocked, MASK_TO_ONE(occluded(&s, r)));
+    OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u)));
 }
 
 /* The renderer's own way off a surface: the camera ray's hit, its offset origin, the segment to q. */
@@ -48,7 +50,7 @@ __kernel void leave(int n, __constant const RenderParams *params, __global const
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     vec3 origin = offset_ray_origin(hit.p, hit.err, hit.n);
     OUT(blocked, MASK_TO_ONE(occluded(&s, shadow_segment(origin, IN3(q), light_point_error(lights),
-                                                         v3_uniform(lights->shape.normal)))));
+                                                         v3_uniform(lights->shape.normal)), 0u)));
 }
 """
 
@@ -122,3 +124,39 @@ def test_no_acne(harness, cornell):
                           {"blocked": 1}, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)["blocked"] > 0
         assert np.count_nonzero(lit) > 500
         assert not np.any(out[lit])
+
+
+def test_light_sides_of_planes():
+    """light_sides (raytrace/structs.py) for scene 0's light, 0.5 x 0.3 at z = 1.95 facing down, in a scene
+    whose coordinates stay below 2: a floor (z = 0) and a plane 1e-3 under the light have it in front, a
+    ceiling-high plane has it behind, and the same from the other side with the normals turned. A vertical
+    plane through it and a plane 1e-6 under it (closer than the margin for where shadow rays end,
+    sqrt(3) gamma(32) (2 + 0.4) = 8e-6) have it on neither side."""
+    light = light_structs([Light(np.array([0.0, 0, 1.95]), np.array([0.5, 0.3]), np.array([0.0, 0, -1]),
+                                 np.array([1.0, 0, 0]), 0, np.ones(3))])[0]["shape"]
+    up, x = np.array([0.0, 0, 1]), np.array([1.0, 0, 0])
+    planes = [Rectangle(np.array([0, 0, z]), np.array([2.0, 2.0]), up, x) for z in (0.0, 1.949, 2.0, 1.949999)]
+    planes += [Rectangle(np.array([0, 0, 1.0]), np.array([2.0, 2.0]), x, np.array([0.0, 1, 0]))]
+    planes += [Rectangle(np.array([0, 0, z]), np.array([2.0, 2.0]), -up, x) for z in (0.0, 2.0)]
+    front, behind = light_sides(light, rectangle_structs(planes), 2.0)
+    assert (front, behind) == (0b1000011, 0b0100100)
+
+
+def test_skipping_rectangles_out_of_reach_changes_nothing(cornell, lanes, monkeypatch):
+    """Shadow rays skip the rectangles whose plane has the whole light on one side and their origin on the
+    same side, or within rounding of the plane, where the rectangle test rejects the hit anyway
+    (intersect.cl). Scene 0 with a panel under the light, facing up: it shadows the floor, whose shadow
+    rays must still test it, while those from above it skip it. The render is the same bit for bit as with
+    no rectangle skipped (the lights' bits cleared), at both lane widths."""
+    panel = Rectangle(np.array([0.3, 0.2, 1.5]), np.array([0.4, 0.4]), np.array([0.0, 0, 1]),
+                      np.array([1.0, 0, 0]), cornell.rectangles[0].material)
+    scene = dataclasses.replace(cornell, rectangles=[*cornell.rectangles, panel])
+    lights = structs.scene_structs(scene, 64, 64, 1, 1, "trilinear")[7]
+    assert lights[0]["planes_in_front"] == 0b111111, "the walls and the panel have the light in front"
+    options = dict(width=64, height=64, spp=4, light_samples=4, lanes=lanes)
+    skipping = raytrace.render(scene, **options)[0]
+    without_panel = raytrace.render(cornell, **options)[0]
+    monkeypatch.setattr(structs, "light_sides", lambda *args: (0, 0))
+    testing_all = raytrace.render(scene, **options)[0]
+    np.testing.assert_array_equal(skipping, testing_all)
+    assert np.abs(skipping - without_panel).max() > 0.1, "the panel's shadow is in the image"

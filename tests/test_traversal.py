@@ -31,7 +31,7 @@ __kernel void trace(int n, __constant const RenderParams *params, __global const
     OUT(t, hit.t);
     OUT3(nrm, hit.n);
     OUT(material, CONVERT_VFLOAT(hit.material));
-    OUT(blocked, MASK_TO_ONE(occluded(&s, r))); /* the segment from o to o + d */
+    OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u))); /* the segment from o to o + d */
 }
 """
 
