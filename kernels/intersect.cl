@@ -173,10 +173,10 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
 /* The rectangles (of the first 32) that no shadow segment from o to the light can block, in every lane of
  * `lanes`. The host's bits (types.h) say that the light lies wholly on one side of the plane, with margins
  * for how shadow rays sample the light and end. Then a lane's segment cannot cross the plane when o is
- * certainly on that side too, beyond num's rounding e (rectangle.cl's num = (c - o).n and e_num, computed
- * here the same way); and where |num| <= e, rectangle.cl itself never reports a hit (dt >= |t|). So the
- * rectangle test could only answer "not blocked": skipping it changes no result. Once per hit and light,
- * for every shadow ray towards that light: the walls of a room are not tested again. */
+ * certainly on that side too, beyond num's rounding e (rectangle.cl's plane_num and plane_num_error, the
+ * very values its test computes); and where |num| <= e, rectangle.cl itself never reports a hit (dt >=
+ * |t|). So the rectangle test could only answer "not blocked": skipping it changes no result. Once per hit
+ * and light, for every shadow ray towards that light: the walls of a room are not tested again. */
 inline uint rectangles_out_of_reach(const Scene *s, __global const Light *light, vec3 o, vint lanes)
 {
     uint front = light->planes_in_front, behind = light->planes_behind, out = 0u;
@@ -185,8 +185,8 @@ inline uint rectangles_out_of_reach(const Scene *s, __global const Light *light,
         if (!((front | behind) & bit))
             continue;
         __global const Rectangle *rect = &s->rectangles[i];
-        vec3 n = v3_uniform(rect->normal), co = v3_sub(v3_uniform(rect->center), o);
-        vfloat num = v3_dot(co, n), e = GAMMA(5) * error_along(n, v3_abs(co));
+        vec3 co = v3_sub(v3_uniform(rect->center), o);
+        vfloat num = plane_num(rect, co), e = plane_num_error(rect, co);
         vint beyond_reach = (front & bit) ? num <= e : num >= -e; /* (o - c).n = -num */
         if (ALL(beyond_reach | (lanes == 0)))
             out |= bit;

@@ -125,8 +125,9 @@ inline vec3 v3_splat(float x, float y, float z) { return v3((vfloat)(x), (vfloat
 inline vec3 v3_mix(vec3 a, vec3 b, vfloat t) { return v3_madd(a, t, v3_sub(b, a)); } /* a + (b - a) t */
 inline vfloat v3_max_abs(vec3 a) { return vmax(vabs(a.x), vmax(vabs(a.y), vabs(a.z))); }
 
-/* The way between lane-generic code and scalar code run once per lane (gathers such as texture lookups):
- * spill a vec3 to per-lane arrays, read or write lane i as a float3, and load the arrays back. */
+/* The way between lane-generic code and scalar code run once per lane (a textured hit's surface point,
+ * material.cl's per-lane results): spill a vec3 to per-lane arrays, read or write lane i as a float3, and
+ * load the arrays back. */
 typedef struct { float x[LANES], y[LANES], z[LANES]; } Lanes3;
 
 inline Lanes3 v3_spill(vec3 v)

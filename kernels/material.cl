@@ -115,10 +115,13 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
         vfloat kh = m->height_scale;
         shading = bump_normal(v3_scale(h->surface.dpdu, 1.0f / scale_u), v3_scale(h->surface.dpdv, 1.0f / scale_v),
                               shading, kh * (hu - height) / du, kh * (hv - height) / dv);
-        /* outwards (kh h >= 0): the surface stays behind; the sum rounds once more */
-        vec3 displaced = v3_madd(*p, kh * height, ng);
-        *p = v3_select(*p, displaced, mask);
-        *err = SELECT(*err, *err + GAMMA(2) * error_along(ng, v3_abs(displaced)), mask);
+        /* outwards (kh h >= 0): the surface stays behind. kh h, its product with ng_i and the sum round once
+         * each: within gamma(3) (|p_i| + |kh h ng_i|) per coordinate, which also holds where the sum cancels
+         * (a point near the origin lifted across it) and the result is smaller than what was rounded. */
+        vfloat lift = kh * height;
+        vec3 reach = v3_add(v3_abs(*p), v3_scale(v3_abs(ng), vabs(lift)));
+        *p = v3_select(*p, v3_madd(*p, lift, ng), mask);
+        *err = SELECT(*err, *err + GAMMA(3) * error_along(ng, reach), mask);
     }
 #endif
     if (m->normal_map >= 0 || m->height_map >= 0) { /* the frame's normal seen from the ray's side */

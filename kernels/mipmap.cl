@@ -41,6 +41,9 @@ inline TextureFilter texture_filter(TextureStore ts, int texture, Footprint dst,
     TextureFilter tf;
     tf.filter = filter;
     tf.encoding = ts.textures[texture].encoding;
+    tf.probes = 1; /* every field set, whichever the filter reads */
+    tf.count = 1.0f;
+    tf.axis.x = tf.axis.y = 0.0f;
     vfloat width = 0.0f;
     if (filter == FILTER_TRILINEAR || filter == FILTER_ANISOTROPIC) {
         vfloat lx, ly;
@@ -66,8 +69,7 @@ inline TextureFilter texture_filter(TextureStore ts, int texture, Footprint dst,
     tf.f = d - CONVERT_VFLOAT(l0);
     tf.blend = ANY(tf.f > 0.0f);
     tf.fine = mip_levels(ts, texture, l0);
-    if (tf.blend)
-        tf.coarse = mip_levels(ts, texture, SELECT(l0, l0 + 1, l0 < top));
+    tf.coarse = tf.blend ? mip_levels(ts, texture, SELECT(l0, l0 + 1, l0 < top)) : tf.fine;
     return tf;
 }
 

@@ -14,8 +14,6 @@
 
 typedef struct { vec3 o, d; } Ray;
 
-inline vec3 ray_at(Ray r, vfloat t) { return v3_madd(r.o, t, r.d); }
-
 /* gamma(n) = n u / (1 - n u), u = 2^-24: the relative error bound of n float32 roundings (Higham; pbrt-v4
  * section 6.8.1). OpenCL C allows 2.5 ulp for division and 2 ulp for rsqrt (OpenCL 1.2, section 7.4): they
  * count as 5 and 4 roundings below. MAD() may round once or twice: it counts as two. */

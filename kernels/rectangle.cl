@@ -5,11 +5,19 @@
 #include "ray.h"
 #include "types.h"
 
+/* num = (c - o).n, the origin's distance from the rectangle's plane along its normal (co = c - o), and
+ * e_num, its rounding bound: c - o rounds once and a 3-term dot product of mads at most three times, 5 in
+ * all. Shared with intersect.cl's culling of shadow rays, which relies on the same num and bound. */
+inline vfloat plane_num(__global const Rectangle *rect, vec3 co) { return v3_dot(co, v3_uniform(rect->normal)); }
+inline vfloat plane_num_error(__global const Rectangle *rect, vec3 co)
+{
+    return GAMMA(5) * error_along(v3_uniform(rect->normal), v3_abs(co));
+}
+
 /* t of the plane crossing where it lies inside the rectangle, else +inf (also for a ray in the plane);
  * *dt: a bound on t's rounding error; (*u, *v): the crossing's coordinates along the tangent and bitangent
- * from the centre. t = num / den with num = (c - o).n, the origin's distance from the plane, and den = d.n:
- * c - o rounds once and a 3-term dot product of mads at most three times (e_num takes 5, e_den 4), and
- * t = num * (1 / den) six times (ray.h). An origin on the plane to within rounding has |num| <= e_num, so
+ * from the centre. t = num / den with num = (c - o).n (plane_num, bound e_num) and den = d.n (a 3-term
+ * dot product: e_den takes 4 roundings), and t = num * (1 / den) six times (ray.h). An origin on the plane to within rounding has |num| <= e_num, so
  * dt >= |t|: never a hit; one farther off is told apart by the sign of t. Where no lane's t lies in
  * (0, tmax], no caller can take the hit (ray.h's ranges need t > dt >= 0): the rest is skipped. */
 inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat tmax, vfloat *dt, vfloat *u,
@@ -17,7 +25,7 @@ inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat 
 {
     vec3 n = v3_uniform(rect->normal);
     vec3 co = v3_sub(v3_uniform(rect->center), r.o);
-    vfloat num = v3_dot(co, n), inv_den = 1.0f / v3_dot(r.d, n);
+    vfloat num = plane_num(rect, co), inv_den = 1.0f / v3_dot(r.d, n);
     vfloat t = num * inv_den;
     *dt = *u = *v = 0.0f;
     if (!ANY((t > 0.0f) & (t <= tmax))) /* behind every lane, or beyond: most planes of a room */
@@ -29,7 +37,7 @@ inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat 
     if (!ANY(inside)) /* most shapes are missed by every lane: skip the bound */
         return (vfloat)(INFINITY);
     /* dt = |t| (e_num / |num| + e_den / |den| + gamma(5)), without the two divisions */
-    vfloat e_num = GAMMA(5) * error_along(n, v3_abs(co)), e_den = GAMMA(4) * error_along(n, v3_abs(r.d));
+    vfloat e_num = plane_num_error(rect, co), e_den = GAMMA(4) * error_along(n, v3_abs(r.d));
     *dt = MAD(vabs(t), e_den, e_num) * vabs(inv_den) + GAMMA(6) * vabs(t);
     return SELECT((vfloat)(INFINITY), t, inside);
 }

@@ -98,7 +98,10 @@ inline vint wrap_index(vint i, vint n, int mode)
 }
 
 /* A continuous texel coordinate x brought near [0, n) without changing what wrap_index makes of it, so
- * that its floor fits an int however large u grows (uv_scale 1e6, a grazing floor). NaN becomes 0. */
+ * that its floor fits an int however large u grows (uv_scale 1e6, a grazing floor). NaN becomes 0. Where
+ * x / period rounds by more than a period (|x| beyond about 2^24 periods, where x's float spacing exceeds
+ * the texture's), the remainder can land anywhere, even beyond an int: such lanes take 0, as good a point
+ * of the period as any at that resolution. */
 inline vfloat reduce_coordinate(vfloat x, vint n, int mode)
 {
     vfloat size = CONVERT_VFLOAT(n);
@@ -106,7 +109,8 @@ inline vfloat reduce_coordinate(vfloat x, vint n, int mode)
     if (mode == WRAP_CLAMP)
         return vmin(vmax(x, -1.0f), size);
     vfloat period = mode == WRAP_MIRROR ? 2.0f * size : size;
-    return x - period * vfloor(x / period);
+    vfloat r = x - period * vfloor(x / period);
+    return SELECT((vfloat)(0.0f), r, vabs(r) < 2.0f * period);
 }
 
 /* The texel of each lane's level whose cell contains st. */

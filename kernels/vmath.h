@@ -66,20 +66,23 @@ inline vec3 v3_direction(vec3 a) { return v3_scale(a, vrsqrt(v3_dot(a, a))); }
 
 /* a / |a| for any finite a: divided by its largest |coordinate| first (exact to a rounding), |a|^2 lies in
  * [1, 3], inside vrsqrt's domain, whatever a's size (a normal map's float texels, a flat bump). Where a is
- * 0 or not finite, the fallback. */
+ * 0 or not finite, the fallback: vmax may drop a NaN coordinate from m, so |b|^2 < 4 (false for NaN) is
+ * checked as well. */
 inline vec3 v3_unit_or(vec3 a, vec3 fallback)
 {
     vfloat m = v3_max_abs(a);
     vint ok = m > 0.0f & m < INFINITY;
     vec3 b = v3_scale(a, 1.0f / SELECT((vfloat)(1.0f), m, ok));
-    return v3_select(fallback, v3_direction(b), ok);
+    vfloat d = v3_dot(b, b);
+    ok = ok & (d < 4.0f);
+    return v3_select(fallback, v3_scale(b, vrsqrt(SELECT((vfloat)(1.0f), d, ok))), ok);
 }
 
-/* The length of (x, y) for |(x, y)|^2 finite (texture footprints: uv_derivatives clamps them); where it is
- * below the normal range (a footprint far under a texel), 0. */
+/* The length of (x, y) (texture footprints); where |(x, y)|^2 is below the normal range (a footprint far
+ * under a texel), 0, and where it overflows (a huge uv_scale), 2^63: either way far past every level. */
 inline vfloat v2_length(vfloat x, vfloat y)
 {
-    vfloat d = x * x + y * y;
+    vfloat d = vmin(x * x + y * y, 0x1p126f);
     vint normal = d >= 0x1p-126f;
     return SELECT((vfloat)(0.0f), d * vrsqrt(SELECT((vfloat)(1.0f), d, normal)), normal);
 }

@@ -17,6 +17,7 @@ from .types import WRAP_MODES
 
 SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
 DEFAULT_SHININESS = 16.0
+FLOAT32_TINY, FLOAT32_MAX = float(np.finfo(np.float32).tiny), float(np.finfo(np.float32).max)
 
 
 @dataclass(frozen=True)
@@ -349,13 +350,17 @@ def _material(r, name, textures):
         given = "height_scale" if r.has("height_scale") else "height_map"
         r.fail(given, r.table[given], "height_map and height_scale go together")
     uv_scale = r.vector("uv_scale", 2, default=[1.0, 1.0])
-    if np.any(uv_scale <= 0):
-        r.fail("uv_scale", uv_scale.tolist(), "both scales must be > 0")
+    if not np.all((uv_scale >= FLOAT32_TINY) & (uv_scale <= FLOAT32_MAX)):
+        r.fail("uv_scale", uv_scale.tolist(), f"both scales must lie in [{FLOAT32_TINY:.6g}, {FLOAT32_MAX:.6g}] "
+               "(> 0 and a normal float32)")
+    uv_offset = r.vector("uv_offset", 2, default=[0.0, 0.0])
+    if not np.all(np.abs(uv_offset) <= FLOAT32_MAX):
+        r.fail("uv_offset", uv_offset.tolist(), f"both offsets must lie within +-{FLOAT32_MAX:.6g} (float32)")
     colour = r.vector("colour", 3, default=[1.0, 1.0, 1.0] if "texture" in maps else None, low=0)
     return Material(name, colour, r.number("shininess", DEFAULT_SHININESS, low=0, open_low=True),
                     maps.get("texture", -1), maps.get("normal_map", -1), maps.get("height_map", -1),
                     r.number("height_scale", 0.0, low=0) if "height_map" in maps else 0.0,
-                    tuple(uv_scale), tuple(r.vector("uv_offset", 2, default=[0.0, 0.0])),
+                    tuple(uv_scale), tuple(uv_offset),
                     r.string("wrap", "repeat", choices=WRAP_MODES))
 
 

@@ -154,13 +154,14 @@ def light_structs(lights, rectangles=(), extent=0.0):
 
 def light_sides(light, planes, extent):
     """(bits of `planes` with the light strictly in front, bits with it strictly behind), from the stored
-    float32 values. The kernel's shadow rays end near a light point q = c + du t + dv b (two fused
-    multiply-adds, du and dv rounded once: within gamma(2) (|c| + hx + hy) of the rectangle per
+    float32 values. The kernel's shadow rays end near a light point q = c + du t + dv b (two multiply-adds,
+    fused or not, and du, dv rounded once: within gamma(4) (|c| + hx + hy) of the rectangle per
     coordinate), pushed off the light by its error bound, at most q's gamma(4) sqrt(3) S + gamma(2) (hx +
     hy) plus gamma(2) |n|.|o - q| <= gamma(2) sqrt(3) 2 S, then rounded one float further and reached along
-    a direction that rounds once (shading.cl): within 21u (S + hx + hy) of the rectangle per coordinate for
-    coordinates bounded by S; gamma(32) is taken, sqrt(3) of it along a unit normal. float64 arithmetic on
-    the stored values adds nothing comparable."""
+    a direction that rounds once (shading.cl): within about 23u (S + hx + hy) of the rectangle per
+    coordinate for coordinates bounded by S; gamma(32) is taken, sqrt(3) of it along a unit normal. float64
+    arithmetic on the stored values adds nothing comparable. Only the first CULLED_RECTANGLES rectangles in
+    the scene's order get bits."""
     f64 = lambda key: np.asarray(light[key], np.float64)  # noqa: E731
     hx, hy = float(light["half_x"]), float(light["half_y"])
     signs = np.array([[-1, -1], [-1, 1], [1, -1], [1, 1]], np.float64) * [hx, hy]
@@ -182,7 +183,20 @@ def scene_extent(scene, triangles):
         parts.append((np.abs(r.center) + r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent)).max())
     for e in scene.ellipsoids:
         parts.append((np.abs(e.center) + np.linalg.norm(e.matrix, axis=1)).max())
-    return float(max(parts)) + max([abs(m.height_scale) for m in scene.materials], default=0.0)
+    return float(max(parts)) + max([height_reach(scene, m) for m in scene.materials], default=0.0)
+
+
+def height_reach(scene, material):
+    """How far the material's height map can move a shading point: height_scale times the largest height a
+    lookup can return (filters blend texels, so that of the largest |texel| of any level; 8-bit maps read
+    [0, 1], float maps any value)."""
+    if material.height_map < 0:
+        return 0.0
+    texture = scene.textures[material.height_map]
+    if texture.encoding != types.TEXELS_FLOAT:
+        return abs(material.height_scale)
+    largest = max(float(np.abs(level[:, :, 0]).max()) for level in texture.levels)
+    return abs(material.height_scale) * largest
 
 
 def material_structs(materials):

@@ -33,3 +33,14 @@ def test_a_kernel_clang_rejects_fails(monkeypatch, cornell, target):
     monkeypatch.setattr(Features, "options", lambda self: ["-DLANES=3"])
     with pytest.raises(RuntimeError, match="LANES must be"):
         compile_scene(dataclasses.replace(cornell), target)
+
+
+@pytest.mark.parametrize("target", TARGETS)
+def test_every_feature_at_once_compiles(monkeypatch, cornell, target):
+    """No shipped scene turns on every feature (smooth normals beside every map, with the BVH): that build
+    compiles for every target too."""
+    every = Features(smooth_normals=True, bvh=True)
+    monkeypatch.setattr(Features, "of", classmethod(lambda cls, scene, lanes: dataclasses.replace(every, lanes=lanes)))
+    result = compile_scene(cornell, target)
+    assert "-DHAS_SMOOTH_NORMALS=1" in result["options"] and "-DHAS_HEIGHT_MAPS=1" in result["options"]
+    assert "-DHAS_BVH=1" in result["options"] and result["bytes"] > 1000

@@ -24,7 +24,7 @@ __kernel void shading(int n, __constant const Camera *camera, __constant const R
                       __global const Light *lights, __global const Material *materials,
                       __global const BVHNode *nodes, __global const int *prims, __global const Texture *textures, __global const MipLevel *levels,
                       __global const uint *texels, __global const float *srgb, __global const float *xy,
-                      __global float *k, __global float *nrm, __global float *pos)
+                      __global float *k, __global float *nrm, __global float *pos, __global float *err)
 {
     const Scene s = {rects, tris, tri_uvs, tri_normals, ells, lights, materials, camera, params, nodes, prims};
     const TextureStore ts = {textures, levels, texels, srgb};
@@ -34,6 +34,7 @@ __kernel void shading(int n, __constant const Camera *camera, __constant const R
     OUT3(k, sp.k);
     OUT3(nrm, sp.n);
     OUT3(pos, sp.p);
+    OUT(err, sp.err);
 }
 """
 
@@ -91,7 +92,7 @@ def make_scene(shape, material):
 
 def expected_shading(scene, x, y, spp, filter_name):
     """The float64 composition: camera ray, hit, surface, footprint, uv transform, lookups, frame, normal
-    map, bump, displacement. Returns (hit mask, colour, shading normal, shading point)."""
+    map, bump, displacement. Returns (hit mask, colour, shading normal, shading point, geometric normal)."""
     cam, m = scene.camera, scene.materials[0]
     o, d = reference.camera_rays(scene, x, y, scene.width, scene.height)
     if scene.rectangles:
@@ -127,7 +128,7 @@ def expected_shading(scene, x, y, spp, filter_name):
                             hu, hv)
         p = p + ng * (m.height_scale * h)[:, None]
     side = np.sign(np.einsum("ij,ij->i", frame[2], ng))
-    return hit, colour, n * side[:, None], p
+    return hit, colour, n * side[:, None], p, ng
 
 
 def kernel_shading(harness, scene, x, y, spp, filter_name):
@@ -136,7 +137,7 @@ def kernel_shading(harness, scene, x, y, spp, filter_name):
     args = [*scene_structs(scene, scene.width, scene.height, spp, 1, filter_name, features=features),
             *texture_structs(scene),
             np.concatenate([x, y]).astype(np.float32)]
-    return harness.run(SOURCE, "shading", len(x), args, {"k": 3, "nrm": 3, "pos": 3}, **defines)
+    return harness.run(SOURCE, "shading", len(x), args, {"k": 3, "nrm": 3, "pos": 3, "err": 1}, **defines)
 
 
 @pytest.mark.parametrize("shape", SHAPES)
@@ -157,12 +158,29 @@ def test_shading_point_matches_reference(harness, maps, shape, filter_name):
     x, y = rng.uniform(0, scene.width, 512), rng.uniform(0, scene.height, 512)
     got = kernel_shading(harness, scene, x, y, 4, filter_name)
     with np.errstate(invalid="ignore"):  # the reference also runs its lookups for the rays that miss
-        hit, colour, normal, p = expected_shading(scene, x, y, 4, filter_name)
+        hit, colour, normal, p, ng = expected_shading(scene, x, y, 4, filter_name)
     assert np.count_nonzero(hit) > 100
     np.testing.assert_allclose(got["k"].T[hit], colour[hit], atol=1e-3)
     np.testing.assert_allclose(got["nrm"].T[hit], normal[hit], atol=3e-3)
     np.testing.assert_allclose(got["pos"].T[hit], p[hit], atol=1e-4)
     assert np.all(got["k"].T[~hit] == 0)
+    check_displacement_bound(harness, shape, material, x, y, filter_name, got, ng, hit)
+
+
+def check_displacement_bound(harness, shape, material, x, y, filter_name, got, ng, hit):
+    """The displaced point's error bound is the surface point's (the same material without its height map)
+    plus the rounding of p + (kh h) ng: kh h, its product with ng_i and the sum round once each, within
+    gamma(3) (|p_i| + |kh h ng_i|) per coordinate whatever the sum's size, projected on |ng|. The kernel
+    forms that in float32 (a few roundings of a bound: relative 1e-5); kh h is read back from the two
+    points along ng (exact enough: its rounding changes the bound by 1e-7 relative)."""
+    flat = {k: v for k, v in material.items() if k not in ("height_map", "height_scale")}
+    plain = kernel_shading(harness, make_scene(shape, flat), x, y, 4, filter_name)
+    p0, p1 = plain["pos"].T[hit].astype(np.float64), got["pos"].T[hit].astype(np.float64)
+    n = np.abs(ng[hit])
+    lift = np.abs(np.einsum("ij,ij->i", p1 - p0, ng[hit]))
+    u = 2.0 ** -24
+    expect = 3 * u / (1 - 3 * u) * np.einsum("ij,ij->i", n, np.abs(p0) + n * lift[:, None])
+    np.testing.assert_allclose(got["err"][hit] - plain["err"][hit], expect, rtol=1e-5, atol=1e-12)
 
 
 def flat_maps(tmp_path):
@@ -193,12 +211,14 @@ def test_flat_normal_map_and_zero_height_change_nothing(tmp_path, lanes):
         np.testing.assert_allclose(b, a, atol=2e-5, err_msg=shape)
 
 
-def test_lanes_with_different_materials_match_one_lane(cl_env, maps):
+@pytest.mark.parametrize("filter_name", ["nearest", "bilinear", "trilinear", "anisotropic"])
+def test_lanes_with_different_materials_match_one_lane(cl_env, maps, filter_name):
     """Neighbouring lanes that hit different materials: material.cl runs each textured material's lookups
     on all lanes and keeps them on that material's lanes only. Random pixels (so each group of 8 mixes a
     colour-mapped wall, a normal- and height-mapped wall with another uv transform and wrap mode, an
     untextured ellipsoid and misses) at LANES=8 against LANES=1, which the tests above check against the
-    float64 reference lane by lane. Both widths run the same float32 operations; only where the compiler
+    float64 reference lane by lane; under every filter (each gathers its levels and probes per lane). Both
+    widths run the same float32 operations; only where the compiler
     fuses a multiply-add can a rounding differ (~1e-7), which the bump's division by du (>= 1/2 texel of a
     64-texel map at uv_scale 3) and height_scale 0.05 amplify by < 0.05 * 384 = 20: bound 1e-5."""
     from conftest import Probe
@@ -221,11 +241,12 @@ def test_lanes_with_different_materials_match_one_lane(cl_env, maps):
     scene = parse_scene(table, str(ROOT / "scenes" / "test.toml"))
     rng = np.random.default_rng(10)
     x, y = rng.uniform(0, scene.width, 1024), rng.uniform(0, scene.height * 1.1, 1024)
-    one = kernel_shading(Probe(1, env=cl_env), scene, x, y, 4, "trilinear")
-    eight = kernel_shading(Probe(8, env=cl_env), scene, x, y, 4, "trilinear")
+    one = kernel_shading(Probe(1, env=cl_env), scene, x, y, 4, filter_name)
+    eight = kernel_shading(Probe(8, env=cl_env), scene, x, y, 4, filter_name)
     red = one["k"][0].reshape(-1, 8)  # 0.8 on "bumpy", 0.3 on "plain", a colour map's texel or 0 (a miss)
     kinds = [len({0.8 if np.isclose(r, 0.8) else 0.3 if np.isclose(r, 0.3) else 0 if r == 0 else 1 for r in g})
              for g in red]
     assert np.mean(np.array(kinds) >= 3) > 0.5, "most groups of 8 lanes mix three kinds of hit"
     for key in ("k", "nrm", "pos"):
         np.testing.assert_allclose(eight[key], one[key], atol=1e-5, err_msg=key)
+    np.testing.assert_allclose(eight["err"], one["err"], rtol=1e-5, err_msg="err (a bound: relative)")

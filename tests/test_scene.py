@@ -66,6 +66,9 @@ def test_missing_and_broken_files(tmp_path):
 @pytest.mark.parametrize("entry, key, value", [
     ({"uv_scale": [0.0, 1.0]}, "uv_scale", [0.0, 1.0]),
     ({"uv_scale": [-2.0, 1.0]}, "uv_scale", [-2.0, 1.0]),
+    ({"uv_scale": [1.0, 1e39]}, "uv_scale", [1.0, 1e39]),
+    ({"uv_scale": [1e-39, 1.0]}, "uv_scale", [1e-39, 1.0]),
+    ({"uv_offset": [-1e39, 0.0]}, "uv_offset", [-1e39, 0.0]),
     ({"height_map": "../assets/textures/bricks_height.png", "height_scale": -0.1}, "height_scale", -0.1),
     ({"height_scale": 0.1}, "height_scale", 0.1),
     ({"height_map": "../assets/textures/bricks_height.png"}, "height_map", "../assets/textures/bricks_height.png"),

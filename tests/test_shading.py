@@ -2,13 +2,16 @@
 import dataclasses
 
 import numpy as np
+import pytest
 
 import reference
 from conftest import planar
 import raytrace
 from raytrace import samplers, structs
+from raytrace.kernel import Features
 from raytrace.scene import Light, Rectangle
 from raytrace.structs import light_sides, light_structs, rectangle_structs
+from raytrace.textures import make_texture
 from raytrace.probe import scene_args
 
 PHONG = """
@@ -131,32 +134,66 @@ def test_light_sides_of_planes():
     whose coordinates stay below 2: a floor (z = 0) and a plane 1e-3 under the light have it in front, a
     ceiling-high plane has it behind, and the same from the other side with the normals turned. A vertical
     plane through it and a plane 1e-6 under it (closer than the margin for where shadow rays end,
-    sqrt(3) gamma(32) (2 + 0.4) = 8e-6) have it on neither side."""
+    sqrt(3) gamma(32) (2 + 0.4) = 7.93e-6) have it on neither side. The margin itself is pinned by planes
+    7.7e-6 and 8.2e-6 under it (float32 stores z = 1.95 to 1.2e-7): the first within, the second beyond."""
     light = light_structs([Light(np.array([0.0, 0, 1.95]), np.array([0.5, 0.3]), np.array([0.0, 0, -1]),
                                  np.array([1.0, 0, 0]), 0, np.ones(3))])[0]["shape"]
     up, x = np.array([0.0, 0, 1]), np.array([1.0, 0, 0])
     planes = [Rectangle(np.array([0, 0, z]), np.array([2.0, 2.0]), up, x) for z in (0.0, 1.949, 2.0, 1.949999)]
     planes += [Rectangle(np.array([0, 0, 1.0]), np.array([2.0, 2.0]), x, np.array([0.0, 1, 0]))]
     planes += [Rectangle(np.array([0, 0, z]), np.array([2.0, 2.0]), -up, x) for z in (0.0, 2.0)]
+    planes += [Rectangle(np.array([0, 0, 1.95 - dz]), np.array([2.0, 2.0]), up, x) for dz in (7.7e-6, 8.2e-6)]
     front, behind = light_sides(light, rectangle_structs(planes), 2.0)
-    assert (front, behind) == (0b1000011, 0b0100100)
+    assert (front, behind) == (0b100000011 | 0b1000000, 0b0100100)
 
 
-def test_skipping_rectangles_out_of_reach_changes_nothing(cornell, lanes, monkeypatch):
+def test_scene_extent_counts_displaced_points(cornell):
+    """The extent that sets light_sides' margins bounds displaced shading points too: height_scale times
+    the largest |height| a lookup can return, 1 for an 8-bit map, any value for a float map (here -40 at
+    one texel, which every coarser level averages down: level 0 decides)."""
+    none = {k: np.zeros((0, 3), np.float32) for k in ("v0", "v1", "v2")}
+    base = structs.scene_extent(cornell, none)
+    assert base == pytest.approx(2.0, rel=1e-6), "scene 0's coordinates reach 2 (ceiling, walls)"
+    heights = np.zeros((4, 4, 1), np.float32)
+    heights[1, 2] = -40.0
+    for pixels, kind, reach in ((heights, "float", 40.0), (np.full((4, 4, 1), 255, np.uint8), "8-bit", 1.0)):
+        bumpy = dataclasses.replace(cornell.materials[0], height_map=0, height_scale=0.1)
+        scene = dataclasses.replace(cornell, textures=[make_texture(pixels, kind, "height")],
+                                    materials=[bumpy, *cornell.materials[1:]])
+        assert structs.scene_extent(scene, none) == pytest.approx(base + 0.1 * reach, rel=1e-6), kind
+
+
+@pytest.mark.parametrize("bvh", [False, True])
+@pytest.mark.parametrize("view", ["room", "under the shelf"])
+def test_skipping_rectangles_out_of_reach_changes_nothing(cornell, lanes, bvh, view, monkeypatch):
     """Shadow rays skip the rectangles whose plane has the whole light on one side and their origin on the
     same side, or within rounding of the plane, where the rectangle test rejects the hit anyway
     (intersect.cl). Scene 0 with a panel under the light, facing up: it shadows the floor, whose shadow
-    rays must still test it, while those from above it skip it. The render is the same bit for bit as with
-    no rectangle skipped (the lights' bits cleared), at both lane widths."""
-    panel = Rectangle(np.array([0.3, 0.2, 1.5]), np.array([0.4, 0.4]), np.array([0.0, 0, 1]),
-                      np.array([1.0, 0, 0]), cornell.rectangles[0].material)
-    scene = dataclasses.replace(cornell, rectangles=[*cornell.rectangles, panel])
+    rays must still test it, while those from above it skip it; a vertical fin piercing the panel; and a
+    shelf against the back wall, facing down, the light behind both. Seen close up, the wall right under
+    the shelf starts its shadow rays a few 1e-3 from the shelf's plane, on the far side from the light: a
+    rounding bound looser than the rectangle test's (1e-3 already) would skip the shelf that shadows them.
+    The render is the same bit for bit as with no rectangle skipped (the lights' bits cleared), at both
+    lane widths, with and without the BVH (two traversal loops), in both views."""
+    material = cornell.rectangles[0].material
+    extras = [Rectangle(np.array(c), np.array(size), np.array(n), np.array([1.0, 0, 0]), material)
+              for c, size, n in (([0.3, 0.2, 1.5], [0.4, 0.4], [0.0, 0, 1]),     # panel
+                                 ([0.3, 0.2, 1.4], [0.4, 0.4], [0.0, 1, 0]),     # fin
+                                 ([0.0, 0.8, 1.6], [1.2, 0.4], [0.0, 0, -1]))]  # shelf
+    camera = cornell.camera if view == "room" else dataclasses.replace(
+        cornell.camera, look_at=np.array([0.0, 1.0, 1.59]), fov_deg=5.0)
+    plain = dataclasses.replace(cornell, camera=camera)
+    scene = dataclasses.replace(plain, rectangles=[*cornell.rectangles, *extras])
+    of = Features.of.__func__
+    monkeypatch.setattr(Features, "of", classmethod(lambda cls, *a: dataclasses.replace(of(cls, *a), bvh=bvh)))
     lights = structs.scene_structs(scene, 64, 64, 1, 1, "trilinear")[7]
     assert lights[0]["planes_in_front"] == 0b111111, "the walls and the panel have the light in front"
+    assert lights[0]["planes_behind"] == 0b11000000, "the fin and the shelf have the light behind"
     options = dict(width=64, height=64, spp=4, light_samples=4, lanes=lanes)
-    skipping = raytrace.render(scene, **options)[0]
-    without_panel = raytrace.render(cornell, **options)[0]
+    skipping, stats = raytrace.render(scene, **options)
+    assert f"-DHAS_BVH={int(bvh)}" in stats.build_options
+    without_extras = raytrace.render(plain, **options)[0]
     monkeypatch.setattr(structs, "light_sides", lambda *args: (0, 0))
     testing_all = raytrace.render(scene, **options)[0]
     np.testing.assert_array_equal(skipping, testing_all)
-    assert np.abs(skipping - without_panel).max() > 0.1, "the panel's shadow is in the image"
+    assert np.abs(skipping - without_extras).max() > 0.1, "the extras' shadows are in the image"

@@ -203,6 +203,34 @@ def test_bilinear_matches_openimageio(harness, tmp_path):
     np.testing.assert_allclose(got, want, atol=2e-6)
 
 
+REDUCE = """
+#include "textures.cl"
+__kernel void reduce(int n, __global const float *x, int size, int mode, __global float *out)
+{
+    OUT(out, reduce_coordinate(IN(x), (vint)(size), mode));
+}
+"""
+
+
+def test_reduced_coordinates_stay_within_two_periods(harness):
+    """reduce_coordinate for |x| from 1 to 3e38 and periods that are not powers of 2 (x / period rounds):
+    the result lies within two periods of 0 (so its floor fits an int and wrap_index's cheap path applies)
+    and, while x resolves a period (|x| < 2^20 here), equals x modulo the period up to x's own rounding
+    (2 ulp(x): the quotient's rounding is absorbed by floor, the product and difference round once each)."""
+    x = np.float32(10.0) ** np.linspace(0, 38.5, 600).astype(np.float32) * np.float32(1.2345)
+    x = np.concatenate([x, -x, np.zeros((-2 * len(x)) % 8, np.float32)])
+    for size in (7, 9, 300):
+        for mode in ("repeat", "mirror"):
+            period = size * (2 if mode == "mirror" else 1)
+            r = harness.run(REDUCE, "reduce", len(x), [x, np.int32(size), np.int32(types.WRAP_MODES[mode])],
+                            {"out": 1})["out"].astype(np.float64)
+            assert np.all(np.abs(r) < 2 * period), (size, mode)
+            fine = np.abs(x) < 2 ** 20
+            turns = (x[fine].astype(np.float64) - r[fine]) / period
+            np.testing.assert_allclose(turns, np.round(turns), atol=2 * np.spacing(x[fine]).max() / period)
+            assert np.all(r[fine] > -1e-3) and np.all(r[fine] < period + 1e-3), (size, mode)
+
+
 WRAP = """
 #include "textures.cl"
 __kernel void wrap(int n, __global const float *i, int size, int mode, __global float *out)

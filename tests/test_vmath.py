@@ -130,6 +130,9 @@ __kernel void unit(int n, __global const float *v, __global float *out)
     vfloat x = IN(v);
     OUT3(out, v3_unit_or(v3(x, -2.0f * x, 2.0f * x), v3_splat(7.0f, 8.0f, 9.0f)));
     OUT(out + 3 * n, v2_length(3.0f * x, 4.0f * x) / (5.0f * x));
+    OUT(out + 4 * n, v2_length(3.0f * x, 4.0f * x));
+    OUT3(out + 5 * n, v3_unit_or(v3(1.0f, x, 0.0f), v3_splat(7.0f, 8.0f, 9.0f)));
+    OUT3(out + 8 * n, v3_unit_or(v3(0.0f, 1.0f, x), v3_splat(7.0f, 8.0f, 9.0f)));
 }
 """
 
@@ -137,14 +140,15 @@ __kernel void unit(int n, __global const float *v, __global float *out)
 def test_unit_vector_and_length_at_every_magnitude(harness):
     """v3_unit_or((1, -2, 2) x) = (1, -2, 2) / 3 for x from 1e-38 (subnormal squares) to 1e38 (overflowing
     ones): dividing by the largest coordinate (1 rounding) puts |a|^2 in [1, 3], then vrsqrt (4u) and the
-    products (2u): bound 8u. 0, inf and NaN give the fallback. v2_length((3, 4) x) / 5x = 1 within 8u
-    (squares and sum 3u, vrsqrt 4u, product 1u) where 25 x^2 is a normal float, and 0 below."""
+    products (2u): bound 8u. 0, inf and NaN (in any coordinate) give the fallback. v2_length((3, 4) x) / 5x
+    = 1 within 8u (squares and sum 3u, vrsqrt 4u, product 1u) where 25 x^2 is a normal float, 0 below, and
+    2^63 (vrsqrt's 4u and a product: 5u; finite, past every mip level) where it overflows."""
     normal = np.float32(10.0) ** np.arange(-18, 19, 2, dtype=np.float32)
     tiny = np.float32([1e-38, 1e-30, 1e-20])
     odd = np.float32([0.0, np.inf, np.nan])
     v = np.concatenate([normal, tiny, np.float32([1e30, 1e38]), odd])
     v = np.concatenate([v, np.ones((-len(v)) % 8, np.float32)])
-    out = harness.run(UNIT, "unit", len(v), [v], {"out": 4})["out"]
+    out = harness.run(UNIT, "unit", len(v), [v], {"out": 11})["out"]
     finite = np.isfinite(v) & (v != 0)
     np.testing.assert_allclose(out[:3, finite].T, np.broadcast_to([1 / 3, -2 / 3, 2 / 3], (finite.sum(), 3)),
                                rtol=8 * U)
@@ -152,3 +156,12 @@ def test_unit_vector_and_length_at_every_magnitude(harness):
     ratio = out[3, :len(normal)]
     np.testing.assert_allclose(ratio, 1, rtol=8 * U)
     assert np.all(out[3, len(normal):len(normal) + len(tiny)] == 0), "|v|^2 below the normal range: 0"
+    huge = len(normal) + len(tiny)
+    np.testing.assert_allclose(out[4, huge:huge + 2], 2.0 ** 63, rtol=5 * U, err_msg="|v|^2 overflows: 2^63")
+    x = v.astype(np.float64)
+    for rows, a in ((slice(5, 8), [np.ones_like(x), x, 0 * x]), (slice(8, 11), [0 * x, np.ones_like(x), x])):
+        ok = np.isfinite(x)
+        a = np.array(a)[:, ok]
+        np.testing.assert_allclose(out[rows, ok], a / np.max(np.abs(a), 0) / np.linalg.norm(a / np.max(np.abs(a), 0), axis=0),
+                                   rtol=8 * U, atol=8 * U)
+        assert np.all(out[rows, ~ok].T == [7, 8, 9]), "a NaN or inf in one coordinate gives the fallback"
