@@ -106,7 +106,15 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
     }
 }
 
-/* intersect.cl's occluded() over the hierarchy: the `skip`ped rectangles are not tested. */
+/* Whether every shape under node i is a `skip`ped rectangle: then the node is not even opened. */
+inline int skipped_subtree(const Scene *s, int i, uint skip)
+{
+    uint only = s->culled_subtrees[i];
+    return only != 0u && (only & ~skip) == 0u;
+}
+
+/* intersect.cl's occluded() over the hierarchy: the `skip`ped rectangles are not tested, nor the subtrees
+ * that hold nothing else (a room's walls). */
 inline vint bvh_occluded(const Scene *s, Ray r, uint skip)
 {
     BoxRay b = box_ray(r);
@@ -118,7 +126,7 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip)
     int stack[BVH_STACK], top = 0, i = 0;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
-        if (ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !blocked)) {
+        if (!skipped_subtree(s, i, skip) && ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !blocked)) {
             if (node->count <= 0) {
                 stack[top++] = order_children(s->nodes, i, b, &i);
                 continue;

@@ -38,14 +38,14 @@ __kernel void render(__constant const Camera *camera, __constant const RenderPar
                      __global const Ellipsoid *ellipsoids,
                      __global const Light *lights, __global const Material *materials,
                      __global const BVHNode *nodes, __global const int *prims,
-                     __global const Texture *textures, __global const MipLevel *mip_levels,
+                     __global const uint *culled_subtrees, __global const Texture *textures, __global const MipLevel *mip_levels,
                      __global const uint *texels, __global const float *srgb_to_linear,
                      __global const uint2 *pixel_samples, __global const uint2 *light_samples, int sample0,
                      int n_samples, int row0,
                      __global float *out)
 {
     const Scene scene = {rectangles, triangles, triangle_uvs, triangle_normals, ellipsoids, lights, materials, camera,
-                         params, nodes, prims};
+                         params, nodes, prims, culled_subtrees};
     const TextureStore ts = {textures, mip_levels, texels, srgb_to_linear};
     const int width = params->width, height = params->height;
     const int x0 = LANES * get_global_id(0), y = row0 + get_global_id(1);

@@ -25,6 +25,8 @@ typedef struct {
     __constant const RenderParams *params;
     __global const BVHNode *nodes; /* HAS_BVH: the hierarchy over every shape (bvh.cl) */
     __global const int *prims;     /* its leaves' primitive references, index * 4 + SHAPE_* */
+    __global const uint *culled_subtrees; /* per node: the bits of the rectangles it holds when it holds only
+                                           * rectangles shadow rays may skip (intersect.cl), else 0 */
 } Scene;
 
 /* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */

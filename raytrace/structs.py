@@ -252,15 +252,46 @@ def primitive_boxes(scene, soup):
 
 
 def bvh_structs(scene, use_bvh, soup=None):
-    """(nodes, primitive references) of the hierarchy over every shape, or one dummy of each without it."""
+    """(nodes, primitive references, culled subtrees) of the hierarchy over every shape, or one dummy of
+    each without it."""
     if not use_bvh:
-        return np.zeros(1, types.BVH_NODE), np.zeros(1, np.int32)
+        return np.zeros(1, types.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32)
     lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
     try:
         nodes, order = bvh.build(lo, hi)
     except ValueError as e:  # a tree deeper than the kernel's stack
         raise InputError(scene.path, "shapes", f"{len(refs)} shapes", str(e)) from None
-    return nodes, refs[order]
+    return nodes, refs[order], culled_subtrees(nodes, refs[order])
+
+
+def culled_subtrees(nodes, prims):
+    """Per node, the bits of the rectangles its subtree holds when it holds nothing but rectangles among
+    the first CULLED_RECTANGLES (those shadow rays may skip, light_structs), else 0: a shadow ray that
+    skips all of them skips the node unopened (bvh.cl). Leaves first, then each interior node from its two
+    children, repeated until nothing changes (at most the tree's depth, all nodes at once)."""
+    index, kind = prims >> 2, prims & 3
+    cullable = (kind == types.SHAPES["rectangle"]) & (index < CULLED_RECTANGLES)
+    out = np.zeros(len(nodes), np.uint64)
+    if not cullable.any():
+        return out.astype(np.uint32)
+    bits = np.where(cullable, np.left_shift(np.uint64(1), np.minimum(index, 31).astype(np.uint64)), np.uint64(0))
+    count, first = nodes["count"], nodes["offset"]
+    leaves = np.flatnonzero(count > 0)
+    starts, sizes = first[leaves], count[leaves]
+    ends = np.cumsum(sizes)
+    members = np.repeat(np.arange(len(leaves)), sizes), np.arange(ends[-1]) + np.repeat(starts - (ends - sizes), sizes)
+    ored = np.zeros(len(leaves), np.uint64)
+    np.bitwise_or.at(ored, members[0], bits[members[1]])
+    only = np.ones(len(leaves), bool)
+    np.logical_and.at(only, members[0], cullable[members[1]])
+    out[leaves] = np.where(only, ored, np.uint64(0))
+    inner = np.flatnonzero(count <= 0)
+    while True:
+        left, right = out[inner + 1], out[first[inner]]
+        value = np.where((left != 0) & (right != 0), left | right, np.uint64(0))
+        if np.array_equal(value, out[inner]):
+            return out.astype(np.uint32)
+        out[inner] = value
 
 
 class _GeometryCache:
@@ -271,7 +302,7 @@ class _GeometryCache:
 
 
 def _geometry_tables(scene, uv, smooth, use_bvh):
-    """Triangle, TriangleUV, TriangleNormals, BVHNode and primitive-reference tables."""
+    """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference and culled-subtree tables."""
     cache = _GeometryCache
     if cache.scene is scene and cache.key == (uv, smooth, use_bvh):
         return cache.tables
@@ -290,7 +321,7 @@ def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixe
     """The render kernel's scene buffers, in its argument order, up to the textures. Tables a variant
     does not read (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one
     dummy entry: features None packs them all but the BVH."""
-    triangles, uvs, normals, nodes, prims = _geometry_tables(
+    triangles, uvs, normals, nodes, prims, culled = _geometry_tables(
         scene, features is None or features.textures, features is None or features.smooth_normals,
         features is not None and features.bvh)
     return [camera_struct(scene.camera, width, height),
@@ -298,4 +329,4 @@ def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixe
                           seed),
             rectangle_structs(scene.rectangles), triangles, uvs, normals, ellipsoid_structs(scene.ellipsoids),
             light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
-            material_structs(scene.materials), nodes, prims]
+            material_structs(scene.materials), nodes, prims, culled]

@@ -22,11 +22,12 @@ __kernel void shading(int n, __constant const Camera *camera, __constant const R
                       __global const TriangleUV *tri_uvs, __global const TriangleNormals *tri_normals,
                       __global const Ellipsoid *ells,
                       __global const Light *lights, __global const Material *materials,
-                      __global const BVHNode *nodes, __global const int *prims, __global const Texture *textures, __global const MipLevel *levels,
+                      __global const BVHNode *nodes, __global const int *prims, __global const uint *culled,
+                      __global const Texture *textures, __global const MipLevel *levels,
                       __global const uint *texels, __global const float *srgb, __global const float *xy,
                       __global float *k, __global float *nrm, __global float *pos, __global float *err)
 {
-    const Scene s = {rects, tris, tri_uvs, tri_normals, ells, lights, materials, camera, params, nodes, prims};
+    const Scene s = {rects, tris, tri_uvs, tri_normals, ells, lights, materials, camera, params, nodes, prims, culled};
     const TextureStore ts = {textures, levels, texels, srgb};
     Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), 1.0f / params->width, 1.0f / params->height);
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));

@@ -22,16 +22,18 @@ SOURCE = """
 __kernel void trace(int n, __constant const RenderParams *params, __global const Rectangle *rects,
                     __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
                     __global const Material *materials, __global const BVHNode *nodes, __global const int *prims,
-                    __global const float *o, __global const float *d, __global float *t, __global float *nrm,
-                    __global float *material, __global float *blocked)
+                    __global const uint *culled, uint skip, __global const float *o, __global const float *d,
+                    __global float *t, __global float *nrm, __global float *material, __global float *blocked,
+                    __global float *blocked_skipping)
 {
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params, nodes, prims};
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params, nodes, prims, culled};
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);
     OUT3(nrm, hit.n);
     OUT(material, CONVERT_VFLOAT(hit.material));
     OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u))); /* the segment from o to o + d */
+    OUT(blocked_skipping, MASK_TO_ONE(occluded(&s, r, skip))); /* the same without the skipped rectangles */
 }
 """
 
@@ -45,32 +47,38 @@ def mesh_scene(cornell):
     return dataclasses.replace(cornell, triangles=cornell.triangles + triangles)
 
 
-def trace(harness, scene, o, d, use_bvh):
+def trace(harness, scene, o, d, use_bvh, skip=0):
     args = [params_struct(scene), rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
             ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials),
-            *bvh_structs(scene, use_bvh), planar(o), planar(d)]
-    return harness.run(SOURCE, "trace", len(o), args, {"t": 1, "nrm": 3, "material": 1, "blocked": 1},
+            *bvh_structs(scene, use_bvh), np.uint32(skip), planar(o), planar(d)]
+    return harness.run(SOURCE, "trace", len(o), args,
+                       {"t": 1, "nrm": 3, "material": 1, "blocked": 1, "blocked_skipping": 1},
                        HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1, HAS_BVH=int(use_bvh))
 
 
-def test_bvh_agrees_with_the_loop(harness, mesh_scene):
+@pytest.mark.parametrize("skip", [0b11111, 0b10110])
+def test_bvh_agrees_with_the_loop(harness, mesh_scene, skip):
+    """Also with rectangles skipped (scene 0's five walls are rectangles 0-4): all of them, so that the
+    subtrees holding only walls are not opened, and some, so that a subtree holding a wall still tested
+    must be."""
     rng = np.random.default_rng(31)
     n = 4096
     o = rng.uniform([-0.95, -0.95, 0.05], [0.95, 0.95, 1.9], (n, 3))
     d = rng.normal(size=(n, 3)) * rng.uniform(0.05, 2.0, (n, 1))  # segment lengths for the shadow test
     o, d = (a.astype(np.float32).astype(np.float64) for a in (o, d))
-    loop = trace(harness, mesh_scene, o, d, False)
-    tree = trace(harness, mesh_scene, o, d, True)
+    loop = trace(harness, mesh_scene, o, d, False, skip)
+    tree = trace(harness, mesh_scene, o, d, True, skip)
     hits_mesh = np.count_nonzero(loop["material"] == 1)
     assert hits_mesh > n // 10 and 0.1 < loop["blocked"].mean() < 0.9
-    for key in ("t", "nrm", "material", "blocked"):
+    assert loop["blocked_skipping"].mean() < loop["blocked"].mean() - 0.05, "skipped walls block no segment"
+    for key in ("t", "nrm", "material", "blocked", "blocked_skipping"):
         np.testing.assert_array_equal(tree[key], loop[key], err_msg=key)
 
 
 def test_flattened_tree_is_what_the_kernel_expects(mesh_scene):
     """The host's side of the contract bvh.cl relies on: every primitive reference once, in range; interior
     nodes' first child next, second child beyond; the depth within the kernel's stack (BVH_STACK = 64)."""
-    nodes, prims = bvh_structs(mesh_scene, True)
+    nodes, prims, _ = bvh_structs(mesh_scene, True)
     counts = [len(mesh_scene.rectangles), len(mesh_scene.triangles), len(mesh_scene.ellipsoids)]
     kinds, index = prims & 3, prims >> 2
     for kind, n in zip((1, 2, 3), counts):
@@ -110,3 +118,29 @@ def test_rays_in_box_faces(harness, cornell):
     assert np.isfinite(loop["t"][: n // 2]).all()
     for key in ("t", "blocked"):
         np.testing.assert_array_equal(tree[key], loop[key], err_msg=key)
+
+
+def test_culled_subtrees_against_a_walk_of_the_tree(cornell):
+    """structs.culled_subtrees against a recursive walk that collects every primitive under each node: the
+    rectangles' bits where all of them are rectangles among the first 32, else 0. The scene mixes 40 small
+    rectangles (8 beyond the first 32), triangles and an ellipsoid, so that leaves and subtrees of every
+    kind occur."""
+    rng = np.random.default_rng(5)
+    rects = [dataclasses.replace(cornell.rectangles[0], center=c, size=np.array([0.05, 0.05]))
+             for c in rng.uniform(-1, 1, (40, 3))]
+    triangles = [Triangle(r.center + rng.normal(scale=0.05, size=(3, 3))) for r in rects[::2]]  # beside them
+    scene = dataclasses.replace(cornell, rectangles=rects, triangles=triangles)
+    nodes, prims, culled = bvh_structs(scene, True)
+
+    def under(i):
+        first, count = nodes["offset"][i], nodes["count"][i]
+        return [int(r) for r in prims[first:first + count]] if count > 0 else under(i + 1) + under(first)
+
+    kinds = set()
+    for i in range(len(nodes)):
+        refs = under(i)
+        ok = all(ref & 3 == 1 and ref >> 2 < 32 for ref in refs)
+        assert culled[i] == (sum(1 << (ref >> 2) for ref in set(refs)) if ok else 0), i
+        kinds.add((ok, nodes["count"][i] > 0, any(ref & 3 == 1 and ref >> 2 < 32 for ref in refs)))
+    assert kinds >= {(True, True, True), (True, False, True), (False, True, True), (False, False, True)}, \
+        "cullable-only and mixed leaves and subtrees"
