@@ -74,7 +74,8 @@ def test_suite_scenes():
 
 
 def test_peer_ratio_and_bad_peer(tmp_path):
-    """--peer runs the command in the same bench run and reports scene 0's nominal rate against the peer's;
+    """--peer runs the command in the same bench run, measures scene 0 again right after it, and reports our
+    best nominal rate against the peer's best (its median rate scaled by median_s / min_s where given);
     a peer that prints no JSON line with mrays_per_s ends the run with one error line and exit status 1."""
     out = tmp_path / "bench.json"
     peer = 'echo starting; echo \'{"mrays_per_s": 0.5, "variant": "fake"}\''
@@ -82,8 +83,15 @@ def test_peer_ratio_and_bad_peer(tmp_path):
     assert r.returncode == 0, r.stderr
     data = json.loads(out.read_text())
     assert data["peer"]["variant"] == "fake"
-    assert data["ratio_to_peer"] == pytest.approx(data["scenes"][0]["nominal_mrays_per_s"] / 0.5)
-    assert r.stdout.strip().splitlines()[-1].startswith("peer: 0.50 nominal Mrays/s;")
+    ours = max(data["scenes"][0]["nominal_mrays_per_s"], data["beside_peer_nominal_mrays_per_s"])
+    assert data["ratio_to_peer"] == pytest.approx(ours / 0.5)
+    assert r.stdout.strip().splitlines()[-1].startswith("peer: 0.50 nominal Mrays/s (its median), 0.50 at its best;")
+    timed = 'echo \'{"mrays_per_s": 0.5, "median_s": 3.0, "min_s": 2.0}\''  # its best: 0.5 * 3 / 2 = 0.75
+    r = run("bench", CORNELL, *TINY, "--json", out, "--peer", timed, cwd=ROOT)
+    data = json.loads(out.read_text())
+    ours = max(data["scenes"][0]["nominal_mrays_per_s"], data["beside_peer_nominal_mrays_per_s"])
+    assert r.returncode == 0 and data["peer_best_mrays_per_s"] == pytest.approx(0.75)
+    assert data["ratio_to_peer"] == pytest.approx(ours / 0.75)
     for bad in ["echo no json", "echo '{\"mrays_per_s\": 0}'", "echo '[1]'", "echo '{\"mrays_per_s\": \"nan\"}'"]:
         r = run("bench", CORNELL, *TINY, "--json", out, "--peer", bad, cwd=ROOT)
         error = r.stderr.strip().splitlines()[-1]  # after the progress lines
