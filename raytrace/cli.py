@@ -64,7 +64,8 @@ def parser():
     b.add_argument("--repeat", type=int, default=3, help="timed renders per kernel (the best counts)")
     b.add_argument("--json", help="write the table, with the machine, to this JSON file")
     b.add_argument("--peer", metavar="COMMAND", help="also run another renderer's benchmark (a shell command "
-                   "whose last output line is JSON with its nominal mrays_per_s) and report the first scene's ratio")
+                   "whose last output line is JSON with its nominal mrays_per_s), measure the first scene again beside it "
+                   "and report the ratio, best against best")
     b.add_argument("--scaling", metavar="DIR", help="instead: seconds per ray and BVH build seconds against "
                    "the triangle count of a procedural mesh in the scene's room; scaling.csv and .png in DIR")
     b.add_argument("--max-triangles", type=int, default=10**6, help="--scaling's largest mesh (default 10^6)")
