@@ -64,10 +64,10 @@ inline vfloat vrsqrt(vfloat x)
 
 inline vec3 v3_direction(vec3 a) { return v3_scale(a, vrsqrt(v3_dot(a, a))); }
 
-/* a / |a| for any finite a: divided by its largest |coordinate| first (exact to a rounding), |a|^2 lies in
- * [1, 3], inside vrsqrt's domain, whatever a's size (a normal map's float texels, a flat bump). Where a is
- * 0 or not finite, the fallback: vmax may drop a NaN coordinate from m, so |b|^2 < 4 (false for NaN) is
- * checked as well. */
+/* a / |a| for finite a whose largest |coordinate| m is at least 2^-127 (below, 1 / m overflows): divided
+ * by m first (exact to a rounding), |a|^2 lies in [1, 3], inside vrsqrt's domain, whatever a's size (a
+ * normal map's float texels, a flat bump). Where a is smaller, 0 or not finite, the fallback: vmax may
+ * drop a NaN coordinate from m, so |b|^2 < 4 (false for NaN) is checked as well. */
 inline vec3 v3_unit_or(vec3 a, vec3 fallback)
 {
     vfloat m = v3_max_abs(a);

@@ -186,8 +186,8 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwa
         results.update(beside_peer(peer, scenes[0][1], first, repeat, kwargs))
         print(f"peer: {float(results['peer']['mrays_per_s']):.2f} nominal Mrays/s (its median), "
               f"{results['peer_best_mrays_per_s']:.2f} at its best; {first['scene']}: "
-              f"{first['nominal_mrays_per_s']:.2f} in the suite, {results['beside_peer_nominal_mrays_per_s']:.2f} "
-              f"right after the peer; best against best: {results['ratio_to_peer']:.2f}x", file=out, flush=True)
+              f"{results['beside_peer_nominal_mrays_per_s']:.2f} right after the peer ({first['nominal_mrays_per_s']:.2f} "
+              f"in the suite); best against best: {results['ratio_to_peer']:.2f}x", file=out, flush=True)
         if save:
             save(results)
     return results
@@ -195,19 +195,24 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwa
 
 def beside_peer(command, scene, first, repeat, kwargs):
     """The peer, then the first scene again right after it: a shared machine's speed drifts by 10-20% over
-    minutes, so both sides are measured in the same minutes and compared best against best (our fastest
-    render of the two windows, the peer's fastest, from its min_s and median_s where it reports them)."""
+    minutes, so the ratio takes our fastest render of that window against the peer's fastest (the suite's
+    figure, minutes earlier, is kept beside it)."""
     print(f"bench: --peer {command}", file=sys.stderr, flush=True)
     result = run_peer(command)
     print(f"bench: {first['scene']}: again, right after the peer, best of {repeat}", file=sys.stderr, flush=True)
     again = _best(scene, repeat, features=_features(scene, kwargs), **kwargs)
     beside = first["nominal_rays"] / again.render_seconds / 1e6
-    rate, best = float(result["mrays_per_s"]), float(result["mrays_per_s"])
+    best = peer_best_rate(result)
+    return {"peer": result, "peer_best_mrays_per_s": best, "beside_peer_nominal_mrays_per_s": beside,
+            "ratio_to_peer": beside / best}
+
+
+def peer_best_rate(result):
+    """The peer's rate at its fastest render: its mrays_per_s is its nominal rays over median_s (the Mitsuba
+    script's contract), so that times median_s / min_s where it reports both sensibly; else mrays_per_s."""
+    rate = float(result["mrays_per_s"])
     try:
         fastest, median = float(result["min_s"]), float(result["median_s"])
-        if 0 < fastest <= median < math.inf:
-            best = rate * median / fastest
     except (KeyError, TypeError, ValueError):
-        pass  # a peer that reports only its rate is taken at that rate
-    return {"peer": result, "peer_best_mrays_per_s": best, "beside_peer_nominal_mrays_per_s": beside,
-            "ratio_to_peer": max(first["nominal_mrays_per_s"], beside) / best}
+        return rate
+    return rate * median / fastest if 0 < fastest <= median < math.inf else rate

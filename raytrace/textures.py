@@ -76,6 +76,9 @@ def load_texture(path, role, source, key):
         raise InputError(source, key, str(path), f"a normal map needs 3 channels (x, y, z), it has {pixels.shape[2]}")
     if not np.all(np.isfinite(pixels)):
         raise InputError(source, key, str(path), "the image holds NaN or infinite values")
+    if role == "height" and pixels[..., 0].min() < 0:  # 8-bit and integer images read as >= 0
+        raise InputError(source, key, str(path), f"a height map's heights must be >= 0 (relief lifts the surface "
+                         f"outwards), its lowest is {float(pixels[..., 0].min()):g}")
     return make_texture(pixels, kind, role, str(path))
 
 

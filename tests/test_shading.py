@@ -163,6 +163,58 @@ def test_scene_extent_counts_displaced_points(cornell):
         assert structs.scene_extent(scene, none) == pytest.approx(base + 0.1 * reach, rel=1e-6), kind
 
 
+REACH = """
+#include "shading.cl"
+__kernel void reach(int n, __constant const RenderParams *params, __global const Rectangle *rects,
+                    __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
+                    __global const Material *materials, __global const float *o, __global const float *q,
+                    int index, __global float *skipped, __global float *blocked)
+{
+    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
+    vec3 origin = IN3(o);
+    uint skip = rectangles_out_of_reach(&s, lights, origin, (vint)(-1));
+    OUT(skipped, (vfloat)(((skip >> index) & 1u) ? 1.0f : 0.0f));
+    Ray r = shadow_segment(origin, IN3(q), light_point_error(lights), v3_uniform(lights->shape.normal));
+    OUT(blocked, MASK_TO_ONE(blocks_rectangle(&s, r, index)));
+}
+"""
+
+
+def test_a_skipped_rectangle_never_blocks(harness, cornell):
+    """The property the culling rests on, tested where it is tight: origins within 1e-9 to 1e-4 of a
+    tilted shelf's plane (the light behind it), on both sides, with shadow segments to light points built
+    as the renderer builds them. Wherever rectangles_out_of_reach skips the shelf, the rectangle test
+    itself finds no hit on that segment. The plane is tilted so that num's rounding bound e (about 1e-7
+    here, from every coordinate of c - o) is not a tiny fraction of num: a bound 10 times looser skips
+    origins 1e-7 to 1e-6 in front of the plane, whose segments the shelf blocks. Lanes are grouped by
+    their signed distance, so that at LANES=8 whole groups lie within e (the skip holds for all lanes or
+    none)."""
+    normal = unit(np.array([[0.3, 0.2, -1.0]]))[0]
+    tangent = unit(np.cross([[0.0, 1.0, 0.0]], normal))[0]
+    shelf = Rectangle(np.array([0.1, 0.5, 1.4]), np.array([0.8, 0.6]), normal, tangent, 1)
+    scene = dataclasses.replace(cornell, rectangles=[*cornell.rectangles, shelf])
+    index = len(cornell.rectangles)
+    lights = structs.scene_structs(scene, 64, 64, 1, 1, "trilinear")[7]
+    assert lights[0]["planes_behind"] >> index & 1, "the light is behind the shelf's plane"
+    rng = np.random.default_rng(23)
+    n = 4096
+    stored = rectangle_structs([shelf])[0]
+    c, t, b, nz = (stored[k].astype(np.float64) for k in ("center", "tangent", "bitangent", "normal"))
+    ab = rng.uniform(-0.8, 0.8, (n, 2)) * [0.4, 0.3]
+    distance = np.sort(rng.choice([-1, 1], n) * 10 ** rng.uniform(-9, -4, n))  # > 0: away from the light
+    o = (c + ab[:, :1] * t + ab[:, 1:] * b + distance[:, None] * nz).astype(np.float32).astype(np.float64)
+    q = reference.light_points(cornell.lights[0], rng.uniform(0, 1, (n, 2)))
+    args = scene_args(scene)
+    args[4] = lights
+    out = harness.run(REACH, "reach", n, [*args, planar(o), planar(q), np.int32(index)],
+                      {"skipped": 1, "blocked": 1}, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)
+    skipped, blocked = out["skipped"] > 0, out["blocked"] > 0
+    assert not np.any(skipped & blocked)
+    front = distance > 0
+    assert np.count_nonzero(skipped & front) > 8, "some origins in front lie within rounding of the plane"
+    assert np.count_nonzero(blocked & (distance < 1e-6)) > 50, "and the shelf blocks ones just beyond it"
+
+
 @pytest.mark.parametrize("bvh", [False, True])
 @pytest.mark.parametrize("view", ["room", "under the shelf"])
 def test_skipping_rectangles_out_of_reach_changes_nothing(cornell, lanes, bvh, view, monkeypatch):

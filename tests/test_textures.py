@@ -118,6 +118,21 @@ def test_bad_texture_files(tmp_path, content, problem):
     assert e.value.value == str(path) and problem in str(e.value)
 
 
+@pytest.mark.parametrize("value, problem", [(-0.5, ("heights must be >= 0", "its lowest is -0.5")),
+                                            (np.nan, ("NaN or infinite",)), (np.inf, ("NaN or infinite",))])
+def test_bad_float_height_maps(tmp_path, value, problem):
+    """A float height map with a negative height (the surface would be displaced behind itself and shadow
+    every point of it) or a non-finite one: one error naming the scene, the key and the file."""
+    pixels = np.full((4, 4, 1), 0.25, np.float32)
+    pixels[1, 2] = value
+    path = tmp_path / "h.exr"
+    write(path, pixels, "float")
+    with pytest.raises(InputError) as e:
+        load_texture(path, "height", "scene.toml", "materials.m.height_map")
+    assert (e.value.source, e.value.key, e.value.value) == ("scene.toml", "materials.m.height_map", str(path))
+    assert all(part in str(e.value) for part in problem)
+
+
 def test_srgb_table_is_the_standard_curve():
     """The kernel's decoding table against the reference's formula, at every code."""
     np.testing.assert_allclose(mipmap.SRGB8_TO_LINEAR, ref.srgb_to_linear(np.arange(256) / 255), rtol=1e-15)
@@ -213,11 +228,12 @@ __kernel void reduce(int n, __global const float *x, int size, int mode, __globa
 
 
 def test_reduced_coordinates_stay_within_two_periods(harness):
-    """reduce_coordinate for |x| from 1 to 3e38 and periods that are not powers of 2 (x / period rounds):
+    """reduce_coordinate for |x| from 1 to 1.2e38 and periods that are not powers of 2 (x / period rounds):
     the result lies within two periods of 0 (so its floor fits an int and wrap_index's cheap path applies)
-    and, while x resolves a period (|x| < 2^20 here), equals x modulo the period up to x's own rounding
-    (2 ulp(x): the quotient's rounding is absorbed by floor, the product and difference round once each)."""
-    x = np.float32(10.0) ** np.linspace(0, 38.5, 600).astype(np.float32) * np.float32(1.2345)
+    and, while x resolves a period (|x| < 2^20 here), equals x modulo the period up to rounding (the
+    quotient's rounding is absorbed by floor, the product and difference round once each: 2 ulp of
+    the larger of |x| and the results, below 2 periods)."""
+    x = np.float32(10.0) ** np.linspace(0, 38, 600).astype(np.float32) * np.float32(1.2345)
     x = np.concatenate([x, -x, np.zeros((-2 * len(x)) % 8, np.float32)])
     for size in (7, 9, 300):
         for mode in ("repeat", "mirror"):
@@ -227,7 +243,8 @@ def test_reduced_coordinates_stay_within_two_periods(harness):
             assert np.all(np.abs(r) < 2 * period), (size, mode)
             fine = np.abs(x) < 2 ** 20
             turns = (x[fine].astype(np.float64) - r[fine]) / period
-            np.testing.assert_allclose(turns, np.round(turns), atol=2 * np.spacing(x[fine]).max() / period)
+            ulp = np.spacing(np.maximum(np.abs(x[fine]), 2 * period).astype(np.float32))
+            assert np.all(np.abs(turns - np.round(turns)) * period <= 2 * ulp), (size, mode)
             assert np.all(r[fine] > -1e-3) and np.all(r[fine] < period + 1e-3), (size, mode)
 
 
