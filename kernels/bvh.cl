@@ -106,9 +106,12 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
     }
 }
 
-/* Whether every shape under node i is a `skip`ped rectangle: then the node is not even opened. */
+/* Whether every shape under node i is a `skip`ped rectangle: then the node is not even opened. Without
+ * skipped rectangles (scenes without rectangles, lights among them) the table is not read. */
 inline int skipped_subtree(const Scene *s, int i, uint skip)
 {
+    if (skip == 0u)
+        return 0;
     uint only = s->culled_subtrees[i];
     return only != 0u && (only & ~skip) == 0u;
 }

@@ -115,9 +115,10 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
         vfloat kh = m->height_scale;
         shading = bump_normal(v3_scale(h->surface.dpdu, 1.0f / scale_u), v3_scale(h->surface.dpdv, 1.0f / scale_v),
                               shading, kh * (hu - height) / du, kh * (hv - height) / dv);
-        /* outwards (kh h >= 0: the host refuses negative heights): the surface stays behind. kh h, its product with ng_i and the sum round once
-         * each: within gamma(3) (|p_i| + |kh h ng_i|) per coordinate, which also holds where the sum cancels
-         * (a point near the origin lifted across it) and the result is smaller than what was rounded. */
+        /* outwards (kh h >= 0: the host refuses negative heights): the surface stays behind. kh h, its
+         * product with ng_i and the sum round once each: within gamma(3) (|p_i| + |kh h ng_i|) per
+         * coordinate, which also holds where the sum cancels (a point near the origin lifted across it) and
+         * the result is smaller than what was rounded. */
         vfloat lift = kh * height;
         vec3 reach = v3_add(v3_abs(*p), v3_scale(v3_abs(ng), vabs(lift)));
         *p = v3_select(*p, v3_madd(*p, lift, ng), mask);

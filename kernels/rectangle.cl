@@ -17,8 +17,8 @@ inline vfloat plane_num_error(__global const Rectangle *rect, vec3 co)
 /* t of the plane crossing where it lies inside the rectangle, else +inf (also for a ray in the plane);
  * *dt: a bound on t's rounding error; (*u, *v): the crossing's coordinates along the tangent and bitangent
  * from the centre. t = num / den with num = (c - o).n (plane_num, bound e_num) and den = d.n (a 3-term
- * dot product: e_den takes 4 roundings), and t = num * (1 / den) six times (ray.h). An origin on the plane to within rounding has |num| <= e_num, so
- * dt >= |t|: never a hit; one farther off is told apart by the sign of t. Where no lane's t lies in
+ * dot product: e_den takes 4 roundings), and t = num * (1 / den) six times (ray.h). An origin on the
+ * plane to within rounding has |num| <= e_num, so dt >= |t|: never a hit; one farther off is told apart by the sign of t. Where no lane's t lies in
  * (0, tmax], no caller can take the hit (ray.h's ranges need t > dt >= 0): the rest is skipped. */
 inline vfloat intersect_rectangle(__global const Rectangle *rect, Ray r, vfloat tmax, vfloat *dt, vfloat *u,
                                   vfloat *v)

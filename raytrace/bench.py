@@ -186,8 +186,9 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwa
         results.update(beside_peer(peer, scenes[0][1], first, repeat, kwargs))
         print(f"peer: {float(results['peer']['mrays_per_s']):.2f} nominal Mrays/s (its median), "
               f"{results['peer_best_mrays_per_s']:.2f} at its best; {first['scene']}: "
-              f"{results['beside_peer_nominal_mrays_per_s']:.2f} right after the peer ({first['nominal_mrays_per_s']:.2f} "
-              f"in the suite); best against best: {results['ratio_to_peer']:.2f}x", file=out, flush=True)
+              f"{results['beside_peer_nominal_mrays_per_s']:.2f} right after the peer "
+              f"({first['nominal_mrays_per_s']:.2f} in the suite); best against best: {results['ratio_to_peer']:.2f}x",
+              file=out, flush=True)
         if save:
             save(results)
     return results

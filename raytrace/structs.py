@@ -267,30 +267,29 @@ def bvh_structs(scene, use_bvh, soup=None):
 def culled_subtrees(nodes, prims):
     """Per node, the bits of the rectangles its subtree holds when it holds nothing but rectangles among
     the first CULLED_RECTANGLES (those shadow rays may skip, light_structs), else 0: a shadow ray that
-    skips all of them skips the node unopened (bvh.cl). Leaves first, then each interior node from its two
-    children, repeated until nothing changes (at most the tree's depth, all nodes at once)."""
+    skips all of them skips the node unopened (bvh.cl). Leaves first, a slot at a time, then each interior
+    node from its two children, repeated until nothing changes (at most the tree's depth, all nodes at
+    once)."""
     index, kind = prims >> 2, prims & 3
     cullable = (kind == types.SHAPES["rectangle"]) & (index < CULLED_RECTANGLES)
-    out = np.zeros(len(nodes), np.uint64)
+    out = np.zeros(len(nodes), np.uint32)
     if not cullable.any():
-        return out.astype(np.uint32)
-    bits = np.where(cullable, np.left_shift(np.uint64(1), np.minimum(index, 31).astype(np.uint64)), np.uint64(0))
+        return out
+    bits = np.where(cullable, np.left_shift(np.uint32(1), np.minimum(index, 31).astype(np.uint32)), 0)
     count, first = nodes["count"], nodes["offset"]
     leaves = np.flatnonzero(count > 0)
-    starts, sizes = first[leaves], count[leaves]
-    ends = np.cumsum(sizes)
-    members = np.repeat(np.arange(len(leaves)), sizes), np.arange(ends[-1]) + np.repeat(starts - (ends - sizes), sizes)
-    ored = np.zeros(len(leaves), np.uint64)
-    np.bitwise_or.at(ored, members[0], bits[members[1]])
-    only = np.ones(len(leaves), bool)
-    np.logical_and.at(only, members[0], cullable[members[1]])
-    out[leaves] = np.where(only, ored, np.uint64(0))
+    ored, only = np.zeros(len(leaves), np.uint32), np.ones(len(leaves), bool)
+    for k in range(count.max()):  # at most bvh.build's max_leaf slots
+        has = count[leaves] > k
+        ored[has] |= bits[first[leaves[has]] + k]
+        only[has] &= cullable[first[leaves[has]] + k]
+    out[leaves] = np.where(only, ored, 0)
     inner = np.flatnonzero(count <= 0)
     while True:
         left, right = out[inner + 1], out[first[inner]]
-        value = np.where((left != 0) & (right != 0), left | right, np.uint64(0))
+        value = np.where((left != 0) & (right != 0), left | right, 0)
         if np.array_equal(value, out[inner]):
-            return out.astype(np.uint32)
+            return out
         out[inner] = value
 
 
