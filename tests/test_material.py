@@ -11,7 +11,7 @@ import reference_textures as ref
 from conftest import ROOT
 from raytrace.kernel import Features
 from raytrace.scene import parse_scene
-from raytrace.structs import scene_structs, texture_structs
+from raytrace.structs import U, scene_structs, texture_structs
 from test_textures import stored_levels
 
 SOURCE = """
@@ -179,8 +179,7 @@ def check_displacement_bound(harness, shape, material, x, y, filter_name, got, n
     p0, p1 = plain["pos"].T[hit].astype(np.float64), got["pos"].T[hit].astype(np.float64)
     n = np.abs(ng[hit])
     lift = np.abs(np.einsum("ij,ij->i", p1 - p0, ng[hit]))
-    u = 2.0 ** -24
-    expect = 3 * u / (1 - 3 * u) * np.einsum("ij,ij->i", n, np.abs(p0) + n * lift[:, None])
+    expect = 3 * U / (1 - 3 * U) * np.einsum("ij,ij->i", n, np.abs(p0) + n * lift[:, None])
     np.testing.assert_allclose(got["err"][hit] - plain["err"][hit], expect, rtol=1e-5, atol=1e-12)
 
 
