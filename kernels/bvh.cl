@@ -8,7 +8,7 @@
 #ifndef BVH_CL
 #define BVH_CL
 
-#define BVH_STACK 64 /* the host refuses deeper trees */
+#include "primitive.cl"
 
 /* Per ray: the reciprocal direction for the slab test, the signs that order the children, and whether any
  * lane's reciprocal direction has an infinite component (a zero or subnormal one in the direction: the slab
@@ -67,10 +67,7 @@ inline int order_children(__global const BVHNode *nodes, int i, BoxRay b, int *f
 inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
 {
     BoxRay b = box_ray(r);
-#if HAS_TRIANGLES
-    RayShear shear; /* formed at the first triangle: most rays of a room never reach a mesh's leaves */
-    int sheared = 0;
-#endif
+    PrimitiveRay p = primitive_ray(r);
     int stack[BVH_STACK], top = 0, i = 0;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
@@ -79,26 +76,8 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
                 stack[top++] = order_children(s->nodes, i, b, &i);
                 continue;
             }
-            for (int k = node->offset; k < node->offset + node->count; ++k) {
-                int ref = s->prims[k], index = ref >> 2, kind = ref & 3;
-#if HAS_TRIANGLES
-                if (kind == SHAPE_TRIANGLE) {
-                    if (!sheared) {
-                        shear = ray_shear(r);
-                        sheared = 1;
-                    }
-                    hit_triangle(s, hit, r, shear, index, tmax);
-                }
-#endif
-#if HAS_RECTANGLES
-                if (kind == SHAPE_RECTANGLE)
-                    hit_rectangle(s, hit, r, index, tmax);
-#endif
-#if HAS_ELLIPSOIDS
-                if (kind == SHAPE_ELLIPSOID)
-                    hit_ellipsoid(s, hit, r, index, tmax);
-#endif
-            }
+            for (int k = node->offset; k < node->offset + node->count; ++k)
+                hit_primitive(s, hit, &p, s->prims[k] & 3, s->prims[k] >> 2, tmax);
         }
         if (top == 0)
             return;
@@ -121,10 +100,7 @@ inline int skipped_subtree(const Scene *s, int i, uint skip)
 inline vint bvh_occluded(const Scene *s, Ray r, uint skip)
 {
     BoxRay b = box_ray(r);
-#if HAS_TRIANGLES
-    RayShear shear; /* formed at the first triangle: most rays of a room never reach a mesh's leaves */
-    int sheared = 0;
-#endif
+    PrimitiveRay p = primitive_ray(r);
     vint blocked = (vint)(0);
     int stack[BVH_STACK], top = 0, i = 0;
     for (;;) {
@@ -134,26 +110,8 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip)
                 stack[top++] = order_children(s->nodes, i, b, &i);
                 continue;
             }
-            for (int k = node->offset; k < node->offset + node->count; ++k) {
-                int ref = s->prims[k], index = ref >> 2, kind = ref & 3;
-#if HAS_TRIANGLES
-                if (kind == SHAPE_TRIANGLE) {
-                    if (!sheared) {
-                        shear = ray_shear(r);
-                        sheared = 1;
-                    }
-                    blocked |= blocks_triangle(s, r, shear, index);
-                }
-#endif
-#if HAS_RECTANGLES
-                if (kind == SHAPE_RECTANGLE && !skipped(skip, index))
-                    blocked |= blocks_rectangle(s, r, index);
-#endif
-#if HAS_ELLIPSOIDS
-                if (kind == SHAPE_ELLIPSOID)
-                    blocked |= blocks_ellipsoid(s, r, index);
-#endif
-            }
+            for (int k = node->offset; k < node->offset + node->count; ++k)
+                blocked |= primitive_blocks(s, &p, s->prims[k] & 3, s->prims[k] >> 2, skip);
             if (ALL(blocked))
                 return blocked;
         }

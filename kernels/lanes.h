@@ -7,8 +7,13 @@
 #ifndef LANES_H
 #define LANES_H
 
+#include "limits.h"
+
 #ifndef LANES
 #define LANES 1
+#endif
+#if !LANE_WIDTH_ACCEPTED(LANES)
+#error "LANES must be 1, 4, 8 or 16"
 #endif
 
 #define CAT_(a, b) a##b
@@ -54,8 +59,6 @@ typedef CAT(uint, LANES) vuint;
                       (p)[4] = (v).s4, (p)[5] = (v).s5, (p)[6] = (v).s6, (p)[7] = (v).s7, \
                       (p)[8] = (v).s8, (p)[9] = (v).s9, (p)[10] = (v).sa, (p)[11] = (v).sb, \
                       (p)[12] = (v).sc, (p)[13] = (v).sd, (p)[14] = (v).se, (p)[15] = (v).sf)
-#else
-#error "LANES must be 1, 4, 8 or 16"
 #endif
 #define CONVERT_VFLOAT(v) CAT(convert_float, LANES)(v)
 #define AS_VUINT(v) CAT(as_uint, LANES)(v)

@@ -32,21 +32,13 @@ inline void store_lanes(__global float *plane, int index, vfloat value, vint act
             plane[index + i] = v[i];
 }
 
-__kernel void render(__constant const Camera *camera, __constant const RenderParams *params,
-                     __global const Rectangle *rectangles, __global const Triangle *triangles,
-                     __global const TriangleUV *triangle_uvs, __global const TriangleNormals *triangle_normals,
-                     __global const Ellipsoid *ellipsoids,
-                     __global const Light *lights, __global const Material *materials,
-                     __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees,
-                     __global const Texture *textures, __global const MipLevel *mip_levels,
-                     __global const uint *texels, __global const float *srgb_to_linear,
-                     __global const uint2 *pixel_samples, __global const uint2 *light_samples, int sample0,
-                     int n_samples, int row0,
+__kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
+                     __global const uint2 *pixel_samples, /* the pixel and light sample tables (samplers.cl) */
+                     __global const uint2 *light_samples, int sample0, int n_samples, int row0,
                      __global float *out)
 {
-    const Scene scene = {rectangles, triangles, triangle_uvs, triangle_normals, ellipsoids, lights, materials, camera,
-                         params, nodes, prims, culled_subtrees};
-    const TextureStore ts = {textures, mip_levels, texels, srgb_to_linear};
+    const Scene scene = SCENE_FROM_PARAMETERS;
+    const TextureStore ts = TEXTURES_FROM_PARAMETERS;
     const int width = params->width, height = params->height;
     const int x0 = LANES * get_global_id(0), y = row0 + get_global_id(1);
     if (y >= height)

@@ -37,4 +37,25 @@ typedef struct {
     __global const float *srgb_to_linear; /* 256 entries: 8-bit sRGB code to linear */
 } TextureStore;
 
+/* The scene and its textures as kernel parameters, declared once: the render kernel (render.cl) and the test
+ * kernels that take a whole scene list SCENE_PARAMETERS and TEXTURE_PARAMETERS among their parameters and
+ * gather them with SCENE_FROM_PARAMETERS and TEXTURES_FROM_PARAMETERS. The host binds its tables to these
+ * names (raytrace/renderer/packing.py packs them under the same names, interface.py checks the types). */
+#define SCENE_PARAMETERS                                                                                    \
+    __constant const Camera *camera, __constant const RenderParams *params,                               \
+    __global const Rectangle *rectangles, __global const Triangle *triangles,                              \
+    __global const TriangleUV *triangle_uvs, __global const TriangleNormals *triangle_normals,             \
+    __global const Ellipsoid *ellipsoids, __global const Light *lights, __global const Material *materials, \
+    __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees
+#define SCENE_FROM_PARAMETERS                                                                               \
+    {.rectangles = rectangles, .triangles = triangles, .triangle_uvs = triangle_uvs,                        \
+     .triangle_normals = triangle_normals, .ellipsoids = ellipsoids, .lights = lights, .materials = materials, \
+     .camera = camera, .params = params, .nodes = nodes, .prims = prims, .culled_subtrees = culled_subtrees}
+
+#define TEXTURE_PARAMETERS                                                                                  \
+    __global const Texture *textures, __global const MipLevel *mip_levels, __global const uint *texels,    \
+    __global const float *srgb_to_linear
+#define TEXTURES_FROM_PARAMETERS \
+    {.textures = textures, .levels = mip_levels, .texels = texels, .srgb_to_linear = srgb_to_linear}
+
 #endif

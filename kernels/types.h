@@ -59,7 +59,7 @@ typedef struct {
     int offset, count;
 } BVHNode;
 
-/* Bit i of planes_in_front (planes_behind), i < 32: the whole light, as shadow rays sample it, lies strictly
+/* Bit i of planes_in_front (planes_behind), i < CULLED_RECTANGLES: the whole light, as shadow rays sample it, lies strictly
  * in front of (behind) rectangle i's plane, so that no shadow ray from that side can cross it (intersect.cl). */
 typedef struct {
     Rectangle shape; /* shape.material is unused */

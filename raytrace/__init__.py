@@ -3,9 +3,13 @@
     import raytrace
     scene = raytrace.load_scene("scenes/cornell.toml")
     image, stats = raytrace.render(scene, spp=16, light_samples=16)   # H x W x 3 float32, linear
+
+The package: render.py (render, render_progressive), scene/ (the scene model and its readers), renderer/
+(the host side of the kernel in kernels/), tools/ (what measures and verifies the renderer), cli.py.
 """
 from .errors import InputError
-from .render import RenderStats, render
+from .render import RenderStats, render, render_progressive
+from .renderer.program import Features
 from .scene import Scene, load_scene
 
-__all__ = ["InputError", "RenderStats", "Scene", "load_scene", "render"]
+__all__ = ["Features", "InputError", "RenderStats", "Scene", "load_scene", "render", "render_progressive"]

@@ -13,9 +13,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import samplers, types
+from . import samplers
+from . import structs
 from .errors import InputError
-from .image import FORMATS, write_image
+from .renderer.image import FORMATS, write_image
 
 EXIT_BAD_INPUT = 2
 
@@ -40,7 +41,7 @@ def _add_render_options(p, scene_help=None):
     p.add_argument("--light-samples", type=int, help="samples per light (square: the course's uniform grid)")
     p.add_argument("--sampler", help=f"pixel sample pattern: {', '.join(samplers.SAMPLERS)} (default: the scene's)")
     p.add_argument("--light-sampler", help="light sample pattern, the same choice (default: the scene's, else grid)")
-    p.add_argument("--texture-filter", default="trilinear", choices=list(types.FILTERS),
+    p.add_argument("--texture-filter", default="trilinear", choices=list(structs.FILTERS),
                    help="texture filter (default: trilinear)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sample patterns' randomisation")
     p.add_argument("--time-limit", type=float, help="stop before a pass that would end after SECONDS")
@@ -89,9 +90,10 @@ def parser():
     c.add_argument("--crop", help="the montage's crop, X,Y,W,H in fractions of the image (default: "
                    "0.70,0.72,0.18,0.18, the ellipsoid's shadow in scenes/cornell.toml)")
     c.add_argument("--out", required=True, help="output directory")
-    k = sub.add_parser("compile", help="compile a scene's kernel for a target device with clang (or PoCL)")
+    k = sub.add_parser("compile", help="compile a scene's kernel for a GPU target with clang (Debian's, else "
+                       "PyPI's ziglang), or with PoCL")
     k.add_argument("scene", help="scene file (TOML)")
-    k.add_argument("--target", required=True, help="pocl, nvptx, amdgcn or spir")
+    k.add_argument("--target", required=True, help="pocl, nvptx, amdgcn, spir or spirv (SPIR-V 1.0)")
     k.add_argument("--lanes", type=int, choices=[1, 4, 8, 16], help="lane width (default: 1, or the CPU's for pocl)")
     s = sub.add_parser("stability", help="the numerical stability suite: float32 results against float64")
     s.add_argument("--json", help="write the table's rows to this JSON file")
@@ -145,8 +147,8 @@ def cmd_render(args):
 
 def cmd_bench(args):
     """Exit status 1 when a child render fails."""
-    from .bench import BenchError, benchmark, suite_scenes
-    from .scaling import scaling
+    from .tools.bench import BenchError, benchmark, suite_scenes
+    from .tools.scaling import scaling
 
     if args.scaling:
         if len(args.scene) > 1:
@@ -171,7 +173,7 @@ def cmd_bench(args):
 
 
 def cmd_assets(args):
-    from .assets import generate
+    from .tools.assets import generate
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -181,7 +183,7 @@ def cmd_assets(args):
 
 
 def cmd_converge(args):
-    from .converge import converge, parse_crop
+    from .tools.converge import converge, parse_crop
 
     converge(args.scene, [name.strip() for name in args.samplers.split(",")], args.max_spp, args.out,
              reference=args.reference, width=args.width, height=args.height, light_samples=args.light_samples,
@@ -191,7 +193,7 @@ def cmd_converge(args):
 
 def cmd_compile(args):
     """Exit status 1 when the compiler rejects the kernel."""
-    from .compile import compile_scene
+    from .tools.compile import compile_scene
     from .scene import load_scene
 
     scene = load_scene(args.scene)
@@ -205,8 +207,8 @@ def cmd_compile(args):
 
 def cmd_stability(args):
     """Exit status 1 when a row of the table fails."""
-    from .device import default_lanes, select_device
-    from .stability import report
+    from .renderer.device import default_lanes, select_device
+    from .tools.stability import report
 
     if args.json and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
         raise InputError("command line", "--json", args.json, "is a directory or in no existing directory")

@@ -1,5 +1,6 @@
 """Rendering a Scene: options, the specialised program, progressive passes of banded launches, statistics
-(the structs it sends are packed by raytrace/structs.py, passes accumulate in raytrace/progressive.py).
+(the tables it sends are packed by renderer/packing.py and bound by name by renderer/interface.py; passes
+accumulate in renderer/progressive.py).
 
 Renders of any size: a launch renders a band of whole rows into a device buffer of one band, which the host
 adds into its sums before the next launch, so device memory is bounded by max_band_bytes; host memory grows
@@ -13,12 +14,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyopencl as cl
 
-from . import samplers, types
-from .structs import scene_structs, texture_structs
-from .device import context_for, default_lanes, describe, select_device
+from . import samplers
+from . import structs
+from .renderer.interface import KernelArguments
+from .renderer.packing import scene_tables, texture_tables
+from .renderer.device import context_for, default_lanes, describe, select_device
 from .errors import InputError
-from .kernel import Features, render_program
-from .progressive import BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, Accumulator, pass_size, row_chunks
+from .renderer.program import Features, render_program
+from .renderer.progressive import BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, Accumulator, pass_size, row_chunks
 
 MAX_SPP = 1 << 16
 OUTPUT_PLANES = CHANNELS + 1  # the kernel's output: R, G, B sums and the ray count, float32
@@ -103,8 +106,8 @@ def resolve(scene, options):
                  lambda v: 1 <= v <= MAX_SPP, f"must be in [1, {MAX_SPP}]")
     pixel = _pattern(pick(options.sampler, scene.sampler), spp, "--sampler", "--spp")
     light = _pattern(pick(options.light_sampler, scene.light_sampler), nl, "--light-sampler", "--light-samples")
-    _option(options.texture_filter, cli, "--texture-filter", lambda v: v in types.FILTERS,
-            f"unknown filter (have: {', '.join(types.FILTERS)})")
+    _option(options.texture_filter, cli, "--texture-filter", lambda v: v in structs.FILTERS,
+            f"unknown filter (have: {', '.join(structs.FILTERS)})")
     _option(options.seed, cli, "--seed", lambda v: 0 <= v < 2**32, "must be in [0, 2^32)")
     _option(options.time_limit, cli, "--time-limit", lambda v: v is None or 0 < v < float("inf"),
             "must be a positive number of seconds")
@@ -187,13 +190,15 @@ class _Bands:
         self.host = np.empty(OUTPUT_PLANES * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
 
-    def run_pass(self, queue, kernel, args, acc):
-        """Launch every band with the kernel's leading `args` and add its sums into `acc`; returns (kernel
+    def run_pass(self, queue, args, acc):
+        """Launch every band with the kernel's other `args` set and add its sums into `acc`; returns (kernel
         seconds, rays traced)."""
         seconds = rays = 0.0
+        args.set("out", self.host, self.device)
         for row0 in range(0, self.height, self.rows):
             rows = min(self.rows, self.height - row0)
-            event = kernel(queue, (self.columns, rows), self.local_size, *args, np.int32(row0), self.device)
+            args.set("row0", np.int32(row0))
+            event = args.launch(queue, (self.columns, rows), self.local_size)
             event.wait()
             seconds += (event.profile.end - event.profile.start) * 1e-9
             out = self.host[:OUTPUT_PLANES * rows * self.width].reshape(OUTPUT_PLANES, rows, self.width)
@@ -226,13 +231,13 @@ def render_progressive(scene, **kwargs):
     features = options.features or Features.of(scene, options.lanes or default_lanes(device))
     program, build_seconds = render_program(context, features)
 
-    textures = texture_structs(scene)
-    texture_bytes = textures[2].nbytes if scene.textures else 0  # the packed texels of every level
-    ro = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
-    structs = scene_structs(scene, width, height, spp, n_light, options.texture_filter, pixel, light, options.seed,
-                            features)
-    buffers = [cl.Buffer(context, ro, hostbuf=a) for a in (*structs, *textures, pixel.table(), light.table())]
-    kernel = cl.Kernel(program, "render")
+    textures = texture_tables(scene)
+    texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
+    args = KernelArguments(cl.Kernel(program, "render"))
+    buffers = args.upload(context, {
+        **scene_tables(scene, width, height, spp, n_light, options.texture_filter, pixel, light, options.seed,
+                       features),
+        **textures, "pixel_samples": pixel.table(), "light_samples": light.table()})
 
     columns = -(-width // features.lanes)
     work = 1 + len(scene.lights) * n_light  # rays per pixel sample, at most
@@ -244,7 +249,9 @@ def render_progressive(scene, **kwargs):
     start = time.perf_counter()
     while acc.n_total < spp:
         pass_start, n = time.perf_counter(), min(per_pass, spp - acc.n_total)
-        seconds, pass_rays = bands.run_pass(queue, kernel, [*buffers, np.int32(acc.n_total), np.int32(n)], acc)
+        args.set("sample0", np.int32(acc.n_total))
+        args.set("n_samples", np.int32(n))
+        seconds, pass_rays = bands.run_pass(queue, args, acc)
         acc.end_pass(n)
         render_seconds, rays = render_seconds + seconds, rays + pass_rays
         now = time.perf_counter()
@@ -273,5 +280,5 @@ def render_progressive(scene, **kwargs):
                         pixel.name, light.name, options.texture_filter, options.seed, texture_bytes, acc.passes,
                         stopped_by, rmse, relative, history,
                         {"nonfinite_values": nonfinite, "band_rows": bands.rows, "device_output_bytes": bands.host.nbytes,
-                         "device_bytes": sum(b.size for b in buffers) + bands.device.size})
+                         "device_bytes": sum(b.size for b in buffers.values()) + bands.device.size})
     return image, variance, stats

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import types
+from . import structs
 
 SAMPLERS = ("center", "grid", "rotated-grid-cw", "rotated-grid-ccw", "random", "jittered", "halton", "sobol")
 SQUARE_ONLY = ("grid", "rotated-grid-cw", "rotated-grid-ccw")
@@ -20,7 +20,7 @@ ROTATION = math.atan(0.5)  # the course's rotated grid: 26.57 degrees
 class Pattern:
     name: str
     points: np.ndarray  # (n, 2) float64 in [0, 1): the table (for jittered: the strata's corners)
-    randomize: str      # a key of types.RANDOMIZE
+    randomize: str      # a key of structs.RANDOMIZE
     strata: tuple = (1, 1)  # jittered: strata along x and y
 
     def table(self):
@@ -30,8 +30,8 @@ class Pattern:
         return np.minimum(np.floor(self.points * 2.0**32), 2.0**32 - 1).astype(np.uint32)
 
     def sampler_struct(self):
-        s = np.zeros((), types.SAMPLER)
-        s["randomize"] = types.RANDOMIZE[self.randomize]
+        s = np.zeros((), structs.SAMPLER)
+        s["randomize"] = structs.RANDOMIZE[self.randomize]
         s["cell_x"], s["cell_y"] = (2**24 // self.strata[0], 2**24 // self.strata[1])
         return s
 

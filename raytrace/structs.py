@@ -1,331 +1,62 @@
-"""Packing the scene into the structs of kernels/types.h (their numpy mirrors are in raytrace/types.py):
-the one place where host values become what the kernel reads."""
-import math
-from dataclasses import dataclass
-
+"""The host's mirror of what kernels/types.h and kernels/limits.h declare: numpy dtypes of the structs, field
+for field, and the constants host and kernel share (tests/test_types.py checks every one against the device's
+own compiler: sizes, offsets, values)."""
 import numpy as np
 
-from . import bvh, mipmap, samplers, types
-from .errors import InputError
+VEC3F = ("<f4", (3,))
 
+CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F), ("up", *VEC3F),
+                   ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4")])
 
-def camera_struct(camera, width, height):
-    forward, right, up = camera.basis()
-    tan_half = math.tan(math.radians(camera.fov_deg) / 2)
-    c = np.zeros((), types.CAMERA)
-    c["position"], c["forward"], c["right"], c["up"] = camera.position, forward, right, up
-    c["scale_x"] = width / height * camera.focal_length * tan_half
-    c["scale_y"] = camera.focal_length * tan_half
-    c["focal_length"] = camera.focal_length
-    return c
+RECTANGLE = np.dtype([("center", *VEC3F), ("normal", *VEC3F), ("tangent", *VEC3F), ("bitangent", *VEC3F),
+                      ("half_x", "<f4"), ("half_y", "<f4"), ("material", "<i4")])
 
+TRIANGLE = np.dtype([("v0", *VEC3F), ("v1", *VEC3F), ("v2", *VEC3F), ("normal", *VEC3F), ("material", "<i4")])
 
-def rectangle_structs(rects):
-    a = np.zeros(max(len(rects), 1), types.RECTANGLE)
-    for s, r in zip(a, rects):
-        s["center"], s["normal"], s["tangent"], s["bitangent"] = r.center, r.normal, r.tangent, r.bitangent
-        s["half_x"], s["half_y"], s["material"] = r.size[0] / 2, r.size[1] / 2, r.material
-    return a
+TRIANGLE_NORMALS = np.dtype([("n0", *VEC3F), ("n1", *VEC3F), ("n2", *VEC3F)])
 
+TRIANGLE_UV = np.dtype([("uv", "<f4", (6,)), ("dpdu", *VEC3F), ("dpdv", *VEC3F), ("tangent", *VEC3F)])
 
-def triangle_records(v, material):
-    """Triangle structs of the triangles v ((F, 3, 3): v0, v1, v2 each) with their material indices."""
-    a = np.zeros(max(len(v), 1), types.TRIANGLE)
-    if len(v):
-        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
-        a["v0"][:len(v)], a["v1"][:len(v)], a["v2"][:len(v)] = v[:, 0], v[:, 1], v[:, 2]
-        a["normal"][:len(v)] = n / np.linalg.norm(n, axis=1, keepdims=True)
-        a["material"][:len(v)] = material
-    return a
+ELLIPSOID = np.dtype([("center", *VEC3F), ("world_to_unit", "<f4", (9,)), ("unit_to_world", "<f4", (9,)),
+                      ("material", "<i4")])
 
+# kernels/types.h: SHAPE_*; a BVH primitive reference is index * 4 + kind
+SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3}
 
-def triangle_structs(tris):
-    return triangle_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), [t.material for t in tris])
+BVH_NODE = np.dtype([("lo", "<f4", (3,)), ("hi", "<f4", (3,)), ("offset", "<i4"), ("count", "<i4")])
 
+LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", "<u4"), ("planes_behind", "<u4")])
 
-DEFAULT_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # uv = (b1, b2)
+MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
+                     ("height_map", "<i4"), ("wrap", "<i4"), ("height_scale", "<f4"), ("uv_scale", "<f4", (2,)),
+                     ("uv_offset", "<f4", (2,))])
 
+TEXTURE = np.dtype([("first_level", "<i4"), ("n_levels", "<i4"), ("encoding", "<i4")])
 
-def _coordinate_system(n):
-    """Two unit vectors completing the unit vectors n ((F, 3)) to orthonormal bases (Duff et al., JCGT 2017)."""
-    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    a = -1.0 / (sign + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    return (np.stack([1 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], 1),
-            np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], 1))
+MIP_LEVEL = np.dtype([("offset", "<i4"), ("width", "<i4"), ("height", "<i4")])
 
+# kernels/types.h: WRAP_*, TEXELS_*, FILTER_*
+WRAP_MODES = {"repeat": 0, "clamp": 1, "mirror": 2}
+TEXELS_SRGB8, TEXELS_UNORM8, TEXELS_FLOAT = 0, 1, 2
+FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
-def triangle_uv_frames(v, uv):
-    """dp/du and dp/dv ((F, 3) each) of the affine maps from uv ((F, 3, 2)) to the triangles v ((F, 3, 3))
-    (pbrt-v4 section 6.5.4), in float64. A degenerate uv mapping (all uvs on a line) gets an orthonormal pair
-    in the triangle's plane instead."""
-    duv02, duv12, dp02, dp12 = uv[:, 0] - uv[:, 2], uv[:, 1] - uv[:, 2], v[:, 0] - v[:, 2], v[:, 1] - v[:, 2]
-    det = duv02[:, 0] * duv12[:, 1] - duv02[:, 1] * duv12[:, 0]
-    ok = np.abs(det) > 1e-9 * np.maximum(np.sum(duv02 ** 2, 1), np.sum(duv12 ** 2, 1))
-    safe = np.where(ok, det, 1.0)[:, None]
-    dpdu = (duv12[:, 1:] * dp02 - duv02[:, 1:] * dp12) / safe
-    dpdv = (duv02[:, :1] * dp12 - duv12[:, :1] * dp02) / safe
-    if not ok.all():
-        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
-        t, b = _coordinate_system(n / np.linalg.norm(n, axis=1, keepdims=True))
-        dpdu[~ok], dpdv[~ok] = t[~ok], b[~ok]
-    return dpdu, dpdv
+# kernels/types.h: RANDOMIZE_*
+RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "owen": 4}
 
+SAMPLER = np.dtype([("randomize", "<i4"), ("cell_x", "<u4"), ("cell_y", "<u4")])
 
-def triangle_uv_records(v, uv):
-    a = np.zeros(max(len(v), 1), types.TRIANGLE_UV)
-    if len(v):
-        dpdu, dpdv = triangle_uv_frames(v, uv)
-        a["uv"][:len(v)] = uv.reshape(-1, 6)
-        a["dpdu"][:len(v)], a["dpdv"][:len(v)] = dpdu, dpdv
-        a["tangent"][:len(v)] = dpdu / np.linalg.norm(dpdu, axis=1, keepdims=True)
-    return a
+RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_triangles", "<i4"),
+                          ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("pixel_sampler", SAMPLER),
+                          ("light_sampler", SAMPLER), ("seed", "<u4"), ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4"),
+                          ("texture_filter", "<i4"), ("footprint_scale", "<f4")])
 
+# name in kernels/types.h -> dtype
+STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
+           "TriangleNormals": TRIANGLE_NORMALS,
+           "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
+           "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE}
 
-def triangle_uv_structs(tris):
-    uv = np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)
-    return triangle_uv_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), uv)
-
-
-@dataclass
-class TriangleSoup:
-    """Every triangle of a scene in the kernel's order (the scene file's triangles, then each mesh's), as
-    arrays: corners v (F, 3, 3), per-corner uvs (F, 3, 2), per-corner shading normals (F, 3, 3; the face's
-    own normal where a mesh is not smooth), materials (F,)."""
-    v: np.ndarray
-    uv: np.ndarray
-    normals: np.ndarray
-    material: np.ndarray
-
-
-def triangle_soup(scene):
-    tris = scene.triangles
-    v = [np.array([t.vertices for t in tris], np.float64).reshape(-1, 3, 3)]
-    uv = [np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)]
-    normals, material = [None], [np.array([t.material for t in tris], np.int32)]
-    for shape in scene.meshes:
-        m = shape.mesh
-        v.append(m.vertices[m.faces])
-        uv.append(m.uvs[m.faces] if m.uvs is not None else np.broadcast_to(DEFAULT_UV, (len(m.faces), 3, 2)))
-        normals.append(m.normals[m.faces] if shape.smooth else None)
-        material.append(np.full(len(m.faces), shape.material, np.int32))
-    v = np.concatenate(v)
-    face = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
-    face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
-    flat = lambda part: np.repeat(face[part, None], 3, axis=1)  # noqa: E731
-    starts = np.cumsum([0] + [len(a) for a in material])
-    normals = [flat(slice(a, b)) if n is None else n for n, a, b in zip(normals, starts[:-1], starts[1:])]
-    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material))
-
-
-def triangle_normal_records(normals):
-    a = np.zeros(max(len(normals), 1), types.TRIANGLE_NORMALS)
-    if len(normals):
-        a["n0"][:len(normals)], a["n1"][:len(normals)], a["n2"][:len(normals)] = (normals[:, k] for k in range(3))
-    return a
-
-
-def ellipsoid_structs(ells):
-    a = np.zeros(max(len(ells), 1), types.ELLIPSOID)
-    for s, e in zip(a, ells):
-        s["center"], s["material"] = e.center, e.material
-        s["world_to_unit"] = np.linalg.inv(e.matrix).ravel()  # float64 inverse, rounded once
-        s["unit_to_world"] = e.matrix.ravel()
-    return a
-
-
-U = 2.0**-24  # float32 unit roundoff
-CULLED_RECTANGLES = 32  # rectangles that shadow rays may skip, one bit each in a Light's masks (types.h)
-
-
-def light_structs(lights, rectangles=(), extent=0.0):
-    """Light structs; with the scene's `rectangles` and `extent` (a bound on every coordinate of its shapes,
-    lights and displaced shading points), each light's bits of the rectangles whose plane it lies wholly
-    in front of or behind (planes_in_front, planes_behind)."""
-    a = np.zeros(max(len(lights), 1), types.LIGHT)  # a scene without lights (the API allows one) gets a dummy
-    a["shape"] = rectangle_structs(lights)
-    planes = rectangle_structs(rectangles[:CULLED_RECTANGLES]) if len(rectangles) else None
-    for s, light in zip(a, lights):
-        s["colour"] = light.colour
-        if planes is not None:
-            s["planes_in_front"], s["planes_behind"] = light_sides(s["shape"], planes, extent)
-    return a
-
-
-def light_sides(light, planes, extent):
-    """(bits of `planes` with the light strictly in front, bits with it strictly behind), from the stored
-    float32 values. The kernel's shadow rays end near a light point q = c + du t + dv b (two multiply-adds,
-    fused or not, and du, dv rounded once: within gamma(4) (|c| + hx + hy) of the rectangle per
-    coordinate), pushed off the light by its error bound, at most q's gamma(4) sqrt(3) S + gamma(2) (hx +
-    hy) plus gamma(2) |n|.|o - q| <= gamma(2) sqrt(3) 2 S, then rounded one float further and reached along
-    a direction that rounds once (shading.cl): within about 23u (S + hx + hy) of the rectangle per
-    coordinate for coordinates bounded by S; gamma(32) is taken, sqrt(3) of it along a unit normal. float64
-    arithmetic on the stored values adds nothing comparable. Only the first CULLED_RECTANGLES rectangles in
-    the scene's order get bits."""
-    f64 = lambda key: np.asarray(light[key], np.float64)  # noqa: E731
-    hx, hy = float(light["half_x"]), float(light["half_y"])
-    signs = np.array([[-1, -1], [-1, 1], [1, -1], [1, 1]], np.float64) * [hx, hy]
-    corners = f64("center") + signs @ np.stack([f64("tangent"), f64("bitangent")])
-    n, c = planes["normal"].astype(np.float64), planes["center"].astype(np.float64)
-    distance = corners @ n.T - np.einsum("ij,ij->i", c, n)  # (corner, plane)
-    n_gamma = 32 * U / (1 - 32 * U)
-    margin = math.sqrt(3) * n_gamma * (extent + hx + hy)
-    bits = np.left_shift(1, np.arange(len(planes)), dtype=np.int64)
-    front, behind = np.all(distance > margin, axis=0), np.all(distance < -margin, axis=0)
-    return int(bits[front].sum()), int(bits[behind].sum())
-
-
-def scene_extent(scene, triangles):
-    """A bound on every coordinate of the scene's shapes (the packed `triangles` for meshes), lights and
-    height-displaced shading points."""
-    parts = [np.abs(np.concatenate([triangles[k] for k in ("v0", "v1", "v2")])).max(initial=0.0)]
-    for r in [*scene.rectangles, *scene.lights]:
-        parts.append((np.abs(r.center) + r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent)).max())
-    for e in scene.ellipsoids:
-        parts.append((np.abs(e.center) + np.linalg.norm(e.matrix, axis=1)).max())
-    return float(max(parts)) + max([height_reach(scene, m) for m in scene.materials], default=0.0)
-
-
-def height_reach(scene, material):
-    """How far the material's height map can move a shading point: height_scale times the largest height a
-    lookup can return (filters blend texels, so that of the largest |texel| of any level; 8-bit maps read
-    [0, 1], float maps any value)."""
-    if material.height_map < 0:
-        return 0.0
-    texture = scene.textures[material.height_map]
-    if texture.encoding != types.TEXELS_FLOAT:
-        return abs(material.height_scale)
-    largest = max(float(np.abs(level[:, :, 0]).max()) for level in texture.levels)
-    return abs(material.height_scale) * largest
-
-
-def material_structs(materials):
-    a = np.zeros(len(materials), types.MATERIAL)
-    for s, m in zip(a, materials):
-        s["colour"], s["shininess"] = m.colour, m.shininess
-        s["colour_map"], s["normal_map"], s["height_map"] = m.colour_map, m.normal_map, m.height_map
-        s["wrap"], s["height_scale"] = types.WRAP_MODES[m.wrap], m.height_scale
-        s["uv_scale"], s["uv_offset"] = m.uv_scale, m.uv_offset
-    return a
-
-
-def texture_structs(scene):
-    """(Texture table, MipLevel table, texels, sRGB decoding table) of all the scene's textures."""
-    texels, levels, textures = mipmap.pack(scene.textures, scene.path)
-    return textures, levels, texels, mipmap.SRGB8_TO_LINEAR.astype(np.float32)
-
-
-def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear",
-                  pixel_pattern=None, light_pattern=None, seed=0):
-    """RenderParams; the patterns default to one centre sample (raytrace.samplers.Pattern)."""
-    p = np.zeros((), types.RENDER_PARAMS)
-    p["ambient"] = scene.ambient
-    p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
-    p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
-    center = samplers.pattern("center", 1)
-    p["pixel_sampler"] = (pixel_pattern or center).sampler_struct()
-    p["light_sampler"] = (light_pattern or center).sampler_struct()
-    p["seed"] = seed % 2**32
-    p["light_samples"], p["width"], p["height"] = light_samples, width, height
-    p["texture_filter"] = types.FILTERS[texture_filter]
-    # Ray differentials span one sample spacing, but at least 1/8 pixel, as pbrt-v4's RayIntegrator does.
-    p["footprint_scale"] = max(0.125, 1 / math.sqrt(spp))
-    return p
-
-
-def primitive_boxes(scene, soup):
-    """(lo, hi, refs): the axis-aligned box of every shape (float64, (N, 3) each) and its reference,
-    index * 4 + kind (kernels/types.h). An ellipsoid c + A x, |x| = 1, reaches c_j +- |row j of A|."""
-    rect_corners = [r.center + np.outer([-1, 1], r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent))
-                    for r in scene.rectangles]
-    boxes = [(c[0], c[1]) for c in rect_corners]
-    boxes += [(e.center - np.linalg.norm(e.matrix, axis=1), e.center + np.linalg.norm(e.matrix, axis=1))
-              for e in scene.ellipsoids]
-    kinds = [(types.SHAPES["rectangle"], len(scene.rectangles)), (types.SHAPES["triangle"], len(soup.v)),
-             (types.SHAPES["ellipsoid"], len(scene.ellipsoids))]
-    refs = np.concatenate([np.arange(n, dtype=np.int32) * 4 + kind for kind, n in kinds])
-    lo, hi = (np.array([b[k] for b in boxes], np.float64).reshape(-1, 3) for k in (0, 1))
-    n_rect = len(scene.rectangles)
-    lo = np.concatenate([lo[:n_rect], soup.v.min(axis=1), lo[n_rect:]])
-    hi = np.concatenate([hi[:n_rect], soup.v.max(axis=1), hi[n_rect:]])
-    return lo, hi, refs
-
-
-def bvh_structs(scene, use_bvh, soup=None):
-    """(nodes, primitive references, culled subtrees) of the hierarchy over every shape, or one dummy of
-    each without it."""
-    if not use_bvh:
-        return np.zeros(1, types.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32)
-    lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
-    try:
-        nodes, order = bvh.build(lo, hi)
-    except ValueError as e:  # a tree deeper than the kernel's stack
-        raise InputError(scene.path, "shapes", f"{len(refs)} shapes", str(e)) from None
-    return nodes, refs[order], culled_subtrees(nodes, refs[order])
-
-
-def culled_subtrees(nodes, prims):
-    """Per node, the bits of the rectangles its subtree holds when it holds nothing but rectangles among
-    the first CULLED_RECTANGLES (those shadow rays may skip, light_structs), else 0: a shadow ray that
-    skips all of them skips the node unopened (bvh.cl). Leaves first, a slot at a time, then each interior
-    node from its two children, repeated until nothing changes (at most the tree's depth, all nodes at
-    once)."""
-    index, kind = prims >> 2, prims & 3
-    cullable = (kind == types.SHAPES["rectangle"]) & (index < CULLED_RECTANGLES)
-    out = np.zeros(len(nodes), np.uint32)
-    if not cullable.any():
-        return out
-    bits = np.where(cullable, np.left_shift(np.uint32(1), np.minimum(index, 31).astype(np.uint32)), 0)
-    count, first = nodes["count"], nodes["offset"]
-    leaves = np.flatnonzero(count > 0)
-    ored, only = np.zeros(len(leaves), np.uint32), np.ones(len(leaves), bool)
-    for k in range(count.max()):  # at most bvh.build's max_leaf slots
-        has = count[leaves] > k
-        ored[has] |= bits[first[leaves[has]] + k]
-        only[has] &= cullable[first[leaves[has]] + k]
-    out[leaves] = np.where(only, ored, 0)
-    inner = np.flatnonzero(count <= 0)
-    while True:
-        left, right = out[inner + 1], out[first[inner]]
-        value = np.where((left != 0) & (right != 0), left | right, 0)
-        if np.array_equal(value, out[inner]):
-            return out
-        out[inner] = value
-
-
-class _GeometryCache:
-    """The last scene's packed triangles and BVH: repeated renders of one Scene object (bench, converge, a
-    progressive render's callers) pack its triangles and build its BVH once. Keyed by the object itself, so
-    a scene changed in place must be a new object (dataclasses.replace), as everywhere in this package."""
-    scene = key = tables = None
-
-
-def _geometry_tables(scene, uv, smooth, use_bvh):
-    """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference and culled-subtree tables."""
-    cache = _GeometryCache
-    if cache.scene is scene and cache.key == (uv, smooth, use_bvh):
-        return cache.tables
-    soup = triangle_soup(scene)
-    unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
-    tables = [triangle_records(soup.v, soup.material),
-              triangle_uv_records(soup.v, soup.uv) if uv else unused(types.TRIANGLE_UV),
-              triangle_normal_records(soup.normals) if smooth else unused(types.TRIANGLE_NORMALS),
-              *bvh_structs(scene, use_bvh, soup)]
-    cache.scene, cache.key, cache.tables = scene, (uv, smooth, use_bvh), tables
-    return tables
-
-
-def scene_structs(scene, width, height, spp, light_samples, texture_filter, pixel_pattern=None, light_pattern=None,
-                  seed=0, features=None):
-    """The render kernel's scene buffers, in its argument order, up to the textures. Tables a variant
-    does not read (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one
-    dummy entry: features None packs them all but the BVH."""
-    triangles, uvs, normals, nodes, prims, culled = _geometry_tables(
-        scene, features is None or features.textures, features is None or features.smooth_normals,
-        features is not None and features.bvh)
-    return [camera_struct(scene.camera, width, height),
-            params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
-                          seed),
-            rectangle_structs(scene.rectangles), triangles, uvs, normals, ellipsoid_structs(scene.ellipsoids),
-            light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
-            material_structs(scene.materials), nodes, prims, culled]
+# kernels/limits.h
+BVH_STACK = 64                # levels of a BVH the kernel's traversal stack holds: the host refuses deeper trees
+CULLED_RECTANGLES = 32        # rectangles that shadow rays may skip: one bit each in a Light's masks
+LANE_WIDTHS = (1, 4, 8, 16)   # pixels per work-item the kernel accepts

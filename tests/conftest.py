@@ -1,14 +1,12 @@
 """Shared fixtures: the OpenCL device (real PoCL), and a harness that runs small test kernels over
-LANES-wide inputs so every kernel function is checked at both widths the renderer uses."""
-from pathlib import Path
-
+LANES-wide inputs so every kernel function is checked at both widths the renderer uses (shared helpers
+that are not fixtures are in helpers.py)."""
 import pytest
 
-from raytrace.device import context_for, select_device
-from raytrace.probe import Probe, planar  # noqa: F401 (planar: for the tests)
+from helpers import ROOT
+from raytrace.renderer.device import context_for, select_device
 from raytrace.scene import load_scene
-
-ROOT = Path(__file__).resolve().parent.parent
+from raytrace.tools.probe import Probe
 
 
 @pytest.fixture(scope="session")

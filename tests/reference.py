@@ -1,10 +1,13 @@
 """Independent float64 numpy reference renderer (the README's model: camera, shapes, shading), for the kernel's tests.
 
 Plain and vectorised over N rays; loops only over shapes, lights and light samples. It takes the
-raytrace.scene objects as input but imports nothing from raytrace, so a bug in the renderer's own
-host code cannot hide in both the kernel and this file.
+raytrace.scene objects as input but imports nothing of the renderer, so a bug in the renderer's own
+host code cannot hide in both the kernel and this file; the float64 camera model is the one the stability
+suite shares (raytrace/tools/reference_camera.py).
 """
 import numpy as np
+
+from raytrace.tools.reference_camera import camera_directions
 
 
 def _dot(a, b):
@@ -22,16 +25,8 @@ def camera_rays(scene, x, y, width=None, height=None):
     the scene's (render() passes them so the aspect follows the requested image)."""
     w = scene.width if width is None else width
     h = scene.height if height is None else height
-    cam = scene.camera
-    forward, right, up = cam.basis()
-    f = cam.focal_length
-    half = np.tan(np.radians(cam.fov_deg) / 2)
-    x = np.asarray(x, dtype=np.float64).ravel()
-    y = np.asarray(y, dtype=np.float64).ravel()
-    sx = (2 * x / w - 1) * (w / h) * f * half
-    sy = (1 - 2 * y / h) * f * half
-    d = _normalize(f * forward + sx[:, None] * right + sy[:, None] * up)
-    return np.broadcast_to(cam.position, d.shape).copy(), d
+    d, _ = camera_directions(scene.camera, x, y, w, h)
+    return np.broadcast_to(scene.camera.position, d.shape).copy(), d
 
 
 # --- 2. geometry ---------------------------------------------------------------------------------------

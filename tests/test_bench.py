@@ -6,12 +6,12 @@ import math
 import pyopencl as cl
 import pytest
 
-from conftest import ROOT
-from raytrace import bench
-from raytrace.kernel import Features
+from helpers import ROOT
+from raytrace.tools import bench
+from raytrace.renderer.program import Features
 from raytrace.render import render
 from raytrace.scene import load_scene
-from test_cli import CORNELL, run
+from helpers import CORNELL, run
 
 TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1, "--repeat", 1]
 FIELDS = ["scene", "lights", "width", "height", "spp", "light_samples", "rays", "render_seconds", "mrays_per_s",

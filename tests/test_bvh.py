@@ -4,7 +4,8 @@ simply here (a full-sweep SAH build and an object-median build)."""
 import numpy as np
 import pytest
 
-from raytrace import bvh, meshgen
+from raytrace.renderer import bvh
+from raytrace.scene import meshgen
 
 MAX_LEAF = 4
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import reference
-from raytrace.structs import camera_struct
+from raytrace.renderer.packing import camera_struct
 
 SOURCE = """
 #include "camera.cl"

@@ -1,26 +1,14 @@
 """The command line as a user runs it: real files written and read back with OpenImageIO, and bad input
 answered with one line, exit status 2 and no output file."""
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from conftest import ROOT
-from raytrace.image import encode_8bit
+from helpers import CORNELL, ROOT, run
+from raytrace.renderer.image import encode_8bit
 from raytrace.render import render_progressive
-
-CORNELL = str(ROOT / "scenes" / "cornell.toml")
-
-
-def run(*args, **kwargs):
-    """`python -m raytrace ARGS`, its output captured; kwargs go to subprocess.run (cwd, preexec_fn)."""
-    return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)}, **kwargs)
-
 
 def read(path):
     """Spec and pixels in the file's own format (ImageBuf.get_pixels(UNKNOWN) crashes in OIIO 3.2.2)."""
@@ -198,7 +186,7 @@ def test_device_by_type():
     """--device cpu picks a CPU device (PoCL here); --device gpu a GPU, or one line naming --device and the
     devices there are when there is none (this machine)."""
     import pyopencl as cl
-    from raytrace.device import select_device
+    from raytrace.renderer.device import select_device
     from raytrace.errors import InputError
     assert select_device("cpu").type & cl.device_type.CPU
     try:

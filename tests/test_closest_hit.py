@@ -2,8 +2,8 @@
 import numpy as np
 
 import reference
-from conftest import planar
-from raytrace.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
+from helpers import planar
+from raytrace.tools.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
 
 
 def random_rays(scene, n, seed):
@@ -21,7 +21,7 @@ def test_closest_hit_matches_reference(harness, cornell):
     1e-4 of each other (float32 may order them either way); t relative 1e-5; face-forwarded normals 1e-4."""
     n = 2048
     o, d = random_rays(cornell, n, 11)
-    out = harness.run(CLOSEST_HIT, "closest", n, [*scene_args(cornell), planar(o), planar(d)],
+    out = harness.run(CLOSEST_HIT, "closest", n, {**scene_args(cornell), "o": planar(o), "d": planar(d)},
                       CLOSEST_HIT_OUTPUTS, HAS_RECTANGLES=1, HAS_TRIANGLES=1,
                       HAS_ELLIPSOIDS=1)
     ref = reference.closest_hit(cornell, o, d, tmin=0.0)
@@ -46,7 +46,7 @@ def test_shape_kinds_can_be_left_out(harness, cornell):
     o = np.tile(cornell.camera.position, (8, 1))
     d = e.center - o
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    args = [*scene_args(cornell), planar(o), planar(d)]
+    args = {**scene_args(cornell), "o": planar(o), "d": planar(d)}
     outputs = CLOSEST_HIT_OUTPUTS
     full = harness.run(CLOSEST_HIT, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)
     without = harness.run(CLOSEST_HIT, "closest", 8, args, outputs, HAS_RECTANGLES=1, HAS_TRIANGLES=1,

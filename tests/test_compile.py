@@ -5,9 +5,9 @@ import dataclasses
 
 import pytest
 
-from conftest import ROOT
-from raytrace.compile import TARGETS, compile_scene
-from raytrace.kernel import Features
+from helpers import ROOT
+from raytrace.tools.compile import TARGETS, compile_scene
+from raytrace.renderer.program import Features
 from raytrace.scene import load_scene
 
 SCENES = sorted(p.name for p in (ROOT / "scenes").glob("*.toml"))

@@ -9,10 +9,10 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from conftest import ROOT
+from helpers import ROOT
 from raytrace import cli
-from raytrace.converge import COLUMNS, converge, fitted_slope, light_pattern, sample_counts
-from raytrace.image import write_image
+from raytrace.tools.converge import COLUMNS, converge, fitted_slope, light_pattern, sample_counts
+from raytrace.renderer.image import write_image
 
 CORNELL = ROOT / "scenes" / "cornell.toml"
 SAMPLERS = ("random", "sobol", "grid", "center")

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 import reference
-from conftest import planar
-from raytrace.structs import ellipsoid_structs
+from helpers import planar
+from raytrace.renderer.packing import ellipsoid_structs
 from raytrace.scene import Ellipsoid
+from raytrace.numerics import U
 
 SOURCE = """
 #include "ellipsoid.cl"
@@ -79,7 +80,7 @@ def test_matches_reference(harness, name, distance):
     hit = clear & np.isfinite(t)
     sv = np.linalg.svd(e.axes, compute_uv=False)
     cos_incidence = np.maximum(np.abs(np.sum(normal * d, 1)), 1e-3)
-    point_error = 2.0**-24 * np.linalg.norm(o - e.center, axis=1) / sv[-1]
+    point_error = U * np.linalg.norm(o - e.center, axis=1) / sv[-1]
     assert np.all(np.abs(out["t"][hit] - t[hit]) <= 4 * point_error[hit] * sv[0] / cos_incidence[hit])
     normal_error = np.linalg.norm(out["nrm"].T - normal, axis=1)
     assert np.all(normal_error[hit] <= 4 * point_error[hit] * sv[0] / sv[-1] / cos_incidence[hit])

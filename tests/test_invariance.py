@@ -32,8 +32,8 @@ import numpy as np
 import pytest
 
 import raytrace
-from raytrace.converge import rmse
-from raytrace.transform import stored_back, transformed
+from raytrace.numerics import rmse
+from raytrace.scene.transform import stored_back, transformed
 
 OPTIONS = dict(width=96, height=96, spp=4, light_samples=16, sampler="sobol", light_sampler="sobol", progress=False)
 SCALES = [1e-3, 1e-2, 1e2, 1e3, 1e4]

@@ -8,27 +8,22 @@ import pytest
 import raytrace
 import reference
 import reference_textures as ref
-from conftest import ROOT
-from raytrace.kernel import Features
+from helpers import ROOT
+from raytrace.renderer.program import Features
 from raytrace.scene import parse_scene
-from raytrace.structs import U, scene_structs, texture_structs
-from test_textures import stored_levels
+from raytrace.numerics import U
+from raytrace.renderer.packing import scene_tables, texture_tables
+from helpers import stored_levels
 
 SOURCE = """
 #include "camera.cl"
 #include "material.cl"
-__kernel void shading(int n, __constant const Camera *camera, __constant const RenderParams *params,
-                      __global const Rectangle *rects, __global const Triangle *tris,
-                      __global const TriangleUV *tri_uvs, __global const TriangleNormals *tri_normals,
-                      __global const Ellipsoid *ells,
-                      __global const Light *lights, __global const Material *materials,
-                      __global const BVHNode *nodes, __global const int *prims, __global const uint *culled,
-                      __global const Texture *textures, __global const MipLevel *levels,
-                      __global const uint *texels, __global const float *srgb, __global const float *xy,
+__kernel void shading(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS,
+                      __global const float *xy,
                       __global float *k, __global float *nrm, __global float *pos, __global float *err)
 {
-    const Scene s = {rects, tris, tri_uvs, tri_normals, ells, lights, materials, camera, params, nodes, prims, culled};
-    const TextureStore ts = {textures, levels, texels, srgb};
+    const Scene s = SCENE_FROM_PARAMETERS;
+    const TextureStore ts = TEXTURES_FROM_PARAMETERS;
     Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), 1.0f / params->width, 1.0f / params->height);
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     ShadingPoint sp = shading_point(&s, ts, r, hit);
@@ -135,9 +130,8 @@ def expected_shading(scene, x, y, spp, filter_name):
 def kernel_shading(harness, scene, x, y, spp, filter_name):
     features = Features.of(scene, harness.lanes)
     defines = {o[2:].split("=")[0]: int(o.split("=")[1]) for o in features.options()[1:]}
-    args = [*scene_structs(scene, scene.width, scene.height, spp, 1, filter_name, features=features),
-            *texture_structs(scene),
-            np.concatenate([x, y]).astype(np.float32)]
+    args = {**scene_tables(scene, scene.width, scene.height, spp, 1, filter_name, features=features),
+            **texture_tables(scene), "xy": np.concatenate([x, y]).astype(np.float32)}
     return harness.run(SOURCE, "shading", len(x), args, {"k": 3, "nrm": 3, "pos": 3, "err": 1}, **defines)
 
 
@@ -221,7 +215,7 @@ def test_lanes_with_different_materials_match_one_lane(cl_env, maps, filter_name
     widths run the same float32 operations; only where the compiler
     fuses a multiply-add can a rounding differ (~1e-7), which the bump's division by du (>= 1/2 texel of a
     64-texel map at uv_scale 3) and height_scale 0.05 amplify by < 0.05 * 384 = 20: bound 1e-5."""
-    from conftest import Probe
+    from raytrace.tools.probe import Probe
     table = {"camera": {"position": [0.0, -3.0, 1.0], "look_at": [0.0, 0.0, 1.0], "up": [0.0, 0.0, 1.0],
                         "fov": 60.0},
              "image": {"width": 48, "height": 40}, "ambient": [0.1, 0.1, 0.1],

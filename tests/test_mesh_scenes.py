@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 import raytrace
-from conftest import ROOT
-from raytrace import meshgen
-from raytrace.kernel import Features
-from raytrace.meshes import Mesh
+from helpers import ROOT
+from raytrace.scene import meshgen
+from raytrace.renderer.program import Features
+from raytrace.scene.meshes import Mesh
 from raytrace.scene import MeshShape, load_scene
-from raytrace.structs import triangle_soup
-from test_cli import run
+from raytrace.renderer.packing import triangle_soup
+from helpers import run
 
 HEADER = (ROOT / "scenes" / "cornell.toml").read_text().split("[[shapes]]")[0]
 OBJ = """# a unit square as one quad, with uvs and normals, and a triangle beside it

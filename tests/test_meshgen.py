@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from raytrace import meshgen
-from raytrace.meshes import Mesh, degenerate_faces, load_mesh
+from raytrace.scene import meshgen
+from raytrace.scene.meshes import Mesh, degenerate_faces, load_mesh
 
 SHAPES = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshgen.terrain}
 

@@ -7,9 +7,11 @@ import pytest
 import raytrace
 
 import reference_textures as ref
-from raytrace import mipmap, types
-from raytrace.textures import make_texture
-from test_textures import kernel_lookup, openimageio_lookup, stored_levels
+from raytrace.renderer import packing
+from raytrace.scene import mipmap
+from raytrace import structs
+from raytrace.scene.textures import make_texture
+from helpers import kernel_lookup, openimageio_lookup, stored_levels
 
 
 @pytest.mark.parametrize("shape", [(16, 16), (7, 5), (1, 9), (6, 3), (33, 64)])
@@ -64,9 +66,9 @@ def test_packed_layout():
     textures = [make_texture(rng.integers(0, 256, (5, 7, 3), dtype=np.uint8), "8-bit", "colour"),
                 make_texture(rng.random((9, 4, 1)).astype(np.float32), "float", "height"),
                 make_texture(rng.integers(0, 256, (3, 3, 3), dtype=np.uint8), "8-bit", "normal")]
-    texels, levels, table = mipmap.pack(textures)
+    texels, levels, table = packing.pack_textures(textures)
     assert table.tolist() == [(0, 3, 0), (3, 4, 2), (7, 2, 1)]
-    words = [(1 if t.encoding != types.TEXELS_FLOAT else 4) for t in textures for _ in t.levels]
+    words = [(1 if t.encoding != structs.TEXELS_FLOAT else 4) for t in textures for _ in t.levels]
     end = 0
     for (offset, width, height), per_texel in zip(levels.tolist(), words):
         assert offset >= end and (per_texel == 1 or offset % 4 == 0)
@@ -147,7 +149,7 @@ def test_trilinear_against_openimageio(harness, tmp_path):
 
 @pytest.fixture(scope="module")
 def grid_floor():
-    from conftest import ROOT
+    from helpers import ROOT
     return raytrace.load_scene(ROOT / "scenes" / "grid_floor.toml")
 
 
@@ -170,7 +172,7 @@ def test_texture_content_never_rebuilds(grid_floor, tmp_path):
     """Another texture (other size, other format), another filter, another spp: the same program, built
     once (build seconds 0 after the first render of this variant in the process)."""
     import dataclasses
-    from raytrace.textures import make_texture
+    from raytrace.scene.textures import make_texture
     raytrace.render(grid_floor, width=16, height=16, spp=1, sampler="center", light_samples=1)
     other = dataclasses.replace(grid_floor, textures=[make_texture(np.random.default_rng(0).random((37, 21, 3)).astype(
         np.float32), "float", "colour")])

@@ -9,21 +9,20 @@ import dataclasses
 import numpy as np
 import pytest
 
-from conftest import planar
-from raytrace.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
+from helpers import planar
+from raytrace.tools.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
 from raytrace.scene import Ellipsoid, Rectangle, Triangle
-from raytrace.structs import ellipsoid_structs, rectangle_structs, triangle_structs
-from raytrace.transform import f32, transformed
+from raytrace.renderer.packing import ellipsoid_structs, rectangle_structs, triangle_structs
+from raytrace.scene.transform import f32, transformed
+from raytrace.numerics import U
 
 SOURCE = """
 #include "intersect.cl"
-__kernel void leave(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                    __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                    __global const Material *materials, __global const float *o, __global const float *d,
+__kernel void leave(int n, SCENE_PARAMETERS, __global const float *o, __global const float *d,
                     __global const float *w, __global float *t, __global float *p, __global float *err,
                     __global float *nrm, __global float *origin, __global float *again)
 {
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
+    const Scene s = SCENE_FROM_PARAMETERS;
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     vec3 out = IN3(w); /* any direction, turned to the side of the facing normal: away from the surface */
@@ -119,7 +118,7 @@ def test_leaving_a_surface(harness, cornell, name, scale, offset):
     n = 1024
     o, d, size = rays_at(scene, rng, n)
     w = rng.normal(size=(n, 3))
-    out = harness.run(SOURCE, "leave", n, [*scene_args(scene), planar(o), planar(d), planar(w)],
+    out = harness.run(SOURCE, "leave", n, {**scene_args(scene), "o": planar(o), "d": planar(d), "w": planar(w)},
                       {"t": 1, "p": 3, "err": 1, "nrm": 3, "origin": 3, "again": 1},
                       HAS_RECTANGLES=int(bool(scene.rectangles)), HAS_TRIANGLES=int(bool(scene.triangles)),
                       HAS_ELLIPSOIDS=int(bool(scene.ellipsoids)))
@@ -157,7 +156,7 @@ def test_offset_rounds_away(harness):
     nrm[::4, rng.integers(0, 3)] = 0.0
     nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
     nrm = nrm.astype(np.float32).astype(np.float64)
-    err = np.abs(p).max(1) * 2.0**-24 * 10.0 ** rng.uniform(-3, 2, n)
+    err = np.abs(p).max(1) * U * 10.0 ** rng.uniform(-3, 2, n)
     err[:8] = 0.0
     o = harness.run(OFFSET, "offset", n, [planar(p), err.astype(np.float32), planar(nrm)], {"o": 3})["o"].T
     err32 = err.astype(np.float32).astype(np.float64)
@@ -203,7 +202,7 @@ def test_rays_starting_on_the_surface(harness, cornell, name, scale, offset):
         crosses = distance(o) < 0  # inside, going out: it meets the surface once, at a tiny t
     else:
         crosses = -distance(o) / np.sum(d * outward(o), axis=1) > 0
-    out = harness.run(CLOSEST_HIT, "closest", n, [*scene_args(scene), planar(o), planar(d)], CLOSEST_HIT_OUTPUTS,
+    out = harness.run(CLOSEST_HIT, "closest", n, {**scene_args(scene), "o": planar(o), "d": planar(d)}, CLOSEST_HIT_OUTPUTS,
                       HAS_RECTANGLES=int(bool(scene.rectangles)), HAS_TRIANGLES=int(bool(scene.triangles)),
                       HAS_ELLIPSOIDS=int(bool(scene.ellipsoids)))
     hit = np.isfinite(out["t"])

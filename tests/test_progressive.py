@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import raytrace
-from raytrace.converge import rmse
-from raytrace.progressive import Accumulator, pass_size
+from raytrace.numerics import rmse
+from raytrace.renderer.progressive import Accumulator, pass_size
 from raytrace.render import render_progressive
 
 SMALL = dict(width=64, height=64, light_samples=4, progress=False)

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 import reference
-from conftest import planar
-from raytrace.structs import rectangle_structs
+from helpers import planar
+from raytrace.renderer.packing import rectangle_structs
 from raytrace.scene import Rectangle
 
 SOURCE = """

@@ -7,7 +7,7 @@ import pytest
 import reference
 import raytrace
 from raytrace import samplers
-from raytrace.kernel import Features
+from raytrace.renderer.program import Features
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +80,7 @@ def test_specialised_kernel(cornell):
 
 def test_texture_features_follow_the_scene():
     """Colour maps only: no normal- or height-map code; all three: all of it; none: no texture code."""
-    from conftest import ROOT
+    from helpers import ROOT
     expect = {"cornell": (0, 0, 0), "grid_floor": (1, 0, 0), "normal_wall": (0, 1, 0), "textured_cornell": (1, 1, 1)}
     for name, flags in expect.items():
         options = Features.of(raytrace.load_scene(ROOT / "scenes" / f"{name}.toml"), 8).options()
@@ -91,11 +91,11 @@ def test_image_size_and_sample_counts_never_rebuild(cornell):
     """Image size, pixel and light sample counts are kernel arguments (RenderParams and launch sizes): after
     the first render of this variant in the process, each of these reports build seconds 0, and the program
     cache holds one program for the variant."""
-    from raytrace import kernel
+    from raytrace.renderer import program
     raytrace.render(cornell, width=8, height=8, spp=1, light_samples=1, progress=False)
-    before = len(kernel._programs)
+    before = len(program._programs)
     for width, height, spp, light in ((33, 7, 4, 9), (1, 64, 2, 3), (17, 17, 9, 1)):
         _, stats = raytrace.render(cornell, width=width, height=height, spp=spp, light_samples=light,
                                    sampler="jittered", light_sampler="jittered", progress=False)
         assert stats.build_seconds == 0
-    assert len(kernel._programs) == before
+    assert len(program._programs) == before

@@ -4,7 +4,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from helpers import ROOT
 from raytrace.errors import InputError
 from raytrace.scene import load_scene, parse_scene
 

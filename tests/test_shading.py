@@ -5,14 +5,15 @@ import numpy as np
 import pytest
 
 import reference
-from conftest import planar
+from helpers import planar
 import raytrace
-from raytrace import samplers, structs
-from raytrace.kernel import Features
+from raytrace import samplers
+from raytrace.renderer import packing
+from raytrace.renderer.program import Features
 from raytrace.scene import Light, Rectangle
-from raytrace.structs import light_sides, light_structs, rectangle_structs
-from raytrace.textures import make_texture
-from raytrace.probe import scene_args
+from raytrace.renderer.packing import light_sides, light_structs, rectangle_structs
+from raytrace.scene.textures import make_texture
+from raytrace.tools.probe import scene_args
 
 PHONG = """
 #include "shading.cl"
@@ -31,24 +32,20 @@ __kernel void points(int n, __global const Light *light, __global const float *u
 
 SHADOW = """
 #include "shading.cl"
-__kernel void shadow(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                     __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                     __global const Material *materials, __global const float *p, __global const float *q,
+__kernel void shadow(int n, SCENE_PARAMETERS, __global const float *p, __global const float *q,
                      __global float *blocked)
 {
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
+    const Scene s = SCENE_FROM_PARAMETERS;
     vec3 from = IN3(p);
     Ray r = {from, v3_sub(IN3(q), from)};
     OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u)));
 }
 
 /* The renderer's own way off a surface: the camera ray's hit, its offset origin, the segment to q. */
-__kernel void leave(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                    __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                    __global const Material *materials, __global const float *o, __global const float *d,
+__kernel void leave(int n, SCENE_PARAMETERS, __global const float *o, __global const float *d,
                     __global const float *q, __global float *blocked)
 {
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
+    const Scene s = SCENE_FROM_PARAMETERS;
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     vec3 origin = offset_ray_origin(hit.p, hit.err, hit.n);
@@ -98,7 +95,7 @@ def test_shadow_rays(harness, cornell):
     p_off = p + hit["normal"] * 2.44140625e-4 * (1 + np.abs(p).max(1, keepdims=True))
     q = reference.light_points(cornell.lights[0], rng.uniform(0, 1, (n, 2)))
     ref = reference.occluded(cornell, p_off, q)
-    out = harness.run(SHADOW, "shadow", n, [*scene_args(cornell), planar(p_off), planar(q)], {"blocked": 1},
+    out = harness.run(SHADOW, "shadow", n, {**scene_args(cornell), "p": planar(p_off), "q": planar(q)}, {"blocked": 1},
                       HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)["blocked"] > 0
     # silhouette: nudging the light point by 1e-3 changes the reference's answer
     nudged = [reference.occluded(cornell, p_off, q + dq) for dq in np.eye(3) * 1e-3]
@@ -123,7 +120,7 @@ def test_no_acne(harness, cornell):
         p = o + np.where(on_surface, hit["t"], 0)[:, None] * d
         q = np.tile(light.center, (n, 1))
         lit = on_surface & (np.sum(hit["normal"] * (q - p), 1) > 0) & ~reference.occluded(scene, p, q)
-        out = harness.run(SHADOW, "leave", n, [*scene_args(scene), planar(o), planar(d), planar(q)],
+        out = harness.run(SHADOW, "leave", n, {**scene_args(scene), "o": planar(o), "d": planar(d), "q": planar(q)},
                           {"blocked": 1}, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)["blocked"] > 0
         assert np.count_nonzero(lit) > 500
         assert not np.any(out[lit])
@@ -152,7 +149,7 @@ def test_scene_extent_counts_displaced_points(cornell):
     the largest |height| a lookup can return, 1 for an 8-bit map, any value for a float map (here -40 at
     one texel, which every coarser level averages down: level 0 decides)."""
     none = {k: np.zeros((0, 3), np.float32) for k in ("v0", "v1", "v2")}
-    base = structs.scene_extent(cornell, none)
+    base = packing.scene_extent(cornell, none)
     assert base == pytest.approx(2.0, rel=1e-6), "scene 0's coordinates reach 2 (ceiling, walls)"
     heights = np.zeros((4, 4, 1), np.float32)
     heights[1, 2] = -40.0
@@ -160,17 +157,15 @@ def test_scene_extent_counts_displaced_points(cornell):
         bumpy = dataclasses.replace(cornell.materials[0], height_map=0, height_scale=0.1)
         scene = dataclasses.replace(cornell, textures=[make_texture(pixels, kind, "height")],
                                     materials=[bumpy, *cornell.materials[1:]])
-        assert structs.scene_extent(scene, none) == pytest.approx(base + 0.1 * reach, rel=1e-6), kind
+        assert packing.scene_extent(scene, none) == pytest.approx(base + 0.1 * reach, rel=1e-6), kind
 
 
 REACH = """
 #include "shading.cl"
-__kernel void reach(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                    __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                    __global const Material *materials, __global const float *o, __global const float *q,
+__kernel void reach(int n, SCENE_PARAMETERS, __global const float *o, __global const float *q,
                     int index, __global float *skipped, __global float *blocked)
 {
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
+    const Scene s = SCENE_FROM_PARAMETERS;
     vec3 origin = IN3(o);
     uint skip = rectangles_out_of_reach(&s, lights, origin, (vint)(-1));
     OUT(skipped, (vfloat)(((skip >> index) & 1u) ? 1.0f : 0.0f));
@@ -194,7 +189,7 @@ def test_a_skipped_rectangle_never_blocks(harness, cornell):
     shelf = Rectangle(np.array([0.1, 0.5, 1.4]), np.array([0.8, 0.6]), normal, tangent, 1)
     scene = dataclasses.replace(cornell, rectangles=[*cornell.rectangles, shelf])
     index = len(cornell.rectangles)
-    lights = structs.scene_structs(scene, 64, 64, 1, 1, "trilinear")[7]
+    lights = packing.scene_tables(scene)["lights"]
     assert lights[0]["planes_behind"] >> index & 1, "the light is behind the shelf's plane"
     rng = np.random.default_rng(23)
     n = 4096
@@ -204,9 +199,7 @@ def test_a_skipped_rectangle_never_blocks(harness, cornell):
     distance = np.sort(rng.choice([-1, 1], n) * 10 ** rng.uniform(-9, -4, n))  # > 0: away from the light
     o = (c + ab[:, :1] * t + ab[:, 1:] * b + distance[:, None] * nz).astype(np.float32).astype(np.float64)
     q = reference.light_points(cornell.lights[0], rng.uniform(0, 1, (n, 2)))
-    args = scene_args(scene)
-    args[4] = lights
-    out = harness.run(REACH, "reach", n, [*args, planar(o), planar(q), np.int32(index)],
+    out = harness.run(REACH, "reach", n, {**scene_args(scene), "o": planar(o), "q": planar(q), "index": np.int32(index)},
                       {"skipped": 1, "blocked": 1}, HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1)
     skipped, blocked = out["skipped"] > 0, out["blocked"] > 0
     assert not np.any(skipped & blocked)
@@ -238,14 +231,14 @@ def test_skipping_rectangles_out_of_reach_changes_nothing(cornell, lanes, bvh, v
     scene = dataclasses.replace(plain, rectangles=[*cornell.rectangles, *extras])
     of = Features.of.__func__
     monkeypatch.setattr(Features, "of", classmethod(lambda cls, *a: dataclasses.replace(of(cls, *a), bvh=bvh)))
-    lights = structs.scene_structs(scene, 64, 64, 1, 1, "trilinear")[7]
+    lights = packing.scene_tables(scene)["lights"]
     assert lights[0]["planes_in_front"] == 0b111111, "the walls and the panel have the light in front"
     assert lights[0]["planes_behind"] == 0b11000000, "the fin and the shelf have the light behind"
     options = dict(width=64, height=64, spp=4, light_samples=4, lanes=lanes)
     skipping, stats = raytrace.render(scene, **options)
     assert f"-DHAS_BVH={int(bvh)}" in stats.build_options
     without_extras = raytrace.render(plain, **options)[0]
-    monkeypatch.setattr(structs, "light_sides", lambda *args: (0, 0))
+    monkeypatch.setattr(packing, "light_sides", lambda *args: (0, 0))
     testing_all = raytrace.render(scene, **options)[0]
     np.testing.assert_array_equal(skipping, testing_all)
     assert np.abs(skipping - without_extras).max() > 0.1, "the extras' shadows are in the image"

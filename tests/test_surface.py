@@ -5,9 +5,9 @@ import pytest
 
 import reference
 import reference_textures as ref
-from conftest import planar
+from helpers import planar
 from raytrace.scene import Ellipsoid, Rectangle, Triangle
-from raytrace.structs import (camera_struct, ellipsoid_structs, rectangle_structs, triangle_structs,
+from raytrace.renderer.packing import (camera_struct, ellipsoid_structs, rectangle_structs, triangle_structs,
                               triangle_uv_structs)
 
 SOURCE = """

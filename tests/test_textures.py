@@ -6,46 +6,12 @@ import OpenImageIO as oiio
 import pytest
 
 import reference_textures as ref
-from raytrace import mipmap, types
+from helpers import kernel_lookup, openimageio_lookup, stored_levels
+from raytrace.renderer import packing
+from raytrace.scene import mipmap
+from raytrace import structs
 from raytrace.errors import InputError
-from raytrace.textures import load_texture, make_texture
-
-LOOKUP = """
-#include "mipmap.cl"
-/* LANES lookups per work-item, each lane its own point and footprint (and so its own levels). */
-__kernel void lookup(int n, __global const Texture *textures, __global const MipLevel *levels,
-                     __global const uint *texels, __global const float *srgb, int texture, int filter, int wrap,
-                     __global const float *st, __global const float *dst, __global float *out)
-{
-    TextureStore ts = {textures, levels, texels, srgb};
-    vec2 p = {IN(st), IN(st + n)};
-    Footprint f = {IN(dst), IN(dst + n), IN(dst + 2 * n), IN(dst + 3 * n)};
-    OUT3(out, texture_lookup(ts, texture, p, f, filter, wrap));
-}
-"""
-
-
-def kernel_lookup(harness, textures, index, filter_name, wrap, s, t, derivs=None):
-    """RGB of texture `index` of the packed `textures` at (s, t), float64 N x 3."""
-    count, n = len(s), -(-len(s) // 8) * 8  # padded to a multiple of the lane width
-    pad = lambda a: np.concatenate([a, np.zeros(a.shape[:-1] + (n - count,))], axis=-1)  # noqa: E731
-    derivs = np.zeros((4, count)) if derivs is None else np.asarray(derivs, dtype=np.float64)
-    s, t, derivs = pad(np.asarray(s, dtype=np.float64)), pad(np.asarray(t, dtype=np.float64)), pad(derivs)
-    texels, levels, table = mipmap.pack(textures)
-    args = [table, levels, texels, mipmap.SRGB8_TO_LINEAR.astype(np.float32), np.int32(index),
-            np.int32(types.FILTERS[filter_name]), np.int32(types.WRAP_MODES[wrap]),
-            np.stack([s, t]).astype(np.float32), np.asarray(derivs).astype(np.float32)]
-    return harness.run(LOOKUP, "lookup", n, args, {"out": 3})["out"][:, :count].T
-
-
-def stored_levels(texture):
-    """The levels as the device holds them, decoded to linear float64 (8-bit ones through the same table
-    the kernel uses): what the filters must interpolate."""
-    if texture.encoding == types.TEXELS_FLOAT:
-        return [level[..., :3].astype(np.float64) for level in texture.levels]
-    srgb = texture.encoding == types.TEXELS_SRGB8
-    return [mipmap.decode_8bit(level, srgb)[..., :3] for level in texture.levels]
-
+from raytrace.scene.textures import load_texture, make_texture
 
 def random_uv(rng, n, lo=-1.5, hi=2.5):
     """Points covering several periods, so every wrap mode folds some of them."""
@@ -97,9 +63,9 @@ def test_eight_bit_stays_eight_bit(tmp_path):
     write(tmp_path / "c.png", codes, "uint8")
     colour = load_texture(tmp_path / "c.png", "colour", "s", "k")
     data = load_texture(tmp_path / "c.png", "normal", "s", "k")
-    assert colour.encoding == types.TEXELS_SRGB8 and data.encoding == types.TEXELS_UNORM8
+    assert colour.encoding == structs.TEXELS_SRGB8 and data.encoding == structs.TEXELS_UNORM8
     np.testing.assert_array_equal(colour.levels[0][..., :3], codes)
-    texels, _, _ = mipmap.pack([colour])
+    texels, _, _ = packing.pack_textures([colour])
     assert texels.nbytes == 4 * sum(level.shape[0] * level.shape[1] for level in colour.levels)
 
 
@@ -150,7 +116,7 @@ def textures():
             make_texture(rng.uniform(-1, 4, (9, 5, 1)).astype(np.float32), "float", "height")]
 
 
-@pytest.mark.parametrize("wrap", list(types.WRAP_MODES))
+@pytest.mark.parametrize("wrap", list(structs.WRAP_MODES))
 @pytest.mark.parametrize("index", [0, 1, 2], ids=["srgb8", "unorm8", "float"])
 def test_nearest_and_bilinear_match_reference(harness, textures, index, wrap):
     """Level-0 lookups at random points over several periods, in each wrap mode and storage. Bilinear: the
@@ -187,23 +153,11 @@ def test_huge_and_nonfinite_coordinates_stay_in_the_texture(harness, textures):
     """uv of 1e9 (a grazing floor with a large uv_scale) or NaN must read a texel of the texture, never
     memory beyond it: every value returned lies in the texture's range."""
     s = np.array([1e9, -1e9, 3e7, np.nan, np.inf, -np.inf, 0.5, 1e30])
-    for wrap in types.WRAP_MODES:
-        for f in types.FILTERS:
+    for wrap in structs.WRAP_MODES:
+        for f in structs.FILTERS:
             got = kernel_lookup(harness, textures, 2, f, wrap, s, s[::-1], np.full((4, 8), 1e-3))
             level = stored_levels(textures[2])[0]
             assert np.all(np.isfinite(got)) and np.all(got >= level.min() - 1e-6) and np.all(got <= level.max() + 1e-6)
-
-
-def openimageio_lookup(folder, image, mipmode, s, t, derivs=None):
-    """OpenImageIO's TextureSystem on `image` (made into a tiled, MIP-mapped file), periodic wrapping,
-    bilinear interpolation, the given MipMode; derivs (dsdx, dtdx, dsdy, dtdy) default to 0."""
-    path = str(folder / "t.tx")
-    assert oiio.ImageBufAlgo.make_texture(oiio.MakeTxTexture, oiio.ImageBuf(image), path, oiio.ImageSpec())
-    system, opt = oiio.TextureSystem(), oiio.TextureOpt()
-    opt.swrap = opt.twrap = oiio.Wrap.Periodic
-    opt.mipmode, opt.interpmode = mipmode, oiio.InterpMode.Bilinear
-    derivs = np.zeros((4, len(s))) if derivs is None else derivs
-    return np.array([system.texture(path, opt, a, b, *map(float, d), 3) for a, b, d in zip(s, t, derivs.T)])
 
 
 def test_bilinear_matches_openimageio(harness, tmp_path):
@@ -238,7 +192,7 @@ def test_reduced_coordinates_stay_within_two_periods(harness):
     for size in (7, 9, 300):
         for mode in ("repeat", "mirror"):
             period = size * (2 if mode == "mirror" else 1)
-            r = harness.run(REDUCE, "reduce", len(x), [x, np.int32(size), np.int32(types.WRAP_MODES[mode])],
+            r = harness.run(REDUCE, "reduce", len(x), [x, np.int32(size), np.int32(structs.WRAP_MODES[mode])],
                             {"out": 1})["out"].astype(np.float64)
             assert np.all(np.abs(r) < 2 * period), (size, mode)
             fine = np.abs(x) < 2 ** 20
@@ -266,5 +220,5 @@ def test_wrap_index_over_many_periods(harness):
     for mode, expect in [("repeat", i % size), ("clamp", np.clip(i, 0, size - 1)),
                          ("mirror", np.where((i // size) % 2 == 0, i % size, size - 1 - i % size))]:
         out = harness.run(WRAP, "wrap", len(i), [i.astype(np.float32), np.int32(size),
-                                                 np.int32(types.WRAP_MODES[mode])], {"out": 1})["out"]
+                                                 np.int32(structs.WRAP_MODES[mode])], {"out": 1})["out"]
         np.testing.assert_array_equal(out, expect, err_msg=mode)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from raytrace.render import OUTPUT_PLANES, render_progressive
-from test_cli import CORNELL, run
+from helpers import CORNELL, run
 
 SIZE = dict(width=97, height=61, progress=False)  # odd sizes: 97 = 12 * 8 + 1 columns, the last 7 lanes masked
 ROW_BYTES = OUTPUT_PLANES * 4 * SIZE["width"]     # one row of the kernel's output, float32 planes

@@ -11,22 +11,21 @@ import dataclasses
 import numpy as np
 import pytest
 
-from conftest import planar
-from raytrace import bvh, meshgen
+from helpers import planar
+from raytrace.renderer import bvh
+from raytrace.scene import meshgen
 from raytrace.scene import Triangle
-from raytrace.structs import (bvh_structs, ellipsoid_structs, light_structs, material_structs, params_struct,
-                              rectangle_structs, triangle_structs)
+from raytrace.renderer.packing import bvh_structs
+from raytrace.renderer.program import Features
+from raytrace.tools.probe import scene_args
 
 SOURCE = """
 #include "intersect.cl"
-__kernel void trace(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                    __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                    __global const Material *materials, __global const BVHNode *nodes, __global const int *prims,
-                    __global const uint *culled, uint skip, __global const float *o, __global const float *d,
+__kernel void trace(int n, SCENE_PARAMETERS, uint skip, __global const float *o, __global const float *d,
                     __global float *t, __global float *nrm, __global float *material, __global float *blocked,
                     __global float *blocked_skipping)
 {
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params, nodes, prims, culled};
+    const Scene s = SCENE_FROM_PARAMETERS;
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);
@@ -48,9 +47,8 @@ def mesh_scene(cornell):
 
 
 def trace(harness, scene, o, d, use_bvh, skip=0):
-    args = [params_struct(scene), rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
-            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials),
-            *bvh_structs(scene, use_bvh), np.uint32(skip), planar(o), planar(d)]
+    args = {**scene_args(scene, features=Features(bvh=use_bvh)), "skip": np.uint32(skip), "o": planar(o),
+            "d": planar(d)}
     return harness.run(SOURCE, "trace", len(o), args,
                        {"t": 1, "nrm": 3, "material": 1, "blocked": 1, "blocked_skipping": 1},
                        HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1, HAS_BVH=int(use_bvh))
@@ -121,7 +119,7 @@ def test_rays_in_box_faces(harness, cornell):
 
 
 def test_culled_subtrees_against_a_walk_of_the_tree(cornell):
-    """structs.culled_subtrees against a recursive walk that collects every primitive under each node: the
+    """culling.culled_subtrees against a recursive walk that collects every primitive under each node: the
     rectangles' bits where all of them are rectangles among the first 32, else 0. The scene mixes 40 small
     rectangles (8 beyond the first 32), triangles and an ellipsoid, so that leaves and subtrees of every
     kind occur."""

@@ -3,9 +3,10 @@ import numpy as np
 import pytest
 
 import reference
-from conftest import planar
-from raytrace.structs import triangle_structs
+from helpers import planar
+from raytrace.renderer.packing import triangle_structs
 from raytrace.scene import Triangle
+from raytrace.numerics import U
 
 SOURCE = """
 #include "triangle.cl"
@@ -57,7 +58,7 @@ def test_matches_reference(harness, k):
     normal = np.cross(v[1] - v[0], v[2] - v[0])
     area2 = np.linalg.norm(normal)
     cos_incidence = np.abs(d @ normal) / area2
-    delta = 8 * 2.0**-24 * (np.abs(o).max(1) + np.abs(v).max()) / 0.1
+    delta = 8 * U * (np.abs(o).max(1) + np.abs(v).max()) / 0.1
     altitude = area2 / max(np.linalg.norm(v[1] - v[0]), np.linalg.norm(v[2] - v[1]), np.linalg.norm(v[0] - v[2]))
     weights = np.stack([1 - b.sum(1), b[:, 0], b[:, 1]], axis=1)
     sel = np.all(np.abs(weights) > 1e-3, axis=1) & (cos_incidence > 0.1)

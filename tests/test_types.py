@@ -1,59 +1,101 @@
-"""Every struct in kernels/types.h against its numpy mirror in raytrace/types.py: sizes and offsets as
-this device's compiler lays them out."""
+"""Every struct in kernels/types.h against its numpy mirror in raytrace/structs.py, and every constant of
+kernels/types.h and kernels/limits.h against its mirror: as this device's compiler lays them out and
+defines them."""
 import numpy as np
 import pyopencl as cl
+import pytest
 
-from raytrace import types
-from raytrace.kernel import build
-
-
-def layout_source():
-    checks = []
-    for struct, dtype in types.STRUCTS.items():
-        checks.append(f"sizeof({struct})")
-        checks += [f"__builtin_offsetof({struct}, {field})" for field in dtype.names]
-    body = "\n".join(f"    out[{i}] = {c};" for i, c in enumerate(checks))
-    return f'#include "types.h"\n__kernel void layout(__global int *out)\n{{\n{body}\n}}\n', len(checks)
+from raytrace import structs
+from raytrace.renderer.program import build
 
 
-def host_layout():
-    values = []
-    for dtype in types.STRUCTS.values():
-        values.append(dtype.itemsize)
-        values += [dtype.fields[name][1] for name in dtype.names]
-    return values
+def run_int_kernel(cl_env, source, n):
+    """Run a one-work-item kernel `values(__global int *out)` from `source` (with types.h included); its n
+    ints."""
+    context, queue = cl_env
+    program, _ = build(context, f'#include "types.h"\n{source}')
+    out = np.zeros(max(n, 1), np.int32)
+    buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    cl.Kernel(program, "values")(queue, (1,), None, buf)
+    cl.enqueue_copy(queue, out, buf)
+    return out[:n].tolist()
+
+
+def values_kernel(expressions):
+    body = "\n".join(f"    out[{i}] = {e};" for i, e in enumerate(expressions))
+    return f"__kernel void values(__global int *out)\n{{\n{body}\n}}\n"
 
 
 def test_struct_layout_matches_device(cl_env):
-    context, queue = cl_env
-    source, n = layout_source()
-    program, _ = build(context, source)
-    out = np.zeros(n, np.int32)
-    buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
-    cl.Kernel(program, "layout")(queue, (1,), None, buf)
-    cl.enqueue_copy(queue, out, buf)
-    assert out.tolist() == host_layout()
+    checks, host = [], []
+    for struct, dtype in structs.STRUCTS.items():
+        checks.append(f"sizeof({struct})")
+        checks += [f"__builtin_offsetof({struct}, {field})" for field in dtype.names]
+        host.append(dtype.itemsize)
+        host += [dtype.fields[name][1] for name in dtype.names]
+    assert run_int_kernel(cl_env, values_kernel(checks), len(checks)) == host
 
 
-def test_no_struct_has_hidden_padding():
-    """Only 4-byte fields: the field sizes add up to the struct size, on every OpenCL device."""
-    for dtype in types.STRUCTS.values():
-        assert sum(dtype.fields[name][0].itemsize for name in dtype.names) == dtype.itemsize
+def padding_problems(cl_env, declarations, fields):
+    """What the device's compiler lays out with padding in the structs of `declarations` ({struct: field
+    names}): a field not 4-byte aligned or not a multiple of 4 bytes long, or a struct larger than its
+    fields (hidden padding, which a packed numpy mirror would not have)."""
+    checks = []
+    for struct, names in fields.items():
+        checks.append(f"sizeof({struct})")
+        for name in names:
+            checks += [f"__builtin_offsetof({struct}, {name})", f"sizeof((({struct} *)0)->{name})"]
+    values = iter(run_int_kernel(cl_env, declarations + values_kernel(checks), len(checks)))
+    problems = []
+    for struct, names in fields.items():
+        size, total = next(values), 0
+        for name in names:
+            offset, length = next(values), next(values)
+            total += length
+            if offset % 4 or length % 4:
+                problems.append(f"{struct}.{name}: offset {offset}, {length} bytes")
+        if total != size:
+            problems.append(f"{struct}: {size} bytes for {total} bytes of fields")
+    return problems
+
+
+def test_no_struct_has_hidden_padding(cl_env):
+    """Every field of every struct the kernel reads is 4-byte aligned and a whole number of 4-byte words,
+    and the fields fill their struct, as the device lays them out: so a packed numpy mirror matches on every
+    OpenCL device, whatever its alignment rules."""
+    assert padding_problems(cl_env, "", {s: d.names for s, d in structs.STRUCTS.items()}) == []
+
+
+def test_padding_is_found(cl_env):
+    """The check above can fail: a float3 (16-byte aligned, 16 bytes) before a float, and a char before an
+    int, are each reported."""
+    declarations = ("typedef struct { float x; float3 v; } Vector;\n"
+                    "typedef struct { char c; int i; } Holed;\n")
+    problems = padding_problems(cl_env, declarations, {"Vector": ["x", "v"], "Holed": ["c", "i"]})
+    assert any(p.startswith("Vector:") for p in problems)
+    assert "Holed.c: offset 0, 1 bytes" in problems and any(p.startswith("Holed:") for p in problems)
 
 
 def test_constants_match_device(cl_env):
-    """The WRAP_*, TEXELS_*, FILTER_*, RANDOMIZE_* and SHAPE_* macros of kernels/types.h against their mirrors in raytrace/types.py."""
-    names = {f"WRAP_{k.upper()}": v for k, v in types.WRAP_MODES.items()}
-    names |= {f"FILTER_{k.upper()}": v for k, v in types.FILTERS.items()}
-    names |= {f"RANDOMIZE_{k.upper()}": v for k, v in types.RANDOMIZE.items()}
-    names |= {f"SHAPE_{k.upper()}": v for k, v in types.SHAPES.items()}
-    names |= {"TEXELS_SRGB8": types.TEXELS_SRGB8, "TEXELS_UNORM8": types.TEXELS_UNORM8,
-              "TEXELS_FLOAT": types.TEXELS_FLOAT}
-    context, queue = cl_env
-    body = "\n".join(f"    out[{i}] = {name};" for i, name in enumerate(names))
-    program, _ = build(context, f'#include "types.h"\n__kernel void constants(__global int *out)\n{{\n{body}\n}}\n')
-    out = np.zeros(len(names), np.int32)
-    buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
-    cl.Kernel(program, "constants")(queue, (1,), None, buf)
-    cl.enqueue_copy(queue, out, buf)
-    assert out.tolist() == list(names.values())
+    """The WRAP_*, FILTER_*, RANDOMIZE_*, SHAPE_* and TEXELS_* macros of kernels/types.h and the limits of
+    kernels/limits.h against their mirrors in raytrace/structs.py."""
+    names = {f"WRAP_{k.upper()}": v for k, v in structs.WRAP_MODES.items()}
+    names |= {f"FILTER_{k.upper()}": v for k, v in structs.FILTERS.items()}
+    names |= {f"RANDOMIZE_{k.upper()}": v for k, v in structs.RANDOMIZE.items()}
+    names |= {f"SHAPE_{k.upper()}": v for k, v in structs.SHAPES.items()}
+    names |= {"TEXELS_SRGB8": structs.TEXELS_SRGB8, "TEXELS_UNORM8": structs.TEXELS_UNORM8,
+              "TEXELS_FLOAT": structs.TEXELS_FLOAT}
+    names |= {"BVH_STACK": structs.BVH_STACK, "CULLED_RECTANGLES": structs.CULLED_RECTANGLES}
+    assert run_int_kernel(cl_env, values_kernel(names), len(names)) == list(names.values())
+
+
+def test_lane_widths_match_device(cl_env):
+    """limits.h's LANE_WIDTH_ACCEPTED against structs.LANE_WIDTHS, for every width up to 64."""
+    accepted = run_int_kernel(cl_env, values_kernel([f"LANE_WIDTH_ACCEPTED({n})" for n in range(65)]), 65)
+    assert [n for n in range(65) if accepted[n]] == list(structs.LANE_WIDTHS)
+
+
+@pytest.mark.parametrize("lanes", [0, 2, 3, 32])
+def test_other_lane_widths_do_not_build(cl_env, lanes):
+    with pytest.raises(cl.RuntimeError, match="LANES must be"):
+        build(cl_env[0], '#include "lanes.h"\n__kernel void k(void) {}\n', [f"-DLANES={lanes}"])

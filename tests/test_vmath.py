@@ -5,7 +5,8 @@ the shading can feed them, the values next to 1 where Phong highlights peak, and
 import numpy as np
 import pytest
 
-U = 2.0**-24
+from raytrace.numerics import U
+
 TINY = 2.0**-126
 
 VMATH = """

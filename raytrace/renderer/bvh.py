@@ -13,13 +13,12 @@ child first by the ray direction's sign on that axis).
 """
 import numpy as np
 
-from .types import BVH_NODE  # the mirror of kernels/types.h's BVHNode
+from ..structs import BVH_NODE, BVH_STACK  # traversal pushes at most one node per level: depth <= BVH_STACK
 
 # SAH costs relative to one primitive intersection, both 1 as issue 9 asks (pbrt-v4 7.3.2 uses 1/2 for
 # traversal); to be tuned against the kernel's traversal once there is one.
 TRAVERSAL_COST = 1.0
 INTERSECTION_COST = 1.0
-MAX_DEPTH = 64  # levels; kernels/bvh.cl's BVH_STACK: traversal pushes at most one node per level
 
 
 def build(lo, hi, max_leaf=4, bins=16):
@@ -50,8 +49,8 @@ def build(lo, hi, max_leaf=4, bins=16):
         split = ~level["leaf"]
         counts = np.stack([level["left_count"], counts - level["left_count"]], 1)[split].ravel()
         first = np.stack([first, first + level["left_count"]], 1)[split].ravel()
-    if len(levels) > MAX_DEPTH:
-        raise ValueError(f"the BVH is {len(levels)} levels deep, more than the kernel's stack of {MAX_DEPTH}")
+    if len(levels) > BVH_STACK:
+        raise ValueError(f"the BVH is {len(levels)} levels deep, more than the kernel's stack of {BVH_STACK}")
     return _flatten(levels), order
 
 

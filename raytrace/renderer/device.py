@@ -6,7 +6,7 @@ from functools import lru_cache
 
 import pyopencl as cl
 
-from .errors import InputError
+from ..errors import InputError
 
 # LLVM 14 (in PoCL 3.0 from PyPI) names CPUs newer than itself "generic", which its own compiler then
 # rejects ("unknown target CPU 'generic'", pocl issue 1049): every build fails on, e.g., AMD Zen 5.

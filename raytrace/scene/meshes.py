@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 # Twice the area over the longest edge squared: at or below this a triangle has no usable plane
 # (raytrace.scene refuses triangles written in a scene file by the same ratio).

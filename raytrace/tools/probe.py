@@ -6,10 +6,10 @@ n y's, then n z's. The macros below read and write them at either lane width."""
 import numpy as np
 import pyopencl as cl
 
-from .device import context_for, select_device
-from .kernel import build
-from .structs import (ellipsoid_structs, light_structs, material_structs, params_struct, rectangle_structs,
-                      triangle_structs)
+from ..renderer.device import context_for, select_device
+from ..renderer.program import build
+from ..renderer.interface import KernelArguments
+from ..renderer.packing import scene_tables
 
 PRELUDE = """
 #include "lanes.h"
@@ -47,37 +47,54 @@ class Probe:
             self._programs[key] = build(self.context, PRELUDE + source, options)[0]
         return self._programs[key]
 
-    def _buffer(self, array):
+    @staticmethod
+    def _array(array):
+        """What a buffer is made of: float64 as float32, contiguous, at least one element."""
         array = np.ascontiguousarray(array.astype(np.float32) if array.dtype == np.float64 else array)
-        return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                         hostbuf=array if array.size else np.zeros(1, array.dtype))
+        return array if array.size else np.zeros(1, array.dtype)
+
+    def _buffer(self, array):
+        return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=self._array(array))
 
     def run(self, source, name, n, args, outputs, **defines):
         """Run kernel `name` over n elements (n a multiple of LANES). It receives `int n`, the `args` (numpy
         arrays are copied in, float64 as float32; numpy scalars pass as they are), then one float buffer per
-        entry of `outputs` ({name: components}). Returns {name: float64 array, (n,) or (components, n)}."""
+        entry of `outputs` ({name: components}). `args` is a list, taken in the kernel's order after n, or a
+        dict, bound by name like the renderer's own arguments (renderer/interface.py): a kernel that takes a
+        whole scene declares kernels/scene.h's SCENE_PARAMETERS and gets scene_args(scene) by name.
+        Returns {name: float64 array, (n,) or (components, n)}."""
         if n % self.lanes:
             raise ValueError(f"{n} elements is not a multiple of LANES={self.lanes}")
-        kernel_args = [np.int32(n)] + [self._buffer(a) if isinstance(a, np.ndarray) else a for a in args]
+        kernel = cl.Kernel(self._program(source, defines), name)
         host = {k: np.empty((c, n), np.float32) for k, c in outputs.items()}
-        bufs = [cl.Buffer(self.context, cl.mem_flags.WRITE_ONLY, h.nbytes) for h in host.values()]
-        cl.Kernel(self._program(source, defines), name)(self.queue, (n // self.lanes,), None, *kernel_args, *bufs)
-        for h, b in zip(host.values(), bufs):
+        bufs = {k: cl.Buffer(self.context, cl.mem_flags.WRITE_ONLY, h.nbytes) for k, h in host.items()}
+        if isinstance(args, dict):
+            bound = KernelArguments(kernel)
+            bound.set("n", np.int32(n))
+            bound.upload(self.context, {k: self._array(a) for k, a in args.items() if isinstance(a, np.ndarray)})
+            for k, a in args.items():
+                if not isinstance(a, np.ndarray):
+                    bound.set(k, a)
+            for k in outputs:
+                bound.set(k, host[k], bufs[k])
+            bound.launch(self.queue, (n // self.lanes,))
+        else:
+            kernel_args = [np.int32(n)] + [self._buffer(a) if isinstance(a, np.ndarray) else a for a in args]
+            kernel(self.queue, (n // self.lanes,), None, *kernel_args, *bufs.values())
+        for h, b in zip(host.values(), bufs.values()):
             cl.enqueue_copy(self.queue, h, b)
         return {k: (h[0] if outputs[k] == 1 else h).astype(np.float64) for k, h in host.items()}
 
 
 # The renderer's closest_hit over a scene's shapes and lights (without a BVH), every field of the Hit a test
-# looks at: run it with scene_args(scene), the rays' planar o and d, and CLOSEST_HIT_OUTPUTS.
+# looks at: run it with {**scene_args(scene), "o": planar(o), "d": planar(d)} and CLOSEST_HIT_OUTPUTS.
 CLOSEST_HIT = """
 #include "intersect.cl"
-__kernel void closest(int n, __constant const RenderParams *params, __global const Rectangle *rects,
-                      __global const Triangle *tris, __global const Ellipsoid *ells, __global const Light *lights,
-                      __global const Material *materials, __global const float *o, __global const float *d,
+__kernel void closest(int n, SCENE_PARAMETERS, __global const float *o, __global const float *d,
                       __global float *t, __global float *p, __global float *err, __global float *nrm,
                       __global float *material, __global float *emitted)
 {
-    const Scene s = {rects, tris, 0, 0, ells, lights, materials, 0, params};
+    const Scene s = SCENE_FROM_PARAMETERS;
     Ray r = {IN3(o), IN3(d)};
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);
@@ -91,7 +108,7 @@ __kernel void closest(int n, __constant const RenderParams *params, __global con
 CLOSEST_HIT_OUTPUTS = {"t": 1, "p": 3, "err": 1, "nrm": 3, "material": 1, "emitted": 1}
 
 
-def scene_args(scene):
-    """The shape, light and material tables CLOSEST_HIT (and kernels like it) take, in its order."""
-    return [params_struct(scene), rectangle_structs(scene.rectangles), triangle_structs(scene.triangles),
-            ellipsoid_structs(scene.ellipsoids), light_structs(scene.lights), material_structs(scene.materials)]
+def scene_args(scene, **options):
+    """The scene's tables (kernels/scene.h's SCENE_PARAMETERS) by name; `options` as packing.scene_tables
+    takes them. A kernel that also declares TEXTURE_PARAMETERS gets packing.texture_tables(scene) too."""
+    return scene_tables(scene, **options)

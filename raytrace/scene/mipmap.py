@@ -1,4 +1,4 @@
-"""MIP pyramids (Williams 1983) and the one device buffer that holds every level of every texture.
+"""MIP pyramids (Williams 1983): every level of a texture, from its file's pixels.
 
 A level has max(1, W // 2) x max(1, H // 2) texels of the level above, each the exact area average of
 the part of the finer level it covers (a box filter): for even sizes the 2 x 2 mean, for odd sizes the
@@ -8,8 +8,6 @@ levels are filtered in linear values (decoded from sRGB for colour maps) and enc
 """
 import numpy as np
 
-from . import types
-from .errors import InputError
 
 
 def _box_axis(image, axis):
@@ -76,28 +74,3 @@ def pyramid_8bit(codes, srgb):
     """Levels of an H x W x 4 uint8 image, filtered in linear values, each stored as 8-bit codes."""
     levels = pyramid(decode_8bit(codes, srgb))
     return [np.asarray(codes, np.uint8)] + [encode_8bit(level, srgb) for level in levels[1:]]
-
-
-MAX_WORDS = (1 << 31) - 1  # offsets are int32 words in the kernel
-
-
-def pack(textures, source="scene"):
-    """(texels: uint32 words, MipLevel table, Texture table) for a list of raytrace.textures.Texture.
-    8-bit levels take one word per texel (RGBA, r in the low byte); float levels four, 16-byte aligned."""
-    chunks, level_table, texture_table, offset = [], [], [], 0
-    for texture in textures:
-        texture_table.append((len(level_table), len(texture.levels), texture.encoding))
-        for level in texture.levels:
-            words = np.ascontiguousarray(level).view("<u4").ravel()
-            if texture.encoding == types.TEXELS_FLOAT and offset % 4:
-                chunks.append(np.zeros(4 - offset % 4, np.uint32))
-                offset += 4 - offset % 4
-            level_table.append((offset, level.shape[1], level.shape[0]))
-            chunks.append(words)
-            offset += words.size
-    if offset > MAX_WORDS:
-        raise InputError(source, "textures", f"{offset * 4} bytes", "more texture memory than one buffer can hold")
-    texels = np.concatenate(chunks) if chunks else np.zeros(1, np.uint32)
-    levels = np.array(level_table or [(0, 1, 1)], dtype=types.MIP_LEVEL)
-    table = np.array(texture_table or [(0, 0, 0)], dtype=types.TEXTURE)
-    return texels, levels, table

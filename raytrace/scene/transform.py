@@ -10,6 +10,8 @@ import dataclasses
 
 import numpy as np
 
+from ..numerics import f32
+
 
 def _map(scene, point, length):
     replace = dataclasses.replace
@@ -22,11 +24,6 @@ def _map(scene, point, length):
         triangles=[replace(t, vertices=point(t.vertices)) for t in scene.triangles],
         meshes=[replace(m, mesh=replace(m.mesh, vertices=point(m.mesh.vertices))) for m in scene.meshes],
         ellipsoids=[replace(e, center=point(e.center), axes=length(e.axes)) for e in scene.ellipsoids])
-
-
-def f32(x):
-    """x as float32 stores it, back in float64."""
-    return np.asarray(x, np.float64).astype(np.float32).astype(np.float64)
 
 
 def transformed(scene, scale=1.0, offset=(0.0, 0.0, 0.0)):

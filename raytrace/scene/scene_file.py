@@ -1,130 +1,24 @@
-"""Scene description: the TOML file format, its validation, and the host-side scene model (float64).
+"""Scene files: the TOML format and its validation, read into the scene model (model.py).
 
 Every check names the file, the key and the value (InputError), so a user can fix a scene in one go.
 """
 import math
 import tomllib
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from . import meshes, meshgen, samplers
-from .errors import InputError
-from .transform import mesh_matrix
+from . import meshes, meshgen
+from ..errors import InputError
+from .. import samplers
+from ..structs import WRAP_MODES
+from .model import (DEFAULT_SHININESS, Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
+                    normalize)
 from .textures import TextureCache
-from .types import WRAP_MODES
+from .transform import mesh_matrix
 
 SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
-DEFAULT_SHININESS = 16.0
 FLOAT32_TINY, FLOAT32_MAX = float(np.finfo(np.float32).tiny), float(np.finfo(np.float32).max)
-
-
-@dataclass(frozen=True)
-class Camera:
-    position: np.ndarray
-    look_at: np.ndarray
-    ref_up: np.ndarray
-    fov_deg: float
-    focal_length: float = 1.0
-
-    def basis(self):
-        """forward, right, up as the README's model, camera defines them (float64)."""
-        forward = _normalize(self.look_at - self.position)
-        right = _normalize(np.cross(forward, self.ref_up))
-        return forward, right, np.cross(right, forward)
-
-
-@dataclass(frozen=True)
-class Material:
-    """The course's Phong material; textures are indices into Scene.textures (-1: none)."""
-    name: str
-    colour: np.ndarray
-    shininess: float = DEFAULT_SHININESS
-    colour_map: int = -1
-    normal_map: int = -1
-    height_map: int = -1
-    height_scale: float = 0.0
-    uv_scale: tuple = (1.0, 1.0)
-    uv_offset: tuple = (0.0, 0.0)
-    wrap: str = "repeat"
-
-
-@dataclass(frozen=True)
-class Rectangle:
-    """Centre, full size (sx, sy), unit normal n, unit tangent t (x axis); bitangent n x t (y axis)."""
-    center: np.ndarray
-    size: np.ndarray
-    normal: np.ndarray
-    tangent: np.ndarray
-    material: int = 0
-
-    @property
-    def bitangent(self):
-        return np.cross(self.normal, self.tangent)
-
-
-@dataclass(frozen=True)
-class Light(Rectangle):
-    colour: np.ndarray = field(default_factory=lambda: np.ones(3))
-
-
-@dataclass(frozen=True)
-class Triangle:
-    vertices: np.ndarray          # 3 x 3, rows v0, v1, v2
-    material: int = 0
-    uv: np.ndarray | None = None  # 3 x 2 per-vertex texture coordinates, or None for (b1, b2)
-
-
-@dataclass(frozen=True)
-class Ellipsoid:
-    """The image of the unit sphere under x -> center + axes.T @ x (rows of `axes` are a, b, c)."""
-    center: np.ndarray
-    axes: np.ndarray
-    material: int = 0
-
-    @property
-    def matrix(self):
-        return self.axes.T
-
-
-@dataclass(frozen=True)
-class MeshShape:
-    """A triangle mesh read from a file or generated (raytrace.meshes.Mesh), in world space. smooth: shade
-    with its per-vertex normals (the file's, else area-weighted ones) instead of each face's own."""
-    mesh: meshes.Mesh
-    material: int = 0
-    smooth: bool = False
-    dropped: int = 0  # degenerate faces left out on load
-    source: str = ""  # the file it was read from, or the generator
-
-
-@dataclass
-class Scene:
-    path: str
-    camera: Camera
-    width: int
-    height: int
-    ambient: np.ndarray
-    lights: list
-    materials: list
-    rectangles: list = field(default_factory=list)
-    triangles: list = field(default_factory=list)
-    ellipsoids: list = field(default_factory=list)
-    spp: int = 1
-    light_samples: int = 1
-    sampler: str = "grid"
-    light_sampler: str = "grid"
-    textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
-    meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
-
-    @property
-    def triangle_count(self):
-        return len(self.triangles) + sum(len(m.mesh.faces) for m in self.meshes)
-
-
-def _normalize(v):
-    return v / np.linalg.norm(v)
 
 
 class _Reader:
@@ -199,12 +93,12 @@ class _Reader:
 
 def _frame(r, normal_key="normal", tangent_key="tangent"):
     """Unit normal and a tangent made orthogonal to it (Gram-Schmidt); refuses a tangent along the normal."""
-    n = _normalize(r.vector(normal_key, 3, nonzero=True))
+    n = normalize(r.vector(normal_key, 3, nonzero=True))
     t_raw = r.vector(tangent_key, 3, nonzero=True)
     t = t_raw - np.dot(t_raw, n) * n
     if np.linalg.norm(t) < 1e-6 * np.linalg.norm(t_raw):
         r.fail(tangent_key, t_raw.tolist(), "must not be parallel to the normal")
-    return n, _normalize(t)
+    return n, normalize(t)
 
 
 def _rectangle_fields(r):
@@ -376,7 +270,7 @@ def parse_scene(table, path="<scene>"):
     ref_up = c.vector("up", 3, nonzero=True)
     if np.linalg.norm(look_at - position) == 0:
         c.fail("look_at", look_at.tolist(), "must differ from camera.position")
-    if np.linalg.norm(np.cross(_normalize(look_at - position), _normalize(ref_up))) < 1e-6:
+    if np.linalg.norm(np.cross(normalize(look_at - position), normalize(ref_up))) < 1e-6:
         c.fail("up", ref_up.tolist(), "must not be parallel to the view direction")
     camera = Camera(position, look_at, ref_up, c.number("fov", low=0, high=180, open_low=True),
                     c.number("focal_length", 1.0, low=0, open_low=True))

@@ -31,11 +31,12 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from . import samplers
-from .errors import InputError
-from .image import encode_8bit, write_image
-from .render import MAX_SPP, RenderOptions, render_progressive, resolve
-from .scene import load_scene
+from .. import samplers
+from ..errors import InputError
+from ..numerics import rmse
+from ..renderer.image import encode_8bit, write_image
+from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
+from ..scene import load_scene
 
 CLI = "command line"
 COLUMNS = ("sampler", "spp", "seconds", "rmse", "estimated_rmse", "flip")
@@ -135,10 +136,6 @@ def render_reference(scene, out_dir, spp, seed, common):
     write_image(out_dir / "reference.exr", image, metadata)
     (out_dir / "reference.json").write_text(json.dumps(facts, indent=2) + "\n")
     return image, facts
-
-
-def rmse(image, reference):
-    return float(np.sqrt(np.mean((image.astype(np.float64) - reference) ** 2)))
 
 
 def flip_error(image, reference):

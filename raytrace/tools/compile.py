@@ -1,7 +1,7 @@
 """`python -m raytrace compile SCENE --target T`: the scene's specialised kernel compiled for another device
 than this one, to catch a construct that only PoCL accepts before a GPU user does.
 
-The kernel is the renderer's own source with the scene's -D options (raytrace/kernel.py's Features), built
+The kernel is the renderer's own source with the scene's -D options (raytrace/renderer/program.py's Features), built
 with LANES=1 as GPUs run it, by Debian's clang (OpenCL C 1.2, clang's default OpenCL header):
 nvptx (NVIDIA, PTX assembly), amdgcn (AMD, an object for gfx90a; -nogpulib, as there is no ROCm device
 library here) and spir (SPIR 64-bit LLVM bitcode, what OpenCL drivers that take SPIR consume). `pocl` builds
@@ -13,8 +13,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from .errors import InputError
-from .kernel import Features, build, kernel_dir
+from ..errors import InputError
+from ..renderer.program import Features, build, kernel_dir
 
 CLANG_TARGETS = {
     "nvptx": ["-target", "nvptx64-nvidia-cuda", "-S"],
@@ -45,7 +45,7 @@ def _clang(features, target):
 
 
 def _pocl(features):
-    from .device import context_for, select_device
+    from ..renderer.device import context_for, select_device
     context, _ = context_for(select_device(None))
     program, seconds = build(context, SOURCE, features.options())
     return sum(len(b) for b in program.binaries), seconds
@@ -56,7 +56,7 @@ def compile_scene(scene, target, lanes=None):
     if target not in TARGETS:
         raise InputError("command line", "--target", target, f"unknown target (have: {', '.join(TARGETS)})")
     if target == "pocl":
-        from .device import default_lanes, select_device
+        from ..renderer.device import default_lanes, select_device
         features = Features.of(scene, lanes or default_lanes(select_device(None)))
         size, seconds = _pocl(features)
     else:

@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from . import mipmap, types
+from . import mipmap
+from .. import structs
 from .mipmap import srgb_to_linear
-from .errors import InputError
+from ..errors import InputError
 
 ROLES = ("colour", "normal", "height")  # colour map, normal map, height map
 
@@ -27,7 +28,7 @@ class Texture:
     """One image in one role: its levels, finest first, each H x W x 4 (uint8 codes or float32)."""
     path: str
     role: str
-    encoding: int  # types.TEXELS_*
+    encoding: int  # structs.TEXELS_*
     levels: list
 
     @property
@@ -86,11 +87,11 @@ def make_texture(pixels, kind, role, path="<array>"):
     """A Texture from H x W x C pixels as read_image gives them (kind "8-bit", "integer" or "float")."""
     rgb = _rgb(pixels)
     if kind == "8-bit":
-        encoding = types.TEXELS_SRGB8 if role == "colour" else types.TEXELS_UNORM8
-        levels = mipmap.pyramid_8bit(_rgba(rgb, 255), srgb=encoding == types.TEXELS_SRGB8)
+        encoding = structs.TEXELS_SRGB8 if role == "colour" else structs.TEXELS_UNORM8
+        levels = mipmap.pyramid_8bit(_rgba(rgb, 255), srgb=encoding == structs.TEXELS_SRGB8)
     else:  # other integer formats arrive as floats in [0, 1]
         linear = srgb_to_linear(rgb) if role == "colour" and kind == "integer" else rgb.astype(np.float64)
-        encoding = types.TEXELS_FLOAT
+        encoding = structs.TEXELS_FLOAT
         levels = [level.astype(np.float32) for level in mipmap.pyramid(_rgba(linear, 1.0))]
     return Texture(path, role, encoding, levels)
 

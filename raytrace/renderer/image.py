@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from .errors import InputError
+from ..errors import InputError
 from .progressive import row_chunks
 
 EIGHT_BIT = {".png", ".jpg", ".jpeg", ".bmp", ".tga"}

@@ -12,10 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import bvh, meshgen
-from .render import render
-from .scene import Material, MeshShape, load_scene
-from .structs import primitive_boxes, triangle_soup
+from ..renderer import bvh
+from ..scene import meshgen
+from ..render import render
+from ..scene import Material, MeshShape, load_scene
+from ..renderer.packing import primitive_boxes, triangle_soup
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
 COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",

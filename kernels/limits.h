@@ -1,0 +1,11 @@
+/* The limits host and kernel share: raytrace/structs.py mirrors each, and tests/test_types.py checks them
+ * against this device's compiler. */
+#ifndef LIMITS_H
+#define LIMITS_H
+
+#define BVH_STACK 64         /* levels of a BVH traversal's stack holds (bvh.cl): the host refuses deeper trees */
+#define CULLED_RECTANGLES 32 /* rectangles shadow rays may skip: one bit each in a uint (types.h's Light) */
+/* The lane widths lanes.h accepts: pixels per work-item. */
+#define LANE_WIDTH_ACCEPTED(n) ((n) == 1 || (n) == 4 || (n) == 8 || (n) == 16)
+
+#endif

@@ -1,0 +1,204 @@
+/* One primitive, tested by all lanes at once (every lane tests the same shape; the lanes' own results are
+ * merged with SELECT()): the closest-hit test and the any-hit test of shadow rays, for each kind of shape,
+ * and the one dispatch on a primitive's kind that the BVH's leaves (bvh.cl) and the loop over every shape
+ * (intersect.cl) both use. */
+#ifndef PRIMITIVE_CL
+#define PRIMITIVE_CL
+
+#include "scene.h"
+#include "rectangle.cl" /* lights are rectangles: always needed */
+#if HAS_TRIANGLES
+#include "triangle.cl"
+#endif
+#if HAS_ELLIPSOIDS
+#include "ellipsoid.cl"
+#endif
+
+typedef struct {
+    vfloat t;      /* +inf: nothing hit */
+    vec3 p;        /* the hit point, computed from the shape's own parameters (not o + t d) */
+    vfloat err;    /* a bound on p's distance from the surface along n (ray.h) */
+    vec3 n;        /* unit geometric normal, facing the incoming ray */
+    vint material; /* -1: nothing or a light */
+    vec3 emitted;  /* colour of the light hit first, else 0 */
+#if HAS_SURFACE_DATA /* what texturing and smooth normals need: the shape and where on it */
+    vint kind, index; /* SHAPE_* and the shape's index in its table */
+    vfloat b1, b2;    /* barycentrics of a triangle hit */
+#endif
+} Hit;
+
+/* Keep the nearer of the current hit and a candidate at t_new, point p within err of the surface, with normal
+ * n (any orientation): shape `index` of `kind`, with barycentrics (b1, b2) for a triangle. */
+inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n, int material, Vec3f emitted,
+                       int kind, int index, vfloat b1, vfloat b2)
+{
+    vint nearer = t_new < hit->t;
+    vfloat facing = SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, r.d) > 0.0f);
+    hit->t = SELECT(hit->t, t_new, nearer);
+    hit->p = v3_select(hit->p, p, nearer);
+    hit->err = SELECT(hit->err, err, nearer);
+    hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
+    hit->material = SELECT(hit->material, (vint)(material), nearer);
+    hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
+#if HAS_SURFACE_DATA
+    hit->kind = SELECT(hit->kind, (vint)(kind), nearer);
+    hit->index = SELECT(hit->index, (vint)(index), nearer);
+    hit->b1 = SELECT(hit->b1, b1, nearer);
+    hit->b2 = SELECT(hit->b2, b2, nearer);
+#endif
+}
+
+/* The closest-hit test of one primitive of each kind, merged into *hit for the lanes it is nearer for; tmax
+ * bounds t. Hit points and their error bounds are formed only where some lane's hit is nearer (ray.h). */
+inline void hit_rectangle(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
+{
+    __global const Rectangle *rect = &s->rectangles[i];
+    vfloat dt, u, v, err;
+    vfloat t = intersect_rectangle(rect, r, vmin(tmax, hit->t), &dt, &u, &v);
+    t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+    if (ANY(t < hit->t)) {
+        vec3 p = rectangle_point(rect, u, v, &err);
+        hit_update(hit, r, t, p, err, v3_uniform(rect->normal), rect->material, (Vec3f){0.0f, 0.0f, 0.0f},
+                   SHAPE_RECTANGLE, i, (vfloat)(0.0f), (vfloat)(0.0f));
+    }
+}
+
+#if HAS_TRIANGLES
+inline void hit_triangle(const Scene *s, Hit *hit, Ray r, RayShear shear, int i, vfloat tmax)
+{
+    __global const Triangle *tri = &s->triangles[i];
+    vfloat dt, b0, b1, b2, err;
+    vfloat t = intersect_triangle(tri, r, shear, &dt, &b0, &b1, &b2);
+    t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+    if (ANY(t < hit->t)) {
+        vec3 p = triangle_point(tri, b0, b1, b2, &err);
+        hit_update(hit, r, t, p, err, v3_uniform(tri->normal), tri->material, (Vec3f){0.0f, 0.0f, 0.0f},
+                   SHAPE_TRIANGLE, i, b1, b2);
+    }
+}
+#endif
+
+#if HAS_ELLIPSOIDS
+inline void hit_ellipsoid(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
+{
+    __global const Ellipsoid *e = &s->ellipsoids[i];
+    vec3 q;
+    vfloat err;
+    vfloat t = intersect_ellipsoid(e, r, &q);
+    t = SELECT((vfloat)(INFINITY), t, t <= tmax);
+    if (ANY(t < hit->t)) {
+        vec3 n = ellipsoid_normal(e, q);
+        vec3 p = ellipsoid_point(e, q, n, &err);
+        hit_update(hit, r, t, p, err, n, e->material, (Vec3f){0.0f, 0.0f, 0.0f}, SHAPE_ELLIPSOID, i,
+                   (vfloat)(0.0f), (vfloat)(0.0f));
+    }
+}
+#endif
+
+/* The any-hit test of one primitive of each kind against a shadow segment (t in (0, 1), ray.h). */
+inline vint blocks_rectangle(const Scene *s, Ray r, int i)
+{
+    vfloat dt, u, v;
+    return hit_on_segment(intersect_rectangle(&s->rectangles[i], r, (vfloat)(1.0f), &dt, &u, &v), dt);
+}
+
+#if HAS_TRIANGLES
+inline vint blocks_triangle(const Scene *s, Ray r, RayShear shear, int i)
+{
+    vfloat dt, b0, b1, b2;
+    return hit_on_segment(intersect_triangle(&s->triangles[i], r, shear, &dt, &b0, &b1, &b2), dt);
+}
+#endif
+
+#if HAS_ELLIPSOIDS
+inline vint blocks_ellipsoid(const Scene *s, Ray r, int i)
+{
+    vec3 q;
+    return hit_on_segment(intersect_ellipsoid(&s->ellipsoids[i], r, &q), (vfloat)(0.0f));
+}
+#endif
+
+/* Rectangle i is among the `skipped` ones (bit i of the first CULLED_RECTANGLES). */
+inline int skipped(uint rectangles, int i) { return i < CULLED_RECTANGLES && ((rectangles >> i) & 1u); }
+
+inline Hit no_hit(void)
+{
+    Hit hit;
+    hit.t = (vfloat)(INFINITY);
+    hit.p = hit.n = hit.emitted = v3_splat(0.0f, 0.0f, 0.0f);
+    hit.err = 0.0f;
+    hit.material = (vint)(-1);
+#if HAS_SURFACE_DATA
+    hit.kind = hit.index = (vint)(0);
+    hit.b1 = hit.b2 = (vfloat)(0.0f);
+#endif
+    return hit;
+}
+
+/* A ray with what the primitive tests derive from it once: the triangle test's shear, formed at the first
+ * triangle the ray meets (most rays of a room never reach a mesh's leaves). */
+typedef struct {
+    Ray r;
+#if HAS_TRIANGLES
+    RayShear shear;
+    int sheared;
+#endif
+} PrimitiveRay;
+
+inline PrimitiveRay primitive_ray(Ray r)
+{
+    PrimitiveRay p;
+    p.r = r;
+#if HAS_TRIANGLES
+    p.sheared = 0;
+#endif
+    return p;
+}
+
+#if HAS_TRIANGLES
+inline RayShear triangle_shear(PrimitiveRay *p)
+{
+    if (!p->sheared) {
+        p->shear = ray_shear(p->r);
+        p->sheared = 1;
+    }
+    return p->shear;
+}
+#endif
+
+/* The closest-hit test of primitive `index` of `kind` (SHAPE_*), merged into *hit; tmax bounds t. */
+inline void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int kind, int index, vfloat tmax)
+{
+#if HAS_TRIANGLES
+    if (kind == SHAPE_TRIANGLE)
+        hit_triangle(s, hit, p->r, triangle_shear(p), index, tmax);
+#endif
+#if HAS_RECTANGLES
+    if (kind == SHAPE_RECTANGLE)
+        hit_rectangle(s, hit, p->r, index, tmax);
+#endif
+#if HAS_ELLIPSOIDS
+    if (kind == SHAPE_ELLIPSOID)
+        hit_ellipsoid(s, hit, p->r, index, tmax);
+#endif
+}
+
+/* The lanes whose shadow segment primitive `index` of `kind` blocks; a `skip`ped rectangle blocks none. */
+inline vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, int index, uint skip)
+{
+#if HAS_TRIANGLES
+    if (kind == SHAPE_TRIANGLE)
+        return blocks_triangle(s, p->r, triangle_shear(p), index);
+#endif
+#if HAS_RECTANGLES
+    if (kind == SHAPE_RECTANGLE && !skipped(skip, index))
+        return blocks_rectangle(s, p->r, index);
+#endif
+#if HAS_ELLIPSOIDS
+    if (kind == SHAPE_ELLIPSOID)
+        return blocks_ellipsoid(s, p->r, index);
+#endif
+    return (vint)(0);
+}
+
+#endif

@@ -1,0 +1,284 @@
+"""Packing the scene into the structs of kernels/types.h (their numpy mirrors are in raytrace/structs.py):
+the one place where host values become what the kernel reads, as tables named after the kernel's
+parameters (kernels/scene.h)."""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import bvh
+from .. import samplers, structs
+from ..errors import InputError
+from ..scene import mipmap
+from ..structs import CULLED_RECTANGLES
+from .culling import culled_subtrees, light_sides, scene_extent
+
+
+def camera_struct(camera, width, height):
+    forward, right, up = camera.basis()
+    tan_half = math.tan(math.radians(camera.fov_deg) / 2)
+    c = np.zeros((), structs.CAMERA)
+    c["position"], c["forward"], c["right"], c["up"] = camera.position, forward, right, up
+    c["scale_x"] = width / height * camera.focal_length * tan_half
+    c["scale_y"] = camera.focal_length * tan_half
+    c["focal_length"] = camera.focal_length
+    return c
+
+
+def rectangle_structs(rects):
+    a = np.zeros(max(len(rects), 1), structs.RECTANGLE)
+    for s, r in zip(a, rects):
+        s["center"], s["normal"], s["tangent"], s["bitangent"] = r.center, r.normal, r.tangent, r.bitangent
+        s["half_x"], s["half_y"], s["material"] = r.size[0] / 2, r.size[1] / 2, r.material
+    return a
+
+
+def triangle_records(v, material):
+    """Triangle structs of the triangles v ((F, 3, 3): v0, v1, v2 each) with their material indices."""
+    a = np.zeros(max(len(v), 1), structs.TRIANGLE)
+    if len(v):
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
+        a["v0"][:len(v)], a["v1"][:len(v)], a["v2"][:len(v)] = v[:, 0], v[:, 1], v[:, 2]
+        a["normal"][:len(v)] = n / np.linalg.norm(n, axis=1, keepdims=True)
+        a["material"][:len(v)] = material
+    return a
+
+
+def triangle_structs(tris):
+    return triangle_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), [t.material for t in tris])
+
+
+DEFAULT_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # uv = (b1, b2)
+
+
+def _coordinate_system(n):
+    """Two unit vectors completing the unit vectors n ((F, 3)) to orthonormal bases (Duff et al., JCGT 2017)."""
+    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    return (np.stack([1 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], 1),
+            np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], 1))
+
+
+def triangle_uv_frames(v, uv):
+    """dp/du and dp/dv ((F, 3) each) of the affine maps from uv ((F, 3, 2)) to the triangles v ((F, 3, 3))
+    (pbrt-v4 section 6.5.4), in float64. A degenerate uv mapping (all uvs on a line) gets an orthonormal pair
+    in the triangle's plane instead."""
+    duv02, duv12, dp02, dp12 = uv[:, 0] - uv[:, 2], uv[:, 1] - uv[:, 2], v[:, 0] - v[:, 2], v[:, 1] - v[:, 2]
+    det = duv02[:, 0] * duv12[:, 1] - duv02[:, 1] * duv12[:, 0]
+    ok = np.abs(det) > 1e-9 * np.maximum(np.sum(duv02 ** 2, 1), np.sum(duv12 ** 2, 1))
+    safe = np.where(ok, det, 1.0)[:, None]
+    dpdu = (duv12[:, 1:] * dp02 - duv02[:, 1:] * dp12) / safe
+    dpdv = (duv02[:, :1] * dp12 - duv12[:, :1] * dp02) / safe
+    if not ok.all():
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
+        t, b = _coordinate_system(n / np.linalg.norm(n, axis=1, keepdims=True))
+        dpdu[~ok], dpdv[~ok] = t[~ok], b[~ok]
+    return dpdu, dpdv
+
+
+def triangle_uv_records(v, uv):
+    a = np.zeros(max(len(v), 1), structs.TRIANGLE_UV)
+    if len(v):
+        dpdu, dpdv = triangle_uv_frames(v, uv)
+        a["uv"][:len(v)] = uv.reshape(-1, 6)
+        a["dpdu"][:len(v)], a["dpdv"][:len(v)] = dpdu, dpdv
+        a["tangent"][:len(v)] = dpdu / np.linalg.norm(dpdu, axis=1, keepdims=True)
+    return a
+
+
+def triangle_uv_structs(tris):
+    uv = np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)
+    return triangle_uv_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), uv)
+
+
+@dataclass
+class TriangleSoup:
+    """Every triangle of a scene in the kernel's order (the scene file's triangles, then each mesh's), as
+    arrays: corners v (F, 3, 3), per-corner uvs (F, 3, 2), per-corner shading normals (F, 3, 3; the face's
+    own normal where a mesh is not smooth), materials (F,)."""
+    v: np.ndarray
+    uv: np.ndarray
+    normals: np.ndarray
+    material: np.ndarray
+
+
+def triangle_soup(scene):
+    tris = scene.triangles
+    v = [np.array([t.vertices for t in tris], np.float64).reshape(-1, 3, 3)]
+    uv = [np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)]
+    normals, material = [None], [np.array([t.material for t in tris], np.int32)]
+    for shape in scene.meshes:
+        m = shape.mesh
+        v.append(m.vertices[m.faces])
+        uv.append(m.uvs[m.faces] if m.uvs is not None else np.broadcast_to(DEFAULT_UV, (len(m.faces), 3, 2)))
+        normals.append(m.normals[m.faces] if shape.smooth else None)
+        material.append(np.full(len(m.faces), shape.material, np.int32))
+    v = np.concatenate(v)
+    face = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
+    face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
+    flat = lambda part: np.repeat(face[part, None], 3, axis=1)  # noqa: E731
+    starts = np.cumsum([0] + [len(a) for a in material])
+    normals = [flat(slice(a, b)) if n is None else n for n, a, b in zip(normals, starts[:-1], starts[1:])]
+    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material))
+
+
+def triangle_normal_records(normals):
+    a = np.zeros(max(len(normals), 1), structs.TRIANGLE_NORMALS)
+    if len(normals):
+        a["n0"][:len(normals)], a["n1"][:len(normals)], a["n2"][:len(normals)] = (normals[:, k] for k in range(3))
+    return a
+
+
+def ellipsoid_structs(ells):
+    a = np.zeros(max(len(ells), 1), structs.ELLIPSOID)
+    for s, e in zip(a, ells):
+        s["center"], s["material"] = e.center, e.material
+        s["world_to_unit"] = np.linalg.inv(e.matrix).ravel()  # float64 inverse, rounded once
+        s["unit_to_world"] = e.matrix.ravel()
+    return a
+
+
+def light_structs(lights, rectangles=(), extent=0.0):
+    """Light structs; with the scene's `rectangles` and `extent` (a bound on every coordinate of its shapes,
+    lights and displaced shading points), each light's bits of the rectangles whose plane it lies wholly
+    in front of or behind (planes_in_front, planes_behind)."""
+    a = np.zeros(max(len(lights), 1), structs.LIGHT)  # a scene without lights (the API allows one) gets a dummy
+    a["shape"] = rectangle_structs(lights)
+    planes = rectangle_structs(rectangles[:CULLED_RECTANGLES]) if len(rectangles) else None
+    for s, light in zip(a, lights):
+        s["colour"] = light.colour
+        if planes is not None:
+            s["planes_in_front"], s["planes_behind"] = light_sides(s["shape"], planes, extent)
+    return a
+
+
+def material_structs(materials):
+    a = np.zeros(len(materials), structs.MATERIAL)
+    for s, m in zip(a, materials):
+        s["colour"], s["shininess"] = m.colour, m.shininess
+        s["colour_map"], s["normal_map"], s["height_map"] = m.colour_map, m.normal_map, m.height_map
+        s["wrap"], s["height_scale"] = structs.WRAP_MODES[m.wrap], m.height_scale
+        s["uv_scale"], s["uv_offset"] = m.uv_scale, m.uv_offset
+    return a
+
+
+MAX_WORDS = (1 << 31) - 1  # offsets are int32 words in the kernel
+
+
+def pack_textures(textures, source="scene"):
+    """(texels: uint32 words, MipLevel table, Texture table) for a list of raytrace.textures.Texture.
+    8-bit levels take one word per texel (RGBA, r in the low byte); float levels four, 16-byte aligned."""
+    chunks, level_table, texture_table, offset = [], [], [], 0
+    for texture in textures:
+        texture_table.append((len(level_table), len(texture.levels), texture.encoding))
+        for level in texture.levels:
+            words = np.ascontiguousarray(level).view("<u4").ravel()
+            if texture.encoding == structs.TEXELS_FLOAT and offset % 4:
+                chunks.append(np.zeros(4 - offset % 4, np.uint32))
+                offset += 4 - offset % 4
+            level_table.append((offset, level.shape[1], level.shape[0]))
+            chunks.append(words)
+            offset += words.size
+    if offset > MAX_WORDS:
+        raise InputError(source, "textures", f"{offset * 4} bytes", "more texture memory than one buffer can hold")
+    texels = np.concatenate(chunks) if chunks else np.zeros(1, np.uint32)
+    levels = np.array(level_table or [(0, 1, 1)], dtype=structs.MIP_LEVEL)
+    table = np.array(texture_table or [(0, 0, 0)], dtype=structs.TEXTURE)
+    return texels, levels, table
+
+
+def texture_tables(scene):
+    """The tables of all the scene's textures, named after kernels/scene.h's TEXTURE_PARAMETERS."""
+    texels, levels, textures = pack_textures(scene.textures, scene.path)
+    return {"textures": textures, "mip_levels": levels, "texels": texels,
+            "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32)}
+
+
+def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear",
+                  pixel_pattern=None, light_pattern=None, seed=0):
+    """RenderParams; the patterns default to one centre sample (raytrace.samplers.Pattern)."""
+    p = np.zeros((), structs.RENDER_PARAMS)
+    p["ambient"] = scene.ambient
+    p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
+    p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
+    center = samplers.pattern("center", 1)
+    p["pixel_sampler"] = (pixel_pattern or center).sampler_struct()
+    p["light_sampler"] = (light_pattern or center).sampler_struct()
+    p["seed"] = seed % 2**32
+    p["light_samples"], p["width"], p["height"] = light_samples, width, height
+    p["texture_filter"] = structs.FILTERS[texture_filter]
+    # Ray differentials span one sample spacing, but at least 1/8 pixel, as pbrt-v4's RayIntegrator does.
+    p["footprint_scale"] = max(0.125, 1 / math.sqrt(spp))
+    return p
+
+
+def primitive_boxes(scene, soup):
+    """(lo, hi, refs): the axis-aligned box of every shape (float64, (N, 3) each) and its reference,
+    index * 4 + kind (kernels/types.h). An ellipsoid c + A x, |x| = 1, reaches c_j +- |row j of A|."""
+    rect_corners = [r.center + np.outer([-1, 1], r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent))
+                    for r in scene.rectangles]
+    boxes = [(c[0], c[1]) for c in rect_corners]
+    boxes += [(e.center - np.linalg.norm(e.matrix, axis=1), e.center + np.linalg.norm(e.matrix, axis=1))
+              for e in scene.ellipsoids]
+    kinds = [(structs.SHAPES["rectangle"], len(scene.rectangles)), (structs.SHAPES["triangle"], len(soup.v)),
+             (structs.SHAPES["ellipsoid"], len(scene.ellipsoids))]
+    refs = np.concatenate([np.arange(n, dtype=np.int32) * 4 + kind for kind, n in kinds])
+    lo, hi = (np.array([b[k] for b in boxes], np.float64).reshape(-1, 3) for k in (0, 1))
+    n_rect = len(scene.rectangles)
+    lo = np.concatenate([lo[:n_rect], soup.v.min(axis=1), lo[n_rect:]])
+    hi = np.concatenate([hi[:n_rect], soup.v.max(axis=1), hi[n_rect:]])
+    return lo, hi, refs
+
+
+def bvh_structs(scene, use_bvh, soup=None):
+    """(nodes, primitive references, culled subtrees) of the hierarchy over every shape, or one dummy of
+    each without it."""
+    if not use_bvh:
+        return np.zeros(1, structs.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32)
+    lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
+    try:
+        nodes, order = bvh.build(lo, hi)
+    except ValueError as e:  # a tree deeper than the kernel's stack
+        raise InputError(scene.path, "shapes", f"{len(refs)} shapes", str(e)) from None
+    return nodes, refs[order], culled_subtrees(nodes, refs[order])
+
+
+class _GeometryCache:
+    """The last scene's packed triangles and BVH: repeated renders of one Scene object (bench, converge, a
+    progressive render's callers) pack its triangles and build its BVH once. Keyed by the object itself, so
+    a scene changed in place must be a new object (dataclasses.replace), as everywhere in this package."""
+    scene = key = tables = None
+
+
+def _geometry_tables(scene, uv, smooth, use_bvh):
+    """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference and culled-subtree tables."""
+    cache = _GeometryCache
+    if cache.scene is scene and cache.key == (uv, smooth, use_bvh):
+        return cache.tables
+    soup = triangle_soup(scene)
+    unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
+    tables = [triangle_records(soup.v, soup.material),
+              triangle_uv_records(soup.v, soup.uv) if uv else unused(structs.TRIANGLE_UV),
+              triangle_normal_records(soup.normals) if smooth else unused(structs.TRIANGLE_NORMALS),
+              *bvh_structs(scene, use_bvh, soup)]
+    cache.scene, cache.key, cache.tables = scene, (uv, smooth, use_bvh), tables
+    return tables
+
+
+def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filter="trilinear", pixel_pattern=None,
+                 light_pattern=None, seed=0, features=None):
+    """The scene's tables, named after kernels/scene.h's SCENE_PARAMETERS. Tables a variant does not read
+    (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one dummy entry:
+    features None packs them all but the BVH."""
+    triangles, uvs, normals, nodes, prims, culled = _geometry_tables(
+        scene, features is None or features.textures, features is None or features.smooth_normals,
+        features is not None and features.bvh)
+    return {"camera": camera_struct(scene.camera, width, height),
+            "params": params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern,
+                                    light_pattern, seed),
+            "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
+            "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
+            "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
+            "materials": material_structs(scene.materials), "nodes": nodes, "prims": prims,
+            "culled_subtrees": culled}

@@ -1,0 +1,7 @@
+"""The scene: its model (model.py) and its readers: scene files (scene_file.py), meshes (meshes.py, and
+meshgen.py's procedural ones), textures (textures.py, with their MIP pyramids in mipmap.py)."""
+from .model import Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle
+from .scene_file import load_scene, parse_scene
+
+__all__ = ["Camera", "Ellipsoid", "Light", "Material", "MeshShape", "Rectangle", "Scene", "Triangle", "load_scene",
+           "parse_scene"]

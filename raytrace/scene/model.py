@@ -1,0 +1,116 @@
+"""The host-side scene model, in float64: what a scene file (scene_file.py) or a Python caller describes,
+before raytrace/renderer/packing.py packs it into the structs the kernel reads."""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import meshes
+
+DEFAULT_SHININESS = 16.0
+
+
+def normalize(v):
+    return v / np.linalg.norm(v)
+
+
+@dataclass(frozen=True)
+class Camera:
+    position: np.ndarray
+    look_at: np.ndarray
+    ref_up: np.ndarray
+    fov_deg: float
+    focal_length: float = 1.0
+
+    def basis(self):
+        """forward, right, up as the README's model, camera defines them (float64)."""
+        forward = normalize(self.look_at - self.position)
+        right = normalize(np.cross(forward, self.ref_up))
+        return forward, right, np.cross(right, forward)
+
+
+@dataclass(frozen=True)
+class Material:
+    """The course's Phong material; textures are indices into Scene.textures (-1: none)."""
+    name: str
+    colour: np.ndarray
+    shininess: float = DEFAULT_SHININESS
+    colour_map: int = -1
+    normal_map: int = -1
+    height_map: int = -1
+    height_scale: float = 0.0
+    uv_scale: tuple = (1.0, 1.0)
+    uv_offset: tuple = (0.0, 0.0)
+    wrap: str = "repeat"
+
+
+@dataclass(frozen=True)
+class Rectangle:
+    """Centre, full size (sx, sy), unit normal n, unit tangent t (x axis); bitangent n x t (y axis)."""
+    center: np.ndarray
+    size: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    material: int = 0
+
+    @property
+    def bitangent(self):
+        return np.cross(self.normal, self.tangent)
+
+
+@dataclass(frozen=True)
+class Light(Rectangle):
+    colour: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+
+@dataclass(frozen=True)
+class Triangle:
+    vertices: np.ndarray          # 3 x 3, rows v0, v1, v2
+    material: int = 0
+    uv: np.ndarray | None = None  # 3 x 2 per-vertex texture coordinates, or None for (b1, b2)
+
+
+@dataclass(frozen=True)
+class Ellipsoid:
+    """The image of the unit sphere under x -> center + axes.T @ x (rows of `axes` are a, b, c)."""
+    center: np.ndarray
+    axes: np.ndarray
+    material: int = 0
+
+    @property
+    def matrix(self):
+        return self.axes.T
+
+
+@dataclass(frozen=True)
+class MeshShape:
+    """A triangle mesh read from a file or generated (raytrace.scene.meshes.Mesh), in world space. smooth: shade
+    with its per-vertex normals (the file's, else area-weighted ones) instead of each face's own."""
+    mesh: meshes.Mesh
+    material: int = 0
+    smooth: bool = False
+    dropped: int = 0  # degenerate faces left out on load
+    source: str = ""  # the file it was read from, or the generator
+
+
+@dataclass
+class Scene:
+    path: str
+    camera: Camera
+    width: int
+    height: int
+    ambient: np.ndarray
+    lights: list
+    materials: list
+    rectangles: list = field(default_factory=list)
+    triangles: list = field(default_factory=list)
+    ellipsoids: list = field(default_factory=list)
+    spp: int = 1
+    light_samples: int = 1
+    sampler: str = "grid"
+    light_sampler: str = "grid"
+    textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
+    meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
+
+    @property
+    def triangle_count(self):
+        return len(self.triangles) + sum(len(m.mesh.faces) for m in self.meshes)

@@ -1,0 +1,73 @@
+"""Helpers the test modules share: the checkout's paths, the command line run as a user runs it, the
+planar layout of the test kernels' arrays, and texture lookups in the kernel, in OpenImageIO and as the
+device stores the levels. Fixtures are in conftest.py."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+
+from raytrace import structs
+from raytrace.renderer import packing
+from raytrace.scene import mipmap
+from raytrace.tools.probe import planar  # noqa: F401 (for the tests)
+
+ROOT = Path(__file__).resolve().parent.parent
+CORNELL = str(ROOT / "scenes" / "cornell.toml")
+
+
+def run(*args, **kwargs):
+    """`python -m raytrace ARGS`, its output captured; kwargs go to subprocess.run (cwd, preexec_fn)."""
+    return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, **kwargs)
+
+
+LOOKUP = """
+#include "mipmap.cl"
+/* LANES lookups per work-item, each lane its own point and footprint (and so its own levels). */
+__kernel void lookup(int n, TEXTURE_PARAMETERS, int texture, int filter, int wrap, __global const float *st,
+                     __global const float *dst, __global float *out)
+{
+    TextureStore ts = TEXTURES_FROM_PARAMETERS;
+    vec2 p = {IN(st), IN(st + n)};
+    Footprint f = {IN(dst), IN(dst + n), IN(dst + 2 * n), IN(dst + 3 * n)};
+    OUT3(out, texture_lookup(ts, texture, p, f, filter, wrap));
+}
+"""
+
+
+def kernel_lookup(harness, textures, index, filter_name, wrap, s, t, derivs=None):
+    """RGB of texture `index` of the packed `textures` at (s, t), float64 N x 3."""
+    count, n = len(s), -(-len(s) // 8) * 8  # padded to a multiple of the lane width
+    pad = lambda a: np.concatenate([a, np.zeros(a.shape[:-1] + (n - count,))], axis=-1)  # noqa: E731
+    derivs = np.zeros((4, count)) if derivs is None else np.asarray(derivs, dtype=np.float64)
+    s, t, derivs = pad(np.asarray(s, dtype=np.float64)), pad(np.asarray(t, dtype=np.float64)), pad(derivs)
+    texels, levels, table = packing.pack_textures(textures)
+    args = {"textures": table, "mip_levels": levels, "texels": texels,
+            "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32), "texture": np.int32(index),
+            "filter": np.int32(structs.FILTERS[filter_name]), "wrap": np.int32(structs.WRAP_MODES[wrap]),
+            "st": np.stack([s, t]).astype(np.float32), "dst": np.asarray(derivs).astype(np.float32)}
+    return harness.run(LOOKUP, "lookup", n, args, {"out": 3})["out"][:, :count].T
+
+
+def stored_levels(texture):
+    """The levels as the device holds them, decoded to linear float64 (8-bit ones through the same table
+    the kernel uses): what the filters must interpolate."""
+    if texture.encoding == structs.TEXELS_FLOAT:
+        return [level[..., :3].astype(np.float64) for level in texture.levels]
+    srgb = texture.encoding == structs.TEXELS_SRGB8
+    return [mipmap.decode_8bit(level, srgb)[..., :3] for level in texture.levels]
+
+
+def openimageio_lookup(folder, image, mipmode, s, t, derivs=None):
+    """OpenImageIO's TextureSystem on `image` (made into a tiled, MIP-mapped file), periodic wrapping,
+    bilinear interpolation, the given MipMode; derivs (dsdx, dtdx, dsdy, dtdy) default to 0."""
+    path = str(folder / "t.tx")
+    assert oiio.ImageBufAlgo.make_texture(oiio.MakeTxTexture, oiio.ImageBuf(image), path, oiio.ImageSpec())
+    system, opt = oiio.TextureSystem(), oiio.TextureOpt()
+    opt.swrap = opt.twrap = oiio.Wrap.Periodic
+    opt.mipmode, opt.interpmode = mipmode, oiio.InterpMode.Bilinear
+    derivs = np.zeros((4, len(s))) if derivs is None else derivs
+    return np.array([system.texture(path, opt, a, b, *map(float, d), 3) for a, b, d in zip(s, t, derivs.T)])
