@@ -13,8 +13,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import samplers
-from . import structs
+from . import samplers, structs
 from .errors import InputError
 from .renderer.image import FORMATS, write_image
 

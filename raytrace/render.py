@@ -14,8 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyopencl as cl
 
-from . import samplers
-from . import structs
+from . import samplers, structs
 from .renderer.interface import KernelArguments
 from .renderer.packing import scene_tables, texture_tables
 from .renderer.device import context_for, default_lanes, describe, select_device

@@ -71,8 +71,11 @@ class KernelArguments:
         """Set argument `name`: a numpy scalar, or the array whose contents `buffer` holds (checked against
         the declared type, then `buffer` is set)."""
         self.check(name, value)
-        self.held[name] = value if buffer is None else buffer
-        self.kernel.set_arg(self.index[name], self.held[name])
+        self._bind(name, value if buffer is None else buffer)
+
+    def _bind(self, name, value):
+        self.held[name] = value
+        self.kernel.set_arg(self.index[name], value)
         self.unset.discard(name)
 
     def upload(self, context, tables):
@@ -80,9 +83,9 @@ class KernelArguments:
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         buffers = {}
         for name, array in tables.items():
-            self.check(name, array)
+            self.check(name, array)  # before the copy: a table of the wrong type is never uploaded
             buffers[name] = cl.Buffer(context, flags, hostbuf=array)
-            self.set(name, array, buffers[name])
+            self._bind(name, buffers[name])
         return buffers
 
     def launch(self, queue, global_size, local_size=None):
