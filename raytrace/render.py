@@ -17,12 +17,13 @@ import pyopencl as cl
 from . import samplers, structs
 from .renderer.interface import KernelArguments
 from .renderer.packing import scene_tables, texture_tables
+from .renderer.cpu_target import apply_target, check_lanes
 from .renderer.device import context_for, default_lanes, describe, select_device
 from .errors import InputError
+from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
 from .renderer.program import Features, render_program
 from .renderer.progressive import BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, Accumulator, pass_size, row_chunks
 
-MAX_SPP = 1 << 16
 OUTPUT_PLANES = CHANNELS + 1  # the kernel's output: R, G, B sums and the ray count, float32
 MAX_BAND_BYTES = 64 << 20     # the device output buffer: below the 128 MiB any full-profile device allows
 WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch, so that a launch stays short
@@ -81,6 +82,15 @@ def _option(value, source, key, check, problem):
     return value
 
 
+def _pick(scene, given, scene_key, option, low, high):
+    """A count from the command line (`option`) or else the scene's (`scene_key`), checked against one set of
+    limits and reported against where it came from."""
+    source, key, value = ("command line", option, given) if given is not None else (
+        scene.path, scene_key, getattr(scene, scene_key.split(".")[-1]))
+    ok = isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
+    return _option(value, source, key, lambda v: ok, f"must be an integer in [{low}, {high}]")
+
+
 def _pattern(name, n, key, count_key):
     problem = samplers.count_problem(name, n)
     if problem and name in samplers.SAMPLERS:
@@ -95,14 +105,10 @@ def resolve(scene, options):
     light samples, pixel pattern, light pattern)."""
     cli = "command line"
     pick = lambda value, default: default if value is None else value  # noqa: E731
-    width = _option(pick(options.width, scene.width), cli, "--width", lambda v: 1 <= v <= 16384,
-                    "must be in [1, 16384]")
-    height = _option(pick(options.height, scene.height), cli, "--height", lambda v: 1 <= v <= 16384,
-                     "must be in [1, 16384]")
-    spp = _option(pick(options.spp, scene.spp), cli, "--spp", lambda v: 1 <= v <= MAX_SPP,
-                  f"must be in [1, {MAX_SPP}]")
-    nl = _option(pick(options.light_samples, scene.light_samples), cli, "--light-samples",
-                 lambda v: 1 <= v <= MAX_SPP, f"must be in [1, {MAX_SPP}]")
+    width = _pick(scene, options.width, "image.width", "--width", 1, MAX_IMAGE_SIDE)
+    height = _pick(scene, options.height, "image.height", "--height", 1, MAX_IMAGE_SIDE)
+    spp = _pick(scene, options.spp, "render.spp", "--spp", 1, MAX_SPP)
+    nl = _pick(scene, options.light_samples, "render.light_samples", "--light-samples", 1, MAX_SPP)
     pixel = _pattern(pick(options.sampler, scene.sampler), spp, "--sampler", "--spp")
     light = _pattern(pick(options.light_sampler, scene.light_sampler), nl, "--light-sampler", "--light-samples")
     _option(options.texture_filter, cli, "--texture-filter", lambda v: v in structs.FILTERS,
@@ -227,16 +233,22 @@ def render_progressive(scene, **kwargs):
     check_memory(width, height)
     device = select_device(options.device)
     context, queue = context_for(device)
+    if options.lanes or options.features:
+        check_lanes(apply_target(device), (options.features or options).lanes, "render()", "lanes")
     features = options.features or Features.of(scene, options.lanes or default_lanes(device))
     program, build_seconds = render_program(context, features)
 
-    textures = texture_tables(scene)
-    texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
     args = KernelArguments(cl.Kernel(program, "render"))
-    buffers = args.upload(context, {
-        **scene_tables(scene, width, height, spp, n_light, options.texture_filter, pixel, light, options.seed,
-                       features),
-        **textures, "pixel_samples": pixel.table(), "light_samples": light.table()})
+    try:
+        textures = texture_tables(scene)
+        buffers = args.upload(context, {
+            **scene_tables(scene, width, height, spp, n_light, options.texture_filter, pixel, light, options.seed,
+                           features),
+            **textures, "pixel_samples": pixel.table(), "light_samples": light.table()})
+    except (MemoryError, cl.MemoryError):
+        raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
+                         "out of memory building the scene's BVH and tables") from None
+    texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
 
     columns = -(-width // features.lanes)
     work = 1 + len(scene.lights) * n_light  # rays per pixel sample, at most

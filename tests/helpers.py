@@ -18,10 +18,11 @@ ROOT = Path(__file__).resolve().parent.parent
 CORNELL = str(ROOT / "scenes" / "cornell.toml")
 
 
-def run(*args, **kwargs):
-    """`python -m raytrace ARGS`, its output captured; kwargs go to subprocess.run (cwd, preexec_fn)."""
+def run(*args, env=None, **kwargs):
+    """`python -m raytrace ARGS`, its output captured, in `env` (default: this process's environment); kwargs
+    go to subprocess.run (cwd, preexec_fn)."""
     return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)}, **kwargs)
+                          env={**(os.environ if env is None else env), "PYTHONPATH": str(ROOT)}, **kwargs)
 
 
 LOOKUP = """

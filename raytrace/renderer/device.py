@@ -1,46 +1,52 @@
 """OpenCL device selection, contexts and the lane width a device wants."""
-import ctypes
+import errno
 import os
-import struct
+import tempfile
 from functools import lru_cache
+from pathlib import Path
 
 import pyopencl as cl
 
 from ..errors import InputError
-
-# LLVM 14 (in PoCL 3.0 from PyPI) names CPUs newer than itself "generic", which its own compiler then
-# rejects ("unknown target CPU 'generic'", pocl issue 1049): every build fails on, e.g., AMD Zen 5.
-# PoCL 3.0 offers no setting for it, so we point the device's llvm_cpu field at a CPU LLVM 14 knows
-# and this one can run: x86-64-v3 (AVX2 + FMA), the baseline the PoCL notes measured.
-_FALLBACK_CPU = b"x86-64-v3"
-_patched = {}  # device address -> the name buffer its llvm_cpu now points at (kept alive)
+from .cpu_target import apply_target, lanes_for
 
 
-def _fix_generic_pocl_cpu(device):
-    if device.int_ptr in _patched or "pthread" not in device.version \
-            or not device.version.rstrip().endswith("-generic"):
+def _check_pocl_cache_dir():
+    """PoCL keeps built kernels in POCL_CACHE_DIR, creating it as needed; one it cannot write fails every build
+    (or hides every device), so it is checked first: the directory, or its nearest existing parent, must take
+    a new file."""
+    value = os.environ.get("POCL_CACHE_DIR")
+    if not value:
         return
-    cpu = ctypes.create_string_buffer(_FALLBACK_CPU)
-    with open("/proc/self/mem", "rb", buffering=0) as mem:  # reads of bad addresses fail, never crash
-        mem.seek(device.int_ptr)
-        blob = mem.read(4096)
-        for offset in range(0, len(blob), 8):
-            (pointer,) = struct.unpack_from("<Q", blob, offset)
-            if not 4096 <= pointer < 1 << 47:
-                continue
-            try:
-                mem.seek(pointer)
-                if mem.read(8) != b"generic\0":
-                    continue
-            except OSError:
-                continue
-            ctypes.c_void_p.from_address(device.int_ptr + offset).value = ctypes.addressof(cpu)
-            _patched[device.int_ptr] = cpu
-            return  # the first such field is llvm_cpu, the target of code generation
+    path = Path(value).absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    try:
+        if not path.is_dir():
+            raise NotADirectoryError(errno.ENOTDIR, "not a directory", str(path))
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError as e:
+        raise InputError("environment", "POCL_CACHE_DIR", value,
+                         f"PoCL cannot keep its kernel cache there: {path}: {e.strerror or e}") from None
 
 
 def list_devices():
-    return [(p, d) for p in cl.get_platforms() for d in p.get_devices()]
+    _check_pocl_cache_dir()
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:  # no ICD at all: PLATFORM_NOT_FOUND_KHR
+        platforms = []
+    return [(p, d) for p in platforms for d in p.get_devices()]
+
+
+def _no_device():
+    """The one-line error for a machine where OpenCL offers no device: the environment variable that hid them,
+    if one is set."""
+    for variable in ("POCL_DEVICES", "OCL_ICD_VENDORS", "OCL_ICD_FILENAMES"):
+        if os.environ.get(variable) is not None:
+            return InputError("environment", variable, os.environ[variable], "leaves no OpenCL device")
+    return InputError("environment", "OpenCL", None, "no device found (the pocl-binary-distribution package "
+                      "from PyPI provides a CPU one)")
 
 
 DEVICE_TYPES = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU}
@@ -51,7 +57,7 @@ def select_device(spec=None):
     "P:D" indices, or a name substring."""
     devices = list_devices()
     if not devices:
-        raise InputError("command line", "--device", spec, "no OpenCL device found")
+        raise _no_device()
     if spec is None:
         cpus = [d for _, d in devices if d.type & cl.device_type.CPU]
         device = (cpus or [devices[0][1]])[0]
@@ -73,7 +79,7 @@ def select_device(spec=None):
             names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)
             raise InputError("command line", "--device", spec, f"matches no device (have: {names})")
         device = matches[0]
-    _fix_generic_pocl_cpu(device)
+    apply_target(device)
     return device
 
 
@@ -84,11 +90,12 @@ def context_for(device):
 
 
 def default_lanes(device):
-    """8 pixels per work-item on CPUs (explicit float8), 1 on GPUs (the hardware already has lanes)."""
-    env = os.environ.get("RAYTRACE_LANES")
-    if env:
-        return int(env)
-    return 8 if device.type & cl.device_type.CPU else 1
+    """Pixels per work-item: on PoCL's CPU device the floats in one vector of its target (cpu_target.py),
+    on other CPUs 8 (explicit float8), on GPUs 1 (the hardware already has lanes); RAYTRACE_LANES overrides."""
+    target = apply_target(device)
+    if target is not None:
+        return target.lanes
+    return lanes_for(None, 8 if device.type & cl.device_type.CPU else 1)
 
 
 def describe(device):

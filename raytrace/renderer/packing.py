@@ -15,13 +15,15 @@ from .culling import culled_subtrees, light_sides, scene_extent
 
 
 def camera_struct(camera, width, height):
+    """The focal length cancels in the camera's ray directions and footprints (the image plane grows with it,
+    the field of view fixed): it is packed as 1, so that no value of it overflows or underflows float32."""
     forward, right, up = camera.basis()
     tan_half = math.tan(math.radians(camera.fov_deg) / 2)
     c = np.zeros((), structs.CAMERA)
     c["position"], c["forward"], c["right"], c["up"] = camera.position, forward, right, up
-    c["scale_x"] = width / height * camera.focal_length * tan_half
-    c["scale_y"] = camera.focal_length * tan_half
-    c["focal_length"] = camera.focal_length
+    c["scale_x"] = width / height * tan_half
+    c["scale_y"] = tan_half
+    c["focal_length"] = 1.0
     return c
 
 

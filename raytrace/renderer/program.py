@@ -5,6 +5,8 @@ from pathlib import Path
 
 import pyopencl as cl
 
+from .cpu_target import current_llvm_cpu
+
 
 def kernel_dir():
     """kernels/ of a checkout, else the copy installed as the package raytrace.kernels."""
@@ -66,8 +68,9 @@ _programs = {}
 
 
 def render_program(context, features):
-    """The renderer's program for these features; build seconds are 0 when it was built before."""
-    key = (context, features)
+    """The renderer's program for these features; build seconds are 0 when it was built before for the same
+    target (cpu_target.py)."""
+    key = (context, features, tuple(current_llvm_cpu(d) for d in context.devices))
     if key in _programs:
         return _programs[key], 0.0
     _programs[key], seconds = build(context, '#include "render.cl"\n', features.options())

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import meshes, meshgen
+from . import meshes, meshgen, ranges
 from ..errors import InputError
 from .. import samplers
 from ..structs import WRAP_MODES
@@ -49,14 +49,16 @@ class _Reader:
 
     def number(self, key, default=None, low=-math.inf, high=math.inf, open_low=False):
         value = self.raw(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, value, "must be a finite number")
+        if ranges.float32_problem(value):
+            self.fail(key, value, ranges.float32_problem(value))
         if value < low or value > high or (open_low and value == low):
             bound = f"> {low}" if open_low else f">= {low}"
             self.fail(key, value, f"must be {bound} and <= {high}")
         return float(value)
 
-    def integer(self, key, default=None, low=1, high=1 << 15):
+    def integer(self, key, default=None, low=1, high=ranges.MAX_SAMPLES):
         value = self.raw(key, default)
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             self.fail(key, value, f"must be an integer in [{low}, {high}]")
@@ -76,6 +78,9 @@ class _Reader:
         if not ok:
             bound = f" >= {low}" if low > -math.inf else ""
             self.fail(key, value, f"must be a list of {n} finite numbers{bound}")
+        for x in value:
+            if ranges.float32_problem(x):
+                self.fail(key, value, ranges.float32_problem(x))
         v = np.array(value, dtype=np.float64)
         if nonzero and not np.any(v):
             self.fail(key, value, "must not be the zero vector")
@@ -117,6 +122,13 @@ def _check_triangle(r, key, vertices):
 
 
 def _load_shape(scene, r, material_index):
+    """Add the shape of table `r` to `scene`; returns what it added (the triangles of an inline mesh)."""
+    before = {kind: len(getattr(scene, kind)) for kind in ("rectangles", "triangles", "ellipsoids", "meshes")}
+    _add_shape(scene, r, material_index)
+    return [shape for kind, n in before.items() for shape in getattr(scene, kind)[n:]]
+
+
+def _add_shape(scene, r, material_index):
     kind = r.string("type", choices=SHAPE_KINDS)
     common = {"type", "material"}
     name = r.string("material")
@@ -170,8 +182,11 @@ def _mesh_source(r):
         return (*meshes.load_mesh(path), str(path))
     g = r.sub("generate")
     g.check_keys(["shape", "triangles"])
-    shape = g.string("shape", choices=GENERATORS)
-    return GENERATORS[shape](g.integer("triangles", low=2, high=50_000_000)), 0, f"generate {shape}"
+    shape, triangles = g.string("shape", choices=GENERATORS), g.integer("triangles", low=2, high=50_000_000)
+    try:
+        return GENERATORS[shape](triangles), 0, f"generate {shape}"
+    except MemoryError:
+        g.fail("triangles", triangles, "out of memory generating the mesh")
 
 
 def _transform(r):
@@ -199,8 +214,9 @@ def _transform(r):
 def _transformed_faces(r, key, vertices, faces):
     """The faces that keep an area once the transformed vertices are stored in float32, and how many do not;
     a transform that leaves a vertex outside float32's range, or no face at all, is an error."""
-    if not np.abs(vertices).max() <= 1e30:  # also NaN; beyond it, float32 sums of coordinates overflow
-        r.fail(key, r.raw(key), "puts the mesh outside float32's range")
+    if not np.abs(vertices).max() <= ranges.COORDINATE_LIMIT:  # also NaN
+        r.fail(key, r.raw(key), f"puts the mesh beyond {ranges.COORDINATE_LIMIT:.4g} (2^60) of the origin, "
+               "outside the range float32 arithmetic allows")
     stored = vertices.astype(np.float32)
     degenerate = meshes.degenerate_faces(stored.astype(np.float64), faces)
     if degenerate.all():
@@ -279,7 +295,7 @@ def parse_scene(table, path="<scene>"):
 
     img = r.sub("image")
     img.check_keys(["height", "width"])
-    width, height = img.integer("width"), img.integer("height")
+    width, height = img.integer("width", high=ranges.MAX_IMAGE_SIDE), img.integer("height", high=ranges.MAX_IMAGE_SIDE)
 
     render = r.sub("render") if r.has("render") else _Reader(path, {}, "render.")
     render.check_keys(["light_sampler", "light_samples", "sampler", "spp"])
@@ -288,10 +304,11 @@ def parse_scene(table, path="<scene>"):
     if not isinstance(mats, dict) or not mats:
         r.fail("materials", mats, "must be a table of named materials")
     textures = TextureCache(Path(path).parent)
-    materials, material_index = [], {}
+    materials, material_index, material_readers = [], {}, []
     for name in mats:
         material_index[name] = len(materials)
-        materials.append(_material(r.sub("materials").sub(name), name, textures))
+        material_readers.append(r.sub("materials").sub(name))
+        materials.append(_material(material_readers[-1], name, textures))
 
     spp, light_samples = render.integer("spp", 1), render.integer("light_samples", 1)
     sampler, light_sampler = render.string("sampler", "grid"), render.string("light_sampler", "grid")
@@ -306,16 +323,21 @@ def parse_scene(table, path="<scene>"):
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:
         r.fail("lights", lights, "must be a non-empty array of [[lights]] tables")
+    places, light_readers = [(c, camera)], []
     for i, light in enumerate(lights):
         lr = _Reader(path, light, f"lights[{i}].")
         lr.check_keys(["center", "colour", "normal", "size", "tangent"])
         scene.lights.append(Light(colour=lr.vector("colour", 3, low=0), **_rectangle_fields(lr)))
+        places.append((lr, scene.lights[-1]))
+        light_readers.append(lr)
 
     shapes = r.raw("shapes", [])
     if not isinstance(shapes, list):
         r.fail("shapes", shapes, "must be an array of [[shapes]] tables")
     for i, shape in enumerate(shapes):
-        _load_shape(scene, _Reader(path, shape, f"shapes[{i}]."), material_index)
+        sr = _Reader(path, shape, f"shapes[{i}].")
+        places.extend((sr, added) for added in _load_shape(scene, sr, material_index))
+    ranges.check_scene(scene, places, material_readers, light_readers, r)
     return scene
 
 

@@ -100,8 +100,12 @@ def compile_scene(scene, target, lanes=None):
     if target not in TARGETS:
         raise InputError("command line", "--target", target, f"unknown target (have: {', '.join(TARGETS)})")
     if target == "pocl":
+        from ..renderer.cpu_target import apply_target, check_lanes
         from ..renderer.device import default_lanes, select_device
-        features = Features.of(scene, lanes or default_lanes(select_device(None)))
+        device = select_device(None)
+        if lanes:
+            check_lanes(apply_target(device), lanes, "command line", "--lanes")
+        features = Features.of(scene, lanes or default_lanes(device))
         size, seconds = _pocl(features)
     else:
         features = replace(Features.of(scene, 1), lanes=lanes or 1)

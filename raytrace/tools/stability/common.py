@@ -69,14 +69,6 @@ def hit_nonfinite(hit):
     return nonfinite(hit["t"][~np.isinf(hit["t"])], hit["p"][hits], hit["n"][hits])
 
 
-def brightest(scene):
-    """No pixel can exceed max k (ambient + 2 sum L) (n.l and the specular power are each at most 1), or a
-    light's colour."""
-    k = max(m.colour.max() for m in scene.materials)
-    lights = [light.colour.max() for light in scene.lights]
-    return max(k * (scene.ambient.max() + 2 * sum(lights)), *lights)
-
-
 def outside(images, limit):
     return sum(int(np.count_nonzero((a < 0) | (a > limit))) for a in images)
 

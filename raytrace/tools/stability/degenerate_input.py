@@ -11,7 +11,8 @@ import numpy as np
 
 from ...errors import InputError
 from ...scene import Triangle, load_scene
-from .common import SCENE0, SCENES, Row, brightest, nonfinite, outside
+from ...scene.ranges import brightest
+from .common import SCENE0, SCENES, Row, nonfinite, outside
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -4,7 +4,8 @@ import dataclasses
 import numpy as np
 
 from ...numerics import U
-from .common import TINY, Row, brightest, nonfinite, outside
+from ...scene.ranges import brightest
+from .common import TINY, Row, nonfinite, outside
 
 
 # ---------------------------------------------------------------------------------------------------------

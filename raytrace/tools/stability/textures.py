@@ -4,7 +4,8 @@ import dataclasses
 import numpy as np
 
 from ...scene import load_scene
-from .common import SCENES, Row, brightest, nonfinite, outside
+from ...scene.ranges import brightest
+from .common import SCENES, Row, nonfinite, outside
 
 
 # ---------------------------------------------------------------------------------------------------------
