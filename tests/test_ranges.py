@@ -119,3 +119,24 @@ def test_one_set_of_limits_named_where_the_value_came_from(tmp_path, key, cli, v
     r = run("render", CORNELL, "-o", tmp_path / "x.png", cli, value)
     assert r.returncode == 2 and f"command line: {cli} = {value}: must be an integer in [1, {limit}]" in r.stderr
     assert not list(tmp_path.glob("x*"))
+
+
+def write_texture(path, value):
+    import OpenImageIO as oiio
+    pixels = np.full((2, 2, 3), value, np.float32)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), oiio.ImageSpec(2, 2, 3, oiio.FLOAT)) and out.write_image(pixels) and out.close()
+
+
+@pytest.mark.parametrize("material,key,limit", [
+    ({"texture": "t.exr"}, "texture", "2^62"),                                    # a texel of 1e20 times 1
+    ({"colour": [0.5, 0.5, 0.5], "height_map": "t.exr", "height_scale": 1e3}, "height_scale", "2^60")])
+def test_maps_count_in_the_derived_ranges(tmp_path, material, key, limit):
+    """A float colour map's brightest texel multiplies the material's colour (rule 4), and a height map's
+    largest value times height_scale displaces points (rule 2): the error names the key that brings it."""
+    write_texture(tmp_path / "t.exr", 1e20 if key == "texture" else 1e16)
+    table = cornell_table()
+    table["materials"]["white"] = material
+    with pytest.raises(InputError) as info:
+        parse_scene(table, str(tmp_path / "s.toml"))
+    assert info.value.key == f"materials.white.{key}" and limit in info.value.problem, info.value

@@ -62,13 +62,16 @@ def shortest_semi_axis(ellipsoid):
     return float(np.linalg.svd(ellipsoid.axes, compute_uv=False).min())
 
 
+def largest_texel(texture):
+    """The largest value of a texture's colour channels (8-bit codes stand for [0, 1])."""
+    level = texture.levels[0]
+    return 1.0 if level.dtype == np.uint8 else float(np.abs(level[..., :3]).max())
+
+
 def largest_albedo(scene, material):
-    """The material's colour times the brightest texel of its colour map (linear; 8-bit maps reach 1)."""
+    """The material's colour times the brightest texel of its colour map."""
     k = float(np.max(material.colour))
-    if material.colour_map >= 0:
-        level = scene.textures[material.colour_map].levels[0]
-        k *= 1.0 if level.dtype == np.uint8 else float(level[..., :3].max())
-    return k
+    return k * largest_texel(scene.textures[material.colour_map]) if material.colour_map >= 0 else k
 
 
 def brightest(scene):
@@ -116,9 +119,10 @@ def _check_heights(scene, material_readers):
     """Rule 2 for the points a height map displaces."""
     for material, reader in zip(scene.materials, material_readers):
         if material.height_map >= 0:
-            reach = material.height_scale * float(np.abs(scene.textures[material.height_map].levels[0]).max())
+            reach = material.height_scale * largest_texel(scene.textures[material.height_map])
             if reach > COORDINATE_LIMIT:
-                reader.fail("height_scale", material.height_scale, f"displaces points by up to {reach:.4g}, beyond "
+                reader.fail("height_scale", material.height_scale, f"with {reader.raw('height_map')} displaces points "
+                            f"by up to {reach:.4g}, beyond "
                             f"the {COORDINATE_LIMIT:.4g} (2^60) within which float32 coordinates stay finite")
 
 
@@ -129,11 +133,13 @@ def _check_brightness(scene, material_readers, light_readers, scene_reader):
         return
     albedos = [largest_albedo(scene, m) for m in scene.materials]
     lights = [float(light.colour.max()) for light in scene.lights]
+    brightest_material = int(np.argmax(albedos))
+    material_key = "texture" if scene.materials[brightest_material].colour_map >= 0 else "colour"
     terms = {(scene_reader, "ambient"): float(scene.ambient.max()),
              (light_readers[int(np.argmax(lights))], "colour"): max(lights),
-             (material_readers[int(np.argmax(albedos))], "colour"): max(albedos)}
+             (material_readers[brightest_material], material_key): max(albedos)}
     reader, key = max(terms, key=terms.get)
-    reader.fail(key, reader.raw(key, [0.0]), f"makes a pixel as bright as {value:.4g}, beyond the "
+    reader.fail(key, reader.raw(key), f"makes a pixel as bright as {value:.4g}, beyond the "
                 f"{BRIGHTEST_LIMIT:.4g} (2^62) up to which float32 sums of samples and squares of pixel values stay finite")
 
 
