@@ -5,8 +5,6 @@ accumulate in renderer/progressive.py).
 Renders of any size: a launch renders a band of whole rows into a device buffer of one band, which the host
 adds into its sums before the next launch, so device memory is bounded by max_band_bytes; host memory grows
 with the image (progressive.BYTES_PER_PIXEL), and a render it cannot hold is refused before any device work."""
-import os
-import resource
 import sys
 import time
 from dataclasses import dataclass, field
@@ -20,6 +18,7 @@ from .renderer.packing import scene_tables, texture_tables
 from .renderer.cpu_target import apply_target, check_lanes
 from .renderer.device import context_for, default_lanes, describe, select_device
 from .errors import InputError
+from .memory import available_memory
 from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
 from .renderer.program import Features, render_program
 from .renderer.progressive import BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, Accumulator, pass_size, row_chunks
@@ -119,29 +118,6 @@ def resolve(scene, options):
     _option(options.target_error, cli, "--target-error", lambda v: v is None or 0 < v < float("inf"),
             "must be a positive relative RMSE")
     return width, height, spp, nl, pixel, light
-
-
-def _proc_kib(path, field):
-    """A `field: N kB` line of a /proc file, in bytes; None where there is none."""
-    try:
-        with open(path) as f:
-            fields = dict(line.split(":", 1) for line in f)
-        return int(fields[field].split()[0]) * 1024
-    except (OSError, KeyError, ValueError):
-        return None
-
-
-def available_memory():
-    """Bytes the host can still give this process: MemAvailable (free and reclaimable), else the free
-    physical pages, and at most what the address-space limit (ulimit -v) leaves beside the address space
-    the process holds already (the OpenCL runtime's alone is about 0.5 GB on PoCL)."""
-    available = _proc_kib("/proc/meminfo", "MemAvailable")
-    if available is None:
-        available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
-    if limit == resource.RLIM_INFINITY:
-        return available
-    return min(available, limit - (_proc_kib("/proc/self/status", "VmSize") or 0))
 
 
 def check_memory(width, height):

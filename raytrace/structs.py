@@ -60,3 +60,5 @@ STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "Tria
 BVH_STACK = 64                # levels of a BVH the kernel's traversal stack holds: the host refuses deeper trees
 CULLED_RECTANGLES = 32        # rectangles that shadow rays may skip: one bit each in a Light's masks
 LANE_WIDTHS = (1, 4, 8, 16)   # pixels per work-item the kernel accepts
+
+MAX_WORDS = (1 << 31) - 1  # the texel store's offsets are int32 words in the kernel

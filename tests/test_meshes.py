@@ -217,3 +217,51 @@ def test_missing_file(tmp_path):
     with pytest.raises(InputError) as info:
         load_mesh(tmp_path / "nope.obj")
     assert info.value.source == str(tmp_path / "nope.obj")
+
+
+PLY_BINARY = PLY_ASCII.replace("ascii", "binary_little_endian").encode()
+TRIANGLE = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0) + struct.pack("<B3i", 3, 0, 1, 2)
+PLY_NORMALS = PLY_ASCII.replace("property float z\n", "property float z\nproperty float nx\nproperty float ny\n"
+                                "property float nz\n")
+PRECISE = {  # file: (content, what the one line must say)
+    "far_beyond_float32.obj": (V3.replace("v 1 0 0", "v 1e39 0 0") + "f 1 2 3\n", ("line 2", "1e39", "float32")),
+    "beyond_coordinate_limit.obj": (V3.replace("v 1 0 0", "v 1e20 0 0") + "f 1 2 3\n", ("line 2", "1e20", "1.153e+18")),
+    "inf_normal.obj": (V3 + "vn 0 0 inf\nf 1//1 2//1 3//1\n", ("line 4", "inf is not a finite number")),
+    "nan_uv.obj": (V3 + "vt NaN 0\nf 1/1 2/1 3/1\n", ("line 4", "NaN is not a finite number")),
+    "huge_uv.obj": (V3 + "vt 0 1E+039\nf 1/1 2/1 3/1\n", ("line 4", "1E+039", "float32")),
+    "missing_vertex.obj": (V3 + "f 1 2 3\nf 1 2 9\n", ("line 5", "vertex 9 does not exist", "3 vertices")),
+    "not_a_number.obj": (V3.replace("v 1 0 0", "v 1 x 0") + "f 1 2 3\n", ("line 2", "'x' is not a number")),
+    "double_beyond_float32.ply": (PLY_BINARY.replace(b"float", b"double") + struct.pack("<9d", 0, 0, 0, 1e39, 0, 0,
+                                  0, 1, 0) + struct.pack("<B3i", 3, 0, 1, 2), ("vertices[1]", "1e+39", "float32")),
+    "nan_normal.ply": (PLY_NORMALS + "0 0 0 0 0 1\n1 0 0 0 0 nan\n0 1 0 0 0 1\n3 0 1 2\n",
+                       ("normals[1]", "not a finite number")),
+    "header_cut.ply": (PLY_ASCII[:60], ("truncated", "end_header")),
+    "body_cut.ply": (PLY_BINARY + TRIANGLE[:30], ("truncated", "at least 37 bytes", "30 bytes follow")),
+    "absurd_count.ply": (PLY_ASCII.replace("vertex 3", "vertex 999999999999") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                         ("truncated", "element vertex 999999999999")),
+    "absurd_binary_count.ply": (PLY_BINARY.replace(b"vertex 3", b"vertex 999999999999") + TRIANGLE,
+                                ("truncated", "element vertex 999999999999")),
+    "list_beyond_end.ply": (PLY_BINARY.replace(b"uchar int", b"uint int") + TRIANGLE[:36] +
+                            struct.pack("<I3i", 4_000_000_000, 0, 1, 2), ("truncated", "element face")),
+    "property_typo.ply": (PLY_ASCII.replace("property float y", "pr0perty float y") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                          ("line 5", "'pr0perty float y'", "not a PLY header line")),
+    "unknown_format.ply": (PLY_ASCII.replace("ascii", "binary_middle_endian"), ("line 2", "must be 'format")),
+}
+
+
+@pytest.mark.parametrize("name", PRECISE)
+def test_bad_files_say_what_is_wrong(tmp_path, capfd, name):
+    """Hostile values and broken structure, each refused by one line that names the file and says where and
+    what (the OBJ line, the PLY vertex, what the PLY header declares against what the file holds), and
+    nothing else on fd 2. Before these checks, 1e39 made every face "degenerate", a cut-off PLY header was
+    "a face refers to a vertex that does not exist", `element vertex 999999999999` was allocated, and an
+    inf normal was silently replaced."""
+    path = tmp_path / name
+    content, words = PRECISE[name]
+    path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    with pytest.raises(InputError) as info:
+        load_mesh(path)
+    message = str(info.value)
+    assert info.value.source == str(path) and "\n" not in message
+    assert all(w in message for w in words), message
+    assert capfd.readouterr().err == ""

@@ -99,6 +99,55 @@ def test_bad_float_height_maps(tmp_path, value, problem):
     assert all(part in str(e.value) for part in problem)
 
 
+@pytest.mark.parametrize("fmt, value, problem", [
+    ("float", -0.5, ("a colour map's values must be >= 0", "its lowest is -0.5")),
+    ("float", np.nan, ("NaN or infinite", "texel (x=2, y=1)")), ("float", np.inf, ("NaN or infinite",)),
+    ("double", 1e39, ("beyond float32's range", "1e+39")),
+    ("int16", -1000, ("a colour map's values must be >= 0",))])
+def test_bad_colour_maps(tmp_path, fmt, value, problem):
+    """A colour map with a negative value (it would reflect negative light: float files, and signed integer
+    ones, which OpenImageIO reads as [-1, 1]), a NaN or infinite one, or one beyond float32 (a float64 TIFF,
+    which reading as float32 would turn into inf): one error naming the scene, the key and the file."""
+    dtype = {"float": np.float32, "double": np.float64, "int16": np.int16}[fmt]
+    pixels = np.full((4, 4, 3), 0.25 if fmt != "int16" else 1000, dtype)
+    pixels[1, 2, 1] = value
+    path = tmp_path / "c.tif"
+    write(path, pixels, fmt)
+    with pytest.raises(InputError) as e:
+        load_texture(path, "colour", "scene.toml", "materials.m.texture")
+    assert (e.value.source, e.value.key, e.value.value) == ("scene.toml", "materials.m.texture", str(path))
+    assert all(part in str(e.value) for part in problem), str(e.value)
+
+
+def broken_png(path):
+    write(path, np.zeros((16, 16, 3), np.uint8), "uint8")
+    path.write_bytes(path.read_bytes()[:-30])
+
+
+def broken_exr(path):
+    """An EXR whose header turns into bytes that are not UTF-8 after its first attribute: OpenImageIO's
+    error message quotes them, and its Python binding raised UnicodeDecodeError reading that message."""
+    write(path, np.zeros((4, 4, 3), np.float32), "float")
+    path.write_bytes(path.read_bytes()[:48] + np.random.default_rng(0).bytes(400))
+
+
+@pytest.mark.parametrize("make, name, problem", [
+    (broken_png, "t.png", "libpng error: IDAT"),
+    (broken_exr, "t.exr", "cannot read the image: EXR Error"),
+    (lambda path: None, "missing.null", "OpenImageIO's null plugin"),
+    (lambda path: path.mkdir(), "d.png", "is not a regular file")])
+def test_unreadable_textures_are_one_line(tmp_path, capfd, make, name, problem):
+    """libpng prints its error on fd 2 itself (a second line before ours): it is captured and becomes our
+    line's reason. No error is left pending in OpenImageIO (it would print one when the process exits).
+    OpenImageIO's "null" plugin makes up an image for any name ending in .null, existing or not: refused."""
+    path = tmp_path / name
+    make(path)
+    with pytest.raises(InputError) as e:
+        load_texture(path, "colour", "scene.toml", "materials.m.texture")
+    assert e.value.value == str(path) and problem in str(e.value) and "\n" not in str(e.value), str(e.value)
+    assert capfd.readouterr().err == "" and oiio.geterror() == ""
+
+
 def test_srgb_table_is_the_standard_curve():
     """The kernel's decoding table against the reference's formula, at every code."""
     np.testing.assert_allclose(mipmap.SRGB8_TO_LINEAR, ref.srgb_to_linear(np.arange(256) / 255), rtol=1e-15)

@@ -10,7 +10,7 @@ from . import bvh
 from .. import samplers, structs
 from ..errors import InputError
 from ..scene import mipmap
-from ..structs import CULLED_RECTANGLES
+from ..structs import CULLED_RECTANGLES, MAX_WORDS
 from .culling import culled_subtrees, light_sides, scene_extent
 
 
@@ -165,7 +165,6 @@ def material_structs(materials):
     return a
 
 
-MAX_WORDS = (1 << 31) - 1  # offsets are int32 words in the kernel
 
 
 def pack_textures(textures, source="scene"):

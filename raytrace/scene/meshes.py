@@ -1,4 +1,5 @@
-"""Triangle meshes as numpy arrays, and reading them from OBJ and PLY files.
+"""Triangle meshes as numpy arrays (Mesh and its geometry), and load_mesh, which reads them from OBJ and PLY
+files: obj_file.py and ply_file.py read the formats; the checks every mesh file passes are here.
 
 Files are parsed by trimesh (MIT, well kept, needs only numpy): one library reads OBJ and ascii and
 binary PLY, and fan-triangulates quads and n-gons. We call its format readers
@@ -7,24 +8,32 @@ recomputes vertex normals, dropping the file's own (an OBJ's always; a PLY's whe
 "texture fix" has reindexed the vertices but not their normals, e.g. when one is unused). With
 fix_texture=False the readers' raw arrays keep each vertex's position, normal and uv together.
 
-One gap is filled here: trimesh's binary PLY reader needs all face lists to have one length, so
-binary files mixing triangles, quads and n-gons are read by a small reader of our own.
+Real files are messy, and trimesh is lenient, so everything it lets through is checked, and hostile files
+(random bytes, truncations, absurd counts) get one InputError naming the file too. Checked here, for both
+formats (_checked): a file without faces, indices out of range, and NaN, infinite or too large vertex
+coordinates (beyond raytrace.scene.ranges.COORDINATE_LIMIT), uvs and normals (beyond float32's range), named
+by their row; degenerate faces (repeated indices, zero area) are dropped and counted. The readers check what
+only their format has before trimesh sees it (see their docstrings), and wrap whatever trimesh still raises
+(quiet, why); its log warnings are silenced here.
 
-Real files are messy, and trimesh is lenient, so everything it lets through is checked here: a file
-without faces, non-finite coordinates, indices out of range, and face references to texture
-coordinates or normals that trimesh silently drops raise InputError naming the file; degenerate faces
-(repeated indices, zero area) are dropped and counted. Limits: OBJ materials are ignored, and PLY
-texture coordinates stored per face corner ("texcoord" lists) keep one uv per vertex.
+At import time, imports run one way: obj_file and ply_file import this module's geometry (fan) and shared
+checks; load_mesh imports the readers only when it is called (at the top the import would be circular).
+The shared checks stay here, beside the Mesh they validate, so that neither reader imports the other.
 """
-import io
-import re
-import struct
+import logging
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
+
+# trimesh logs warnings (e.g. "PLY failed to populate") that Python's last-resort handler would print on
+# stderr beside our one line; its errors reach the user as InputError instead.
+logging.getLogger("trimesh").addHandler(logging.NullHandler())
+
+F32_MAX = float(np.finfo(np.float32).max)  # uvs and normals only have to be float32 numbers
 
 # Twice the area over the longest edge squared: at or below this a triangle has no usable plane
 # (raytrace.scene refuses triangles written in a scene file by the same ratio).
@@ -89,141 +98,22 @@ def fan(polygons):
 def load_mesh(path):
     """Read an OBJ or PLY file: (Mesh, number of degenerate faces dropped). Normals and uvs are the
     file's (None if it has none); a bad file raises InputError."""
+    from . import obj_file, ply_file  # here, not at the top: they import this module
     path = Path(path)
-    readers = {".obj": _read_obj, ".ply": _read_ply}
+    readers = {".obj": obj_file.read_obj, ".ply": ply_file.read_ply}
     if path.suffix.lower() not in readers:
         raise InputError(path, "file", str(path), "must be an .obj or .ply file")
+    if path.exists() and not path.is_file():  # a FIFO or /dev/zero would block or never end
+        raise InputError(path, "file", str(path), "is not a regular file")
     try:
         data = path.read_bytes()
     except OSError as e:
         raise InputError(path, "file", str(path), e.strerror or "cannot be read") from None
-    vertices, faces, normals, uvs = readers[path.suffix.lower()](path, data)
-    return _checked(path, vertices, faces, normals, uvs)
-
-
-def _read_obj(path, data):
-    """The file's (vertices, polygons, normals, uvs), from all its `usemtl` groups."""
-    if b"\0" in data:
-        raise InputError(path, "file", None, "is binary data, not OBJ text")
-    text = data.decode("latin-1")  # only ASCII matters; names and comments in other encodings pass
-    _check_obj_indices(path, text)
-    from trimesh.exchange.obj import load_obj  # here, not at the top: importing trimesh takes 0.5 s
     try:
-        parts = load_obj(io.StringIO(text), skip_materials=True, group_material=False).get("geometry", {})
-    except IndexError:
-        raise InputError(path, "f", None, "a face refers to a vertex that does not exist") from None
-    except Exception as e:  # trimesh raises whatever its parsing hits on malformed text
-        raise InputError(path, "file", None, f"cannot be read as OBJ ({type(e).__name__}: {e})") from None
-    parts = [p for p in parts.values() if len(p.get("faces", ()))]
-    if not parts:
-        raise InputError(path, "f", None, "the file has no faces")
-    uvs = [getattr(p.get("visual"), "uv", None) for p in parts]
-    normals = [p.get("vertex_normals") for p in parts]
-    for key, refs, got, what in (("vt", r"\d/-?\d", uvs, "texture coordinates"),
-                                 ("vn", r"\d/-?\d*/-?\d", normals, "normals")):
-        if re.search(r"^f[ \t][^\n]*?" + refs, text, re.M) and any(g is None for g in got):
-            raise InputError(path, key, None, f"faces refer to {what} that do not exist, or only some faces "
-                                              f"have them")
-    offsets = np.cumsum([0] + [len(p["vertices"]) for p in parts])
-    return (np.concatenate([p["vertices"] for p in parts]),
-            np.concatenate([fan(np.asarray(p["faces"])) + o for p, o in zip(parts, offsets)]),
-            None if any(n is None for n in normals) else np.concatenate(normals),
-            None if any(uv is None for uv in uvs) else np.concatenate(uvs))
-
-
-def _check_obj_indices(path, text):
-    """What trimesh gets silently wrong: index 0 (OBJ counts from 1; trimesh reads it as the first
-    vertex), and negative (relative) indices once vertices follow faces (trimesh counts back from the
-    end of the file, not from the face)."""
-    zero = re.search(r"^f[ \t][^\n]*?(?<=[ \t/])-?0(?=[ \t/\r]|$)", text, re.M)
-    if zero:
-        raise InputError(path, "f", zero.group(0).strip(), "indices start at 1")
-    relative = re.search(r"^f[ \t][^\n]*?(?<=[ \t/])-\d", text, re.M)
-    if relative and max(text.rfind(f"\n{k} ") for k in ("v", "vt", "vn")) > relative.start():
-        raise InputError(path, "f", relative.group(0).strip(),
-                         "relative (negative) indices are supported only when all vertices come first")
-
-
-def _read_ply(path, data):
-    """The file's (vertices, polygons, normals, uvs). fix_texture=False keeps the file's vertex order."""
-    from trimesh.exchange.ply import load_ply
-    try:
-        read = load_ply(io.BytesIO(data), fix_texture=False, skip_materials=True)
-    except IndexError:
-        raise InputError(path, "face", None, "a face refers to a vertex that does not exist") from None
-    except Exception as e:  # trimesh raises whatever its parsing hits on malformed data
-        if data.startswith(b"ply") and b"format binary" in data[:data.find(b"end_header")]:
-            return _read_binary_ply(path, data)
-        raise InputError(path, "file", None, f"cannot be read as PLY ({type(e).__name__}: {e})") from None
-    faces = read.get("faces")
-    if faces is None or not len(faces):
-        raise InputError(path, "face", None, "the file has no faces")
-    return read["vertices"], fan(np.asarray(faces)), read.get("vertex_normals"), \
-        getattr(read.get("visual"), "uv", None)
-
-
-# PLY scalar types as struct codes, which numpy reads too (np.dtype("<i") is int32).
-PLY_TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h", "ushort": "H",
-             "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I", "float": "f", "float32": "f",
-             "double": "d", "float64": "d"}
-PLY_UV_NAMES = (("texture_u", "texture_v"), ("u", "v"), ("s", "t"))  # trimesh's, in its order
-
-
-def _read_binary_ply(path, data):
-    """Binary PLY that trimesh refuses: its binary reader needs every face list to have one length, and
-    quad meshes with a few triangles (or n-gons) do not. Header parsed here, vertices read by numpy,
-    faces record by record (Python: about 3 s per million faces), then fanned by size."""
-    try:
-        head, body = data.split(b"end_header", 1)
-        tables = _ply_elements(head.decode("ascii"), body[body.index(b"\n") + 1:])
-        vertex, polygons = tables["vertex"], tables["face"]
-        columns = vertex.dtype.names
-        normals = np.stack([vertex[k] for k in ("nx", "ny", "nz")], 1) if "nz" in columns else None
-        uv = next(((u, v) for u, v in PLY_UV_NAMES if u in columns and v in columns), None)
-        sizes = np.array([len(p) for p in polygons])
-        faces = [fan(np.array([p for p in polygons if len(p) == k])) for k in np.unique(sizes[sizes >= 3])]
-    except Exception as e:  # truncated data, unknown types, missing elements: all malformed files
-        raise InputError(path, "file", None, f"cannot be read as binary PLY ({type(e).__name__}: {e})") from None
-    return (np.stack([vertex[k] for k in "xyz"], 1), np.concatenate(faces) if faces else np.zeros((0, 3), int),
-            normals, None if uv is None else np.stack([vertex[uv[0]], vertex[uv[1]]], 1))
-
-
-def _ply_elements(header, body):
-    """{element name: structured array, or for elements with list properties, their index lists}."""
-    lines = [line.split() for line in header.splitlines()]
-    endian = ">" if ["format", "binary_big_endian", "1.0"] in lines else "<"
-    elements = []
-    for line in lines:
-        if line[:1] == ["element"]:
-            elements.append((line[1], int(line[2]), []))
-        elif line[:1] == ["property"]:
-            elements[-1][2].append(line[1:])
-    offset, tables = 0, {}
-    for name, count, properties in elements:
-        if any(p[0] == "list" for p in properties):
-            tables[name], offset = _ply_lists(body, offset, count, properties, endian)
-        else:
-            dtype = np.dtype([(p[1], endian + PLY_TYPES[p[0]]) for p in properties])
-            tables[name] = np.frombuffer(body, dtype, count, offset)
-            offset += count * dtype.itemsize
-    return tables
-
-
-def _ply_lists(body, offset, count, properties, endian):
-    """The vertex index lists of `count` records that have list properties, and the offset after them."""
-    polygons = []
-    for _ in range(count):
-        for p in properties:
-            if p[0] == "list":
-                n = struct.unpack_from(endian + PLY_TYPES[p[1]], body, offset)[0]
-                offset += struct.calcsize(endian + PLY_TYPES[p[1]])
-                values = struct.unpack_from(f"{endian}{n}{PLY_TYPES[p[2]]}", body, offset)
-                offset += struct.calcsize(f"{endian}{n}{PLY_TYPES[p[2]]}")
-                if p[3] in ("vertex_indices", "vertex_index"):
-                    polygons.append(values)
-            else:
-                offset += struct.calcsize(endian + PLY_TYPES[p[0]])
-    return polygons, offset
+        vertices, faces, normals, uvs = readers[path.suffix.lower()](path, data)
+        return _checked(path, vertices, faces, normals, uvs)
+    except MemoryError:
+        raise InputError(path, "file", str(path), "does not fit in memory") from None
 
 
 def _checked(path, vertices, faces, normals, uvs):
@@ -231,9 +121,7 @@ def _checked(path, vertices, faces, normals, uvs):
     vertices = np.asarray(vertices, np.float64)
     if vertices.ndim != 2 or vertices.shape[1] != 3:
         raise InputError(path, "vertices", None, "every vertex needs x, y and z")
-    bad = ~np.isfinite(vertices).all(axis=1)
-    if bad.any():
-        raise InputError(path, f"vertices[{np.argmax(bad)}]", vertices[np.argmax(bad)].tolist(), "must be finite")
+    _check_values(path, "vertices", vertices, coordinate_limit())
     if not len(faces):
         raise InputError(path, "faces", None, "no face has three or more vertices")
     out = (faces < 0) | (faces >= len(vertices))
@@ -242,23 +130,65 @@ def _checked(path, vertices, faces, normals, uvs):
         raise InputError(path, f"faces[{row}]", faces[row].tolist(), f"indices must be in [0, {len(vertices) - 1}]")
     if uvs is not None:
         uvs = np.asarray(uvs, np.float64)
-        bad = ~np.isfinite(uvs).all(axis=1)
-        if bad.any():
-            raise InputError(path, f"uvs[{np.argmax(bad)}]", uvs[np.argmax(bad)].tolist(), "must be finite")
+        _check_values(path, "uvs", uvs, F32_MAX)
     degenerate = degenerate_faces(vertices, faces)
     faces = faces[~degenerate].astype(np.int32)
     if not len(faces):
         raise InputError(path, "faces", None, f"all {int(degenerate.sum())} faces are degenerate (zero area)")
     if normals is not None:
-        normals = _unit_normals(np.asarray(normals, np.float64), vertices, faces)
+        normals = np.asarray(normals, np.float64)
+        _check_values(path, "normals", normals, F32_MAX)
+        normals = _unit_normals(normals, vertices, faces)
     return Mesh(vertices, faces, normals, uvs), int(degenerate.sum())
 
 
+def _check_values(path, name, values, limit):
+    """Refuse a row (a vertex, uv or normal, numbered as in the file) with a NaN, infinite or too large value."""
+    bad = ~(np.abs(values) <= limit).all(axis=1)
+    if bad.any():
+        row = values[np.argmax(bad)]
+        value = row[~(np.abs(row) <= limit)][0]
+        raise InputError(path, f"{name}[{np.argmax(bad)}]", row.tolist(), value_problem(f"{value:g}", value, limit))
+
+
 def _unit_normals(normals, vertices, faces):
-    """The file's normals, normalised; zero or non-finite ones are replaced by area-weighted ones."""
+    """The file's normals, normalised; zero ones (some exporters write them at creases) are replaced by
+    area-weighted ones."""
     length = np.linalg.norm(normals, axis=1, keepdims=True)
     usable = np.isfinite(length) & (length > 0)
     unit = np.divide(normals, length, out=np.zeros_like(normals), where=usable)
     if not usable.all():
         unit[~usable[:, 0]] = vertex_normals(vertices, faces)[~usable[:, 0]]
     return unit
+
+
+def value_problem(word, value, limit):
+    """Why a coordinate, uv or normal component cannot be stored (None if it can, or is not a number)."""
+    if value is None or abs(value) <= limit:
+        return None
+    if not np.isfinite(value):
+        return f"{word} is not a finite number"
+    if abs(value) > F32_MAX:
+        return f"{word} is beyond float32's range (|x| <= {F32_MAX:.4g})"
+    return f"{word} is beyond {limit:.4g}, the largest coordinate the renderer's float32 arithmetic keeps finite"
+
+
+def coordinate_limit():
+    """ranges.COORDINATE_LIMIT, the largest vertex coordinate the renderer's float32 arithmetic takes (a
+    file's mesh beyond it is refused, naming the file and the vertex or the OBJ line). Imported at call
+    time: ranges imports model, which imports this module."""
+    from .ranges import COORDINATE_LIMIT
+    return COORDINATE_LIMIT
+
+
+def quiet():
+    """Silence the Python and numpy warnings trimesh's parsing raises on garbage (an ascii PLY face index of
+    3e43 is "invalid value encountered in cast"): Python would print them on stderr beside our one line.
+    Everything trimesh returns is checked afterwards (_checked)."""
+    return warnings.catch_warnings(action="ignore")
+
+
+def why(e):
+    """An exception as one line, for the files trimesh fails on in ways not checked beforehand."""
+    text = str(e).strip().splitlines()
+    return f"{type(e).__name__}: {text[0][:200]}" if text else type(e).__name__

@@ -8,7 +8,17 @@ What the values mean:
 
 8-bit textures stay 8-bit on the device (one 32-bit word per RGBA texel, decoded in the kernel); the rest
 are stored as float32 RGBA.
+
+A file that cannot be a texture is refused with one InputError naming the scene file, the key and the
+texture: unreadable or corrupt files (the libraries' own error line, captured from file descriptor 2 where
+libpng prints it, becomes the message), images without pixels, images too large for the device buffer or
+the host memory (checked from the header, before the pixels are read), NaN, infinite or beyond-float32
+texels, and negative colours or heights.
 """
+import contextlib
+import os
+import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,6 +26,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from . import mipmap
+from ..memory import available_memory
 from .. import structs
 from .mipmap import srgb_to_linear
 from ..errors import InputError
@@ -38,24 +49,119 @@ class Texture:
 
 def read_image(path):
     """(pixels H x W x C, kind) of the first image in the file, kind "8-bit" (uint8 codes), "integer" (other
-    integer formats, as floats in [0, 1]) or "float"; raises OSError with OpenImageIO's words."""
+    integer formats, as floats in [0, 1], or [-1, 1] when signed), "float" or "double" (float64, so that values
+    beyond float32's range stay visible); raises OSError with one line of the libraries' words."""
+    printed = []
+    try:
+        with _stderr_captured(printed):
+            return _read_image(path)
+    except OSError as e:
+        raise OSError(_reason(printed, str(e))) from None
+
+
+@contextlib.contextmanager
+def _stderr_captured(lines):
+    """Send file descriptor 2 to a temporary file, its lines appended to `lines` when restored: libpng and
+    other C libraries under OpenImageIO print their errors there themselves, which would give the user
+    two lines for one bad file (and warnings, such as libpng's about colour profiles, for good ones)."""
+    sys.stderr.flush()
+    with tempfile.TemporaryFile() as sink:
+        saved = os.dup(2)
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            lines += [_printable(line) for line in sink.read().decode(errors="replace").splitlines()]
+
+
+def _printable(text):
+    """One line without control characters (error messages can quote a corrupt file's bytes)."""
+    return "".join(c if c.isprintable() else "?" for c in text.strip())
+
+
+def _reason(printed, message):
+    """The most useful line: what a library printed as its error (libpng's is more precise than what
+    OpenImageIO passes on), else OpenImageIO's first line, else whatever was printed."""
+    errors = [line for line in printed if "error" in line.lower()]
+    lines = errors + [_printable(line) for line in message.splitlines() if line.strip()] + printed
+    return next((line for line in lines if line), "cannot be read")
+
+
+def _oiio_error(geterror):
+    """OpenImageIO's pending error as text; always clears it (one left pending is printed when the process
+    exits). Its messages can quote a corrupt header's bytes, which are not always UTF-8."""
+    try:
+        return geterror()
+    except UnicodeDecodeError as e:
+        return e.object.decode(errors="replace")
+
+
+def _read_image(path):
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)  # the colours as stored, not multiplied by alpha
     image = oiio.ImageInput.open(str(path), config)
     if image is None:
-        raise OSError(oiio.geterror() or "cannot open")
+        raise OSError(_oiio_error(oiio.geterror) or "cannot open")
     try:
         spec = image.spec()
         base = spec.format.basetype
-        kind = "8-bit" if base == oiio.UINT8 else "float" if base in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE) \
-            else "integer"
-        pixels = image.read_image(0, 0, 0, spec.nchannels, "uint8" if kind == "8-bit" else "float")
+        kind = "8-bit" if base == oiio.UINT8 else "double" if base == oiio.DOUBLE \
+            else "float" if base in (oiio.HALF, oiio.FLOAT) else "integer"
+        _check_spec(image.format_name(), spec, kind)
+        pixels = image.read_image(0, 0, 0, spec.nchannels, {"8-bit": "uint8", "double": "double"}.get(kind, "float"))
         if pixels is None:
-            raise OSError(image.geterror() or "cannot read the pixels")
+            raise OSError(_oiio_error(image.geterror) or "cannot read the pixels")
     finally:
         image.close()
+        _oiio_error(oiio.geterror)
     pixels = np.asarray(pixels)
     return (pixels[:, :, None] if pixels.ndim == 2 else pixels), kind
+
+
+# Peak host memory of make_texture per texel of level 0 (measured with tracemalloc: 84 bytes for 8-bit maps,
+# 104 for the others: the float64 pyramid and its temporaries), to which each channel of the file adds its
+# pixels as read and the value checks' temporaries (three times its bytes).
+HOST_BYTES_PER_TEXEL = 104
+
+
+def _check_spec(format_name, spec, kind):
+    """Refuse (ValueError), before any pixel is read, what cannot become a texture: OpenImageIO's "null"
+    plugin (it makes up an image for any name ending in .null, existing or not), deep images, images without
+    pixels, and images too large to load."""
+    if format_name == "null":
+        raise ValueError("is not an image file: OpenImageIO's null plugin makes up an image for any .null name")
+    if spec.deep:
+        raise ValueError("is a deep image: not supported")
+    if spec.width < 1 or spec.height < 1 or spec.nchannels < 1:
+        raise ValueError(f"the image has no pixels ({spec.width} x {spec.height}, {spec.nchannels} channels)")
+    _check_size(spec, kind)
+
+
+def _check_size(spec, kind):
+    """Refuse an image whose levels the device buffer cannot hold, or whose loading the host memory cannot
+    (a PNG of a few MB can claim 20000 x 20000 texels; the pyramid's float64 levels take 100 bytes a texel)."""
+    size = f"{spec.width} x {spec.height}"
+    words = _pyramid_texels(spec.width, spec.height) * (1 if kind == "8-bit" else 4)
+    if words > structs.MAX_WORDS:
+        raise ValueError(f"{size} is too large: its levels need {words * 4 / 2**30:.1f} GiB of device memory, "
+                         f"more than one buffer holds ({structs.MAX_WORDS * 4 / 2**30:.0f} GiB)")
+    channel_bytes = 3 * spec.nchannels * {"8-bit": 1, "double": 8}.get(kind, 4)
+    needed, available = spec.width * spec.height * (HOST_BYTES_PER_TEXEL + channel_bytes), available_memory()
+    if needed > available:
+        raise ValueError(f"{size} is too large: it needs about {needed / 2**30:.1f} GiB of memory to load, "
+                         f"{available / 2**30:.1f} GiB available")
+
+
+def _pyramid_texels(width, height):
+    """Texels of all MIP levels (mipmap.pyramid's sizes)."""
+    total = width * height
+    while width > 1 or height > 1:
+        width, height = max(1, width // 2), max(1, height // 2)
+        total += width * height
+    return total
 
 
 def _rgb(pixels):
@@ -69,27 +175,50 @@ def _rgba(rgb, alpha):
 
 def load_texture(path, role, source, key):
     """Read `path` for `role`; errors name the scene file (`source`), the key and the path."""
+    def fail(problem):
+        raise InputError(source, key, str(path), problem) from None
+    if Path(path).exists() and not Path(path).is_file():  # a directory, a FIFO, /dev/zero: never an image
+        fail("is not a regular file")
     try:
         pixels, kind = read_image(path)
+        _check_pixels(pixels, kind, role)
+        return make_texture(pixels, kind, role, str(path))
     except OSError as e:
-        raise InputError(source, key, str(path), f"cannot read the image: {str(e).splitlines()[0]}") from None
+        fail(f"cannot read the image: {e}")
+    except ValueError as e:
+        fail(str(e))
+    except MemoryError:
+        fail("the image does not fit in memory")
+
+
+def _check_pixels(pixels, kind, role):
+    """ValueError for values no texture can hold: NaN and infinities (any role), values beyond float32's
+    range (float64 files), fewer than 3 channels in a normal map, negative colours and heights (float and
+    signed integer files; a negative colour would give negative light)."""
     if role == "normal" and pixels.shape[2] < 3:
-        raise InputError(source, key, str(path), f"a normal map needs 3 channels (x, y, z), it has {pixels.shape[2]}")
-    if not np.all(np.isfinite(pixels)):
-        raise InputError(source, key, str(path), "the image holds NaN or infinite values")
-    if role == "height" and pixels[..., 0].min() < 0:  # 8-bit and integer images read as >= 0
-        raise InputError(source, key, str(path), f"a height map's heights must be >= 0 (relief lifts the surface "
-                         f"outwards), its lowest is {float(pixels[..., 0].min()):g}")
-    return make_texture(pixels, kind, role, str(path))
+        raise ValueError(f"a normal map needs 3 channels (x, y, z), it has {pixels.shape[2]}")
+    if kind == "8-bit":
+        return
+    bad = ~(np.abs(pixels) <= np.finfo(np.float32).max)  # NaN, infinite, or too large for float32
+    if bad.any():
+        y, x, c = np.argwhere(bad)[0]
+        value = pixels[y, x, c]
+        what = "NaN or infinite values" if not np.isfinite(value) else "values beyond float32's range"
+        raise ValueError(f"the image holds {what}: texel (x={x}, y={y}) channel {c} is {value:g}")
+    used = _rgb(pixels)[..., :1 if role == "height" else 3]
+    if role != "normal" and used.min() < 0:
+        name = {"colour": "a colour map's values must be >= 0", "height": "a height map's heights must be >= 0 "
+                "(relief lifts the surface outwards)"}[role]
+        raise ValueError(f"{name}, its lowest is {float(used.min()):g}")
 
 
 def make_texture(pixels, kind, role, path="<array>"):
-    """A Texture from H x W x C pixels as read_image gives them (kind "8-bit", "integer" or "float")."""
+    """A Texture from H x W x C pixels as read_image gives them (kind "8-bit", "integer", "float" or "double")."""
     rgb = _rgb(pixels)
     if kind == "8-bit":
         encoding = structs.TEXELS_SRGB8 if role == "colour" else structs.TEXELS_UNORM8
         levels = mipmap.pyramid_8bit(_rgba(rgb, 255), srgb=encoding == structs.TEXELS_SRGB8)
-    else:  # other integer formats arrive as floats in [0, 1]
+    else:  # other integer formats arrive as floats in [0, 1] (or [-1, 1], refused for colours)
         linear = srgb_to_linear(rgb) if role == "colour" and kind == "integer" else rgb.astype(np.float64)
         encoding = structs.TEXELS_FLOAT
         levels = [level.astype(np.float32) for level in mipmap.pyramid(_rgba(linear, 1.0))]
