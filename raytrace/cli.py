@@ -3,19 +3,21 @@
 `python -m raytrace stability [--json PATH] [--lanes 1|8]`.
 
 Bad input ends with one line on stderr naming the file (or the command line), the key and the value,
-and exit status 2; no output file is left behind."""
+and exit status 2; no output file is left behind. Outputs follow raytrace/outputs.py: checked before the
+work, written into temporary files, renamed into place together at the end. SIGINT, SIGTERM and SIGHUP end
+a command with one line and exit status 128 + the signal's number, leaving no temporary file."""
 import argparse
+import contextlib
 import dataclasses
-import json
-import os
 import re
+import signal
 import sys
-import tempfile
 from pathlib import Path
 
 from . import samplers, structs
 from .errors import InputError
-from .renderer.image import FORMATS, write_image
+from .outputs import Interrupted, Outputs, committed, handle_signals, scene_inputs, write_json
+from .renderer.image import FORMATS, write_image_file
 
 EXIT_BAD_INPUT = 2
 
@@ -100,14 +102,6 @@ def parser():
     return p
 
 
-def _write_json(path, data):
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(suffix=".json", prefix=".raytrace-", dir=path.parent if str(path.parent) else ".")
-    with os.fdopen(fd, "w") as f:
-        json.dump(data, f, indent=2)
-    os.replace(tmp, path)
-
-
 def _render_kwargs(args):
     return dict(width=args.width, height=args.height, spp=args.spp, light_samples=args.light_samples,
                 sampler=args.sampler, light_sampler=args.light_sampler, texture_filter=args.texture_filter,
@@ -118,29 +112,33 @@ def cmd_render(args):
     from .render import render_progressive
     from .scene import load_scene
 
-    output = Path(args.output)
-    if output.suffix.lower() not in FORMATS:
+    if Path(args.output).suffix.lower() not in FORMATS:
         raise InputError("command line", "-o", args.output, f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
-    if not (output.parent if str(output.parent) else Path(".")).is_dir():
-        raise InputError("command line", "-o", args.output, "the output directory does not exist")
-    scene = load_scene(args.scene)
-    for mesh in scene.meshes:
-        if mesh.dropped:
-            print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)
-    image, variance, stats = render_progressive(scene, **_render_kwargs(args),
-                                                progress=False if args.no_progress else None)
-    metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
-                "light_sampler": stats.light_sampler, "texture_filter": stats.texture_filter, "seed": stats.seed,
-                "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(args.scene)}
-    if stats.estimated_rmse is not None:
-        metadata["estimated_rmse"] = float(stats.estimated_rmse)
-    write_image(output, image, metadata, variance)
-    if args.stats_json:
-        _write_json(args.stats_json, dataclasses.asdict(stats))
+    with Outputs(inputs=[args.scene]) as outputs:
+        image_file = outputs.reserve("-o", args.output)
+        stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)
+        scene = load_scene(args.scene)
+        outputs.add_inputs(scene_inputs(scene))
+        for mesh in scene.meshes:
+            if mesh.dropped:
+                print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)
+        image, variance, stats = render_progressive(scene, **_render_kwargs(args),
+                                                    progress=False if args.no_progress else None)
+        metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
+                    "light_sampler": stats.light_sampler, "texture_filter": stats.texture_filter, "seed": stats.seed,
+                    "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(args.scene)}
+        if stats.estimated_rmse is not None:
+            metadata["estimated_rmse"] = float(stats.estimated_rmse)
+        with outputs.writing(image_file):
+            write_image_file(image_file, image, metadata, variance)
+        if stats_file:
+            with outputs.writing(stats_file):
+                write_json(stats_file, dataclasses.asdict(stats))
+        outputs.commit()
     error = "" if stats.estimated_rmse is None else (
         f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)")
-    print(f"{output}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}) x {stats.light_samples} light "
-          f"samples ({stats.light_sampler}) in {stats.passes} passes, {stats.render_seconds:.3f} s, "
+    print(f"{Path(args.output)}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}) x {stats.light_samples} "
+          f"light samples ({stats.light_sampler}) in {stats.passes} passes, {stats.render_seconds:.3f} s, "
           f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device}{error}; stopped by {stats.stopped_by}", file=sys.stderr)
 
 
@@ -160,24 +158,28 @@ def cmd_bench(args):
         return
     if args.repeat < 1:
         raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
-    if args.json and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
-        raise InputError("command line", "--json", args.json, "is a directory or in no existing directory")
-    try:
-        save = (lambda results: _write_json(args.json, results)) if args.json else None
-        benchmark(args.scene or suite_scenes(), repeat=args.repeat, peer=args.peer, save=save,
-                  **_render_kwargs(args))
-    except BenchError as e:
-        print(f"raytrace: error: {e}", file=sys.stderr)
-        return 1
+    scenes = args.scene or suite_scenes()
+    with Outputs(inputs=scenes) as outputs:
+        json_file = args.json and outputs.reserve("--json", args.json)
+
+        def save(results):
+            with outputs.writing(json_file):
+                write_json(json_file, results)
+        try:
+            benchmark(scenes, repeat=args.repeat, peer=args.peer, save=save if json_file else None,
+                      outputs=outputs, **_render_kwargs(args))
+        except BenchError as e:
+            print(f"raytrace: error: {e}", file=sys.stderr)
+            return 1
+        outputs.commit()
 
 
 def cmd_assets(args):
     from .tools.assets import generate
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError("command line", "--out", args.out, "exists and is not a directory")
-    for path in generate(out, seed=args.seed):
+    if not 0 <= args.seed < 2**32:
+        raise InputError("command line", "--seed", args.seed, "must be in [0, 2^32)")
+    for path in generate(args.out, seed=args.seed):
         print(path)
 
 
@@ -209,23 +211,33 @@ def cmd_stability(args):
     from .renderer.device import default_lanes, select_device
     from .tools.stability import report
 
-    if args.json and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
-        raise InputError("command line", "--json", args.json, "is a directory or in no existing directory")
-    return 0 if report(args.lanes or default_lanes(select_device(None)), json_path=args.json) else 1
+    with Outputs() as outputs:
+        json_file = args.json and outputs.reserve("--json", args.json)
+        with outputs.writing(json_file) if json_file else contextlib.nullcontext():
+            passed = report(args.lanes or default_lanes(select_device(None)), json_path=json_file)
+        outputs.commit()
+    return 0 if passed else 1
 
 
 def main(argv=None):
     commands = {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets, "converge": cmd_converge,
                 "compile": cmd_compile, "stability": cmd_stability}
-    try:
-        args = parser().parse_args(argv)
-        return commands[args.command](args) or 0
-    except InputError as e:
-        print(f"raytrace: error: {e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except MemoryError:  # the up-front check (render.check_memory) cannot see every other limit
-        print("raytrace: error: out of memory: try a smaller --width/--height", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except OSError as e:  # an output file that cannot be written: permissions, a full disk
-        print(f"raytrace: error: {e.filename or 'output'}: {e.strerror or e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    with handle_signals():
+        try:
+            args = parser().parse_args(argv)
+            return commands[args.command](args) or 0
+        except InputError as e:
+            print(f"raytrace: error: {e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except MemoryError:  # the up-front check (render.check_memory) cannot see every other limit
+            print("raytrace: error: out of memory: try a smaller --width/--height", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except OSError as e:  # not an output (raytrace/outputs.py names those): a file read, say
+            print(f"raytrace: error: {e.filename or 'environment'}: {e.strerror or e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except (Interrupted, KeyboardInterrupt) as e:
+            signum = getattr(e, "signum", signal.SIGINT)
+            done = "its outputs were written" if committed() else "nothing written"
+            with contextlib.suppress(OSError):  # after SIGHUP, the terminal may be gone
+                print(f"raytrace: interrupted by {signal.Signals(signum).name}; {done}", file=sys.stderr)
+            return 128 + signum

@@ -76,7 +76,8 @@ def test_suite_scenes():
 def test_peer_ratio_and_bad_peer(tmp_path):
     """--peer runs the command in the same bench run, measures scene 0 again right after it, and reports that
     nominal rate against the peer's best;
-    a peer that prints no JSON line with mrays_per_s ends the run with one error line and exit status 1."""
+    a peer that prints no JSON line with mrays_per_s is bad input: one error line naming --peer, exit status
+    2, and no --json file (outputs are all or nothing), not even a temporary one."""
     out = tmp_path / "bench.json"
     peer = 'echo starting; echo \'{"mrays_per_s": 0.5, "variant": "fake"}\''
     r = run("bench", CORNELL, *TINY, "--json", out, "--peer", peer, cwd=ROOT)
@@ -87,10 +88,12 @@ def test_peer_ratio_and_bad_peer(tmp_path):
     assert data["beside_peer_nominal_mrays_per_s"] > 0
     assert r.stdout.strip().splitlines()[-1].startswith("peer: 0.50 nominal Mrays/s (its median), 0.50 at its best;")
     for bad in ["echo no json", "echo '{\"mrays_per_s\": 0}'", "echo '[1]'", "echo '{\"mrays_per_s\": \"nan\"}'"]:
+        out.unlink(missing_ok=True)
         r = run("bench", CORNELL, *TINY, "--json", out, "--peer", bad, cwd=ROOT)
         error = r.stderr.strip().splitlines()[-1]  # after the progress lines
-        assert r.returncode == 1 and error.startswith("raytrace: error: --peer") and "mrays_per_s" in error, bad
-        assert "peer" not in json.loads(out.read_text())  # the scenes' figures were saved before the peer ran
+        assert r.returncode == 2 and r.stderr.count("raytrace: error:") == 1 and "Traceback" not in r.stderr, bad
+        assert error.startswith(f"raytrace: error: command line: --peer = {bad!r}: ") and "mrays_per_s" in error, bad
+        assert list(tmp_path.iterdir()) == []
 
 
 def test_image_size_out_of_range_is_refused_before_measuring():

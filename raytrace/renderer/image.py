@@ -1,13 +1,14 @@
 """Writing images with OpenImageIO: 8-bit formats encoded as the course does, float formats linear; written in
 bands of rows, so an image of any size is written with little more memory than it takes."""
+import errno
+import json
 import os
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
 
 from ..errors import InputError
+from ..outputs import Outputs
 from .progressive import row_chunks
 
 EIGHT_BIT = {".png", ".jpg", ".jpeg", ".bmp", ".tga"}
@@ -55,48 +56,57 @@ def _write(out, tmp, spec, ext, image, variance):
     return out.close() and not out.has_error
 
 
-def _umask():
-    """The process's umask, read without setting it (os.umask would change it for every thread meanwhile)."""
-    try:
-        with open("/proc/self/status") as f:
-            return next(int(line.split()[1], 8) for line in f if line.startswith("Umask:"))
-    except (OSError, StopIteration, ValueError):
-        return 0o022
-
-
-def write_image(path, image, metadata=None, variance=None):
-    """Write H x W x 3 linear float `image` to `path`, atomically: a temporary file renamed into place,
-    so a failed write leaves no partial file. An EXR file also carries `variance` (H x W x 3, the estimated
-    variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B.
-    Encoded and written in bands of rows, so that a large image needs no full-size copies."""
-    path = Path(path)
-    ext = path.suffix.lower()
-    if ext not in FORMATS:
-        raise InputError("command line", "-o", str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
-    variance = variance if ext == ".exr" else None
-    if not _finite(image) or (variance is not None and not _finite(variance)):
-        raise ValueError("refusing to write NaN or Inf into an image")
+def _spec(ext, width, height, metadata, variance):
     channels = ["R", "G", "B"] + (["variance.R", "variance.G", "variance.B"] if variance is not None else [])
     pixel_type = "uint8" if ext in EIGHT_BIT else "uint16" if ext in SIXTEEN_BIT else "float"
-    height, width = image.shape[:2]
     spec = oiio.ImageSpec(width, height, len(channels), oiio.TypeDesc(pixel_type))
     spec.channelnames = channels
     for key, value in (metadata or {}).items():
         spec.attribute(f"raytrace:{key}", value)
     if ext in FLOAT:
         spec.attribute("oiio:ColorSpace", "lin_rec709")
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise InputError("command line", "-o", str(path), "the output directory does not exist")
-    fd, tmp = tempfile.mkstemp(suffix=ext, prefix=".raytrace-", dir=directory)
-    os.close(fd)
-    try:
-        out = oiio.ImageOutput.create(tmp)
-        if not _write(out, tmp, spec, ext, image, variance):
-            message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
-            raise InputError("command line", "-o", str(path), f"cannot write: {message.splitlines()[0].strip()}")
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it 0600; a written image gets the usual mode
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    if ext in SIXTEEN_BIT:
+        # OIIO 3.2.2's TIFF writer makes an Exif directory even when it has no Exif field to put in it (an
+        # empty spec too), and libtiff 4.7 fails to write that: "failed TIFFWriteCustomDirectory() of the Exif
+        # data". We have no Exif data. TIFF keeps no custom attributes, so the description carries them.
+        spec.attribute("tiff:write_exif", 0)
+        described = {f"raytrace:{key}": _plain(value) for key, value in (metadata or {}).items()}
+        spec.attribute("ImageDescription", json.dumps(described))
+    return spec
+
+
+def _plain(value):
+    """A metadata value as JSON has it (numpy scalars as Python numbers)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def write_image_file(path, image, metadata=None, variance=None):
+    """Write H x W x 3 linear float `image` into the file `path` itself (a temporary reserved by
+    raytrace.outputs.Outputs, which renames it into place), in the format of its extension; OSError when
+    the writer fails (a full disk, a file too large). An EXR file also carries `variance` (H x W x 3, the
+    estimated variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B.
+    Encoded and written in bands of rows, so that a large image needs no full-size copies."""
+    path = str(path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in FORMATS:
+        raise ValueError(f"{path}: unsupported extension (have: {', '.join(sorted(FORMATS))})")
+    variance = variance if ext == ".exr" else None
+    if not _finite(image) or (variance is not None and not _finite(variance)):
+        raise ValueError("refusing to write NaN or Inf into an image")
+    spec = _spec(ext, image.shape[1], image.shape[0], metadata, variance)
+    out = oiio.ImageOutput.create(path)
+    if not _write(out, path, spec, ext, image, variance):
+        message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
+        raise OSError(errno.EIO, message.splitlines()[0].strip(), path)
+
+
+def write_image(path, image, metadata=None, variance=None, key="-o"):
+    """write_image_file(), atomically: a temporary file beside `path` renamed into place, so a failed write
+    leaves no partial file. Bad paths and failed writes raise InputError naming `key` and `path`."""
+    if os.path.splitext(str(path))[1].lower() not in FORMATS:
+        raise InputError("command line", key, str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
+    with Outputs() as outputs:
+        tmp = outputs.reserve(key, path)
+        with outputs.writing(tmp):
+            write_image_file(tmp, image, metadata, variance)
+        outputs.commit()

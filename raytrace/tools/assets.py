@@ -33,12 +33,13 @@ normal maps are data and carry no colour space. The files are deterministic: the
 bytes (numpy default_rng streams spawned from SeedSequence(seed), one per material; fixed sizes; OIIO's
 PNG writer puts no date in the file).
 """
-import os
-import tempfile
+import errno
 from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
+
+from ..outputs import Outputs
 
 SIZE = 512            # texels per side of every texture (a power of two, for the MIP pyramid)
 TILE_SIZE = 0.5       # scene units covered by one tile of the bricks / stones maps
@@ -136,24 +137,18 @@ def quantize16(h):
 
 
 def write_png(path, pixels, colour_space):
-    """Write an H x W (x C) uint8 / uint16 array as PNG with OpenImageIO, atomically (temporary file renamed
-    into place). OIIO's PNG writer adds no date; the colour space decides the sRGB / gAMA chunks."""
+    """Write an H x W (x C) uint8 / uint16 array as PNG into the file `path` itself (a temporary reserved by
+    raytrace.outputs.Outputs) with OpenImageIO; OSError when it fails. OIIO's PNG writer adds no date; the
+    colour space decides the sRGB / gAMA chunks; a failed write (a full disk) shows only in has_error."""
     pixels = np.ascontiguousarray(pixels if pixels.ndim == 3 else pixels[:, :, None])
     height, width, channels = pixels.shape
     spec = oiio.ImageSpec(width, height, channels, oiio.TypeDesc(pixels.dtype.name))
     spec.attribute("oiio:ColorSpace", colour_space)
-    fd, tmp = tempfile.mkstemp(suffix=".png", prefix=".assets-", dir=Path(path).parent)
-    os.close(fd)
-    os.chmod(tmp, 0o644)   # mkstemp makes it private; these are ordinary readable assets
-    try:
-        out = oiio.ImageOutput.create(tmp)
-        if out is None or not out.open(tmp, spec) or not out.write_image(pixels) or not out.close():
-            raise OSError(f"cannot write {path}: {oiio.geterror() or (out.geterror() if out else 'no writer')}")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return Path(path)
+    out = oiio.ImageOutput.create(str(path))
+    if (out is None or not out.open(str(path), spec) or not out.write_image(pixels) or out.has_error
+            or not out.close() or out.has_error):
+        message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
+        raise OSError(errno.EIO, message.splitlines()[0].strip(), str(path))
 
 
 # --- the textures ----------------------------------------------------------------------------------------
@@ -224,17 +219,33 @@ def stones(rng, n=SIZE, rows=6, jitter=0.3, gap=2.0, rounding=18.0, soften=4.0):
     return np.clip(height, 0, 1), gap_rgb + w * (stone_rgb - gap_rgb)
 
 
-def generate(out_dir, seed=0):
-    """Write grid.png and the bricks_* / stones_* height, normal and colour maps into out_dir (created if
-    needed); the same seed gives byte-identical files. Returns the written paths."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = [write_png(out / "grid.png", encode_srgb(grid()), SRGB_SPACE)]
+FILES = ["grid.png", "bricks_height.png", "bricks_normal.png", "bricks_colour.png", "stones_height.png",
+         "stones_normal.png", "stones_colour.png"]
+
+
+def textures(seed):
+    """(file name, pixels, colour space) of every texture, made one after the other."""
+    yield "grid.png", encode_srgb(grid()), SRGB_SPACE
     # one independent stream per material, so changing one texture leaves the other's bytes alone
     for name, make, stream in zip(("bricks", "stones"), (bricks, stones), np.random.SeedSequence(seed).spawn(2)):
         height, colour = make(np.random.default_rng(stream))
         codes = quantize16(height)
-        written.append(write_png(out / f"{name}_height.png", codes, DATA_SPACE))
-        written.append(write_png(out / f"{name}_normal.png", encode_normal(normal_map(codes / 65535.0)), DATA_SPACE))
-        written.append(write_png(out / f"{name}_colour.png", encode_srgb(colour), SRGB_SPACE))
-    return written
+        yield f"{name}_height.png", codes, DATA_SPACE
+        yield f"{name}_normal.png", encode_normal(normal_map(codes / 65535.0)), DATA_SPACE
+        yield f"{name}_colour.png", encode_srgb(colour), SRGB_SPACE
+
+
+def generate(out_dir, seed=0, key="--out"):
+    """Write grid.png and the bricks_* / stones_* height, normal and colour maps into out_dir (created if
+    needed); the same seed gives byte-identical files. All or nothing: every file is checked and its
+    temporary made before the first texture is computed, and all are renamed into place together at the
+    end (raytrace/outputs.py); InputError naming `key` and out_dir for a path or a write that fails.
+    Returns the written paths."""
+    with Outputs() as outputs:
+        outputs.make_directory(key, out_dir)
+        temporary = {name: outputs.reserve(key, Path(out_dir) / name, given=out_dir) for name in FILES}
+        for name, pixels, colour_space in textures(seed):
+            with outputs.writing(temporary[name]):
+                write_png(temporary[name], pixels, colour_space)
+        outputs.commit()
+    return [Path(out_dir) / name for name in FILES]

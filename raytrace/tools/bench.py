@@ -14,6 +14,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from ..errors import InputError
+from ..outputs import scene_inputs
 from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 from ..render import RenderOptions, check_memory, render, resolve
@@ -72,8 +74,12 @@ def run_child(scene_path, kwargs, cache_dir, work_dir):
     with open(log, "w") as err:
         start = time.perf_counter()
         child = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, env=env)
-        # wait4 gives this child's own peak RSS; RUSAGE_CHILDREN would be the largest of all children so far
-        _, status, usage = os.wait4(child.pid, 0)
+        try:  # wait4 gives this child's own peak RSS; RUSAGE_CHILDREN would be the largest of all children so far
+            _, status, usage = os.wait4(child.pid, 0)
+        except BaseException:  # interrupted (raytrace.outputs.Interrupted): the child goes too
+            child.kill()
+            child.wait()
+            raise
         seconds = time.perf_counter() - start
     child.returncode = os.waitstatus_to_exitcode(status)
     if child.returncode:
@@ -152,7 +158,8 @@ def machine(device):
 
 def run_peer(command):
     """Another renderer's benchmark, run by the shell: its last line of output must be a JSON object with
-    its `mrays_per_s` counted the nominal way (every shadow ray of every camera ray)."""
+    its `mrays_per_s` counted the nominal way (every shadow ray of every camera ray). A command that does not
+    keep that promise is bad input: InputError naming --peer."""
     done = subprocess.run(command, shell=True, capture_output=True, text=True, errors="replace")
     lines = done.stdout.strip().splitlines()
     try:
@@ -161,16 +168,19 @@ def run_peer(command):
             raise ValueError("not a positive rate")
     except (IndexError, ValueError, KeyError, TypeError):
         last = (done.stderr.strip().splitlines() or lines or ["no output"])[-1]
-        raise BenchError(f"--peer {command!r} (exit status {done.returncode}) printed no JSON line with a "
-                         f"positive mrays_per_s: {last}") from None
+        raise InputError("command line", "--peer", command, f"its last line of output is no JSON object with a "
+                         f"positive mrays_per_s (exit status {done.returncode}): {last}") from None
     return result
 
 
-def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwargs):
+def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, outputs=None, **kwargs):
     """Measure every scene (all loaded and their options checked first, so that bad input costs no
-    minutes of measuring); prints the table and the machine line, returns everything as one dict."""
+    minutes of measuring: `outputs`, a raytrace.outputs.Outputs, learns the files they read); prints the
+    table and the machine line, returns everything as one dict, which `save` is given at the end."""
     scenes = [(path, load_scene(path)) for path in scene_paths]
     for _, scene in scenes:
+        if outputs is not None:
+            outputs.add_inputs(scene_inputs(scene))
         width, height = resolve(scene, RenderOptions(**kwargs))[:2]
         check_memory(width, height)
     select_device(kwargs.get("device"))
@@ -180,8 +190,6 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwa
     print(f"{info['device']}; {first['width']}x{first['height']}, {first['spp']} spp x {first['light_samples']} "
           f"light samples; best of {repeat}; CPU: {info['cpu']} ({info['cpu_count']} cores)", file=out, flush=True)
     results = {"machine": info, "repeat": repeat, "scenes": rows}
-    if save:
-        save(results)  # before the peer, whose failure must not lose minutes of measurements
     if peer:
         results.update(beside_peer(peer, scenes[0][1], first, repeat, kwargs))
         print(f"peer: {float(results['peer']['mrays_per_s']):.2f} nominal Mrays/s (its median), "
@@ -189,8 +197,8 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, **kwa
               f"{results['beside_peer_nominal_mrays_per_s']:.2f} right after the peer "
               f"({first['nominal_mrays_per_s']:.2f} in the suite); best against best: {results['ratio_to_peer']:.2f}x",
               file=out, flush=True)
-        if save:
-            save(results)
+    if save:
+        save(results)
     return results
 
 

@@ -23,7 +23,6 @@ reference.exr and reference.json when the reference is rendered here.
 Needs matplotlib and flip_evaluator (the extra `analysis`), imported inside the functions that use them.
 """
 import csv
-import json
 import math
 import sys
 from pathlib import Path
@@ -34,7 +33,8 @@ import OpenImageIO as oiio
 from .. import samplers
 from ..errors import InputError
 from ..numerics import rmse
-from ..renderer.image import encode_8bit, write_image
+from ..outputs import Outputs, scene_inputs, write_json
+from ..renderer.image import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
 from ..scene import load_scene
 
@@ -46,6 +46,8 @@ MIN_MONTAGE_SECONDS = 0.05
 # of the ellipsoid: its silhouette against the floor and the back wall, the penumbra of its shadow on the
 # floor, and the corner where the floor meets the green wall.
 DEFAULT_CROP = (0.70, 0.72, 0.18, 0.18)
+OUTPUTS = ["converge.csv", "converge.png", "montage.png"]
+REFERENCE_OUTPUTS = ["reference.exr", "reference.json"]  # when the reference is rendered here
 
 
 def check_samplers(names):
@@ -123,9 +125,9 @@ def read_reference(path, width, height):
                    "estimated_rmse": spec.getattribute("raytrace:estimated_rmse")}
 
 
-def render_reference(scene, out_dir, spp, seed, common):
-    """Render the reference (sobol pixels and lights, its own seed), write reference.exr and
-    reference.json; returns (image, its facts)."""
+def render_reference(scene, spp, seed, common):
+    """Render the reference (sobol pixels and lights, its own seed); returns (image, its facts, the
+    metadata of reference.exr)."""
     image, _, stats = render_progressive(scene, spp=spp, sampler="sobol", light_sampler="sobol", seed=seed, **common)
     facts = {"spp": stats.spp, "seconds": stats.wall_seconds, "estimated_rmse": stats.estimated_rmse,
              "sampler": "sobol", "light_sampler": "sobol", "seed": seed}
@@ -133,9 +135,7 @@ def render_reference(scene, out_dir, spp, seed, common):
                 "light_samples": stats.light_samples, "seconds": float(stats.wall_seconds)}
     if stats.estimated_rmse is not None:
         metadata["estimated_rmse"] = float(stats.estimated_rmse)
-    write_image(out_dir / "reference.exr", image, metadata)
-    (out_dir / "reference.json").write_text(json.dumps(facts, indent=2) + "\n")
-    return image, facts
+    return image, facts, metadata
 
 
 def flip_error(image, reference):
@@ -254,31 +254,24 @@ def print_table(rows, out):
               f"{r['flip']:>9.4f}", file=out)
 
 
-def write_outputs(out_dir, rows, names, panels, reference, facts, box, title, seconds):
-    """converge.csv, converge.png and montage.png; returns every path written (the reference's too)."""
-    paths = [out_dir / "converge.csv", out_dir / "converge.png", out_dir / "montage.png"]
-    write_csv(rows, paths[0])
-    plot_convergence(rows, names, facts, title, paths[1])
+def write_outputs(outputs, files, rows, names, panels, reference, facts, box, title, seconds, metadata=None):
+    """converge.csv, converge.png and montage.png, and with `metadata` the rendered reference's
+    reference.exr and reference.json, into their reserved temporaries `files` (by name) of `outputs`."""
     ys, xs = box
     caption = (f"{title}; the crop: pixels x {xs.start}..{xs.stop - 1}, y {ys.start}..{ys.stop - 1}.\nEach pattern's "
                f"longest measured render within {seconds:.3g} s; RMSE over the crop against the reference (linear).")
-    draw_montage(panels, reference[box], facts, caption, paths[2])
-    return paths + ([] if "file" in facts else [out_dir / "reference.exr", out_dir / "reference.json"])
+    writers = {"converge.csv": lambda path: write_csv(rows, path),
+               "converge.png": lambda path: plot_convergence(rows, names, facts, title, path),
+               "montage.png": lambda path: draw_montage(panels, reference[box], facts, caption, path),
+               "reference.exr": lambda path: write_image_file(path, reference, metadata),
+               "reference.json": lambda path: write_json(path, facts)}
+    for name, path in files.items():
+        with outputs.writing(path):
+            writers[name](path)
 
 
 def _number(x):
     return "unknown" if x is None else f"{x:.3e}"
-
-
-def _output_dir(out_dir):
-    out_dir = Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise InputError(CLI, "--out", str(out_dir), "exists and is not a directory")
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise InputError(CLI, "--out", str(out_dir), f"cannot create: {e.strerror}") from None
-    return out_dir
 
 
 def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None, height=None, light_samples=None,
@@ -296,19 +289,24 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         seed=seed))
     box = crop_box(DEFAULT_CROP if crop is None else crop, width, height)
     given = None if reference is None else read_reference(reference, width, height)
-    out_dir = _output_dir(out_dir)
-    common = dict(width=width, height=height, light_samples=light_samples, progress=False)
-    render_progressive(scene, spp=1, sampler="center", light_sampler="sobol", **common)  # the build, untimed
-    reference, facts = given or render_reference(scene, out_dir, reference_spp or min(MAX_SPP, 16 * max_spp),
-                                                 (seed + REFERENCE_SEED_OFFSET) % 2**32, common)
-    print(f"reference: {facts.get('file', 'rendered')}, {facts['spp'] or '?'} spp, its own estimated RMSE "
-          f"{_number(facts['estimated_rmse'])}", file=out)
-    common["seed"] = seed
-    rows = measure(scene, names, max_spp, reference, common, box, out)
-    seconds = montage_seconds or montage_seconds_default(rows)
-    panels = montage(names, rows, seconds)
-    paths = write_outputs(out_dir, rows, names, panels, reference, facts, box,
-                          f"{Path(scene_path).name}: {width} x {height}, {light_samples} light samples", seconds)
+    names_out = OUTPUTS + ([] if given else REFERENCE_OUTPUTS)
+    with Outputs(inputs=scene_inputs(scene) + ([] if reference is None else [reference])) as outputs:
+        outputs.make_directory("--out", out_dir)
+        files = {name: outputs.reserve("--out", Path(out_dir) / name, given=out_dir) for name in names_out}
+        common = dict(width=width, height=height, light_samples=light_samples, progress=False)
+        render_progressive(scene, spp=1, sampler="center", light_sampler="sobol", **common)  # the build, untimed
+        reference, facts, metadata = given + (None,) if given else render_reference(
+            scene, reference_spp or min(MAX_SPP, 16 * max_spp), (seed + REFERENCE_SEED_OFFSET) % 2**32, common)
+        print(f"reference: {facts.get('file', 'rendered')}, {facts['spp'] or '?'} spp, its own estimated RMSE "
+              f"{_number(facts['estimated_rmse'])}", file=out)
+        common["seed"] = seed
+        rows = measure(scene, names, max_spp, reference, common, box, out)
+        seconds = montage_seconds or montage_seconds_default(rows)
+        panels = montage(names, rows, seconds)
+        write_outputs(outputs, files, rows, names, panels, reference, facts, box,
+                      f"{Path(scene_path).name}: {width} x {height}, {light_samples} light samples", seconds, metadata)
+        outputs.commit()
+    paths = [Path(out_dir) / name for name in names_out]
     print_table(rows, out)
     print(f"montage, {seconds:.3g} s each: " + ", ".join(f"{p['sampler']} {p['spp']} spp in {p['seconds']:.3f} s"
                                                        for p in panels), file=out)

@@ -1,0 +1,93 @@
+"""SIGTERM, SIGHUP and SIGINT (Ctrl-C) sent to a real `python -m raytrace render` child while it renders and
+while it writes a large image: one line on stderr, exit status 128 + the signal's number, no traceback, and
+nothing left in the output directory (no output, no temporary file). A signal the parent ignored (nohup)
+stays ignored."""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from helpers import CORNELL, ROOT
+
+BIG = ["--width", 4096, "--height", 4096, "--spp", 1, "--light-samples", 1, "--no-progress"]
+
+
+def start(out_dir, output, size=BIG, preexec_fn=None):
+    argv = [sys.executable, "-m", "raytrace", "render", CORNELL, "-o", out_dir / output,
+            "--stats-json", out_dir / "stats.json", *size]
+    return subprocess.Popen(list(map(str, argv)), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONPATH": str(ROOT)}, preexec_fn=preexec_fn)
+
+
+def wait_for_temporary(child, out_dir, suffix, written):
+    """Until the image's temporary file exists (the render is under way) and, if `written`, holds bytes
+    (the image is being written)."""
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline:
+        for path in out_dir.glob(".raytrace-*" + suffix):
+            try:
+                if not written or path.stat().st_size > 0:
+                    return
+            except FileNotFoundError:
+                pass
+        assert child.poll() is None, f"ended before the moment (status {child.returncode}): {child.stderr.read()}"
+        time.sleep(0.002)
+    child.kill()
+    pytest.fail("no temporary file appeared")
+
+
+@pytest.mark.parametrize("signum, output, written", [
+    (signal.SIGTERM, "big.exr", True), (signal.SIGHUP, "big.png", True), (signal.SIGINT, "big.exr", True),
+    (signal.SIGTERM, "big.png", False), (signal.SIGHUP, "big.exr", False), (signal.SIGINT, "big.png", False),
+], ids=["term-writing-exr", "hup-writing-png", "int-writing-exr", "term-rendering", "hup-rendering",
+        "int-rendering"])
+def test_signal_leaves_nothing(tmp_path, signum, output, written):
+    child = start(tmp_path, output)
+    try:
+        wait_for_temporary(child, tmp_path, os.path.splitext(output)[1], written)
+        child.send_signal(signum)
+        stdout, stderr = child.communicate(timeout=120)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    name = signal.Signals(signum).name
+    assert child.returncode == 128 + signum, stderr
+    assert stderr == f"raytrace: interrupted by {name}; nothing written\n" and stdout == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ignored_hangup_stays_ignored(tmp_path):
+    """Under nohup (SIGHUP ignored on entry) a hangup does not stop the render."""
+    child = start(tmp_path, "x.png", size=["--width", 1024, "--height", 1024, "--spp", 4, "--light-samples", 4,
+                                           "--no-progress"],
+                  preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    wait_for_temporary(child, tmp_path, ".png", False)
+    child.send_signal(signal.SIGHUP)
+    _, stderr = child.communicate(timeout=300)
+    assert child.returncode == 0, stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stats.json", "x.png"]
+
+
+def test_signal_during_a_file_operation_waits_for_its_end():
+    """A signal that arrives while files are made, renamed or removed is raised right after, not in the
+    middle (where a temporary could be made and not yet known, or half the outputs renamed); a second
+    signal on the way out is ignored."""
+    from raytrace import outputs
+    steps = []
+    with outputs.handle_signals(), pytest.raises(outputs.Interrupted) as e:
+        with outputs._held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # the handler has run by now, in this thread
+            steps.append("held")
+        steps.append("after")
+    assert steps == ["held"] and e.value.signum == signal.SIGTERM
+    with outputs.handle_signals():
+        with pytest.raises(outputs.Interrupted):
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.05)
+        os.kill(os.getpid(), signal.SIGHUP)  # the second: ignored
+        time.sleep(0.05)
