@@ -4,7 +4,9 @@ that are not fixtures are in helpers.py)."""
 import pytest
 
 from helpers import ROOT
+from raytrace.renderer.cpu_target import apply_target
 from raytrace.renderer.device import context_for, select_device
+from raytrace.structs import LANE_WIDTHS
 from raytrace.scene import load_scene
 from raytrace.tools.probe import Probe
 
@@ -24,7 +26,14 @@ def cornell():
     return load_scene(ROOT / "scenes" / "cornell.toml")
 
 
-@pytest.fixture(params=[1, 8], ids=["lanes1", "lanes8"])
+def runnable_lane_widths():
+    """Every lane width the kernel accepts that this machine's target runs (cpu_target.py): 1, 4, 8 and, on
+    AVX-512, 16."""
+    target = apply_target(select_device(None))
+    return [n for n in LANE_WIDTHS if n > 0 and (target is None or n <= target.lanes_max)]
+
+
+@pytest.fixture(params=runnable_lane_widths(), ids=lambda n: f"lanes{n}")
 def lanes(request):
     return request.param
 

@@ -187,7 +187,6 @@ def flat_maps(tmp_path):
     return str(tmp_path / "flat.exr"), str(tmp_path / "zero.exr")
 
 
-@pytest.mark.parametrize("lanes", [1, 8])
 def test_flat_normal_map_and_zero_height_change_nothing(tmp_path, lanes):
     """A flat normal map gives the frame's normal, which is the geometric normal up to its float32
     rounding (a few 1e-7); a height map of zeros tilts nothing (its differences are exactly 0) and

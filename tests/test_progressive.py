@@ -1,5 +1,7 @@
 """Progressive rendering (raytrace/progressive.py, raytrace/render.py): float64 accumulation, the two-half
 error estimate against the true error, the stopping rules, and per-pixel decorrelation of the patterns."""
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -130,3 +132,12 @@ def test_patterns_seeds_and_stopping_rules_never_rebuild(cornell):
         _, stats = raytrace.render(cornell, spp=16, sampler=sampler, light_sampler=light, seed=seed, time_limit=10.0,
                                    target_error=1e-9, **SMALL)
         assert stats.build_seconds == 0
+
+
+def test_a_black_image_is_exact_not_infinitely_wrong(cornell):
+    """No light and no ambient: every sample is 0, so the estimated RMSE is 0 and so is its relative value
+    (it was inf, printed as "inf% of the mean" and written as Infinity, which is not JSON)."""
+    dark = dataclasses.replace(cornell, ambient=cornell.ambient * 0,
+                               lights=[dataclasses.replace(light, colour=light.colour * 0) for light in cornell.lights])
+    _, _, stats = render_progressive(dark, width=16, height=16, spp=4, light_samples=1, progress=False)
+    assert (stats.estimated_rmse, stats.estimated_relative_rmse) == (0.0, 0.0)

@@ -182,8 +182,8 @@ def test_a_skipped_rectangle_never_blocks(harness, cornell):
     itself finds no hit on that segment. The plane is tilted so that num's rounding bound e (about 1e-7
     here, from every coordinate of c - o) is not a tiny fraction of num: a bound 10 times looser skips
     origins 1e-7 to 1e-6 in front of the plane, whose segments the shelf blocks. Lanes are grouped by
-    their signed distance, so that at LANES=8 whole groups lie within e (the skip holds for all lanes or
-    none)."""
+    their signed distance, and each run of 16 shares its point in the plane (and so nearly its bound e), so
+    that at every lane width whole groups lie within e (the skip holds for all lanes or none)."""
     normal = unit(np.array([[0.3, 0.2, -1.0]]))[0]
     tangent = unit(np.cross([[0.0, 1.0, 0.0]], normal))[0]
     shelf = Rectangle(np.array([0.1, 0.5, 1.4]), np.array([0.8, 0.6]), normal, tangent, 1)
@@ -195,7 +195,7 @@ def test_a_skipped_rectangle_never_blocks(harness, cornell):
     n = 4096
     stored = rectangle_structs([shelf])[0]
     c, t, b, nz = (stored[k].astype(np.float64) for k in ("center", "tangent", "bitangent", "normal"))
-    ab = rng.uniform(-0.8, 0.8, (n, 2)) * [0.4, 0.3]
+    ab = np.repeat(rng.uniform(-0.8, 0.8, (n // 16, 2)) * [0.4, 0.3], 16, axis=0)
     distance = np.sort(rng.choice([-1, 1], n) * 10 ** rng.uniform(-9, -4, n))  # > 0: away from the light
     o = (c + ab[:, :1] * t + ab[:, 1:] * b + distance[:, None] * nz).astype(np.float32).astype(np.float64)
     q = reference.light_points(cornell.lights[0], rng.uniform(0, 1, (n, 2)))

@@ -121,7 +121,7 @@ class Accumulator:
             squares += float(np.sum(np.square(d)))  # not np.dot: BLAS threads would spin on the render's cores
         rmse = math.sqrt(squares / self.total.size)
         mean = float(np.mean(self.total)) / self.n_total
-        return rmse, rmse / mean if mean > 0 else math.inf
+        return rmse, rmse / mean if mean > 0 else 0.0  # pixels are >= 0: a zero mean is a black image, exact
 
 
 def pass_size(spp, work_per_sample, budget=1 << 22):

@@ -31,6 +31,13 @@ def planar(v):
     return np.ascontiguousarray(np.asarray(v, dtype=np.float64).T, dtype=np.float32)
 
 
+def _padded(a, n, padded):
+    """A per-element array (numeric, last axis n) with its last element repeated up to `padded`."""
+    if not isinstance(a, np.ndarray) or a.dtype.names is not None or not a.ndim or a.shape[-1] != n:
+        return a
+    return np.pad(a, [(0, 0)] * (a.ndim - 1) + [(0, padded - n)], mode="edge")
+
+
 class Probe:
     """Builds a kernel source once per (source, options) and runs it over numpy arrays."""
     _programs = {}
@@ -57,14 +64,19 @@ class Probe:
         return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=self._array(array))
 
     def run(self, source, name, n, args, outputs, **defines):
-        """Run kernel `name` over n elements (n a multiple of LANES). It receives `int n`, the `args` (numpy
-        arrays are copied in, float64 as float32; numpy scalars pass as they are), then one float buffer per
-        entry of `outputs` ({name: components}). `args` is a list, taken in the kernel's order after n, or a
-        dict, bound by name like the renderer's own arguments (renderer/interface.py): a kernel that takes a
-        whole scene declares kernels/scene.h's SCENE_PARAMETERS and gets scene_args(scene) by name.
-        Returns {name: float64 array, (n,) or (components, n)}."""
+        """Run kernel `name` over n elements. It receives `int n`, the `args` (numpy arrays are copied in,
+        float64 as float32; numpy scalars pass as they are), then one float buffer per entry of `outputs`
+        ({name: components}). `args` is a list, taken in the kernel's order after n, or a dict, bound by name
+        like the renderer's own arguments (renderer/interface.py): a kernel that takes a whole scene declares
+        kernels/scene.h's SCENE_PARAMETERS and gets scene_args(scene) by name. Where n is no multiple of
+        LANES, the per-element arrays (plain numeric ones whose last axis is n) are padded to one by repeating
+        their last element, and the outputs cut back to n. Returns {name: float64 array, (n,) or
+        (components, n)}."""
         if n % self.lanes:
-            raise ValueError(f"{n} elements is not a multiple of LANES={self.lanes}")
+            padded = -(-n // self.lanes) * self.lanes
+            pad = lambda a: _padded(a, n, padded)  # noqa: E731
+            args = {k: pad(a) for k, a in args.items()} if isinstance(args, dict) else [pad(a) for a in args]
+            return {k: v[..., :n] for k, v in self.run(source, name, padded, args, outputs, **defines).items()}
         kernel = cl.Kernel(self._program(source, defines), name)
         host = {k: np.empty((c, n), np.float32) for k, c in outputs.items()}
         bufs = {k: cl.Buffer(self.context, cl.mem_flags.WRITE_ONLY, h.nbytes) for k, h in host.items()}
