@@ -139,7 +139,7 @@ def cmd_render(args):
         f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)")
     print(f"{Path(args.output)}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}) x {stats.light_samples} "
           f"light samples ({stats.light_sampler}) in {stats.passes} passes, {stats.render_seconds:.3f} s, "
-          f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device}{error}; stopped by {stats.stopped_by}", file=sys.stderr)
+          f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by {stats.stopped_by}", file=sys.stderr)
 
 
 def cmd_bench(args):

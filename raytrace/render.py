@@ -15,7 +15,7 @@ import pyopencl as cl
 from . import samplers, structs
 from .renderer.interface import KernelArguments
 from .renderer.packing import scene_tables, texture_tables
-from .renderer.cpu_target import apply_target, check_lanes
+from .renderer.cpu_target import apply_target, check_lanes, describe_target
 from .renderer.device import context_for, default_lanes, describe, select_device
 from .errors import InputError
 from .memory import available_memory
@@ -266,6 +266,6 @@ def render_progressive(scene, **kwargs):
                         describe(device), [*features.options()], width, height, acc.n_total, spp, n_light,
                         pixel.name, light.name, options.texture_filter, options.seed, texture_bytes, acc.passes,
                         stopped_by, rmse, relative, history,
-                        {"nonfinite_values": nonfinite, "band_rows": bands.rows, "device_output_bytes": bands.host.nbytes,
+                        {"target": describe_target(device, features.lanes), "nonfinite_values": nonfinite, "band_rows": bands.rows, "device_output_bytes": bands.host.nbytes,
                          "device_bytes": sum(b.size for b in buffers.values()) + bands.device.size})
     return image, variance, stats

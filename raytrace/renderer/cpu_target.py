@@ -173,3 +173,11 @@ def apply_target(device):
     target = choose_target(pocl_cpu_name(device), cpu_flags())
     _point_llvm_cpu(device, target.llvm_cpu)
     return target
+
+
+def describe_target(device, lanes):
+    """How the kernel runs on `device`: its code-generation target and ISA where PoCL's CPU device builds it,
+    and the lane width."""
+    target = apply_target(device)
+    where = f"{target.llvm_cpu} ({target.isa}), " if target is not None else ""
+    return f"{where}{lanes} lanes"

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..outputs import scene_inputs
+from ..renderer.cpu_target import cpu_flags, cpu_level
 from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 from ..render import RenderOptions, check_memory, render, resolve
@@ -125,7 +126,7 @@ def measure(scene_path, scene, repeat, kwargs):
             "build_seconds_warm": warm["build_and_first_launch_seconds"],
             "process_seconds_cold": cold["process_seconds"], "process_seconds_warm": warm["process_seconds"],
             "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
-            "device_bytes": stats.extra["device_bytes"], "device": stats.device,
+            "device_bytes": stats.extra["device_bytes"], "device": stats.device, "target": stats.extra["target"],
             "cold": cold, "warm": warm}
 
 
@@ -151,9 +152,11 @@ def table(rows):
                      for row in cells)
 
 
-def machine(device):
-    return {"device": device, "cpu": cpu_model(), "cpu_count": os.cpu_count(), "platform": platform.platform(),
-            "python": platform.python_version()}
+def machine(device, target):
+    """The machine line's facts: the device, how the kernel runs on it (`target`: the code-generation target,
+    its ISA and the lane width), the CPU (its model and the highest x86-64 level its flags list)."""
+    return {"device": device, "target": target, "cpu": cpu_model(), "cpu_level": cpu_level(cpu_flags()),
+            "cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version()}
 
 
 def run_peer(command):
@@ -185,10 +188,11 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, outpu
         check_memory(width, height)
     select_device(kwargs.get("device"))
     rows = [measure(path, scene, repeat, kwargs) for path, scene in scenes]
-    info, first = machine(rows[0]["device"]), rows[0]
+    info, first = machine(rows[0]["device"], rows[0]["target"]), rows[0]
     print(table(rows), file=out)
     print(f"{info['device']}; {first['width']}x{first['height']}, {first['spp']} spp x {first['light_samples']} "
-          f"light samples; best of {repeat}; CPU: {info['cpu']} ({info['cpu_count']} cores)", file=out, flush=True)
+          f"light samples; best of {repeat}; {info['target']}; CPU: {info['cpu']} ({info['cpu_count']} cores, "
+          f"{info['cpu_level'] or 'below x86-64-v2'})", file=out, flush=True)
     results = {"machine": info, "repeat": repeat, "scenes": rows}
     if peer:
         results.update(beside_peer(peer, scenes[0][1], first, repeat, kwargs))
