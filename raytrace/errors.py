@@ -10,4 +10,10 @@ class InputError(Exception):
     def __init__(self, source, key, value, problem):
         self.source, self.key, self.value, self.problem = str(source), key, value, problem
         shown = "" if value is None else f" = {value!r}"
-        super().__init__(f"{self.source}: {key}{shown}: {problem}")
+        super().__init__(f"{printable(self.source)}: {printable(str(key))}{shown}: {printable(str(problem))}")
+
+
+def printable(text):
+    """`text` with its control characters escaped as Python writes them ("a\\nb"): a file name or a TOML
+    key may hold a newline, and the error stays one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)

@@ -1,5 +1,6 @@
 """Scene files: the course's scene as the course gives it, and every kind of bad input named precisely."""
 import tomllib
+import warnings
 
 import numpy as np
 import pytest
@@ -105,3 +106,27 @@ def test_textured_scenes_load(tmp_path):
         assert len({(t.path, t.role) for t in scene.textures}) == len(scene.textures)
     textured = load_scene(ROOT / "scenes" / "textured_cornell.toml")
     assert len(textured.textures) == 5  # bricks colour, normal, height; stones colour, height
+
+
+def test_found_by_the_fuzz_suite(tmp_path):
+    """Four kinds of input tests/test_fuzz.py found ending in a traceback or two lines: a file name or a TOML
+    key holding a newline (now escaped, the error one line), an integer beyond float64 (TypeError in
+    isfinite), arrays nested thousands deep (tomllib's RecursionError), and a normal of [1e-200, 0, 0], whose
+    length underflowed in float64 (a numpy warning, then NaN)."""
+    named = tmp_path / "a\nb.toml"
+    error = str(InputError(named, "camera.a\nb", None, "unknown key"))
+    assert "\n" not in error and "a\\nb.toml: camera.a\\nb: unknown key" in error
+    table = tomllib.loads(CORNELL.read_text())
+    table["camera"]["position"] = [0, 10 ** 400, 1]
+    with pytest.raises(InputError, match="camera.position.*beyond float32"):
+        parse_scene(table, "big.toml")
+    deep = tmp_path / "deep.toml"
+    deep.write_text("x = " + "[" * 100000 + "]" * 100000 + "\n")
+    with pytest.raises(InputError, match="nested too deeply"):
+        load_scene(deep)
+    table = tomllib.loads(CORNELL.read_text())
+    table["lights"][0]["normal"] = [0.0, 0.0, -1e-200]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = parse_scene(table, "tiny.toml")
+    np.testing.assert_array_equal(scene.lights[0].normal, [0, 0, -1])

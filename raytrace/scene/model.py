@@ -10,6 +10,9 @@ DEFAULT_SHININESS = 16.0
 
 
 def normalize(v):
+    """v / |v| for any finite nonzero v: scaled by its largest component first, so that |v| neither underflows
+    (a normal of [1e-200, 0, 0]) nor overflows."""
+    v = v / np.abs(v).max()
     return v / np.linalg.norm(v)
 
 

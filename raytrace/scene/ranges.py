@@ -14,6 +14,8 @@ scene_file.py to every value with its key:
    included; n.l and the specular power are each at most 1), is at most BRIGHTEST_LIMIT = 2^62: the
    variance image holds squares of pixel values (2^124 at most), and a launch sums up to 2^16 light samples
    in each of up to 2^16 pixel samples (2^94 at most)."""
+import math
+
 import numpy as np
 
 from .model import Camera, Ellipsoid, MeshShape, Rectangle, Triangle
@@ -29,7 +31,9 @@ BRIGHTEST_LIMIT = 2.0 ** 62
 
 def float32_problem(x):
     """Why the number x cannot be a float32 value, or None."""
-    if not np.isfinite(x):
+    if isinstance(x, int) and abs(x) > FLOAT32_MAX:  # a TOML integer may be beyond float64 as well
+        return f"beyond float32's range (|x| <= {FLOAT32_MAX:.6g})"
+    if not math.isfinite(x):
         return "must be a finite number"
     if abs(x) > FLOAT32_MAX:
         return f"beyond float32's range (|x| <= {FLOAT32_MAX:.6g})"

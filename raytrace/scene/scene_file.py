@@ -72,15 +72,15 @@ class _Reader:
 
     def vector(self, key, n, default=None, nonzero=False, low=-math.inf):
         value = self.raw(key, default)
-        ok = isinstance(value, (list, tuple)) and len(value) == n and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x >= low
-            for x in value)
-        if not ok:
-            bound = f" >= {low}" if low > -math.inf else ""
+        bound = f" >= {low}" if low > -math.inf else ""
+        if not (isinstance(value, (list, tuple)) and len(value) == n
+                and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)):
             self.fail(key, value, f"must be a list of {n} finite numbers{bound}")
         for x in value:
             if ranges.float32_problem(x):
                 self.fail(key, value, ranges.float32_problem(x))
+        if any(x < low for x in value):
+            self.fail(key, value, f"must be a list of {n} finite numbers{bound}")
         v = np.array(value, dtype=np.float64)
         if nonzero and not np.any(v):
             self.fail(key, value, "must not be the zero vector")
@@ -354,4 +354,6 @@ def load_scene(path):
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(path, "toml", str(e).split("\n")[0], "is not valid TOML") from None
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise InputError(path, "toml", None, "arrays or tables nested too deeply") from None
     return parse_scene(table, str(path))
