@@ -119,9 +119,6 @@ def cmd_render(args):
         stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)
         scene = load_scene(args.scene)
         outputs.add_inputs(scene_inputs(scene))
-        for mesh in scene.meshes:
-            if mesh.dropped:
-                print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)
         image, variance, stats = render_progressive(scene, **_render_kwargs(args),
                                                     progress=False if args.no_progress else None)
         metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
@@ -135,6 +132,9 @@ def cmd_render(args):
             with outputs.writing(stats_file):
                 write_json(stats_file, dataclasses.asdict(stats))
         outputs.commit()
+    for mesh in scene.meshes:  # after the render: a run that ends in an error says that one line only
+        if mesh.dropped:
+            print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)
     error = "" if stats.estimated_rmse is None else (
         f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)")
     print(f"{Path(args.output)}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}) x {stats.light_samples} "

@@ -193,3 +193,13 @@ def test_device_by_type():
         assert select_device("GPU").type & cl.device_type.GPU
     except InputError as e:
         assert "--device = 'GPU': no GPU device (have: " in str(e)
+
+
+def test_the_largest_seed_is_written_into_the_exr(tmp_path):
+    """Found by the fuzz suite: --seed 4294967295 (2^32 - 1, accepted) ended in OpenImageIO's std::bad_cast,
+    an int attribute being int32; a larger one goes in as its decimal string."""
+    out = tmp_path / "s.exr"
+    r = run("render", CORNELL, "-o", out, "--width", 4, "--height", 4, "--spp", 1, "--light-samples", 1,
+            "--seed", 2**32 - 1)
+    assert r.returncode == 0, r.stderr
+    assert int(read(out)[0].getattribute("raytrace:seed")) == 2**32 - 1

@@ -156,6 +156,8 @@ def test_degenerate_faces_are_left_out_and_counted(tmp_path):
     assert r.returncode == 0 and out.exists()
     notes = [line for line in r.stderr.splitlines() if line.startswith("raytrace: note:")]
     assert notes == [f"raytrace: note: {mesh.source}: 2 degenerate faces left out"]
+    r = run("render", path, "-o", tmp_path / "y.png", "--spp", 2, "--sampler", "grid")  # found by the fuzz suite
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr  # the error alone: no note before it
 
 
 def test_mirrored_smooth_mesh_renders_as_the_mirror_image(tmp_path):

@@ -62,7 +62,10 @@ def _spec(ext, width, height, metadata, variance):
     spec = oiio.ImageSpec(width, height, len(channels), oiio.TypeDesc(pixel_type))
     spec.channelnames = channels
     for key, value in (metadata or {}).items():
-        spec.attribute(f"raytrace:{key}", value)
+        if isinstance(value, int) and value >= 2**31:  # a seed up to 2^32 - 1: int attributes are int32, and
+            spec.attribute(f"raytrace:{key}", str(value))  # OIIO's Python binding sets no wider number exactly
+        else:
+            spec.attribute(f"raytrace:{key}", value)
     if ext in FLOAT:
         spec.attribute("oiio:ColorSpace", "lin_rec709")
     if ext in SIXTEEN_BIT:
