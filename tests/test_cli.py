@@ -203,3 +203,12 @@ def test_the_largest_seed_is_written_into_the_exr(tmp_path):
             "--seed", 2**32 - 1)
     assert r.returncode == 0, r.stderr
     assert int(read(out)[0].getattribute("raytrace:seed")) == 2**32 - 1
+
+
+@pytest.mark.parametrize("spec,problem", [("99999999999999999999:1:7:9", "matches no device"),  # found by the fuzz
+                                          ("99999999999999999999:1", "no such platform:device index"),  # suite
+                                          ("0:7", "no such platform:device index")])
+def test_device_specs_that_name_no_device(tmp_path, spec, problem):
+    r = run("render", CORNELL, "-o", tmp_path / "d.png", "--width", 4, "--height", 4, f"--device={spec}")
+    assert r.returncode == 2 and r.stderr == f"raytrace: error: command line: --device = '{spec}': {problem}" + (
+        r.stderr.split(problem, 1)[1]) and r.stderr.count("\n") == 1 and not list(tmp_path.iterdir()), r.stderr

@@ -1,6 +1,7 @@
 """OpenCL device selection, contexts and the lane width a device wants."""
 import errno
 import os
+import re
 import tempfile
 from functools import lru_cache
 from pathlib import Path
@@ -67,7 +68,7 @@ def select_device(spec=None):
             names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)
             raise InputError("command line", "--device", spec, f"no {spec.upper()} device (have: {names})")
         device = of_type[0]
-    elif ":" in spec and all(part.isdigit() for part in spec.split(":")):
+    elif re.fullmatch(r"[0-9]+:[0-9]+", spec):
         p, d = (int(x) for x in spec.split(":"))
         platforms = cl.get_platforms()
         if p >= len(platforms) or d >= len(platforms[p].get_devices()):
