@@ -7,6 +7,9 @@ Numerical Algorithms", section 3.1; pbrt-v4 section 6.8.1). kernels/ray.h's GAMM
 import numpy as np
 
 U = 2.0**-24  # float32 unit roundoff
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32
+COORDINATE_LIMIT = 2.0**60  # the largest coordinate of a scene point (raytrace/scene/ranges.py says why)
 
 
 def gamma(n):

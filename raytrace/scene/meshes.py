@@ -11,7 +11,7 @@ fix_texture=False the readers' raw arrays keep each vertex's position, normal an
 Real files are messy, and trimesh is lenient, so everything it lets through is checked, and hostile files
 (random bytes, truncations, absurd counts) get one InputError naming the file too. Checked here, for both
 formats (_checked): a file without faces, indices out of range, and NaN, infinite or too large vertex
-coordinates (beyond raytrace.scene.ranges.COORDINATE_LIMIT), uvs and normals (beyond float32's range), named
+coordinates (beyond raytrace.numerics.COORDINATE_LIMIT), uvs and normals (beyond float32's range), named
 by their row; degenerate faces (repeated indices, zero area) are dropped and counted. The readers check what
 only their format has before trimesh sees it (see their docstrings), and wrap whatever trimesh still raises
 (quiet, why); its log warnings are silenced here.
@@ -28,12 +28,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX
 
 # trimesh logs warnings (e.g. "PLY failed to populate") that Python's last-resort handler would print on
 # stderr beside our one line; its errors reach the user as InputError instead.
 logging.getLogger("trimesh").addHandler(logging.NullHandler())
 
-F32_MAX = float(np.finfo(np.float32).max)  # uvs and normals only have to be float32 numbers
 
 # Twice the area over the longest edge squared: at or below this a triangle has no usable plane
 # (raytrace.scene refuses triangles written in a scene file by the same ratio).
@@ -121,7 +121,7 @@ def _checked(path, vertices, faces, normals, uvs):
     vertices = np.asarray(vertices, np.float64)
     if vertices.ndim != 2 or vertices.shape[1] != 3:
         raise InputError(path, "vertices", None, "every vertex needs x, y and z")
-    _check_values(path, "vertices", vertices, coordinate_limit())
+    _check_values(path, "vertices", vertices, COORDINATE_LIMIT)
     if not len(faces):
         raise InputError(path, "faces", None, "no face has three or more vertices")
     out = (faces < 0) | (faces >= len(vertices))
@@ -130,14 +130,14 @@ def _checked(path, vertices, faces, normals, uvs):
         raise InputError(path, f"faces[{row}]", faces[row].tolist(), f"indices must be in [0, {len(vertices) - 1}]")
     if uvs is not None:
         uvs = np.asarray(uvs, np.float64)
-        _check_values(path, "uvs", uvs, F32_MAX)
+        _check_values(path, "uvs", uvs, FLOAT32_MAX)
     degenerate = degenerate_faces(vertices, faces)
     faces = faces[~degenerate].astype(np.int32)
     if not len(faces):
         raise InputError(path, "faces", None, f"all {int(degenerate.sum())} faces are degenerate (zero area)")
     if normals is not None:
         normals = np.asarray(normals, np.float64)
-        _check_values(path, "normals", normals, F32_MAX)
+        _check_values(path, "normals", normals, FLOAT32_MAX)
         normals = _unit_normals(normals, vertices, faces)
     return Mesh(vertices, faces, normals, uvs), int(degenerate.sum())
 
@@ -168,17 +168,9 @@ def value_problem(word, value, limit):
         return None
     if not np.isfinite(value):
         return f"{word} is not a finite number"
-    if abs(value) > F32_MAX:
-        return f"{word} is beyond float32's range (|x| <= {F32_MAX:.4g})"
+    if abs(value) > FLOAT32_MAX:
+        return f"{word} is beyond float32's range (|x| <= {FLOAT32_MAX:.4g})"
     return f"{word} is beyond {limit:.4g}, the largest coordinate the renderer's float32 arithmetic keeps finite"
-
-
-def coordinate_limit():
-    """ranges.COORDINATE_LIMIT, the largest vertex coordinate the renderer's float32 arithmetic takes (a
-    file's mesh beyond it is refused, naming the file and the vertex or the OBJ line). Imported at call
-    time: ranges imports model, which imports this module."""
-    from .ranges import COORDINATE_LIMIT
-    return COORDINATE_LIMIT
 
 
 def quiet():

@@ -3,7 +3,7 @@ before the checks shared with PLY (meshes._checked). Limits: OBJ materials are i
 
 trimesh's OBJ reader is lenient, so what it gets silently wrong is refused here first, naming the line:
 index 0 and relative indices it would misread, NaN and infinite values, uvs and normals beyond float32's
-range and vertex coordinates beyond raytrace.scene.ranges.COORDINATE_LIMIT (it reads them as float64), and
+range and vertex coordinates beyond raytrace.numerics.COORDINATE_LIMIT (it reads them as float64), and
 face references to texture coordinates or normals that it drops. A line it fails on is found and named
 once it has failed. The shared parts come from meshes, which imports this module only when load_mesh is
 called.
@@ -14,7 +14,8 @@ import re
 import numpy as np
 
 from ..errors import InputError
-from .meshes import F32_MAX, coordinate_limit, fan, quiet, value_problem, why
+from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX
+from .meshes import fan, quiet, value_problem, why
 
 
 def read_obj(path, data):
@@ -76,7 +77,7 @@ def _check_obj_values(path, text):
         words = line.split("#")[0].split()
         if words[:1] not in (["v"], ["vt"], ["vn"]):
             continue
-        limit = coordinate_limit() if words[0] == "v" else F32_MAX
+        limit = COORDINATE_LIMIT if words[0] == "v" else FLOAT32_MAX
         for word in words[1:]:
             problem = value_problem(word, _number(word), limit)
             if problem:

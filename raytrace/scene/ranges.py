@@ -18,13 +18,11 @@ import math
 
 import numpy as np
 
+from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
 from .model import Camera, Ellipsoid, MeshShape, Rectangle, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
 MAX_SAMPLES = 1 << 16   # pixel samples and light samples
-FLOAT32_MAX = float(np.finfo(np.float32).max)
-FLOAT32_TINY = float(np.finfo(np.float32).tiny)
-COORDINATE_LIMIT = 2.0 ** 60
 ELLIPSOID_AXIS_RATIO = 2.0 ** -60
 BRIGHTEST_LIMIT = 2.0 ** 62
 
