@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from raytrace.errors import InputError
-from raytrace.scene.meshes import load_mesh, vertex_normals
+from raytrace.scene.mesh_file import load_mesh
+from raytrace.scene.meshes import vertex_normals
 
 # A small OBJ: a quad, a convex pentagon and a triangle (mixed sizes: trimesh's slow path), in two
 # usemtl groups, with comments, a vertex used with two different uvs (a seam) and two degenerate faces.

@@ -7,7 +7,8 @@ import pytest
 import trimesh
 
 from raytrace.scene import meshgen
-from raytrace.scene.meshes import Mesh, degenerate_faces, load_mesh
+from raytrace.scene.mesh_file import load_mesh
+from raytrace.scene.meshes import Mesh, degenerate_faces
 
 SHAPES = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshgen.terrain}
 

@@ -1,6 +1,6 @@
 """The scene: its model (model.py) and its readers: scene files (scene_file.py, the float32 ranges of their
-values in ranges.py), meshes (meshes.py; OBJ and PLY files in obj_file.py and ply_file.py; meshgen.py's
-procedural ones), textures (textures.py, with their MIP pyramids in mipmap.py)."""
+values in ranges.py), meshes (meshes.py; mesh files in mesh_file.py, read by obj_file.py and ply_file.py;
+meshgen.py's procedural ones), textures (textures.py, with their MIP pyramids in mipmap.py)."""
 from .model import Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle
 from .scene_file import load_scene, parse_scene
 

@@ -1,5 +1,5 @@
-"""Triangle meshes as numpy arrays (Mesh and its geometry), and load_mesh, which reads them from OBJ and PLY
-files: obj_file.py and ply_file.py read the formats; the checks every mesh file passes are here.
+"""Triangle meshes as numpy arrays (Mesh and its geometry), and what the file readers share: the test of a
+value a mesh can hold (value_problem) and the handling of trimesh's warnings and errors (quiet, why).
 
 Files are parsed by trimesh (MIT, well kept, needs only numpy): one library reads OBJ and ascii and
 binary PLY, and fan-triangulates quads and n-gons. We call its format readers
@@ -8,27 +8,16 @@ recomputes vertex normals, dropping the file's own (an OBJ's always; a PLY's whe
 "texture fix" has reindexed the vertices but not their normals, e.g. when one is unused). With
 fix_texture=False the readers' raw arrays keep each vertex's position, normal and uv together.
 
-Real files are messy, and trimesh is lenient, so everything it lets through is checked, and hostile files
-(random bytes, truncations, absurd counts) get one InputError naming the file too. Checked here, for both
-formats (_checked): a file without faces, indices out of range, and NaN, infinite or too large vertex
-coordinates (beyond raytrace.numerics.COORDINATE_LIMIT), uvs and normals (beyond float32's range), named
-by their row; degenerate faces (repeated indices, zero area) are dropped and counted. The readers check what
-only their format has before trimesh sees it (see their docstrings), and wrap whatever trimesh still raises
-(quiet, why); its log warnings are silenced here.
-
-At import time, imports run one way: obj_file and ply_file import this module's geometry (fan) and shared
-checks; load_mesh imports the readers only when it is called (at the top the import would be circular).
-The shared checks stay here, beside the Mesh they validate, so that neither reader imports the other.
+Imports run one way: obj_file.py and ply_file.py read the formats with this module's parts, and
+mesh_file.py (load_mesh) dispatches to them and checks what they return.
 """
 import logging
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX
+from ..numerics import FLOAT32_MAX
 
 # trimesh logs warnings (e.g. "PLY failed to populate") that Python's last-resort handler would print on
 # stderr beside our one line; its errors reach the user as InputError instead.
@@ -93,73 +82,6 @@ def fan(polygons):
     k = polygons.shape[1]
     first = np.repeat(polygons[:, :1], k - 2, axis=1)
     return np.stack([first, polygons[:, 1:-1], polygons[:, 2:]], axis=2).reshape(-1, 3)
-
-
-def load_mesh(path):
-    """Read an OBJ or PLY file: (Mesh, number of degenerate faces dropped). Normals and uvs are the
-    file's (None if it has none); a bad file raises InputError."""
-    from . import obj_file, ply_file  # here, not at the top: they import this module
-    path = Path(path)
-    readers = {".obj": obj_file.read_obj, ".ply": ply_file.read_ply}
-    if path.suffix.lower() not in readers:
-        raise InputError(path, "file", str(path), "must be an .obj or .ply file")
-    if path.exists() and not path.is_file():  # a FIFO or /dev/zero would block or never end
-        raise InputError(path, "file", str(path), "is not a regular file")
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(path, "file", str(path), e.strerror or "cannot be read") from None
-    try:
-        vertices, faces, normals, uvs = readers[path.suffix.lower()](path, data)
-        return _checked(path, vertices, faces, normals, uvs)
-    except MemoryError:
-        raise InputError(path, "file", str(path), "does not fit in memory") from None
-
-
-def _checked(path, vertices, faces, normals, uvs):
-    """The validated Mesh (float64 arrays, int32 faces) and the number of degenerate faces dropped."""
-    vertices = np.asarray(vertices, np.float64)
-    if vertices.ndim != 2 or vertices.shape[1] != 3:
-        raise InputError(path, "vertices", None, "every vertex needs x, y and z")
-    _check_values(path, "vertices", vertices, COORDINATE_LIMIT)
-    if not len(faces):
-        raise InputError(path, "faces", None, "no face has three or more vertices")
-    out = (faces < 0) | (faces >= len(vertices))
-    if out.any():
-        row = np.argmax(out.any(axis=1))
-        raise InputError(path, f"faces[{row}]", faces[row].tolist(), f"indices must be in [0, {len(vertices) - 1}]")
-    if uvs is not None:
-        uvs = np.asarray(uvs, np.float64)
-        _check_values(path, "uvs", uvs, FLOAT32_MAX)
-    degenerate = degenerate_faces(vertices, faces)
-    faces = faces[~degenerate].astype(np.int32)
-    if not len(faces):
-        raise InputError(path, "faces", None, f"all {int(degenerate.sum())} faces are degenerate (zero area)")
-    if normals is not None:
-        normals = np.asarray(normals, np.float64)
-        _check_values(path, "normals", normals, FLOAT32_MAX)
-        normals = _unit_normals(normals, vertices, faces)
-    return Mesh(vertices, faces, normals, uvs), int(degenerate.sum())
-
-
-def _check_values(path, name, values, limit):
-    """Refuse a row (a vertex, uv or normal, numbered as in the file) with a NaN, infinite or too large value."""
-    bad = ~(np.abs(values) <= limit).all(axis=1)
-    if bad.any():
-        row = values[np.argmax(bad)]
-        value = row[~(np.abs(row) <= limit)][0]
-        raise InputError(path, f"{name}[{np.argmax(bad)}]", row.tolist(), value_problem(f"{value:g}", value, limit))
-
-
-def _unit_normals(normals, vertices, faces):
-    """The file's normals, normalised; zero ones (some exporters write them at creases) are replaced by
-    area-weighted ones."""
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    usable = np.isfinite(length) & (length > 0)
-    unit = np.divide(normals, length, out=np.zeros_like(normals), where=usable)
-    if not usable.all():
-        unit[~usable[:, 0]] = vertex_normals(vertices, faces)[~usable[:, 0]]
-    return unit
 
 
 def value_problem(word, value, limit):

@@ -1,12 +1,11 @@
-"""Reading OBJ files for raytrace.scene.meshes.load_mesh: the file's vertices, polygons, normals and uvs,
-before the checks shared with PLY (meshes._checked). Limits: OBJ materials are ignored.
+"""Reading OBJ files for raytrace.scene.mesh_file.load_mesh: the file's vertices, polygons, normals and uvs,
+before the checks shared with PLY (mesh_file._checked). Limits: OBJ materials are ignored.
 
 trimesh's OBJ reader is lenient, so what it gets silently wrong is refused here first, naming the line:
 index 0 and relative indices it would misread, NaN and infinite values, uvs and normals beyond float32's
 range and vertex coordinates beyond raytrace.numerics.COORDINATE_LIMIT (it reads them as float64), and
 face references to texture coordinates or normals that it drops. A line it fails on is found and named
-once it has failed. The shared parts come from meshes, which imports this module only when load_mesh is
-called.
+once it has failed. The shared parts come from meshes.
 """
 import io
 import re

@@ -1,5 +1,5 @@
-"""Reading PLY files for raytrace.scene.meshes.load_mesh: the file's vertices, polygons, normals and uvs,
-before the checks shared with OBJ (meshes._checked). Limits: texture coordinates stored per face corner
+"""Reading PLY files for raytrace.scene.mesh_file.load_mesh: the file's vertices, polygons, normals and uvs,
+before the checks shared with OBJ (mesh_file._checked). Limits: texture coordinates stored per face corner
 ("texcoord" lists) keep one uv per vertex.
 
 One gap in trimesh is filled here: its binary PLY reader needs all face lists to have one length, so
@@ -8,8 +8,7 @@ binary files mixing triangles, quads and n-gons are read by a small reader of ou
 Hostile files (random bytes, truncations, absurd counts) get one InputError naming the file: the header is
 parsed and checked line by line, and the body's size against the counts it declares, before trimesh sees
 it (trimesh reads a cut-off header as an empty line and fails with an IndexError, and would allocate
-whatever `element vertex 999999999999` asks for). The shared parts come from meshes, which imports this
-module only when load_mesh is called.
+whatever `element vertex 999999999999` asks for). The shared parts come from meshes.
 """
 import io
 import re

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import meshes, meshgen, ranges
+from . import mesh_file, meshes, meshgen, ranges
 from ..errors import InputError
 from .. import samplers
 from ..structs import WRAP_MODES
@@ -179,7 +179,7 @@ def _mesh_source(r):
         r.fail("file", r.raw("file", r.raw("generate")), "give exactly one of file and generate")
     if r.has("file"):
         path = Path(r.path).parent / r.string("file")
-        return (*meshes.load_mesh(path), str(path))
+        return (*mesh_file.load_mesh(path), str(path))
     g = r.sub("generate")
     g.check_keys(["shape", "triangles"])
     shape, triangles = g.string("shape", choices=GENERATORS), g.integer("triangles", low=2, high=50_000_000)
