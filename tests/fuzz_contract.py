@@ -16,7 +16,7 @@ import numpy as np
 import OpenImageIO as oiio
 from hypothesis import HealthCheck, Phase, assume, note, settings
 
-from fuzz_strategies import node_at, node_paths
+from fuzz_scenes import node_at, node_paths
 from helpers import ROOT
 from raytrace import cli
 

@@ -1,0 +1,428 @@
+"""Hypothesis strategies for scenes: valid scenes from the real grammar (SceneExample: a table and the files
+it refers to), the same mutated with hostile values, scene texts that are no TOML, and valid scenes whose
+texture or mesh files are replaced by hostile ones (from fuzz_files)."""
+import copy
+import dataclasses
+import math
+import os
+
+import numpy as np
+from hypothesis import assume
+from hypothesis import strategies as st
+
+from fuzz_files import TETRAHEDRON, TETRAHEDRON_FACES, AssetCopy, finite, hostile_files, valid_images, \
+    valid_mesh_files, vectors
+from fuzz_toml import to_toml
+
+
+@dataclasses.dataclass
+class SceneExample:
+    """A scene table and the files it refers to."""
+    table: dict
+    files: tuple = ()
+
+    def text(self):
+        return to_toml(self.table)
+
+
+SMALL_SCENE = {  # a ceiling light over a floor, 4 x 3 pixels
+    "camera": {"position": [0.0, -3.0, 1.0], "look_at": [0.0, 0.0, 0.5], "up": [0.0, 0.0, 1.0], "fov": 45.0},
+    "image": {"width": 4, "height": 3},
+    "materials": {"white": {"colour": [0.7, 0.7, 0.7]}},
+    "lights": [{"center": [0.0, 0.0, 2.0], "size": [0.5, 0.5], "normal": [0.0, 0.0, -1.0],
+                "tangent": [1.0, 0.0, 0.0], "colour": [1.0, 1.0, 1.0]}],
+    "shapes": [{"type": "rectangle", "center": [0.0, 0.0, 0.0], "size": [2.0, 2.0], "normal": [0.0, 0.0, 1.0],
+                "tangent": [1.0, 0.0, 0.0], "material": "white"}],
+}
+
+
+# --- valid scenes, from the real grammar ---------------------------------------------------------------
+
+AXIS_FRAMES = [([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]), ([0.0, 0.0, -1.0], [1.0, 0.0, 0.0]),
+               ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]), ([-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]),
+               ([0.0, -1.0, 0.0], [1.0, 0.0, 0.0]), ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0])]
+SAMPLERS = ("center", "grid", "rotated-grid-cw", "rotated-grid-ccw", "random", "jittered", "halton", "sobol")
+SAMPLE_COUNTS = {"center": [1], "grid": [1, 4, 9], "rotated-grid-cw": [1, 4], "rotated-grid-ccw": [1, 4]}
+
+
+@st.composite
+def frames(draw, normals=AXIS_FRAMES):
+    """(normal, tangent): an axis-aligned pair tilted a little; never parallel."""
+    normal, tangent = draw(st.sampled_from(normals))
+    jitter = draw(vectors(6, -0.3, 0.3))
+    return [a + b for a, b in zip(normal, jitter[:3])], [a + b for a, b in zip(tangent, jitter[3:])]
+
+
+@st.composite
+def cameras(draw):
+    camera = {"position": [draw(finite(-0.5, 0.5)), draw(finite(-4.0, -2.0)), draw(finite(0.5, 2.0))],
+              "look_at": [draw(finite(-0.3, 0.3)), 0.0, draw(finite(0.5, 1.5))],
+              "up": [0.0, 0.0, 1.0], "fov": draw(finite(20.0, 100.0))}
+    if draw(st.booleans()):
+        camera["focal_length"] = draw(finite(0.1, 3.0))
+    return camera
+
+
+@st.composite
+def render_tables(draw):
+    render = {}
+    for sampler_key, count_key in (("sampler", "spp"), ("light_sampler", "light_samples")):
+        sampler = draw(st.sampled_from(SAMPLERS))
+        count = draw(st.sampled_from(SAMPLE_COUNTS.get(sampler, [1, 2, 3, 4, 5, 8])))
+        if sampler != "grid" or draw(st.booleans()):
+            render[sampler_key] = sampler
+        if count != 1 or draw(st.booleans()):
+            render[count_key] = count
+    return render
+
+
+@st.composite
+def lights(draw):
+    normal, tangent = draw(frames([AXIS_FRAMES[1]]))
+    return {"center": [draw(finite(-0.5, 0.5)), draw(finite(-0.5, 0.5)), draw(finite(1.5, 2.5))],
+            "size": draw(vectors(2, 0.1, 1.0)),
+            "normal": normal, "tangent": tangent, "colour": draw(vectors(3, 0.0, 2.0))}
+
+
+@st.composite
+def materials(draw, name, files):
+    """A material table; the textures it names are added to `files`."""
+    material = {}
+    if draw(st.booleans()):
+        material["colour"] = draw(vectors(3, 0.0, 1.0))
+    if draw(st.booleans()):
+        material["shininess"] = draw(finite(0.5, 200.0))
+    maps = draw(st.sets(st.sampled_from(["texture", "normal_map", "height_map"])))
+    if "colour" not in material and "texture" not in maps:
+        material["colour"] = draw(vectors(3, 0.0, 1.0))
+    for key in sorted(maps):
+        role = {"texture": "colour", "normal_map": "normal", "height_map": "height"}[key]
+        if draw(st.booleans()):
+            image = draw(valid_images(f"{name}_{key}", role))
+        else:
+            image = AssetCopy(f"{name}_{key}.png", "textures/grid.png")
+        files.append(image)
+        material[key] = image.name
+    if "height_map" in maps:
+        material["height_scale"] = draw(finite(0.0, 0.1))
+    if draw(st.booleans()):
+        material["uv_scale"] = draw(vectors(2, 0.1, 10.0))
+    if draw(st.booleans()):
+        material["uv_offset"] = draw(vectors(2, -5.0, 5.0))
+    if draw(st.booleans()):
+        material["wrap"] = draw(st.sampled_from(["repeat", "clamp", "mirror"]))
+    return material
+
+
+def rotation_matrix(axis, degrees):
+    a = np.array(axis, np.float64) / np.linalg.norm(axis)
+    t = math.radians(degrees)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(t) * k + (1 - math.cos(t)) * k @ k
+
+
+@st.composite
+def mesh_transforms(draw):
+    """Some of scale, rotate and translate, or a matrix."""
+    signed = st.tuples(finite(0.05, 0.5), st.sampled_from([1.0, -1.0])).map(lambda p: p[0] * p[1])
+    scale = draw(st.one_of(finite(0.05, 0.5), st.lists(signed, min_size=3, max_size=3)))  # negative: a mirror
+    axis = draw(vectors(3, -1.0, 1.0).filter(lambda a: np.linalg.norm(a) > 0.1))
+    degrees, translate = draw(finite(-360.0, 360.0)), draw(vectors(3, -1.0, 1.0))
+    if draw(st.booleans()):
+        m = np.eye(4)
+        m[:3, :3] = rotation_matrix(axis, degrees) @ np.diag(np.broadcast_to(scale, 3))
+        m[:3, 3] = translate
+        return {"matrix": m.tolist()}
+    transform = {}
+    if draw(st.booleans()):
+        transform["scale"] = scale
+    if draw(st.booleans()):
+        transform["rotate"] = {"axis": axis, "degrees": degrees}
+    if draw(st.booleans()):
+        transform["translate"] = translate
+    return transform
+
+
+@st.composite
+def shapes(draw, material_names, files):
+    """One [[shapes]] table of any type; mesh files it names are added to `files`."""
+    kind = draw(st.sampled_from(["rectangle", "triangle", "inline mesh", "mesh file", "generated mesh",
+                                 "ellipsoid"]))
+    shape = {"type": "mesh" if "mesh" in kind else kind, "material": draw(st.sampled_from(material_names))}
+    if kind == "rectangle":
+        normal, tangent = draw(frames())
+        shape.update(center=draw(vectors(3, -1.0, 1.0)), size=draw(vectors(2, 0.1, 3.0)), normal=normal,
+                     tangent=tangent)
+    elif kind == "triangle":
+        v0 = draw(vectors(3, -1.0, 1.0))
+        e1, e2 = draw(frames())
+        a, b = draw(finite(0.2, 1.0)), draw(finite(0.2, 1.0))
+        shape["vertices"] = [v0, [p + a * d for p, d in zip(v0, e1)], [p + b * d for p, d in zip(v0, e2)]]
+        if draw(st.booleans()):
+            shape["uv"] = draw(st.lists(vectors(2, -2.0, 2.0), min_size=3, max_size=3))
+    elif kind == "inline mesh":
+        jitter = draw(vectors(12, -0.05, 0.05))
+        shape["vertices"] = [[c + jitter[3 * i + k] for k, c in enumerate(v)] for i, v in enumerate(TETRAHEDRON)]
+        shape["faces"] = draw(st.lists(st.sampled_from(TETRAHEDRON_FACES), min_size=1, max_size=4, unique_by=tuple))
+    elif kind == "ellipsoid":
+        axes = np.diag(draw(vectors(3, 0.1, 0.6))) + np.array(draw(vectors(9, -0.05, 0.05))).reshape(3, 3)
+        shape.update(center=draw(vectors(3, -1.0, 1.0)), axes=axes.tolist())
+    else:
+        if kind == "mesh file":
+            mesh = draw(valid_mesh_files(f"mesh{len(files)}"))
+            files.append(mesh)
+            shape["file"] = mesh.name
+        else:
+            shape["generate"] = {"shape": draw(st.sampled_from(["sphere", "torus", "terrain"])),
+                                 "triangles": draw(st.integers(2, 300))}
+        shape.update(draw(mesh_transforms()))
+        if draw(st.booleans()):
+            shape["smooth"] = draw(st.booleans())
+    return shape
+
+
+@st.composite
+def valid_scenes(draw, max_shapes=4, min_files=0):
+    """A small scene that must render: every table of the grammar, optional keys present or not; images
+    1..16 pixels a side, a few samples."""
+    files = []
+    table = {"camera": draw(cameras()),
+             "image": {"width": draw(st.integers(1, 16)), "height": draw(st.integers(1, 16))}}
+    if draw(st.booleans()):
+        table["render"] = draw(render_tables())
+    if draw(st.booleans()):
+        table["ambient"] = draw(vectors(3, 0.0, 0.3))
+    names = [f"m{i}" for i in range(draw(st.integers(1, 3)))]
+    table["materials"] = {name: draw(materials(name, files)) for name in names}
+    table["lights"] = draw(st.lists(lights(), min_size=1, max_size=2))
+    table["shapes"] = draw(st.lists(shapes(names, files), max_size=max_shapes))
+    if not table["shapes"] and draw(st.booleans()):
+        del table["shapes"]
+    assume(len(files) >= min_files)
+    return SceneExample(table, tuple(files))
+
+
+def texture_filters():
+    return st.sampled_from(["trilinear", "nearest", "bilinear", "anisotropic"])
+
+
+# --- hostile values and mutations ----------------------------------------------------------------------
+
+SPECIAL_FLOATS = (math.nan, math.inf, -math.inf, 1e39, -1e39, 3e38, -3e38, 3.4028234663852886e38,
+                  3.4028235677973366e38, 1e-45, -1e-45, 1e-39, 1.1754943508222875e-38, 0.0, -0.0, 5e-324, 1e-300,
+                  1e300, 1.7976931348623157e308, 1e30, 1e31, -1.0, -0.5, 1e-7, 179.99999999999997, 180.0, 4e9)
+SPECIAL_INTS = (0, -1, 1, 2, 3, 5, 7, 16384, 16385, 32768, 32769, 65536, 65537, 2**31 - 1, 2**31, 2**32,
+                2**63 - 1, -2**63, 2**64, 10**30, 50_000_000, 50_000_001)
+WRONG_TYPES = ("", "x", "nan", "inf", "1.0", "grid", "repeat", "sphere", "m0", "\n", "a\nb", "é", "\x00",
+               "../", "/dev/null", "a\nb.obj", "x.ply", "scene.toml", "/", True, False, {}, {"x": 1}, [], [1.0],
+               [1.0, 2.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.0, 4.0], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+               ["a", "b", "c"], [True, False, True], [math.nan, math.nan, math.nan], [[]], [{}], [0, 0, 0], [1, 1],
+               [0.0, 0.0], [1e39, 0.0, 0.0], [3e38, 3e38, 3e38], [1e-45, 1e-45])
+EXTRA_KEYS = ("zoom", "color", "Colour", "colour ", "", " ", "type", "file", "generate", "a\nb", "é", "\x00",
+              "fov", "center", "size", "normal", "materials", "smooth", "matrix", "spp", "width")
+FACTORS = (1e-45, 1e-39, 1e-30, 1e30, 1e38, 1e39, -1.0, 0.0, 1e300, 1e-300, 3.0, 1e15, 1e18, 2.0**60, 2.0**-60,
+           1e-15, 1 + 2.0**-40)
+
+
+def hostile_values():
+    """A value to put where another was: special floats and integers, wrong types, anything."""
+    return st.one_of(st.sampled_from(SPECIAL_FLOATS), st.sampled_from(SPECIAL_INTS),
+                     st.sampled_from(WRONG_TYPES).map(copy.deepcopy), st.floats(), st.integers(),
+                     st.text(max_size=10), st.lists(st.sampled_from(SPECIAL_FLOATS), max_size=4))
+
+
+def node_paths(node, prefix=()):
+    """Every path (keys and indices) into a table, the root's () included."""
+    yield prefix
+    if isinstance(node, dict):
+        for key, value in node.items():
+            yield from node_paths(value, prefix + (key,))
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            yield from node_paths(value, prefix + (i,))
+
+
+def node_at(table, path):
+    for key in path:
+        table = table[key]
+    return table
+
+
+def scaled(value, factor):
+    if isinstance(value, bool) or isinstance(value, str):
+        return value
+    if isinstance(value, (int, float)):
+        return value * factor
+    if isinstance(value, list):
+        return [scaled(v, factor) for v in value]
+    if isinstance(value, dict):
+        return {k: scaled(v, factor) for k, v in value.items()}
+    return value
+
+
+def retyped(value):
+    """The same value in another type: 8 -> 8.0, 8.0 -> 8, numbers -> strings, true -> 1."""
+    if isinstance(value, bool):
+        return int(value)
+    if isinstance(value, int):
+        return float(value)
+    if isinstance(value, float):
+        return int(value) if math.isfinite(value) and value == int(value) else str(value)
+    if isinstance(value, list):
+        return {str(i): v for i, v in enumerate(value)}
+    if isinstance(value, dict):
+        return list(value.values())
+    return [value]
+
+
+@dataclasses.dataclass(frozen=True)
+class Mutation:
+    """One change to a scene table: `where` picks the node (an index into all its paths, modulo their number),
+    `op` says what is done to it, with `value`, `key`, `factor`, `count` or `other` (a second index, of the
+    node whose value an alias copies)."""
+    where: int
+    op: str  # replace, scale, retype, alias, delete, extra key, rename key, resize
+    value: object
+    key: str
+    factor: float
+    count: int
+    other: int
+
+    def apply(self, table):
+        paths = [*list(node_paths(table))[1:], ()]
+        path = paths[self.where % len(paths)]
+        node = node_at(table, path)
+        parent = node_at(table, path[:-1]) if path else None
+        value = copy.deepcopy(self.value)
+        if self.op == "extra key" and isinstance(node, dict):
+            node[self.key] = value
+        elif self.op == "resize" and isinstance(node, list):
+            node[:] = [copy.deepcopy(node[i % len(node)]) for i in range(self.count)] if node else [0.0] * self.count
+        elif not path:
+            table[self.key] = value
+        elif self.op == "delete":
+            del parent[path[-1]]
+        elif self.op == "rename key" and isinstance(parent, dict):
+            parent[self.key] = parent.pop(path[-1])
+        elif self.op == "scale":
+            parent[path[-1]] = scaled(node, self.factor)
+        elif self.op == "retype":
+            parent[path[-1]] = retyped(node)
+        elif self.op == "alias":  # the value of another node of the same shape: tangent = normal, v1 = v0, ...
+            alike = [p for p in paths if p and p != path and same_shape(node_at(table, p), node)]
+            if alike:
+                parent[path[-1]] = copy.deepcopy(node_at(table, alike[self.other % len(alike)]))
+        else:
+            parent[path[-1]] = value
+
+
+def same_shape(a, b):
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(same_shape(x, y) for x, y in zip(a, b))
+    return type(a) is type(b) and not isinstance(a, dict)
+
+
+def mutations():
+    """One to three Mutations: a value replaced by a hostile one, scaled by an extreme factor, retyped or
+    made a copy of another of the same shape; a key deleted, renamed or an extra one added; an array cut
+    short or grown to a huge count."""
+    return st.lists(st.builds(Mutation, st.sampled_from(range(1009)),
+                              st.sampled_from(["replace", "replace", "replace", "scale", "scale", "retype", "alias",
+                                               "alias", "delete", "extra key", "rename key", "resize"]),
+                              hostile_values(), st.sampled_from(EXTRA_KEYS), st.sampled_from(FACTORS),
+                              st.sampled_from([0, 1, 2, 4, 33, 65, 200]), st.sampled_from(range(1013))),
+                    min_size=1, max_size=3)
+
+
+@st.composite
+def hostile_scenes(draw):
+    """A valid scene mutated with hostile values (its files kept). The mutations are drawn first: Hypothesis
+    makes the draws after a whole scene mostly copies of an earlier example's, or zeros."""
+    changes = draw(mutations())
+    example = draw(valid_scenes())
+    table = copy.deepcopy(example.table)
+    for change in changes:
+        change.apply(table)
+    return SceneExample(table, example.files)
+
+
+@dataclasses.dataclass(frozen=True)
+class DamagedText:
+    """A scene file's text damaged so that it is no longer a TOML table we wrote: `kind` says how, `at` where
+    (or how deep), `extra` with what."""
+    kind: str
+    text: bytes
+    at: int
+    extra: bytes
+
+    def data(self):
+        if self.kind == "truncated":
+            return self.text[:self.at]
+        if self.kind == "random bytes":
+            return self.extra
+        if self.kind == "nested arrays":
+            return self.text + b"x = " + b"[" * self.at + b"]" * self.at + b"\n"
+        if self.kind == "nested tables":
+            return self.text + b"x = " + b"{a = " * self.at + b"1" + b"}" * self.at + b"\n"
+        if self.kind == "byte order mark":
+            return "\ufeff".encode() + self.text
+        if self.kind == "inserted bytes":
+            return self.text[:self.at] + self.extra + self.text[self.at:]
+        if self.kind == "duplicate table":
+            return self.text + b"[camera]\nfov = 40.0\n"
+        if self.kind == "carriage returns":
+            return self.text.replace(b"\n", b"\r")
+        return b""
+
+
+@st.composite
+def broken_scene_texts(draw):
+    """(DamagedText, files): a valid scene's text truncated, replaced by random bytes, nested deeply, made
+    invalid UTF-8 or otherwise no TOML."""
+    kind = draw(st.sampled_from(["truncated", "random bytes", "nested arrays", "nested tables", "byte order mark",
+                                 "inserted bytes", "duplicate table", "carriage returns", "empty"]))
+    example = draw(valid_scenes(max_shapes=2))
+    text = example.text().encode()
+    at, extra = 0, b""
+    if kind in ("truncated", "inserted bytes"):
+        at = draw(st.integers(0, len(text)))
+    if kind in ("nested arrays", "nested tables"):
+        at = draw(st.sampled_from([10, 500, 1000, 5000, 100000]))
+    if kind == "random bytes":
+        extra = draw(st.binary(max_size=200))
+    if kind == "inserted bytes":
+        extra = draw(st.sampled_from([b"\xff", b"\xc3", b"\xed\xa0\x80", b"\x80", b"\x00", b"\x7f", b"\r"]))
+    return DamagedText(kind, text, at, extra), example.files
+
+
+# --- valid scenes with hostile files -------------------------------------------------------------------
+
+RENAMED_EXTENSIONS = (".png", ".exr", ".hdr", ".tif", ".jpg", ".obj", ".ply", ".OBJ", ".PLY", ".stl", ".txt", "")
+
+
+@st.composite
+def scenes_with_hostile_files(draw):
+    """A valid scene naming textures or meshes, the first of whose files are replaced by hostile ones (under
+    the same name, or under a new name with another extension, which the scene then names). The hostile
+    files are drawn first, for the reason given in hostile_scenes."""
+    replacements = draw(st.lists(st.tuples(hostile_files("placeholder"),
+                                           st.one_of(st.none(), st.sampled_from(RENAMED_EXTENSIONS))),
+                                 min_size=1, max_size=3))
+    example = draw(valid_scenes(max_shapes=3, min_files=1))
+    table, files = copy.deepcopy(example.table), list(example.files)
+    for i, (hostile, ext) in enumerate(replacements[:len(files)]):
+        name = files[i].name
+        if ext is not None:
+            new = os.path.splitext(name)[0] + "_x" + ext
+            rename_references(table, name, new)
+            name = new
+        files[i] = dataclasses.replace(hostile, name=name)
+    return SceneExample(table, tuple(files))
+
+
+def rename_references(node, old, new):
+    for key, value in (node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()):
+        if value == old:
+            node[key] = new
+        else:
+            rename_references(value, old, new)
