@@ -29,7 +29,9 @@ def one_line(r, text):
 @pytest.mark.parametrize("flags,pocl,target,lanes", [
     (V4, "znver3", "x86-64-v4", 16),        # AMD Zen 4: LLVM 14 says znver3 (AVX2); the CPU has AVX-512
     (V3, "generic", "x86-64-v3", 8),        # a CPU newer than LLVM 14 without AVX-512
-    (V2, "nehalem", "x86-64-v2", 4),
+    (V3, "znver3", "znver3", 8),            # Zen 3: PoCL's name has the width, and is tuned for the CPU
+    (V4, "icelake-client", "icelake-client", 16),
+    (V2, "nehalem", "nehalem", 4),
     (V4 - {"avx512vl"}, "knl", "x86-64-v3", 8),  # AVX-512 without VL is not x86-64-v4
     (V2 - {"popcnt"}, "core2", "core2", 4),  # below every level: PoCL's own choice
 ])
