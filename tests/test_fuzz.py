@@ -47,10 +47,9 @@ Running it:
 
 A failing example is printed with its scene file's text, its other files and its command line.
 
-The parts: fuzz_toml.py (the TOML writer), fuzz_scenes.py (the scenes generated), fuzz_files.py (the texture
-and mesh files written beside a scene), fuzz_commands.py (the command lines and environments),
-fuzz_contract.py (the budget, the command line run in this process and the contract checked); here, the tests
-and the inputs of the failures the suite has found, kept as @example.
+The parts are in raytrace/tools/fuzz/ (like the stability suite, a tool that verifies the renderer): toml_writer.py,
+scenes.py, files.py, commands.py and contract.py (the budget, the command line run in this process and the
+contract checked); here, the tests and the inputs of the failures the suite has found, kept as @example.
 """
 import copy
 import dataclasses
@@ -65,13 +64,13 @@ from pathlib import Path
 from hypothesis import assume, example, given, note
 from hypothesis import strategies as st
 
-from fuzz_contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, outside, \
+from raytrace.tools.fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, outside, \
     run_cli, write_example
-from fuzz_commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, command_lines, environments, parsed_int
-from fuzz_files import TextFile
-from fuzz_scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
+from raytrace.tools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, command_lines, environments, parsed_int
+from raytrace.tools.fuzz.files import TextFile
+from raytrace.tools.fuzz.scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
     scenes_with_hostile_files, texture_filters, valid_scenes
-from fuzz_toml import same_tables, to_toml
+from raytrace.tools.fuzz.toml_writer import same_tables, to_toml
 from helpers import ROOT
 
 

@@ -1,6 +1,6 @@
 """Hypothesis strategies for scenes: valid scenes from the real grammar (SceneExample: a table and the files
 it refers to), the same mutated with hostile values, scene texts that are no TOML, and valid scenes whose
-texture or mesh files are replaced by hostile ones (from fuzz_files)."""
+texture or mesh files are replaced by hostile ones (from files.py)."""
 import copy
 import dataclasses
 import math
@@ -10,9 +10,9 @@ import numpy as np
 from hypothesis import assume
 from hypothesis import strategies as st
 
-from fuzz_files import TETRAHEDRON, TETRAHEDRON_FACES, AssetCopy, finite, hostile_files, valid_images, \
+from .files import TETRAHEDRON, TETRAHEDRON_FACES, AssetCopy, finite, hostile_files, valid_images, \
     valid_mesh_files, vectors
-from fuzz_toml import to_toml
+from .toml_writer import to_toml
 
 
 @dataclasses.dataclass

@@ -16,9 +16,9 @@ import numpy as np
 import OpenImageIO as oiio
 from hypothesis import HealthCheck, Phase, assume, note, settings
 
-from fuzz_scenes import node_at, node_paths
-from helpers import ROOT
-from raytrace import cli
+from .scenes import node_at, node_paths
+from . import ROOT
+from ... import cli
 
 # --- budget -------------------------------------------------------------------------------------------
 

@@ -5,7 +5,7 @@ import dataclasses
 
 from hypothesis import strategies as st
 
-from fuzz_scenes import SAMPLERS
+from .scenes import SAMPLERS
 
 # --- hostile command lines -----------------------------------------------------------------------------
 

@@ -12,7 +12,7 @@ import numpy as np
 import OpenImageIO as oiio
 from hypothesis import strategies as st
 
-from helpers import ROOT
+from . import ROOT
 
 ASSETS = ROOT / "assets"
 
