@@ -96,29 +96,31 @@ inline int skipped_subtree(const Scene *s, int i, uint skip)
 }
 
 /* intersect.cl's occluded() over the hierarchy: the `skip`ped rectangles are not tested, nor the subtrees
- * that hold nothing else (a room's walls). */
-inline vint bvh_occluded(const Scene *s, Ray r, uint skip)
+ * that hold nothing else (a room's walls). Lanes outside `active` count as settled from the start, so they
+ * open no node: a packet's traversal is the union of its active rays' only. */
+inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
 {
     BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
-    vint blocked = (vint)(0);
+    vint settled = !active;
     int stack[BVH_STACK], top = 0, i = 0;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
-        if (!skipped_subtree(s, i, skip) && ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !blocked)) {
+        if (!skipped_subtree(s, i, skip) && ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !settled)) {
             if (node->count <= 0) {
                 stack[top++] = order_children(s->nodes, i, b, &i);
                 continue;
             }
             for (int k = node->offset; k < node->offset + node->count; ++k)
-                blocked |= primitive_blocks(s, &p, s->prims[k] & 3, s->prims[k] >> 2, skip);
-            if (ALL(blocked))
-                return blocked;
+                settled |= primitive_blocks(s, &p, s->prims[k] & 3, s->prims[k] >> 2, skip);
+            if (ALL(settled))
+                break;
         }
         if (top == 0)
-            return blocked;
+            break;
         i = stack[--top];
     }
+    return settled & active;
 }
 
 #endif

@@ -69,18 +69,19 @@ inline uint rectangles_out_of_reach(const Scene *s, __global const Light *light,
 /* Mask of the lanes whose segment o + t d, t in (0, 1), is blocked by a shape other than the `skip`ped
  * rectangles: for planes and triangles conservatively inside, so neither the surface it leaves nor one it
  * ends on counts (ray.h); an ellipsoid blocks for 0 < t < 1, the segment's end being already pushed off the
- * light (shading.cl). Lights do not block. Stops as soon as every lane is blocked. */
-inline vint occluded(const Scene *s, Ray r, uint skip)
+ * light (shading.cl). Lights do not block. Only the `active` lanes are traced (the others answer 0), and the
+ * test stops as soon as every one of them is blocked. */
+inline vint occluded(const Scene *s, Ray r, uint skip, vint active)
 {
 #if HAS_BVH
-    return bvh_occluded(s, r, skip);
+    return bvh_occluded(s, r, skip, active);
 #else
     PrimitiveRay p = primitive_ray(r);
-    vint blocked = (vint)(0);
+    vint settled = !active;
     for (int kind = SHAPE_RECTANGLE; kind <= SHAPE_ELLIPSOID; ++kind)
-        for (int i = 0; i < shape_count(s, kind) && !ALL(blocked); ++i)
-            blocked |= primitive_blocks(s, &p, kind, i, skip);
-    return blocked;
+        for (int i = 0; i < shape_count(s, kind) && !ALL(settled); ++i)
+            settled |= primitive_blocks(s, &p, kind, i, skip);
+    return settled & active;
 #endif
 }
 

@@ -61,7 +61,7 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
             if (!ANY(lit))
                 continue;
             *rays += MASK_TO_ONE(lit);
-            lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal), skip);
+            lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal), skip, lit);
             sum += SELECT((vfloat)(0.0f), phong_lobes(sp.n, l, v, sp.shininess), lit);
         }
         direct = v3_madd(direct, sum * (1.0f / n_samples), v3_uniform(light->colour));

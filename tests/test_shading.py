@@ -38,7 +38,7 @@ __kernel void shadow(int n, SCENE_PARAMETERS, __global const float *p, __global 
     const Scene s = SCENE_FROM_PARAMETERS;
     vec3 from = IN3(p);
     Ray r = {from, v3_sub(IN3(q), from)};
-    OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u)));
+    OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u, (vfloat)(0.0f) == 0.0f)));
 }
 
 /* The renderer's own way off a surface: the camera ray's hit, its offset origin, the segment to q. */
@@ -50,7 +50,8 @@ __kernel void leave(int n, SCENE_PARAMETERS, __global const float *o, __global c
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     vec3 origin = offset_ray_origin(hit.p, hit.err, hit.n);
     OUT(blocked, MASK_TO_ONE(occluded(&s, shadow_segment(origin, IN3(q), light_point_error(lights),
-                                                         v3_uniform(lights->shape.normal)), 0u)));
+                                                         v3_uniform(lights->shape.normal)), 0u,
+                                                (vfloat)(0.0f) == 0.0f)));
 }
 """
 

@@ -22,17 +22,19 @@ from raytrace.tools.probe import scene_args
 SOURCE = """
 #include "intersect.cl"
 __kernel void trace(int n, SCENE_PARAMETERS, uint skip, __global const float *o, __global const float *d,
-                    __global float *t, __global float *nrm, __global float *material, __global float *blocked,
-                    __global float *blocked_skipping)
+                    __global const float *active, __global float *t, __global float *nrm, __global float *material,
+                    __global float *blocked, __global float *blocked_skipping, __global float *blocked_active)
 {
     const Scene s = SCENE_FROM_PARAMETERS;
     Ray r = {IN3(o), IN3(d)};
+    vint every = (vfloat)(0.0f) == 0.0f;
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     OUT(t, hit.t);
     OUT3(nrm, hit.n);
     OUT(material, CONVERT_VFLOAT(hit.material));
-    OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u))); /* the segment from o to o + d */
-    OUT(blocked_skipping, MASK_TO_ONE(occluded(&s, r, skip))); /* the same without the skipped rectangles */
+    OUT(blocked, MASK_TO_ONE(occluded(&s, r, 0u, every))); /* the segment from o to o + d */
+    OUT(blocked_skipping, MASK_TO_ONE(occluded(&s, r, skip, every))); /* the same without the skipped rectangles */
+    OUT(blocked_active, MASK_TO_ONE(occluded(&s, r, skip, IN(active) > 0.0f))); /* and only where active */
 }
 """
 
@@ -46,11 +48,12 @@ def mesh_scene(cornell):
     return dataclasses.replace(cornell, triangles=cornell.triangles + triangles)
 
 
-def trace(harness, scene, o, d, use_bvh, skip=0):
+def trace(harness, scene, o, d, use_bvh, skip=0, active=None):
+    active = np.ones(len(o)) if active is None else active
     args = {**scene_args(scene, features=Features(bvh=use_bvh)), "skip": np.uint32(skip), "o": planar(o),
-            "d": planar(d)}
+            "d": planar(d), "active": active.astype(np.float32)}
     return harness.run(SOURCE, "trace", len(o), args,
-                       {"t": 1, "nrm": 3, "material": 1, "blocked": 1, "blocked_skipping": 1},
+                       {"t": 1, "nrm": 3, "material": 1, "blocked": 1, "blocked_skipping": 1, "blocked_active": 1},
                        HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1, HAS_BVH=int(use_bvh))
 
 
@@ -58,19 +61,22 @@ def trace(harness, scene, o, d, use_bvh, skip=0):
 def test_bvh_agrees_with_the_loop(harness, mesh_scene, skip):
     """Also with rectangles skipped (scene 0's five walls are rectangles 0-4): all of them, so that the
     subtrees holding only walls are not opened, and some, so that a subtree holding a wall still tested
-    must be."""
+    must be. The shadow test traces only its active lanes: the others answer 0 (unblocked), the rest as
+    when every lane is traced."""
     rng = np.random.default_rng(31)
     n = 4096
     o = rng.uniform([-0.95, -0.95, 0.05], [0.95, 0.95, 1.9], (n, 3))
     d = rng.normal(size=(n, 3)) * rng.uniform(0.05, 2.0, (n, 1))  # segment lengths for the shadow test
     o, d = (a.astype(np.float32).astype(np.float64) for a in (o, d))
-    loop = trace(harness, mesh_scene, o, d, False, skip)
-    tree = trace(harness, mesh_scene, o, d, True, skip)
+    active = rng.uniform(size=n) < 0.6
+    loop = trace(harness, mesh_scene, o, d, False, skip, active)
+    tree = trace(harness, mesh_scene, o, d, True, skip, active)
     hits_mesh = np.count_nonzero(loop["material"] == 1)
     assert hits_mesh > n // 10 and 0.1 < loop["blocked"].mean() < 0.9
     assert loop["blocked_skipping"].mean() < loop["blocked"].mean() - 0.05, "skipped walls block no segment"
-    for key in ("t", "nrm", "material", "blocked", "blocked_skipping"):
+    for key in ("t", "nrm", "material", "blocked", "blocked_skipping", "blocked_active"):
         np.testing.assert_array_equal(tree[key], loop[key], err_msg=key)
+    np.testing.assert_array_equal(tree["blocked_active"], tree["blocked_skipping"] * active)
 
 
 def test_flattened_tree_is_what_the_kernel_expects(mesh_scene):
