@@ -8,7 +8,8 @@ extras). Targets: nvptx (NVIDIA, PTX assembly), amdgcn (AMD, an object for gfx90
 no ROCm device library here), spir (SPIR 64-bit LLVM bitcode, for OpenCL drivers that take SPIR) and spirv
 (a SPIR-V 1.0 module, what OpenCL 2.1+ drivers take through clCreateProgramWithIL, emitted by clang's own
 SPIR-V backend, no llvm-spirv translator; checked with SPIRV-Tools' `spirv-val` when it is installed, as
-the `test` extra does). `pocl` builds it with this machine's PoCL at the device's own lane width and
+the `test` extra does), and the x86-64 levels x86-64-v2, -v3 and -v4 (an object, at any --lanes their vectors
+hold: the lane widths a CPU elsewhere runs, built here). `pocl` builds it with this machine's PoCL at the device's own lane width and
 reports the size of the binary it keeps."""
 import importlib.util
 import shutil
@@ -22,6 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..errors import InputError
+from ..renderer.cpu_target import LEVELS
 from ..renderer.program import Features, build, kernel_dir
 
 CLANG_TARGETS = {
@@ -29,6 +31,9 @@ CLANG_TARGETS = {
     "amdgcn": ["-target", "amdgcn-amd-amdhsa", "-mcpu=gfx90a", "-nogpulib", "-c"],
     "spir": ["-target", "spir64", "-emit-llvm", "-c"],
     "spirv": ["-target", "spirv64v1.0", "-fintegrated-objemitter", "-c"],
+    # The CPU levels PoCL may be pointed at (renderer/cpu_target.py), built as PoCL builds for them: an x86-64
+    # object at any lane width the level's vectors hold, whether or not this machine could run it.
+    **{level: ["-target", "x86_64-unknown-linux-gnu", f"-march={level}", "-c"] for level in LEVELS},
 }
 TARGETS = ["pocl", *CLANG_TARGETS]
 SOURCE = '#include "render.cl"\n'
@@ -57,7 +62,7 @@ def clang_compile(features, target):
     with tempfile.TemporaryDirectory() as tmp:
         source, output = Path(tmp) / "render_entry.cl", Path(tmp) / "out"
         source.write_text(SOURCE)
-        command = [*clang, "-x", "cl", "-cl-std=CL1.2", *header, "-O2", *CLANG_TARGETS[target],
+        command = [*clang, "-x", "cl", "-cl-std=CL1.2", *header, "-O2", *_whole(target), *CLANG_TARGETS[target],
                    *features.options(), "-I", str(kernel_dir()), str(source), "-o", str(output)]
         start = time.perf_counter()
         result = subprocess.run(command, capture_output=True, text=True)
@@ -65,6 +70,15 @@ def clang_compile(features, target):
         if result.returncode != 0:
             raise RuntimeError(_first_error(result))
         return output.read_bytes(), seconds
+
+
+def _whole(target):
+    """-fgnu89-inline: an `inline` function the optimiser leaves out of line gets its own definition. Under
+    C99's rule it is an undefined symbol (shade, closest_hit ...), compiled nowhere and so checked by nothing,
+    while a GPU driver compiling the source compiles it all. Not for spirv: clang 22's SPIR-V backend stops
+    on the whole kernel ("Unable to meet SPIR-V requirements for this target"), so that target checks the
+    entry kernel and what is inlined into it only."""
+    return [] if target == "spirv" else ["-fgnu89-inline"]
 
 
 def spirv_val():
@@ -108,6 +122,9 @@ def compile_scene(scene, target, lanes=None):
         features = Features.of(scene, lanes or default_lanes(device))
         size, seconds = _pocl(features)
     else:
+        if target in LEVELS and (lanes or 1) * 32 > LEVELS[target][1]:
+            raise InputError("command line", "--lanes", lanes, f"wider than {target}'s {LEVELS[target][1]}-bit "
+                             f"vectors: at most {LEVELS[target][1] // 32} lanes")
         features = replace(Features.of(scene, 1), lanes=lanes or 1)
         output, seconds = clang_compile(features, target)
         if target == "spirv":
