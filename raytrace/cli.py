@@ -71,6 +71,8 @@ def parser():
     b.add_argument("--scaling", metavar="DIR", help="instead: seconds per ray and BVH build seconds against "
                    "the triangle count of a procedural mesh in the scene's room; scaling.csv and .png in DIR")
     b.add_argument("--max-triangles", type=int, default=10**6, help="--scaling's largest mesh (default 10^6)")
+    b.add_argument("--embree", action="store_true", help="with --scaling: also Embree's ns per ray on the same "
+                   "triangles and kinds of rays, on one core, as an anchor for the growth (needs pip install embreex)")
     a = sub.add_parser("assets", help="generate the procedural textures the scenes use")
     a.add_argument("--out", default="assets/textures", help="output directory (default: assets/textures)")
     a.add_argument("--seed", type=int, default=0, help="seed of the textures' random patterns")
@@ -154,8 +156,10 @@ def cmd_bench(args):
             raise InputError("command line", "--max-triangles", args.max_triangles, "must be in [100, 10^7]")
         if not Path(args.scaling).parent.is_dir():
             raise InputError("command line", "--scaling", args.scaling, "its parent directory does not exist")
-        scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout)
+        scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout, embree=args.embree)
         return
+    if args.embree:
+        raise InputError("command line", "--embree", None, "only with --scaling")
     if args.repeat < 1:
         raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
     scenes = args.scene or suite_scenes()

@@ -4,7 +4,8 @@ A procedural mesh (a displaced torus, raytrace/meshgen.py) of 10^2 ... 10^6 (10^
 triangles stands in scene 0's room instead of the tetrahedron and the ellipsoid; each is rendered at
 256 x 256 with 4 pixel samples x 4 light samples (fixed: the render options of `bench` do not apply). With a BVH the time per ray should grow like log N;
 a loop over every shape grows like N. Writes scaling.csv and scaling.png (log-log: seconds per ray and BVH
-build seconds against the number of triangles)."""
+build seconds against the number of triangles). With embree=True (--embree) each row also has Embree's ns per ray
+on the same geometry and kinds of rays (embree_anchor.py), on one core: beside ours, its growth is the anchor."""
 import csv
 import dataclasses
 import time
@@ -17,6 +18,7 @@ from ..scene import meshgen
 from ..render import render
 from ..scene import Material, MeshShape, load_scene
 from ..renderer.packing import primitive_boxes, triangle_soup
+from . import embree_anchor
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
 COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",
@@ -36,13 +38,13 @@ def mesh_room(scene, triangles):
 
 
 def measure(scene):
-    """One row of the table: BVH build seconds (alone, as the render does it) and the best of two renders."""
+    """One row of the table: BVH build seconds (alone, as the render does it) and the best of three renders."""
     lo, hi, _ = primitive_boxes(scene, triangle_soup(scene))
     start = time.perf_counter()
     bvh.build(lo, hi)
     build_seconds = time.perf_counter() - start
     render(scene, **OPTIONS)  # the kernel's build and first launch: not timed
-    stats = min((render(scene, **OPTIONS)[1] for _ in range(2)), key=lambda s: s.render_seconds)
+    stats = min((render(scene, **OPTIONS)[1] for _ in range(3)), key=lambda s: s.render_seconds)
     nominal = OPTIONS["width"] * OPTIONS["height"] * OPTIONS["spp"] * (1 + OPTIONS["light_samples"])
     return {"triangles": scene.triangle_count, "build_seconds": build_seconds,
             "render_seconds": stats.render_seconds, "rays": stats.rays,
@@ -50,20 +52,34 @@ def measure(scene):
             "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6}
 
 
-def scaling(scene_path, out_dir, max_triangles=10**6, out=None):
+def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False):
+    """The table's rows; Embree is measured first in each row, so that a missing embreex stops the run before
+    any render."""
     scene = load_scene(scene_path)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     rows = []
     counts = [10**k for k in range(2, 8) if 10**k <= max_triangles]
     for n in counts:
-        rows.append(measure(mesh_room(scene, n)))
+        room = mesh_room(scene, n)
+        anchor = embree_anchor.measure(room) if embree else None
+        rows.append(measure(room))
+        if anchor:
+            rows[-1]["embree_ns_per_ray"] = anchor["ns_per_ray"]
         if out:
             r = rows[-1]
             print(f"{r['triangles']:>9d} triangles: BVH {r['build_seconds']:7.2f} s, render {r['render_seconds']:6.3f} s, "
-                  f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s", file=out, flush=True)
+                  f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s"
+                  + (f"; Embree {anchor['ns_per_ray']:7.1f} ns per ray on 1 core "
+                     f"({anchor['ns_per_ray_all_cores']:.1f} ideal on {anchor['cores']})" if anchor else ""),
+                  file=out, flush=True)
+    if out and embree and 10**3 in counts[:-1]:
+        low, high = rows[counts.index(10**3)], rows[-1]
+        ours, theirs = (high[key] / low[key] for key in ("seconds_per_ray", "embree_ns_per_ray"))
+        print(f"per-ray cost from 10^3 to 10^{len(counts) + 1} triangles: ours x{ours:.2f}, Embree x{theirs:.2f}",
+              file=out, flush=True)
     with open(out_dir / "scaling.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, COLUMNS)
+        writer = csv.DictWriter(f, COLUMNS + ["embree_ns_per_ray"] * embree)
         writer.writeheader()
         writer.writerows(rows)
     plot(rows, out_dir / "scaling.png")
@@ -78,6 +94,8 @@ def plot(rows, path):
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.loglog(n, [r["seconds_per_ray"] * 1e9 for r in rows], "o-", label="render: ns per ray")
     ax.loglog(n, [r["build_seconds"] * 1e3 for r in rows], "s-", label="BVH build: ms")
+    if "embree_ns_per_ray" in rows[0]:
+        ax.loglog(n, [r["embree_ns_per_ray"] for r in rows], "^--", label="Embree, 1 core: ns per ray")
     ax.set_xlabel("triangles")
     ax.set_title("Cost against scene size (256x256, 4 spp x 4 light samples)")
     ax.grid(True, which="both", alpha=0.3)

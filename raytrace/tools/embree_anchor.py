@@ -1,0 +1,145 @@
+"""Embree as an anchor for `python -m raytrace bench --scaling --embree`: the per-ray cost of Intel's Embree on
+the same triangles and the same kinds of rays, so that our cost's growth with the triangle count stands beside
+that of a production BVH.
+
+Embree sees every triangle of the scene, a mesh's and the room's rectangles split in two (the lights are not
+geometry to it, as to our shadow rays). It traces the primary rays of a width x height image at `spp` uniformly
+random pixel sample positions (the camera model of reference_camera.py) with its closest-hit query, then from
+each surface hit `light_samples` shadow segments to uniformly random points of each light with its any-hit
+query, only where our renderer would cast them (the point faces the light, both by its geometric and its
+shading normal, and no light hides it). Only the two queries are timed, each the best of `repeat`.
+
+This is a measuring tool, not a dependency: embreex (PyPI) is imported only where it is used. Its binding traces
+one ray at a time on one thread, so its figures are per core; ours use every core of the OpenCL device, so
+what compares fairly is how each grows with the triangle count, not the absolute ns per ray."""
+import dataclasses
+import os
+import time
+
+import numpy as np
+
+from ..errors import InputError
+from ..renderer.packing import triangle_soup
+from ..scene import Triangle
+from .reference_camera import camera_directions
+
+SHADOW_END = 1 - 1e-4  # shadow segments stop short of the light: an occluder flush with it does not count
+OFFSET = 1e-5          # shadow origins leave their surface by this much times the point's largest coordinate
+
+
+def rectangle_triangles(rect):
+    """The rectangle as the two triangles (c0, c1, c2) and (c0, c2, c3) of its corners, counter-clockwise
+    seen from its normal's side."""
+    tx, ty = rect.size[0] / 2 * rect.tangent, rect.size[1] / 2 * rect.bitangent
+    c = [rect.center - tx - ty, rect.center + tx - ty, rect.center + tx + ty, rect.center - tx + ty]
+    return [Triangle(np.array([c[0], c[1], c[2]]), rect.material),
+            Triangle(np.array([c[0], c[2], c[3]]), rect.material)]
+
+
+def embree_scene(scene):
+    """An Embree scene of every triangle of `scene` and its rectangles (not its lights), with the triangle
+    soup (packing.triangle_soup, the rectangles' triangles first) whose order Embree's primIDs index. The
+    binding's default scene flag is Embree's robust (watertight) traversal: kept."""
+    try:
+        from embreex import mesh_construction, rtcore_scene
+    except ImportError:
+        raise InputError("command line", "--embree", None, "needs the embreex package: pip install embreex") from None
+    if scene.ellipsoids:
+        raise InputError(scene.path, "shapes", None, "the Embree anchor takes triangles and rectangles only")
+    rects = [t for r in scene.rectangles for t in rectangle_triangles(r)]
+    soup = triangle_soup(dataclasses.replace(scene, rectangles=[], triangles=rects + list(scene.triangles)))
+    embree = rtcore_scene.EmbreeScene()
+    mesh_construction.TriangleMesh(embree, soup.v.astype(np.float32))
+    return embree, soup
+
+
+def camera_rays(scene, width, height, spp, rng):
+    """Origins and unit directions (float32, as Embree takes them) of `spp` rays per pixel at uniformly random
+    positions in it, pixel by pixel in rows from the top, as our renderer orders them."""
+    y, x = np.divmod(np.repeat(np.arange(width * height), spp), width)
+    d, _ = camera_directions(scene.camera, x + rng.random(len(x)), y + rng.random(len(y)), width, height)
+    return np.broadcast_to(scene.camera.position, d.shape).astype(np.float32), d.astype(np.float32)
+
+
+def closest_hits(embree, o, d):
+    """Embree's closest hits: tfar, primID (-1 on a miss) and barycentrics u, v (of v1 and v2)."""
+    return embree.run(o, d, query="INTERSECT", output=True)
+
+
+def light_distances(lights, o, d):
+    """Distance along each ray to the nearest light (inf where it meets none): the renderer sees the light
+    there, not the surface Embree finds behind it, and casts no shadow ray from it."""
+    t = np.full(len(o), np.inf)
+    for light in lights:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = ((light.center - o) @ light.normal) / (d @ light.normal)
+            rel = o + s[:, None] * d - light.center
+            inside = ((s > 0) & (np.abs(rel @ light.tangent) <= light.size[0] / 2)
+                      & (np.abs(rel @ light.bitangent) <= light.size[1] / 2))
+        t = np.where(inside, np.minimum(t, s), t)
+    return t
+
+
+def surface_frames(soup, hits, d, index):
+    """Geometric and shading normals (float64) at hits `index`, both on the side the ray came from; the
+    shading normal is the soup's corner normals interpolated, flipped with the face as the kernel does."""
+    prim, u, v = hits["primID"][index], hits["u"][index, None], hits["v"][index, None]
+    tri = soup.v[prim]
+    face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 1])
+    face /= np.linalg.norm(face, axis=1, keepdims=True)
+    side = -np.sign(np.einsum("ij,ij->i", face, d[index]))[:, None]
+    corners = soup.normals[prim]
+    shading = (1 - u - v) * corners[:, 0] + u * corners[:, 1] + v * corners[:, 2]
+    return face * side, shading / np.linalg.norm(shading, axis=1, keepdims=True) * side
+
+
+def shadow_rays(scene, soup, o, d, hits, light_samples, rng):
+    """Shadow segments (float32 origins, directions to the light point, and tfar) from every surface hit to
+    `light_samples` uniformly random points of each light, where the kernel would cast them."""
+    o, d = o.astype(np.float64), d.astype(np.float64)
+    t = hits["tfar"].astype(np.float64)
+    index = np.nonzero((hits["primID"] >= 0) & (t < light_distances(scene.lights, o, d)))[0]
+    p = o[index] + t[index, None] * d[index]
+    ng, n = surface_frames(soup, hits, d, index)
+    origin = p + OFFSET * np.maximum(np.abs(p).max(1), 1.0)[:, None] * ng
+    origins, directions = [], []
+    for light in scene.lights:
+        for uv in rng.random((light_samples, len(p), 2)):
+            q = (light.center + ((uv[:, :1] - 0.5) * light.size[0]) * light.tangent
+                 + ((uv[:, 1:] - 0.5) * light.size[1]) * light.bitangent)
+            lit = (np.einsum("ij,ij->i", ng, q - p) > 0) & (np.einsum("ij,ij->i", n, q - p) > 0)
+            origins.append(origin[lit])
+            directions.append(q[lit] - origin[lit])
+    o, d = np.concatenate(origins).astype(np.float32), np.concatenate(directions).astype(np.float32)
+    return o, d, np.full(len(o), SHADOW_END, np.float32)
+
+
+def best_seconds(query, repeat):
+    """The shortest of `repeat` runs of query(): the least disturbed by whatever else the machine does."""
+    seconds = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        query()
+        seconds.append(time.perf_counter() - start)
+    return min(seconds)
+
+
+def measure(scene, width=256, height=256, spp=4, light_samples=4, repeat=3, seed=0):
+    """Embree's ns per ray on one core: primary (closest hit), shadow (any hit) and all rays together, with
+    the ray counts, the fraction of primary rays that hit and of shadow rays blocked (a check that the rays
+    are the scene's), and ns_per_ray_all_cores, the all-rays figure divided by this machine's cores (linear
+    scaling, an upper bound on what Embree's threads would do), to set beside our absolute figure."""
+    rng = np.random.default_rng(seed)
+    embree, soup = embree_scene(scene)
+    o, d = camera_rays(scene, width, height, spp, rng)
+    hits = closest_hits(embree, o, d)  # the first query builds Embree's BVH: not timed
+    primary = best_seconds(lambda: closest_hits(embree, o, d), repeat)
+    so, sd, tfar = shadow_rays(scene, soup, o, d, hits, light_samples, rng)
+    blocked = embree.run(so, sd, tfar, query="OCCLUDED") >= 0
+    shadow = best_seconds(lambda: embree.run(so, sd, tfar, query="OCCLUDED"), repeat)
+    rays = len(o) + len(so)
+    ns_per_ray = (primary + shadow) / rays * 1e9
+    return {"primary_rays": len(o), "shadow_rays": len(so), "rays": rays, "threads": 1,
+            "primary_ns_per_ray": primary / len(o) * 1e9, "shadow_ns_per_ray": shadow / max(len(so), 1) * 1e9,
+            "ns_per_ray": ns_per_ray, "cores": os.cpu_count(), "ns_per_ray_all_cores": ns_per_ray / os.cpu_count(),
+            "hit_fraction": float(np.mean(hits["primID"] >= 0)), "blocked_fraction": float(np.mean(blocked))}

@@ -1,0 +1,111 @@
+"""The Embree anchor of `bench --scaling --embree` (raytrace/tools/embree_anchor.py): its rays are the scene's
+(primary hits at the float64 reference's distances, shadow segments blocked where the reference blocks them,
+plausible fractions), and without embreex it fails in one line. embreex (PyPI) is a measuring tool, not a
+dependency of the renderer: the `test` extra installs it, so these run in CI; elsewhere the tests that trace
+are skipped without it."""
+import dataclasses
+import sys
+
+import numpy as np
+import pytest
+
+import reference
+from helpers import CORNELL, run
+from raytrace.errors import InputError
+from raytrace.scene import Triangle, load_scene
+from raytrace.tools import embree_anchor
+from raytrace.tools.scaling import mesh_room
+
+RECTANGLE_TRIANGLES = 10  # scene 0's five walls, two triangles each, come first in the anchor's soup
+
+
+@pytest.fixture(scope="module")
+def room():
+    return mesh_room(load_scene(CORNELL), 1000)
+
+
+@pytest.fixture(scope="module")
+def traced(room):
+    """The anchor's Embree scene, primary rays (64 x 64, 4 per pixel), their hits and the shadow segments."""
+    pytest.importorskip("embreex")
+    rng = np.random.default_rng(1)
+    embree, soup = embree_anchor.embree_scene(room)
+    o, d = embree_anchor.camera_rays(room, 64, 64, 4, rng)
+    hits = embree_anchor.closest_hits(embree, o, d)
+    return embree, o, d, hits, embree_anchor.shadow_rays(room, soup, o, d, hits, 4, rng)
+
+
+def reference_scene(room):
+    """The room with its mesh as the reference's plain triangles (the reference knows no meshes)."""
+    mesh = room.meshes[0]
+    tris = [Triangle(v, mesh.material) for v in mesh.mesh.vertices[mesh.mesh.faces]]
+    return dataclasses.replace(room, triangles=tris, meshes=[])
+
+
+def sample(mask, count, rng):
+    """Up to `count` indices where mask holds and as many where it does not: both kinds get tested."""
+    return np.concatenate([rng.permutation(np.nonzero(m)[0])[:count] for m in (mask, ~mask)])
+
+
+def test_primary_distances_match_float64_reference(room, traced):
+    """Embree's closest hits (float32) against reference.closest_hit (float64) on the same float32 rays, half
+    of them on the torus: the same shape hit, at the same distance to 1e-4."""
+    _, o, d, hits, _ = traced
+    index = sample(hits["primID"] >= RECTANGLE_TRIANGLES, 150, np.random.default_rng(2))
+    expected = reference.closest_hit(reference_scene(room), o[index].astype(np.float64),
+                                     d[index].astype(np.float64), include_lights=False)
+    assert np.all(np.isfinite(expected["t"])) and np.all(hits["primID"][index] >= 0)
+    on_torus = expected["material"] == room.meshes[0].material
+    assert 100 <= on_torus.sum() <= 200
+    np.testing.assert_array_equal(hits["primID"][index] >= RECTANGLE_TRIANGLES, on_torus)
+    np.testing.assert_allclose(hits["tfar"][index], expected["t"], rtol=1e-4)
+
+
+def test_shadow_segments_match_float64_reference(room, traced):
+    """Embree's any-hit answers on segments it calls blocked and unblocked, against reference.occluded from the
+    same origin to the same light point; the origins lie off their surfaces, on the light's side."""
+    embree, _, _, _, (o, d, tfar) = traced
+    blocked = embree.run(o, d, tfar, query="OCCLUDED") >= 0
+    index = sample(blocked, 150, np.random.default_rng(3))
+    p = o[index].astype(np.float64)
+    expected = reference.occluded(reference_scene(room), p, p + d[index].astype(np.float64))
+    assert 100 <= expected.sum() <= 200
+    assert np.mean(expected == blocked[index]) >= 0.99
+
+
+@pytest.mark.parametrize("torus", [True, False], ids=["torus", "empty-room"])
+def test_fractions_are_plausible(room, torus):
+    """Every primary ray meets the closed-behind room; the torus shadows a part of the shadow rays, and nothing
+    shadows them in the empty room (the light hangs inside it). Shadow rays go only where the point faces the
+    light, at most light_samples per hit."""
+    pytest.importorskip("embreex")
+    scene = room if torus else dataclasses.replace(room, meshes=[])
+    m = embree_anchor.measure(scene, width=32, height=32, repeat=1)
+    assert m["primary_rays"] == 32 * 32 * 4 and m["rays"] == m["primary_rays"] + m["shadow_rays"]
+    assert m["hit_fraction"] == 1.0
+    assert 0.5 * m["primary_rays"] * 4 <= m["shadow_rays"] <= m["primary_rays"] * 4
+    assert (0.05 <= m["blocked_fraction"] <= 0.5) if torus else m["blocked_fraction"] == 0.0
+    assert m["threads"] == 1 and 0 < m["ns_per_ray_all_cores"] <= m["ns_per_ray"] < 1e6
+
+
+def test_missing_embreex_is_one_line_input_error(room, monkeypatch):
+    monkeypatch.setitem(sys.modules, "embreex", None)
+    with pytest.raises(InputError, match="needs the embreex package: pip install embreex") as error:
+        embree_anchor.measure(room, width=8, height=8, repeat=1)
+    assert "\n" not in str(error.value) and error.value.key == "--embree"
+
+
+def test_scaling_command_line_with_embree(tmp_path):
+    """The smallest --scaling run with --embree: the column in the CSV, the figure in the printed line."""
+    pytest.importorskip("embreex")
+    r = run("bench", "--scaling", tmp_path / "out", "--max-triangles", 100, "--embree")
+    assert r.returncode == 0, r.stderr
+    header, row = (tmp_path / "out" / "scaling.csv").read_text().splitlines()
+    assert header.split(",")[-1] == "embree_ns_per_ray" and float(row.split(",")[-1]) > 0
+    assert "Embree" in r.stdout and (tmp_path / "out" / "scaling.png").stat().st_size > 0
+
+
+def test_embree_without_scaling_is_refused():
+    r = run("bench", CORNELL, "--embree")
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.strip() == "raytrace: error: command line: --embree: only with --scaling"
