@@ -121,3 +121,13 @@ def test_no_device_names_the_variable_that_hid_them(tmp_path):
     r, out = render_with(tmp_path, {"POCL_DEVICES": "nosuch"})
     one_line(r, "environment: POCL_DEVICES = 'nosuch': leaves no OpenCL device")
     assert not out.exists()
+
+
+def test_raytrace_device_moves_the_process(tmp_path):
+    """RAYTRACE_DEVICE picks the device wherever none is given (the test suite on a GPU, .ci/gpu); a spec that
+    matches no device is one line naming the variable, and nothing is written."""
+    r, out = render_with(tmp_path, {"RAYTRACE_DEVICE": "nosuch"})
+    one_line(r, "environment: RAYTRACE_DEVICE = 'nosuch': matches no device (have: ")
+    assert not out.exists()
+    r, out = render_with(tmp_path, {"RAYTRACE_DEVICE": "cpu"})
+    assert r.returncode == 0 and out.exists(), r.stderr

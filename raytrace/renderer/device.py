@@ -54,31 +54,34 @@ DEVICE_TYPES = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU}
 
 
 def select_device(spec=None):
-    """`spec`: None (the first CPU device, else the first device), "cpu" or "gpu" (the first of that type),
-    "P:D" indices, or a name substring."""
+    """`spec`: None (RAYTRACE_DEVICE's spec where it is set, else the first CPU device, else the first device),
+    "cpu" or "gpu" (the first of that type), "P:D" indices, or a name substring. RAYTRACE_DEVICE moves a
+    whole process to another device, the test suite included (.ci/gpu runs it on a GPU that way)."""
     devices = list_devices()
     if not devices:
         raise _no_device()
+    source, key = "command line", "--device"
+    if spec is None and os.environ.get("RAYTRACE_DEVICE") is not None:
+        spec, source, key = os.environ["RAYTRACE_DEVICE"], "environment", "RAYTRACE_DEVICE"
+    names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)
     if spec is None:
         cpus = [d for _, d in devices if d.type & cl.device_type.CPU]
         device = (cpus or [devices[0][1]])[0]
     elif spec.lower() in DEVICE_TYPES:
         of_type = [d for _, d in devices if d.type & DEVICE_TYPES[spec.lower()]]
         if not of_type:
-            names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)
-            raise InputError("command line", "--device", spec, f"no {spec.upper()} device (have: {names})")
+            raise InputError(source, key, spec, f"no {spec.upper()} device (have: {names})")
         device = of_type[0]
     elif re.fullmatch(r"[0-9]+:[0-9]+", spec):
         p, d = (int(x) for x in spec.split(":"))
         platforms = cl.get_platforms()
         if p >= len(platforms) or d >= len(platforms[p].get_devices()):
-            raise InputError("command line", "--device", spec, "no such platform:device index")
+            raise InputError(source, key, spec, "no such platform:device index")
         device = platforms[p].get_devices()[d]
     else:
         matches = [d for p, d in devices if spec.lower() in f"{p.name} {d.name}".lower()]
         if not matches:
-            names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)
-            raise InputError("command line", "--device", spec, f"matches no device (have: {names})")
+            raise InputError(source, key, spec, f"matches no device (have: {names})")
         device = matches[0]
     apply_target(device)
     return device
