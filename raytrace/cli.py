@@ -48,6 +48,12 @@ def _add_render_options(p, scene_help=None):
     p.add_argument("--time-limit", type=float, help="stop before a pass that would end after SECONDS")
     p.add_argument("--target-error", type=float, help="stop at this estimated relative RMSE of the image")
     p.add_argument("--device", help='OpenCL device: "P:D" indices or part of its name (default: a CPU)')
+    _add_scheduler(p)
+
+
+def _add_scheduler(p):
+    p.add_argument("--scheduler", metavar="ADDRESS", help="render on a Dask cluster: local:N (N worker processes "
+                   "here) or tcp://host:port (a running scheduler); needs the dist extra")
 
 
 def parser():
@@ -86,6 +92,7 @@ def parser():
     c.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
     c.add_argument("--light-samples", type=int, help="samples per light (default: the scene's)")
     c.add_argument("--seed", type=int, default=0, help="seed of the measured renders (the reference's: seed + 1000003)")
+    _add_scheduler(c)
     c.add_argument("--reference-spp", type=int, help="the rendered reference's samples (default: 16 x max-spp, "
                    "at most 65536)")
     c.add_argument("--montage-seconds", type=float, help="time per pattern in the montage (default: a quarter of "
@@ -107,7 +114,8 @@ def parser():
 def _render_kwargs(args):
     return dict(width=args.width, height=args.height, spp=args.spp, light_samples=args.light_samples,
                 sampler=args.sampler, light_sampler=args.light_sampler, texture_filter=args.texture_filter,
-                seed=args.seed, time_limit=args.time_limit, target_error=args.target_error, device=args.device)
+                seed=args.seed, time_limit=args.time_limit, target_error=args.target_error, device=args.device,
+                scheduler=args.scheduler)
 
 
 def cmd_render(args):
@@ -156,10 +164,13 @@ def cmd_bench(args):
             raise InputError("command line", "--max-triangles", args.max_triangles, "must be in [100, 10^7]")
         if not Path(args.scaling).parent.is_dir():
             raise InputError("command line", "--scaling", args.scaling, "its parent directory does not exist")
-        scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout, embree=args.embree)
+        scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout, embree=args.embree,
+                scheduler=args.scheduler)
         return
     if args.embree:
         raise InputError("command line", "--embree", None, "only with --scaling")
+    if args.scheduler:  # the suite times kernels in child processes, against this machine's own scalar kernel
+        raise InputError("command line", "--scheduler", args.scheduler, "bench takes it only with --scaling")
     if args.repeat < 1:
         raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
     scenes = args.scene or suite_scenes()
@@ -193,7 +204,7 @@ def cmd_converge(args):
     converge(args.scene, [name.strip() for name in args.samplers.split(",")], args.max_spp, args.out,
              reference=args.reference, width=args.width, height=args.height, light_samples=args.light_samples,
              seed=args.seed, reference_spp=args.reference_spp, montage_seconds=args.montage_seconds,
-             crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout)
+             crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout, scheduler=args.scheduler)
 
 
 def cmd_compile(args):
@@ -223,10 +234,20 @@ def cmd_stability(args):
     return 0 if passed else 1
 
 
+@contextlib.contextmanager
+def _dask_closed():
+    """The Dask clients and local clusters a command started are closed when it ends, however it ends."""
+    try:
+        yield
+    finally:
+        if "raytrace.distributed" in sys.modules:
+            sys.modules["raytrace.distributed"].close_all()
+
+
 def main(argv=None):
     commands = {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets, "converge": cmd_converge,
                 "compile": cmd_compile, "stability": cmd_stability}
-    with handle_signals():
+    with handle_signals(), _dask_closed():
         try:
             args = parser().parse_args(argv)
             return commands[args.command](args) or 0

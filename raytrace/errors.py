@@ -12,6 +12,9 @@ class InputError(Exception):
         shown = "" if value is None else f" = {value!r}"
         super().__init__(f"{printable(self.source)}: {printable(str(key))}{shown}: {printable(str(problem))}")
 
+    def __reduce__(self):  # raised on a Dask worker, it reaches the client whole
+        return InputError, (self.source, self.key, self.value, self.problem)
+
 
 def printable(text):
     """`text` with its control characters escaped as Python writes them ("a\\nb"): a file name or a TOML

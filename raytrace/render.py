@@ -46,6 +46,8 @@ class RenderOptions:
     features: Features | None = None  # None: derived from the scene
     progress: bool | None = None      # None: a bar on stderr when the render takes over a second
     max_band_bytes: int = MAX_BAND_BYTES  # the device output buffer's size, at least one row
+    scheduler: str | None = None  # a Dask scheduler's address, "local:N" or "tcp://host:port" (distributed.py)
+    client: object = None         # or a dask.distributed.Client to use
 
 
 @dataclass
@@ -156,36 +158,44 @@ class _Progress:
 
 
 class _Bands:
-    """The image as bands of whole rows, one launch each, through one device output buffer of a band: at
-    most max_band_bytes (but at least one row) and WORK_PER_LAUNCH work units a launch."""
+    """The image as bands of whole rows (band_rows), one launch each, through one device output buffer of a
+    band."""
 
-    def __init__(self, context, width, height, columns, work_per_row, max_band_bytes, lanes):
+    def __init__(self, context, width, height, columns, rows, lanes):
         # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
         # around it, and the two cores share out the small groups evenly (measured 10% faster than the
         # default shape on scene 0); the scalar kernel and GPUs keep the runtime's choice.
         cpu = all(d.type & cl.device_type.CPU for d in context.devices)
         self.local_size = (1, 1) if cpu and lanes > 1 else None
-        row_bytes = OUTPUT_PLANES * np.dtype(np.float32).itemsize * width
-        self.rows = max(1, min(height, max_band_bytes // row_bytes, WORK_PER_LAUNCH // max(1, work_per_row)))
+        self.rows = rows
         self.width, self.height, self.columns = width, height, columns
         self.host = np.empty(OUTPUT_PLANES * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
 
-    def run_pass(self, queue, args, acc):
-        """Launch every band with the kernel's other `args` set and add its sums into `acc`; returns (kernel
-        seconds, rays traced)."""
-        seconds = rays = 0.0
+    def starts(self):
+        """The first row of every band, in the order a pass adds them."""
+        return range(0, self.height, self.rows)
+
+    def run_band(self, queue, args, row0, rows=None):
+        """Launch the band of `rows` (default: as many as fit, up to the image's end) from row0 with the
+        kernel's other `args` set: (its CHANNELS x rows x width float32 sums, a view of the host buffer; rays
+        traced; kernel seconds)."""
+        rows = min(self.rows, self.height - row0) if rows is None else rows
         args.set("out", self.host, self.device)
-        for row0 in range(0, self.height, self.rows):
-            rows = min(self.rows, self.height - row0)
-            args.set("row0", np.int32(row0))
-            event = args.launch(queue, (self.columns, rows), self.local_size)
-            event.wait()
-            seconds += (event.profile.end - event.profile.start) * 1e-9
-            out = self.host[:OUTPUT_PLANES * rows * self.width].reshape(OUTPUT_PLANES, rows, self.width)
-            cl.enqueue_copy(queue, out, self.device)
-            acc.add_rows(row0, out[:CHANNELS])
-            rays += out[CHANNELS].sum(dtype=np.float64)
+        args.set("row0", np.int32(row0))
+        event = args.launch(queue, (self.columns, rows), self.local_size)
+        event.wait()
+        out = self.host[:OUTPUT_PLANES * rows * self.width].reshape(OUTPUT_PLANES, rows, self.width)
+        cl.enqueue_copy(queue, out, self.device)
+        return out[:CHANNELS], out[CHANNELS].sum(dtype=np.float64), (event.profile.end - event.profile.start) * 1e-9
+
+    def run_pass(self, queue, args, acc):
+        """Every band, its sums added into `acc`; returns (kernel seconds, rays traced)."""
+        seconds = rays = 0.0
+        for row0 in self.starts():
+            sums, band_rays, band_seconds = self.run_band(queue, args, row0)
+            acc.add_rows(row0, sums)
+            seconds, rays = seconds + band_seconds, rays + band_rays
         return seconds, rays
 
 
@@ -201,44 +211,116 @@ def _zero_nonfinite(image):
     return count
 
 
+@dataclass
+class Resolved:
+    """A render's options checked against its scene: what every device rendering it must agree on."""
+    width: int
+    height: int
+    spp: int
+    n_light: int
+    pixel: samplers.Pattern
+    light: samplers.Pattern
+    work: int    # rays per pixel sample, at most
+    passes: list  # (first pixel sample, samples) of every pass
+
+
+def resolve_all(scene, options):
+    width, height, spp, n_light, pixel, light = resolve(scene, options)
+    work = 1 + len(scene.lights) * n_light
+    per_pass = pass_size(spp, width * height * work)
+    passes = [(s, min(per_pass, spp - s)) for s in range(0, spp, per_pass)]
+    return Resolved(width, height, spp, n_light, pixel, light, work, passes)
+
+
+def band_rows(r, max_band_bytes):
+    """Rows a launch renders: at most max_band_bytes of output (but at least one row) and WORK_PER_LAUNCH work
+    units. Any banding gives the same sums, pixel by pixel; a Dask task is one band of one pass."""
+    row_bytes = OUTPUT_PLANES * np.dtype(np.float32).itemsize * r.width
+    work_per_row = r.width * r.work * r.passes[0][1]
+    return max(1, min(r.height, max_band_bytes // row_bytes, WORK_PER_LAUNCH // work_per_row))
+
+
+class DeviceRender:
+    """Everything a render keeps on its device: the program for the scene's features, the scene's tables
+    uploaded, and the bands' output buffer. Built once per render here, once per worker and scene on a Dask
+    cluster (raytrace/distributed.py)."""
+
+    def __init__(self, scene, options, r):
+        self.device = select_device(options.device)
+        context, self.queue = context_for(self.device)
+        if options.lanes or options.features:
+            check_lanes(apply_target(self.device), (options.features or options).lanes, "render()", "lanes")
+        self.features = options.features or Features.of(scene, options.lanes or default_lanes(self.device))
+        program, self.build_seconds = render_program(context, self.features)
+        self.args = KernelArguments(cl.Kernel(program, "render"))
+        try:
+            textures = texture_tables(scene)
+            self.buffers = self.args.upload(context, {
+                **scene_tables(scene, r.width, r.height, r.spp, r.n_light, options.texture_filter, r.pixel, r.light,
+                               options.seed, self.features),
+                **textures, "pixel_samples": r.pixel.table(), "light_samples": r.light.table()})
+        except (MemoryError, cl.MemoryError):
+            raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
+                             "out of memory building the scene's BVH and tables") from None
+        self.texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
+        self.bands = _Bands(context, r.width, r.height, -(-r.width // self.features.lanes),
+                            band_rows(r, options.max_band_bytes), self.features.lanes)
+
+    def set_samples(self, sample0, n):
+        self.args.set("sample0", np.int32(sample0))
+        self.args.set("n_samples", np.int32(n))
+
+    def info(self):
+        """What the statistics say of the device and its build."""
+        bands = self.bands
+        return {"device": describe(self.device), "build_options": [*self.features.options()],
+                "build_seconds": self.build_seconds, "texture_bytes": self.texture_bytes,
+                "extra": {"target": describe_target(self.device, self.features.lanes), "band_rows": bands.rows,
+                          "device_output_bytes": bands.host.nbytes,
+                          "device_bytes": sum(b.size for b in self.buffers.values()) + bands.device.size}}
+
+
+class LocalPasses:
+    """The passes of a render on this process's device."""
+
+    def __init__(self, scene, options, r):
+        self.d, self.passes = DeviceRender(scene, options, r), r.passes
+
+    def run_pass(self, k, acc):
+        """Pass k's bands added into `acc`; returns (kernel seconds, rays traced)."""
+        self.d.set_samples(*self.passes[k])
+        return self.d.bands.run_pass(self.d.queue, self.d.args, acc)
+
+    def info(self):
+        return self.d.info()
+
+    def cancel(self):
+        pass
+
+
+def _passes(scene, options, r):
+    if options.scheduler is None and options.client is None:
+        return LocalPasses(scene, options, r)
+    from .distributed import DaskPasses, client_for
+    client = options.client or client_for(options.scheduler)
+    rows = band_rows(r, options.max_band_bytes)
+    return DaskPasses(client, scene, options, r.passes, [(row0, min(rows, r.height - row0))
+                                                          for row0 in range(0, r.height, rows)])
+
+
 def render_progressive(scene, **kwargs):
     """Render `scene` in passes until its spp, time limit or target error; returns (H x W x 3 float32
     linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats)."""
     options = RenderOptions(**kwargs)
-    width, height, spp, n_light, pixel, light = resolve(scene, options)
-    check_memory(width, height)
-    device = select_device(options.device)
-    context, queue = context_for(device)
-    if options.lanes or options.features:
-        check_lanes(apply_target(device), (options.features or options).lanes, "render()", "lanes")
-    features = options.features or Features.of(scene, options.lanes or default_lanes(device))
-    program, build_seconds = render_program(context, features)
-
-    args = KernelArguments(cl.Kernel(program, "render"))
-    try:
-        textures = texture_tables(scene)
-        buffers = args.upload(context, {
-            **scene_tables(scene, width, height, spp, n_light, options.texture_filter, pixel, light, options.seed,
-                           features),
-            **textures, "pixel_samples": pixel.table(), "light_samples": light.table()})
-    except (MemoryError, cl.MemoryError):
-        raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
-                         "out of memory building the scene's BVH and tables") from None
-    texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
-
-    columns = -(-width // features.lanes)
-    work = 1 + len(scene.lights) * n_light  # rays per pixel sample, at most
-    per_pass = pass_size(spp, width * height * work)
-    bands = _Bands(context, width, height, columns, columns * features.lanes * work * per_pass,
-                   options.max_band_bytes, features.lanes)
-    acc, rays, render_seconds, history = Accumulator((CHANNELS, height, width)), 0.0, 0.0, []
-    progress, stopped_by = _Progress(spp, options.progress), "spp"
+    r = resolve_all(scene, options)
+    check_memory(r.width, r.height)
+    passes = _passes(scene, options, r)
+    acc, rays, render_seconds, history = Accumulator((CHANNELS, r.height, r.width)), 0.0, 0.0, []
+    progress, stopped_by = _Progress(r.spp, options.progress), "spp"
     start = time.perf_counter()
-    while acc.n_total < spp:
-        pass_start, n = time.perf_counter(), min(per_pass, spp - acc.n_total)
-        args.set("sample0", np.int32(acc.n_total))
-        args.set("n_samples", np.int32(n))
-        seconds, pass_rays = bands.run_pass(queue, args, acc)
+    for k, (_, n) in enumerate(r.passes):
+        pass_start = time.perf_counter()
+        seconds, pass_rays = passes.run_pass(k, acc)
         acc.end_pass(n)
         render_seconds, rays = render_seconds + seconds, rays + pass_rays
         now = time.perf_counter()
@@ -248,7 +330,7 @@ def render_progressive(scene, **kwargs):
                         "kernel_seconds": render_seconds, "estimated_rmse": rmse,
                         "estimated_relative_rmse": relative})
         progress.update(now - start, acc.n_total, acc.passes, relative)
-        if acc.n_total >= spp:
+        if acc.n_total >= r.spp:
             break
         if (options.target_error is not None and acc.passes >= MIN_PASSES_FOR_TARGET
                 and relative <= options.target_error):
@@ -257,15 +339,16 @@ def render_progressive(scene, **kwargs):
         if options.time_limit is not None and now - start + (now - pass_start) > options.time_limit:
             stopped_by = "time-limit"
             break
+    passes.cancel()
     progress.close()
     wall_seconds = time.perf_counter() - start
 
     image, variance = acc.images()  # rmse and relative are the last pass's
     nonfinite = sum(_zero_nonfinite(a) for a in (image, variance) if a is not None)
-    stats = RenderStats(render_seconds, wall_seconds, build_seconds, int(rays), rays / render_seconds / 1e6,
-                        describe(device), [*features.options()], width, height, acc.n_total, spp, n_light,
-                        pixel.name, light.name, options.texture_filter, options.seed, texture_bytes, acc.passes,
-                        stopped_by, rmse, relative, history,
-                        {"target": describe_target(device, features.lanes), "nonfinite_values": nonfinite, "band_rows": bands.rows, "device_output_bytes": bands.host.nbytes,
-                         "device_bytes": sum(b.size for b in buffers.values()) + bands.device.size})
+    info = passes.info()
+    stats = RenderStats(render_seconds, wall_seconds, info["build_seconds"], int(rays), rays / render_seconds / 1e6,
+                        info["device"], info["build_options"], r.width, r.height, acc.n_total, r.spp, r.n_light,
+                        r.pixel.name, r.light.name, options.texture_filter, options.seed, info["texture_bytes"],
+                        acc.passes, stopped_by, rmse, relative, history,
+                        {**info["extra"], "nonfinite_values": nonfinite})
     return image, variance, stats

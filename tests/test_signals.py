@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -72,6 +73,18 @@ def test_ignored_hangup_stays_ignored(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["stats.json", "x.png"]
 
 
+def signal_here(signum):
+    """The signal to this thread, the main one: os.kill's process-wide signal may land in another thread (a
+    runtime's), and its Python handler then waits for this thread's next check, late on a loaded machine."""
+    signal.pthread_kill(threading.main_thread().ident, signum)
+
+
+def wait_until(condition, seconds=10.0):
+    deadline = time.monotonic() + seconds
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.001)
+
+
 def test_signal_during_a_file_operation_waits_for_its_end():
     """A signal that arrives while files are made, renamed or removed is raised right after, not in the
     middle (where a temporary could be made and not yet known, or half the outputs renamed); a second
@@ -80,14 +93,14 @@ def test_signal_during_a_file_operation_waits_for_its_end():
     steps = []
     with outputs.handle_signals(), pytest.raises(outputs.Interrupted) as e:
         with outputs._held():
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(0.05)  # the handler has run by now, in this thread
+            signal_here(signal.SIGTERM)
+            wait_until(lambda: outputs._State.signum is not None)  # the handler has run, in this thread
             steps.append("held")
         steps.append("after")
     assert steps == ["held"] and e.value.signum == signal.SIGTERM
     with outputs.handle_signals():
         with pytest.raises(outputs.Interrupted):
-            os.kill(os.getpid(), signal.SIGHUP)
-            time.sleep(0.05)
-        os.kill(os.getpid(), signal.SIGHUP)  # the second: ignored
+            signal_here(signal.SIGHUP)
+            wait_until(lambda: False)
+        signal_here(signal.SIGHUP)  # the second: ignored
         time.sleep(0.05)

@@ -275,7 +275,7 @@ def _number(x):
 
 
 def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None, height=None, light_samples=None,
-             seed=0, reference_spp=None, montage_seconds=None, crop=None, out=sys.stdout):
+             seed=0, reference_spp=None, montage_seconds=None, crop=None, out=sys.stdout, scheduler=None):
     """Measure, write and print as the module says; returns {"rows": [...], "reference": {...},
     "montage": [...], "paths": [...]}. Every bad input raises InputError before anything is written."""
     names = check_samplers(samplers)
@@ -293,7 +293,7 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     with Outputs(inputs=scene_inputs(scene) + ([] if reference is None else [reference])) as outputs:
         outputs.make_directory("--out", out_dir)
         files = {name: outputs.reserve("--out", Path(out_dir) / name, given=out_dir) for name in names_out}
-        common = dict(width=width, height=height, light_samples=light_samples, progress=False)
+        common = dict(width=width, height=height, light_samples=light_samples, progress=False, scheduler=scheduler)
         render_progressive(scene, spp=1, sampler="center", light_sampler="sobol", **common)  # the build, untimed
         reference, facts, metadata = given + (None,) if given else render_reference(
             scene, reference_spp or min(MAX_SPP, 16 * max_spp), (seed + REFERENCE_SEED_OFFSET) % 2**32, common)

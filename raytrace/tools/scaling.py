@@ -37,14 +37,15 @@ def mesh_room(scene, triangles):
     return dataclasses.replace(scene, triangles=[], ellipsoids=[], meshes=[mesh], materials=[*scene.materials, GOLD])
 
 
-def measure(scene):
+def measure(scene, scheduler=None):
     """One row of the table: BVH build seconds (alone, as the render does it) and the best of three renders."""
     lo, hi, _ = primitive_boxes(scene, triangle_soup(scene))
     start = time.perf_counter()
     bvh.build(lo, hi)
     build_seconds = time.perf_counter() - start
-    render(scene, **OPTIONS)  # the kernel's build and first launch: not timed
-    stats = min((render(scene, **OPTIONS)[1] for _ in range(3)), key=lambda s: s.render_seconds)
+    options = dict(OPTIONS, scheduler=scheduler)
+    render(scene, **options)  # the kernel's build and first launch: not timed
+    stats = min((render(scene, **options)[1] for _ in range(3)), key=lambda s: s.render_seconds)
     nominal = OPTIONS["width"] * OPTIONS["height"] * OPTIONS["spp"] * (1 + OPTIONS["light_samples"])
     return {"triangles": scene.triangle_count, "build_seconds": build_seconds,
             "render_seconds": stats.render_seconds, "rays": stats.rays,
@@ -52,7 +53,7 @@ def measure(scene):
             "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6}
 
 
-def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False):
+def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, scheduler=None):
     """The table's rows; Embree is measured first in each row, so that a missing embreex stops the run before
     any render."""
     scene = load_scene(scene_path)
@@ -63,7 +64,7 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False):
     for n in counts:
         room = mesh_room(scene, n)
         anchor = embree_anchor.measure(room) if embree else None
-        rows.append(measure(room))
+        rows.append(measure(room, scheduler))
         if anchor:
             rows[-1]["embree_ns_per_ray"] = anchor["ns_per_ray"]
         if out:

@@ -1,0 +1,132 @@
+"""Rendering on a Dask cluster (`--scheduler`, `render(..., scheduler=...)`): the `dist` extra, imported only
+when a scheduler is given.
+
+The work unit is one progressive pass over one band of rows, the unit the local render already launches:
+a worker renders it with the same kernel, the same sample indices and the same banding, so its float32 sums
+are the very numbers the local render would add. The client adds them into its float64 sums in a fixed
+order, pass by pass and, within a pass, band by band, as the local render does; the image and its error
+estimate are then bit for bit the local render's, whatever the number of workers and the order in which
+tasks finish, on workers whose devices are of one kind. Bands, not tiles: a band is what the kernel's
+launch and output buffer already are, and its rows are contiguous in the client's sums.
+
+A worker builds its OpenCL context, the program and the scene's device buffers once per scene and options
+(contexts cannot be pickled): `_device_renders` keeps them per worker process, keyed by a digest of the
+pickled scene and options. Tasks carry their pass and band in their arguments and are submitted with
+pure=False, so Dask never merges two of them. A worker that dies loses nothing but time: the scheduler
+runs its tasks again elsewhere, with the same arguments and so the same sums.
+
+Addresses: `local:N` starts a LocalCluster of N worker processes of one thread each (PoCL's threads shared
+out among them); `tcp://host:port` is a running scheduler (`dask scheduler`, `dask worker ...`)."""
+import dataclasses
+import hashlib
+import os
+import pickle
+import re
+import sys
+
+from .errors import InputError
+
+PASSES_AHEAD = 2  # passes submitted beyond the one being merged: the workers never wait on the client
+CONNECT_SECONDS = 10
+
+_clients = {}  # address -> (client, cluster or None), for the life of the process
+_device_renders = {}  # on a worker: digest -> DeviceRender
+
+
+def client_for(address):
+    """The Dask client of `address` ("local:N" or a scheduler's "tcp://host:port"), made once per process;
+    an address that cannot be used is bad input."""
+    if address not in _clients:
+        _clients[address] = _connect(address)
+        print(f"dask: {address}: dashboard at {_clients[address][0].dashboard_link}", file=sys.stderr, flush=True)
+    return _clients[address][0]
+
+
+def _connect(address):
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError("command line", "--scheduler", address, "needs Dask: pip install -e \".[dist]\"") from None
+    local = re.fullmatch(r"local:([0-9]+)", address)
+    if local:
+        n = int(local.group(1))
+        if not 1 <= n <= 256:
+            raise InputError("command line", "--scheduler", address, "local:N needs 1 <= N <= 256 workers")
+        threads = str(max(1, (os.cpu_count() or 1) // n))  # PoCL's pthread device would take every core each
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=40)
+        return Client(cluster), cluster
+    if not re.fullmatch(r"(tcp|tls)://[^\s/]+:[0-9]+", address):
+        raise InputError("command line", "--scheduler", address, "must be local:N or tcp://host:port")
+    try:
+        return Client(address, timeout=CONNECT_SECONDS), None
+    except (OSError, TimeoutError) as e:
+        raise InputError("command line", "--scheduler", address,
+                         f"cannot reach the scheduler in {CONNECT_SECONDS} s ({type(e).__name__})") from None
+
+
+def close_all():
+    """Close every client and the clusters this process started."""
+    while _clients:
+        client, cluster = _clients.popitem()[1]
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def scene_digest(scene, options):
+    """The key of a worker's DeviceRender: the scene and every option that reaches the device."""
+    return hashlib.sha256(pickle.dumps((scene, options))).hexdigest()
+
+
+def render_band(scene, options, digest, sample0, n, row0, rows):
+    """On a worker: the float32 sums of pixel samples [sample0, sample0 + n) over `rows` rows from row0, the
+    rays traced, the kernel seconds, and what the statistics say of the worker's device."""
+    from .render import DeviceRender, resolve_all
+
+    if digest not in _device_renders:
+        _device_renders.clear()  # one scene at a time: device memory is the worker's to keep small
+        _device_renders[digest] = DeviceRender(scene, options, resolve_all(scene, options))
+    d = _device_renders[digest]
+    d.set_samples(sample0, n)
+    sums, rays, seconds = d.bands.run_band(d.queue, d.args, row0, rows)
+    return sums.copy(), rays, seconds, d.info()
+
+
+class DaskPasses:
+    """The passes of one render as Dask tasks, a band of one pass each: submitted PASSES_AHEAD passes ahead
+    of the one the client merges, merged in pass and band order. `bands` are (first row, rows)."""
+
+    def __init__(self, client, scene, options, passes, bands):
+        self.client, self.passes, self.bands = client, passes, bands
+        self.options = dataclasses.replace(options, scheduler=None, client=None, progress=False)
+        self.digest = scene_digest(scene, self.options)
+        self.scene = client.scatter(scene, broadcast=True, hash=False)
+        self.futures, self.last_info = {}, None
+
+    def _submit(self, k):
+        sample0, n = self.passes[k]
+        self.futures[k] = [self.client.submit(render_band, self.scene, self.options, self.digest, sample0, n,
+                                              row0, rows, pure=False) for row0, rows in self.bands]
+
+    def run_pass(self, k, acc):
+        """Pass k's bands added into `acc` in band order; returns (kernel seconds, rays traced)."""
+        for j in range(k, min(k + 1 + PASSES_AHEAD, len(self.passes))):
+            if j not in self.futures:
+                self._submit(j)
+        seconds = rays = 0.0
+        for (row0, _), future in zip(self.bands, self.futures.pop(k)):
+            sums, band_rays, band_seconds, self.last_info = future.result()
+            acc.add_rows(row0, sums)
+            seconds, rays = seconds + band_seconds, rays + band_rays
+        return seconds, rays
+
+    def info(self):
+        """The statistics' device: the last band's worker's, the workers being of one kind."""
+        n = len(self.client.scheduler_info()["workers"])
+        return {**self.last_info, "device": f"{self.last_info['device']} (Dask, {n} workers)"}
+
+    def cancel(self):
+        """Drop the passes submitted ahead of a render that stopped early."""
+        self.client.cancel([f for futures in self.futures.values() for f in futures])
+        self.futures.clear()
