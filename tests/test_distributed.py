@@ -162,3 +162,22 @@ def test_dask_worker_processes_over_tcp(tmp_path):
             p.terminate()
         for p in procs:
             p.wait(timeout=30)
+
+
+def test_converge_and_scaling_take_a_scheduler(tmp_path, capsys):
+    """converge's renders (its reference too) and bench --scaling's run on the cluster: converge's errors
+    are the single-process run's to the last digit; bench without --scaling refuses the option."""
+    from raytrace import cli
+    args = ["converge", str(CORNELL), "--samplers", "random", "--max-spp", "4", "--width", "8", "--height", "8",
+            "--light-samples", "4", "--reference-spp", "16"]
+    assert cli.main([*args, "--out", str(tmp_path / "here")]) == 0
+    assert cli.main([*args, "--out", str(tmp_path / "there"), "--scheduler", "local:1"]) == 0
+    errors = [[line.split(",")[3:] for line in (tmp_path / where / "converge.csv").read_text().splitlines()]
+              for where in ("here", "there")]  # rmse, estimated_rmse, flip: all but the seconds
+    assert errors[0] == errors[1] and len(errors[0]) == 4
+    assert cli.main(["bench", "--scaling", str(tmp_path / "scaling"), "--max-triangles", "100",
+                     "--scheduler", "local:1"]) == 0
+    assert (tmp_path / "scaling" / "scaling.csv").exists()
+    capsys.readouterr()
+    assert cli.main(["bench", "--scheduler", "local:1"]) == 2
+    assert "bench takes it only with --scaling" in capsys.readouterr().err
