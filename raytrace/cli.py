@@ -240,8 +240,8 @@ def _dask_closed():
     try:
         yield
     finally:
-        if "raytrace.distributed" in sys.modules:
-            sys.modules["raytrace.distributed"].close_all()
+        if "raytrace.renderer.distributed" in sys.modules:
+            sys.modules["raytrace.renderer.distributed"].close_all()
 
 
 def main(argv=None):

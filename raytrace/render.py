@@ -1,6 +1,7 @@
-"""Rendering a Scene: options, the specialised program, progressive passes of banded launches, statistics
-(the tables it sends are packed by renderer/packing.py and bound by name by renderer/interface.py; passes
-accumulate in renderer/progressive.py).
+"""Rendering a Scene: options, progressive passes, statistics. A pass runs on this process's device
+(renderer/device_render.py: the specialised program, the scene's tables packed by renderer/packing.py and
+bound by name by renderer/interface.py, banded launches) or on Dask workers (renderer/distributed.py);
+passes accumulate in renderer/progressive.py.
 
 Renders of any size: a launch renders a band of whole rows into a device buffer of one band, which the host
 adds into its sums before the next launch, so device memory is bounded by max_band_bytes; host memory grows
@@ -10,22 +11,16 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import pyopencl as cl
 
 from . import samplers, structs
-from .renderer.interface import KernelArguments
-from .renderer.packing import scene_tables, texture_tables
-from .renderer.cpu_target import apply_target, check_lanes, describe_target
-from .renderer.device import context_for, default_lanes, describe, select_device
 from .errors import InputError
 from .memory import available_memory
 from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
-from .renderer.program import Features, render_program
+from .renderer.device_render import LocalPasses, band_rows
+from .renderer.program import Features
 from .renderer.progressive import BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, Accumulator, pass_size, row_chunks
 
-OUTPUT_PLANES = CHANNELS + 1  # the kernel's output: R, G, B sums and the ray count, float32
 MAX_BAND_BYTES = 64 << 20     # the device output buffer: below the 128 MiB any full-profile device allows
-WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch, so that a launch stays short
 HEADROOM_BYTES = 512 << 20    # besides the sums and images: the runtime, the program, the band buffers
 
 
@@ -157,48 +152,6 @@ class _Progress:
             self.bar.close()
 
 
-class _Bands:
-    """The image as bands of whole rows (band_rows), one launch each, through one device output buffer of a
-    band."""
-
-    def __init__(self, context, width, height, columns, rows, lanes):
-        # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
-        # around it, and the two cores share out the small groups evenly (measured 10% faster than the
-        # default shape on scene 0); the scalar kernel and GPUs keep the runtime's choice.
-        cpu = all(d.type & cl.device_type.CPU for d in context.devices)
-        self.local_size = (1, 1) if cpu and lanes > 1 else None
-        self.rows = rows
-        self.width, self.height, self.columns = width, height, columns
-        self.host = np.empty(OUTPUT_PLANES * self.rows * width, np.float32)
-        self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
-
-    def starts(self):
-        """The first row of every band, in the order a pass adds them."""
-        return range(0, self.height, self.rows)
-
-    def run_band(self, queue, args, row0, rows=None):
-        """Launch the band of `rows` (default: as many as fit, up to the image's end) from row0 with the
-        kernel's other `args` set: (its CHANNELS x rows x width float32 sums, a view of the host buffer; rays
-        traced; kernel seconds)."""
-        rows = min(self.rows, self.height - row0) if rows is None else rows
-        args.set("out", self.host, self.device)
-        args.set("row0", np.int32(row0))
-        event = args.launch(queue, (self.columns, rows), self.local_size)
-        event.wait()
-        out = self.host[:OUTPUT_PLANES * rows * self.width].reshape(OUTPUT_PLANES, rows, self.width)
-        cl.enqueue_copy(queue, out, self.device)
-        return out[:CHANNELS], out[CHANNELS].sum(dtype=np.float64), (event.profile.end - event.profile.start) * 1e-9
-
-    def run_pass(self, queue, args, acc):
-        """Every band, its sums added into `acc`; returns (kernel seconds, rays traced)."""
-        seconds = rays = 0.0
-        for row0 in self.starts():
-            sums, band_rays, band_seconds = self.run_band(queue, args, row0)
-            acc.add_rows(row0, sums)
-            seconds, rays = seconds + band_seconds, rays + band_rays
-        return seconds, rays
-
-
 def _zero_nonfinite(image):
     """Zero the NaN and Inf values of an H x W x C image in place, chunk by chunk; returns their number.
     They are a kernel bug, never to reach an image file, so they are counted in the stats."""
@@ -232,80 +185,14 @@ def resolve_all(scene, options):
     return Resolved(width, height, spp, n_light, pixel, light, work, passes)
 
 
-def band_rows(r, max_band_bytes):
-    """Rows a launch renders: at most max_band_bytes of output (but at least one row) and WORK_PER_LAUNCH work
-    units. Any banding gives the same sums, pixel by pixel; a Dask task is one band of one pass."""
-    row_bytes = OUTPUT_PLANES * np.dtype(np.float32).itemsize * r.width
-    work_per_row = r.width * r.work * r.passes[0][1]
-    return max(1, min(r.height, max_band_bytes // row_bytes, WORK_PER_LAUNCH // work_per_row))
-
-
-class DeviceRender:
-    """Everything a render keeps on its device: the program for the scene's features, the scene's tables
-    uploaded, and the bands' output buffer. Built once per render here, once per worker and scene on a Dask
-    cluster (raytrace/distributed.py)."""
-
-    def __init__(self, scene, options, r):
-        self.device = select_device(options.device)
-        context, self.queue = context_for(self.device)
-        if options.lanes or options.features:
-            check_lanes(apply_target(self.device), (options.features or options).lanes, "render()", "lanes")
-        self.features = options.features or Features.of(scene, options.lanes or default_lanes(self.device))
-        program, self.build_seconds = render_program(context, self.features)
-        self.args = KernelArguments(cl.Kernel(program, "render"))
-        try:
-            textures = texture_tables(scene)
-            self.buffers = self.args.upload(context, {
-                **scene_tables(scene, r.width, r.height, r.spp, r.n_light, options.texture_filter, r.pixel, r.light,
-                               options.seed, self.features),
-                **textures, "pixel_samples": r.pixel.table(), "light_samples": r.light.table()})
-        except (MemoryError, cl.MemoryError):
-            raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
-                             "out of memory building the scene's BVH and tables") from None
-        self.texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
-        self.bands = _Bands(context, r.width, r.height, -(-r.width // self.features.lanes),
-                            band_rows(r, options.max_band_bytes), self.features.lanes)
-
-    def set_samples(self, sample0, n):
-        self.args.set("sample0", np.int32(sample0))
-        self.args.set("n_samples", np.int32(n))
-
-    def info(self):
-        """What the statistics say of the device and its build."""
-        bands = self.bands
-        return {"device": describe(self.device), "build_options": [*self.features.options()],
-                "build_seconds": self.build_seconds, "texture_bytes": self.texture_bytes,
-                "extra": {"target": describe_target(self.device, self.features.lanes), "band_rows": bands.rows,
-                          "device_output_bytes": bands.host.nbytes,
-                          "device_bytes": sum(b.size for b in self.buffers.values()) + bands.device.size}}
-
-
-class LocalPasses:
-    """The passes of a render on this process's device."""
-
-    def __init__(self, scene, options, r):
-        self.d, self.passes = DeviceRender(scene, options, r), r.passes
-
-    def run_pass(self, k, acc):
-        """Pass k's bands added into `acc`; returns (kernel seconds, rays traced)."""
-        self.d.set_samples(*self.passes[k])
-        return self.d.bands.run_pass(self.d.queue, self.d.args, acc)
-
-    def info(self):
-        return self.d.info()
-
-    def cancel(self):
-        pass
-
-
 def _passes(scene, options, r):
     if options.scheduler is None and options.client is None:
         return LocalPasses(scene, options, r)
-    from .distributed import DaskPasses, client_for
+    from .renderer.distributed import DaskPasses, client_for
     client = options.client or client_for(options.scheduler)
     rows = band_rows(r, options.max_band_bytes)
-    return DaskPasses(client, scene, options, r.passes, [(row0, min(rows, r.height - row0))
-                                                          for row0 in range(0, r.height, rows)])
+    return DaskPasses(client, scene, options, r, [(row0, min(rows, r.height - row0))
+                                                  for row0 in range(0, r.height, rows)])
 
 
 def render_progressive(scene, **kwargs):

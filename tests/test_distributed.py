@@ -1,4 +1,4 @@
-"""Rendering on Dask (raytrace/distributed.py): bit for bit the single-process render, whatever the number of
+"""Rendering on Dask (raytrace/renderer/distributed.py): bit for bit the single-process render, whatever the number of
 workers, their kind of cluster (a LocalCluster, `dask scheduler` and `dask worker` processes) or a worker
 killed mid-render; --time-limit and --target-error stop it; what cannot be used is one line, exit status 2.
 
@@ -109,7 +109,7 @@ def test_a_worker_without_a_device_is_one_line(scene0):
 
 
 def test_missing_dask_is_one_line(monkeypatch, scene0):
-    from raytrace import distributed as ours
+    from raytrace.renderer import distributed as ours
     monkeypatch.setitem(sys.modules, "dask.distributed", None)
     monkeypatch.setattr(ours, "_clients", {})
     with pytest.raises(InputError, match="--scheduler = 'local:2': needs Dask"):

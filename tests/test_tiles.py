@@ -6,7 +6,8 @@ import resource
 import numpy as np
 import pytest
 
-from raytrace.render import OUTPUT_PLANES, render_progressive
+from raytrace.render import render_progressive
+from raytrace.renderer.device_render import OUTPUT_PLANES
 from helpers import CORNELL, run
 
 SIZE = dict(width=97, height=61, progress=False)  # odd sizes: 97 columns leave one pixel in the last lane group at every width

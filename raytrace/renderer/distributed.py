@@ -24,7 +24,8 @@ import pickle
 import re
 import sys
 
-from .errors import InputError
+from ..errors import InputError
+from .device_render import DeviceRender
 
 PASSES_AHEAD = 2  # passes submitted beyond the one being merged: the workers never wait on the client
 CONNECT_SECONDS = 10
@@ -79,14 +80,13 @@ def scene_digest(scene, options):
     return hashlib.sha256(pickle.dumps((scene, options))).hexdigest()
 
 
-def render_band(scene, options, digest, sample0, n, row0, rows):
+def render_band(scene, options, resolved, digest, sample0, n, row0, rows):
     """On a worker: the float32 sums of pixel samples [sample0, sample0 + n) over `rows` rows from row0, the
-    rays traced, the kernel seconds, and what the statistics say of the worker's device."""
-    from .render import DeviceRender, resolve_all
-
+    rays traced, the kernel seconds, and what the statistics say of the worker's device. `resolved` is the
+    client's render.Resolved: the options checked once, against the client's scene file."""
     if digest not in _device_renders:
         _device_renders.clear()  # one scene at a time: device memory is the worker's to keep small
-        _device_renders[digest] = DeviceRender(scene, options, resolve_all(scene, options))
+        _device_renders[digest] = DeviceRender(scene, options, resolved)
     d = _device_renders[digest]
     d.set_samples(sample0, n)
     sums, rays, seconds = d.bands.run_band(d.queue, d.args, row0, rows)
@@ -97,8 +97,8 @@ class DaskPasses:
     """The passes of one render as Dask tasks, a band of one pass each: submitted PASSES_AHEAD passes ahead
     of the one the client merges, merged in pass and band order. `bands` are (first row, rows)."""
 
-    def __init__(self, client, scene, options, passes, bands):
-        self.client, self.passes, self.bands = client, passes, bands
+    def __init__(self, client, scene, options, resolved, bands):
+        self.client, self.passes, self.bands, self.resolved = client, resolved.passes, bands, resolved
         self.options = dataclasses.replace(options, scheduler=None, client=None, progress=False)
         self.digest = scene_digest(scene, self.options)
         self.scene = client.scatter(scene, broadcast=True, hash=False)
@@ -106,8 +106,8 @@ class DaskPasses:
 
     def _submit(self, k):
         sample0, n = self.passes[k]
-        self.futures[k] = [self.client.submit(render_band, self.scene, self.options, self.digest, sample0, n,
-                                              row0, rows, pure=False) for row0, rows in self.bands]
+        self.futures[k] = [self.client.submit(render_band, self.scene, self.options, self.resolved, self.digest,
+                                              sample0, n, row0, rows, pure=False) for row0, rows in self.bands]
 
     def run_pass(self, k, acc):
         """Pass k's bands added into `acc` in band order; returns (kernel seconds, rays traced)."""
