@@ -64,6 +64,7 @@ from pathlib import Path
 from hypothesis import assume, example, given, note
 from hypothesis import strategies as st
 
+from raytrace import cli
 from raytrace.tools.fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, outside, \
     run_cli, write_example
 from raytrace.tools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, command_lines, environments, parsed_int
@@ -111,7 +112,7 @@ def test_toml_writer_round_trips(table):
 @given(texture_filter=texture_filters(), example=valid_scenes())
 def test_valid_scenes_render(texture_filter, example):
     """Scenes of the grammar with valid values render: exit status 0 and a finite image of their size."""
-    fuzz_scene(example.text().encode(), example.files, example.table, True, texture_filter)
+    fuzz_scene(cli.main, example.text().encode(), example.files, example.table, True, texture_filter)
 
 
 @budget(300)
@@ -123,7 +124,7 @@ def test_valid_scenes_render(texture_filter, example):
 @example(example=small_scene(materials={"a\nb": {"colour": [1.0, -1.0, 0.0]}}))
 def test_hostile_scene_files(example):
     """Valid scenes with hostile values: an image, or one line naming the scene file (or its mesh file)."""
-    fuzz_scene(example.text().encode(), example.files, example.table)
+    fuzz_scene(cli.main, example.text().encode(), example.files, example.table)
 
 
 @budget(60)
@@ -132,7 +133,7 @@ def test_hostile_scene_files(example):
 def test_broken_scene_texts(scene):
     """Scene files that are not TOML tables at all: one line naming the scene file."""
     damaged, files = scene
-    fuzz_scene(damaged.data(), files, None)
+    fuzz_scene(cli.main, damaged.data(), files, None)
 
 
 @budget(200)
@@ -140,7 +141,7 @@ def test_broken_scene_texts(scene):
 def test_hostile_texture_and_mesh_files(texture_filter, example):
     """Textures and meshes with random, truncated, damaged or odd contents: an image, or one line naming
     the scene file (textures) or the mesh file."""
-    fuzz_scene(example.text().encode(), example.files, example.table, False, texture_filter)
+    fuzz_scene(cli.main, example.text().encode(), example.files, example.table, False, texture_filter)
 
 
 @budget(250)
@@ -174,7 +175,7 @@ def test_hostile_command_lines(command, example):
         (directory / "sub").mkdir()
         (directory / "taken.png").mkdir()
         (directory / "taken.exr").mkdir()
-        outcome = run_cli(argv, directory)
+        outcome = run_cli(cli.main, argv, directory)
         sources = ["command line", command.scene, str(Path(command.scene))] + mesh_sources(table, command.scene)
         check(outcome, directory, command.output, (width, height) if None not in (width, height) else None,
               sources, stats or None, example_text=example.text())
@@ -189,7 +190,7 @@ def test_hostile_environment(env):
     with tempfile.TemporaryDirectory(prefix="fuzz-") as d:
         directory = Path(d)
         (directory / "scene.toml").write_text(to_toml(SMALL_SCENE))
-        outcome = run_cli(["render", "scene.toml", "-o", "out.exr", "--no-progress"], directory, env)
+        outcome = run_cli(cli.main, ["render", "scene.toml", "-o", "out.exr", "--no-progress"], directory, env)
         check(outside(directory, outcome, env), directory, "out.exr", (4, 3), ["environment"])
 
 

@@ -18,7 +18,6 @@ from hypothesis import HealthCheck, Phase, assume, note, settings
 
 from .scenes import node_at, node_paths
 from . import ROOT
-from ... import cli
 
 # --- budget -------------------------------------------------------------------------------------------
 
@@ -117,7 +116,9 @@ class Outcome:
     warnings: list = dataclasses.field(default_factory=list)  # the Python warnings among stderr's lines
 
 
-def run_cli(argv, directory, env=None):
+def run_cli(main, argv, directory, env=None):
+    """`main` (raytrace.cli.main: the tests hand it in, so this tool imports nothing above the renderer) run
+    on argv in `directory`, as the command line would run it."""
     before = files_in(directory)
     rc, error = None, None
     with captured_stderr() as stderr, warnings.catch_warnings(record=True) as caught:
@@ -127,7 +128,7 @@ def run_cli(argv, directory, env=None):
         with working_directory(directory), environment(env or {}):
             try:
                 with time_limit(EXAMPLE_SECONDS):
-                    rc = cli.main(list(argv))
+                    rc = main(list(argv))
             except SystemExit as e:
                 rc = f"SystemExit({e.code!r})"
             except (Exception, ExampleTimedOut) as e:
@@ -340,8 +341,8 @@ def cost_flags(table):
     return ["--time-limit", "1"] if width * height * spp * (1 + ls * n_lights) > 2e6 else []
 
 
-def fuzz_scene(scene_bytes, files, table, must_render=False, texture_filter="trilinear"):
-    """Render `scene_bytes` (beside `files`) with a valid command line; `table` is the scene as written (None
+def fuzz_scene(main, scene_bytes, files, table, must_render=False, texture_filter="trilinear"):
+    """Render (through `main`, run_cli's) `scene_bytes` (beside `files`) with a valid command line; `table` is the scene as written (None
     when the bytes are not TOML we wrote)."""
     text = scene_bytes.decode("utf-8", "backslashreplace")
     note(f"scene.toml:\n{text[:3000]}" + (f"... ({len(text)} characters)" if len(text) > 3000 else ""))
@@ -358,7 +359,7 @@ def fuzz_scene(scene_bytes, files, table, must_render=False, texture_filter="tri
     with tempfile.TemporaryDirectory(prefix="fuzz-") as d:
         directory = Path(d)
         write_example(directory, scene_bytes, files)
-        outcome = run_cli(argv, directory)
+        outcome = run_cli(main, argv, directory)
         sources = ["scene.toml"] + (mesh_sources(table) if table is not None else [])
         check(outcome, directory, "out" + ext, size, sources, stats, must_render, f"{text}\n# files: {files!r}")
 
