@@ -98,9 +98,13 @@ def test_signal_during_a_file_operation_waits_for_its_end():
             steps.append("held")
         steps.append("after")
     assert steps == ["held"] and e.value.signum == signal.SIGTERM
-    with outputs.handle_signals():
-        with pytest.raises(outputs.Interrupted):
-            signal_here(signal.SIGHUP)
-            wait_until(lambda: False)
-        signal_here(signal.SIGHUP)  # the second: ignored
-        time.sleep(0.05)
+    inherited = signal.signal(signal.SIGHUP, signal.SIG_DFL)  # as a terminal's shell starts it, not under nohup
+    try:
+        with outputs.handle_signals():
+            with pytest.raises(outputs.Interrupted):
+                signal_here(signal.SIGHUP)
+                wait_until(lambda: False)
+            signal_here(signal.SIGHUP)  # the second: ignored
+            time.sleep(0.05)
+    finally:
+        signal.signal(signal.SIGHUP, inherited)
