@@ -178,6 +178,7 @@ class Resolved:
 
 
 def resolve_all(scene, options):
+    """resolve(), and the passes: their sizes follow from the options alone, so every device agrees on them."""
     width, height, spp, n_light, pixel, light = resolve(scene, options)
     work = 1 + len(scene.lights) * n_light
     per_pass = pass_size(spp, width * height * work)
@@ -186,6 +187,7 @@ def resolve_all(scene, options):
 
 
 def _passes(scene, options, r):
+    """Where the passes run: this process's device, or Dask tasks of one band each (renderer/distributed.py)."""
     if options.scheduler is None and options.client is None:
         return LocalPasses(scene, options, r)
     from .renderer.distributed import DaskPasses, client_for

@@ -3,7 +3,6 @@ SCENE_PARAMETERS and TEXTURE_PARAMETERS), and the host binds its values by name 
 compiler reports (raytrace/renderer/interface.py). These tests change that one declaration and check that
 the host notices: a renamed, added or retyped argument is a KernelInterfaceError before any launch, and
 arguments in another order still render the same image."""
-import importlib
 
 import numpy as np
 import pytest
@@ -12,6 +11,7 @@ import raytrace
 from raytrace.renderer import interface
 from raytrace.renderer.interface import KernelArguments, KernelInterfaceError, declared_type
 from raytrace.renderer.program import build, kernel_dir
+from raytrace.renderer import device_render
 from raytrace.structs import CAMERA, RENDER_PARAMS
 
 OPTIONS = dict(width=16, height=8, spp=1, light_samples=1, sampler="center", light_sampler="center", lanes=1,
@@ -21,8 +21,7 @@ OPTIONS = dict(width=16, height=8, spp=1, light_samples=1, sampler="center", lig
 def render_with(monkeypatch, scene, change):
     """Render `scene` through a render kernel whose source is kernels/render.cl changed by `change`."""
     source = change((kernel_dir() / "render.cl").read_text())
-    render_module = importlib.import_module("raytrace.render")  # the attribute raytrace.render is the function
-    monkeypatch.setattr(render_module, "render_program",
+    monkeypatch.setattr(device_render, "render_program",
                         lambda context, features: build(context, source, features.options()))
     return raytrace.render(scene, **OPTIONS)[0]
 
