@@ -38,6 +38,10 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
         t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
         hit_update(&hit, r, t, hit.p, 0.0f, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
                    (vfloat)(0.0f), (vfloat)(0.0f));
+#if HAS_DIRECT_LIGHTING /* radiance leaves the front face only: a light's back is black, and hides what is behind */
+        vint back = (t == hit.t) & (v3_dot(r.d, v3_uniform(light->shape.normal)) >= 0.0f);
+        hit.emitted = v3_select(hit.emitted, v3_splat(0.0f, 0.0f, 0.0f), back);
+#endif
     }
     return hit;
 }

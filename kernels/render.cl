@@ -1,5 +1,5 @@
-/* The per-pixel pipeline: generate camera rays, intersect, find the material's shading point, shade,
- * accumulate.
+/* The per-pixel pipeline: generate camera rays, intersect, find the material's shading point, shade (the
+ * scene's model: the course's Phong, or direct lighting), accumulate.
  *
  * One work-item renders LANES neighbouring pixels of one row: x = LANES * get_global_id(0) + lane,
  * y = row0 + get_global_id(1). A launch takes the pixel samples [sample0, sample0 + n_samples) of a
@@ -7,7 +7,11 @@
  * its size is bounded whatever the image's: planes of width * get_global_size(1) floats, row y at y - row0:
  * R, G, B (sums over the launch's pixel samples, linear) and the number of rays traced for the pixel. */
 #include "camera.cl"
-#include "shading.cl"
+#if HAS_DIRECT_LIGHTING
+#include "direct_lighting.cl"
+#else
+#include "shading.cl" /* the course's Phong model */
+#endif
 
 /* sum += x, Kahan-compensated (Higham, "Accuracy and Stability of Numerical Algorithms", section 4.3): the
  * error stays within 2 roundings of the sum for any number of terms, where a plain float32 running sum of n

@@ -1,8 +1,8 @@
 /* The scene as the kernel sees it: the host's buffers and counts, gathered in one private struct.
  * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
  * HAS_HEIGHT_MAPS and HAS_SMOOTH_NORMALS (set by the host from the scene) leave out the code of what a scene
- * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape. The kernel's arguments stay the same in every
- * variant. */
+ * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING the shading model
+ * (direct_lighting.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant. */
 #ifndef SCENE_H
 #define SCENE_H
 

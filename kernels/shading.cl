@@ -22,19 +22,6 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
     return vmax(ndotl, 0.0f) + phong_power(vmin(vmax(v3_dot(r, v), 0.0f), 1.0f), shininess);
 }
 
-/* The shadow segment from `origin` (already off its surface) to the light point q (within q_err of the light's
- * plane): it ends at q pushed off the light toward the origin by q's error, and by that of the segment's
- * direction, which rounds once: the segment's true end o + fl(q' - o) is within one rounding of |q' - o| of
- * q' (pbrt-v4's SpawnRayTo, section 6.8.6). */
-inline Ray shadow_segment(vec3 origin, vec3 q, vfloat q_err, vec3 light_normal)
-{
-    vec3 to_origin = v3_sub(origin, q);
-    vec3 n = v3_scale(light_normal, SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(light_normal, to_origin) < 0.0f));
-    vfloat err = q_err + GAMMA(2) * error_along(n, v3_abs(to_origin));
-    Ray r = {origin, v3_sub(offset_ray_origin(q, err, n), origin)};
-    return r;
-}
-
 /* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. The light
  * samples come from the light sample pattern, randomised under `key` and the light's index. A light
  * sample counts where it lies above both the surface (ng: else the surface itself would block it) and the

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from . import samplers, structs
 from .errors import InputError
+from .scene.model import SHADINGS
 from .outputs import Interrupted, Outputs, committed, handle_signals, scene_inputs, write_json
 from .renderer.image import FORMATS, write_image_file
 
@@ -44,6 +45,8 @@ def _add_render_options(p, scene_help=None):
     p.add_argument("--light-sampler", help="light sample pattern, the same choice (default: the scene's, else grid)")
     p.add_argument("--texture-filter", default="trilinear", choices=list(structs.FILTERS),
                    help="texture filter (default: trilinear)")
+    p.add_argument("--shading", choices=list(SHADINGS), help="the shading model: phong (the course's) or direct "
+                   "(radiometric direct lighting; a light's colour is then its radiance) (default: the scene's)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sample patterns' randomisation")
     p.add_argument("--time-limit", type=float, help="stop before a pass that would end after SECONDS")
     p.add_argument("--target-error", type=float, help="stop at this estimated relative RMSE of the image")
@@ -115,7 +118,7 @@ def _render_kwargs(args):
     return dict(width=args.width, height=args.height, spp=args.spp, light_samples=args.light_samples,
                 sampler=args.sampler, light_sampler=args.light_sampler, texture_filter=args.texture_filter,
                 seed=args.seed, time_limit=args.time_limit, target_error=args.target_error, device=args.device,
-                scheduler=args.scheduler)
+                scheduler=args.scheduler, shading=args.shading)
 
 
 def cmd_render(args):

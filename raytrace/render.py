@@ -8,6 +8,7 @@ adds into its sums before the next launch, so device memory is bounded by max_ba
 with the image (progressive.BYTES_PER_PIXEL), and a render it cannot hold is refused before any device work."""
 import sys
 import time
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -15,6 +16,7 @@ import numpy as np
 from . import samplers, structs
 from .errors import InputError
 from .memory import available_memory
+from .scene.model import SHADINGS
 from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
 from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
@@ -33,6 +35,7 @@ class RenderOptions:
     sampler: str | None = None
     light_sampler: str | None = None
     texture_filter: str = "trilinear"
+    shading: str | None = None         # None: the scene's ("phong" or "direct")
     seed: int = 0
     time_limit: float | None = None    # seconds: no pass starts that would end after it
     target_error: float | None = None  # stop when the estimated relative RMSE is at most this
@@ -201,6 +204,9 @@ def render_progressive(scene, **kwargs):
     """Render `scene` in passes until its spp, time limit or target error; returns (H x W x 3 float32
     linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats)."""
     options = RenderOptions(**kwargs)
+    if options.shading is not None:
+        _option(options.shading, "command line", "--shading", lambda v: v in SHADINGS, f"must be one of {SHADINGS}")
+        scene = dataclasses.replace(scene, shading=options.shading)
     r = resolve_all(scene, options)
     check_memory(r.width, r.height)
     passes = _passes(scene, options, r)

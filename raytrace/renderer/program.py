@@ -36,6 +36,7 @@ class Features:
     height_maps: bool = True
     smooth_normals: bool = False
     bvh: bool = False
+    direct_lighting: bool = False  # the scene's shading: radiometric direct lighting, else Phong
 
     @property
     def textures(self):
@@ -47,12 +48,13 @@ class Features:
         shapes = len(scene.rectangles) + scene.triangle_count + len(scene.ellipsoids)
         return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
                    used("colour_map"), used("normal_map"), used("height_map"),
-                   any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1))
+                   any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
+                   scene.shading == "direct")
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
                  "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps,
-                 "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh}
+                 "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting}
         return [f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
 
 

@@ -16,6 +16,10 @@ def normalize(v):
     return v / np.linalg.norm(v)
 
 
+# The shading models: the course's Phong model, and radiometric direct lighting (Lambertian surfaces, area
+# lights of a given radiance): the README's "The model" and "Direct lighting".
+SHADINGS = ("phong", "direct")
+
 @dataclass(frozen=True)
 class Camera:
     position: np.ndarray
@@ -62,7 +66,7 @@ class Rectangle:
 
 @dataclass(frozen=True)
 class Light(Rectangle):
-    colour: np.ndarray = field(default_factory=lambda: np.ones(3))
+    colour: np.ndarray = field(default_factory=lambda: np.ones(3))  # Phong: the course's colour; direct: radiance
 
 
 @dataclass(frozen=True)
@@ -113,6 +117,7 @@ class Scene:
     light_sampler: str = "grid"
     textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
     meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
+    shading: str = "phong"  # one of SHADINGS
 
     @property
     def triangle_count(self):

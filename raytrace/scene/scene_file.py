@@ -12,7 +12,7 @@ from . import mesh_file, meshes, meshgen, ranges
 from ..errors import InputError
 from .. import samplers
 from ..structs import WRAP_MODES
-from .model import (DEFAULT_SHININESS, Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
+from .model import (DEFAULT_SHININESS, SHADINGS, Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
                     normalize)
 from .textures import TextureCache
 from .transform import mesh_matrix
@@ -104,6 +104,14 @@ def _frame(r, normal_key="normal", tangent_key="tangent"):
     if np.linalg.norm(t) < 1e-6 * np.linalg.norm(t_raw):
         r.fail(tangent_key, t_raw.tolist(), "must not be parallel to the normal")
     return n, normalize(t)
+
+
+def _emission(r, key):
+    """A light's colour (Phong) or radiance (direct, emitted from the side its normal points to): three
+    numbers >= 0, or for radiance one, the same in every channel."""
+    if key == "radiance" and isinstance(r.raw(key), (int, float)) and not isinstance(r.raw(key), bool):
+        return np.full(3, r.number(key, low=0))
+    return r.vector(key, 3, low=0)
 
 
 def _rectangle_fields(r):
@@ -298,7 +306,10 @@ def parse_scene(table, path="<scene>"):
     width, height = img.integer("width", high=ranges.MAX_IMAGE_SIDE), img.integer("height", high=ranges.MAX_IMAGE_SIDE)
 
     render = r.sub("render") if r.has("render") else _Reader(path, {}, "render.")
-    render.check_keys(["light_sampler", "light_samples", "sampler", "spp"])
+    render.check_keys(["light_sampler", "light_samples", "sampler", "shading", "spp"])
+    shading = render.string("shading", "phong", choices=SHADINGS)
+    if shading == "direct" and r.has("ambient"):
+        r.fail("ambient", r.raw("ambient"), 'is the Phong model\'s: shading = "direct" has no ambient term')
 
     mats = r.raw("materials")
     if not isinstance(mats, dict) or not mats:
@@ -318,7 +329,7 @@ def parse_scene(table, path="<scene>"):
             render.fail(key, name, problem)
     scene = Scene(path, camera, width, height, r.vector("ambient", 3, default=[0, 0, 0], low=0), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
-                  textures=textures.textures)
+                  textures=textures.textures, shading=shading)
 
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:
@@ -326,8 +337,9 @@ def parse_scene(table, path="<scene>"):
     places, light_readers = [(c, camera)], []
     for i, light in enumerate(lights):
         lr = _Reader(path, light, f"lights[{i}].")
-        lr.check_keys(["center", "colour", "normal", "size", "tangent"])
-        scene.lights.append(Light(colour=lr.vector("colour", 3, low=0), **_rectangle_fields(lr)))
+        emission = "radiance" if shading == "direct" else "colour"  # what the light's one colour means
+        lr.check_keys(["center", emission, "normal", "size", "tangent"])
+        scene.lights.append(Light(colour=_emission(lr, emission), **_rectangle_fields(lr)))
         places.append((lr, scene.lights[-1]))
         light_readers.append(lr)
 
