@@ -19,6 +19,7 @@ from .errors import InputError
 from .scene.model import SHADINGS
 from .outputs import Interrupted, Outputs, committed, handle_signals, scene_inputs, write_json
 from .renderer.image import FORMATS, write_image_file
+from .tools.converge_peer import PEER_SAMPLERS
 
 EXIT_BAD_INPUT = 2
 
@@ -96,6 +97,11 @@ def parser():
     c.add_argument("--light-samples", type=int, help="samples per light (default: the scene's)")
     c.add_argument("--seed", type=int, default=0, help="seed of the measured renders (the reference's: seed + 1000003)")
     _add_scheduler(c)
+    c.add_argument("--peer", metavar="TEMPLATE", help="also another renderer's patterns: a shell command with "
+                   "{sampler}, {spp} and {out} that writes an EXR and prints JSON with median_s")
+    c.add_argument("--peer-samplers", default=",".join(PEER_SAMPLERS),
+                   help=f"the peer's sampler names (default: {','.join(PEER_SAMPLERS)})")
+    c.add_argument("--clamp", action="store_true", help="RMSE of the images clamped to [0, 1]")
     c.add_argument("--reference-spp", type=int, help="the rendered reference's samples (default: 16 x max-spp, "
                    "at most 65536)")
     c.add_argument("--montage-seconds", type=float, help="time per pattern in the montage (default: a quarter of "
@@ -207,7 +213,9 @@ def cmd_converge(args):
     converge(args.scene, [name.strip() for name in args.samplers.split(",")], args.max_spp, args.out,
              reference=args.reference, width=args.width, height=args.height, light_samples=args.light_samples,
              seed=args.seed, reference_spp=args.reference_spp, montage_seconds=args.montage_seconds,
-             crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout, scheduler=args.scheduler)
+             crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout, scheduler=args.scheduler,
+             peer=args.peer, peer_samplers=[n.strip() for n in args.peer_samplers.split(",") if n.strip()],
+             clamp=args.clamp)
 
 
 def cmd_compile(args):

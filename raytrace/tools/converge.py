@@ -37,6 +37,7 @@ from ..outputs import Outputs, scene_inputs, write_json
 from ..renderer.image import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
 from ..scene import load_scene
+from .converge_peer import PEER_FIRST_SPP, PEER_SAMPLERS, check_template, peer_rows, race
 
 CLI = "command line"
 COLUMNS = ("sampler", "spp", "seconds", "rmse", "estimated_rmse", "flip")
@@ -47,6 +48,7 @@ MIN_MONTAGE_SECONDS = 0.05
 # floor, and the corner where the floor meets the green wall.
 DEFAULT_CROP = (0.70, 0.72, 0.18, 0.18)
 OUTPUTS = ["converge.csv", "converge.png", "montage.png"]
+RACE_LEVELS = (0.05, 0.02, 0.01, 0.005)  # RMSE levels at which --peer's times are set beside ours
 REFERENCE_OUTPUTS = ["reference.exr", "reference.json"]  # when the reference is rendered here
 
 
@@ -145,7 +147,13 @@ def flip_error(image, reference):
     return float(mean_error)
 
 
-def measure(scene, names, max_spp, reference, common, box, out):
+def clamped_rmse(image, reference):
+    """RMSE of the images clamped to [0, 1], as 8-bit files show them: where two renderers' images differ
+    mostly in pixels far above 1 (a light's edge), what a viewer sees of them."""
+    return rmse(np.clip(image, 0.0, 1.0), np.clip(reference, 0.0, 1.0))
+
+
+def measure(scene, names, max_spp, reference, common, box, out, error=rmse):
     """One row per (pattern, sample count), each with the crop of its image (dropped from the CSV)."""
     rows = []
     for name in names:
@@ -155,9 +163,9 @@ def measure(scene, names, max_spp, reference, common, box, out):
         for spp in sample_counts(name, max_spp):
             image, _, stats = render_progressive(scene, spp=spp, sampler=name, light_sampler=light, **common)
             rows.append({"sampler": name, "spp": spp, "seconds": stats.wall_seconds,
-                         "rmse": rmse(image, reference), "estimated_rmse": stats.estimated_rmse,
+                         "rmse": error(image, reference), "estimated_rmse": stats.estimated_rmse,
                          "flip": flip_error(image, reference), "crop": image[box],
-                         "crop_rmse": rmse(image[box], reference[box])})
+                         "crop_rmse": error(image[box], reference[box])})
     return rows
 
 
@@ -194,7 +202,8 @@ def plot_convergence(rows, names, reference_facts, title, path):
         mine = [r for r in rows if r["sampler"] == name]
         slope = fitted_slope(mine)
         label = name if slope is None else f"{name} (slope {slope:.2f})"
-        ax.loglog([r["seconds"] for r in mine], [r["rmse"] for r in mine], marker="o", label=label)
+        ax.loglog([r["seconds"] for r in mine], [r["rmse"] for r in mine], marker="o", label=label,
+                   ls="--" if name.startswith("peer:") else "-")
     if reference_facts["estimated_rmse"] is not None:
         ax.axhline(reference_facts["estimated_rmse"], color="black", ls="--", lw=1,
                    label=f"the reference's own estimated RMSE, {reference_facts['estimated_rmse']:.2e}\n"
@@ -275,10 +284,16 @@ def _number(x):
 
 
 def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None, height=None, light_samples=None,
-             seed=0, reference_spp=None, montage_seconds=None, crop=None, out=sys.stdout, scheduler=None):
+             seed=0, reference_spp=None, montage_seconds=None, crop=None, out=sys.stdout, scheduler=None,
+             peer=None, peer_samplers=PEER_SAMPLERS, clamp=False):
     """Measure, write and print as the module says; returns {"rows": [...], "reference": {...},
     "montage": [...], "paths": [...]}. Every bad input raises InputError before anything is written."""
     names = check_samplers(samplers)
+    if peer is not None:
+        check_template(peer)
+        if max_spp < PEER_FIRST_SPP:
+            raise InputError(CLI, "--max-spp", max_spp, f"must be at least {PEER_FIRST_SPP} with --peer")
+    error = clamped_rmse if clamp else rmse
     _check_range(max_spp, "--max-spp", 1, MAX_SPP)
     _check_range(reference_spp, "--reference-spp", 1, MAX_SPP)
     if montage_seconds is not None and not 0 < montage_seconds < math.inf:
@@ -300,7 +315,11 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         print(f"reference: {facts.get('file', 'rendered')}, {facts['spp'] or '?'} spp, its own estimated RMSE "
               f"{_number(facts['estimated_rmse'])}", file=out)
         common["seed"] = seed
-        rows = measure(scene, names, max_spp, reference, common, box, out)
+        rows = measure(scene, names, max_spp, reference, common, box, out, error)
+        if peer is not None:
+            rows += peer_rows(peer, peer_samplers, max_spp, reference, box, error, flip_error,
+                              lambda path: read_reference(path, width, height)[0])
+            names = names + [f"peer:{name}" for name in peer_samplers]
         seconds = montage_seconds or montage_seconds_default(rows)
         panels = montage(names, rows, seconds)
         write_outputs(outputs, files, rows, names, panels, reference, facts, box,
@@ -310,8 +329,13 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     print_table(rows, out)
     print(f"montage, {seconds:.3g} s each: " + ", ".join(f"{p['sampler']} {p['spp']} spp in {p['seconds']:.3f} s"
                                                        for p in panels), file=out)
+    table = race(rows, RACE_LEVELS) if peer is not None else None
+    for t in table or []:
+        print(f"RMSE {t['rmse']:g}: ours {_number(t['ours_s'])} s, the peer's {_number(t['peer_s'])} s, ratio "
+              f"{_number(t['ratio'])}", file=out)
     for path in paths:
         print(f"wrote {path}", file=out)
     return {"rows": [{k: r[k] for k in COLUMNS} for r in rows], "reference": facts, "montage_seconds": seconds,
+            "race": table,
             "montage": [{k: p[k] for k in ("sampler", "spp", "seconds", "crop_rmse")} for p in panels],
             "paths": paths}

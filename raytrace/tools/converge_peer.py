@@ -1,0 +1,88 @@
+"""Another renderer's sample patterns in `converge`'s study (`--peer TEMPLATE`), against the same reference,
+and the time each side needs to reach an error.
+
+TEMPLATE is a shell command with the placeholders {sampler}, {spp} and {out}: it renders the scene at the
+study's size with that sampler and pixel sample count, writes a linear EXR to {out}, and prints as its last
+line a JSON object whose `median_s` is the render's own time (without loading the scene or compiling), as
+`converge` times its own renders (their passes alone), and may say its `spp` (the count it took). Mitsuba 3's
+script beside this project's peers does that with --sampler, --spp and --out. The peer's patterns are
+measured at 4, 16, 64, ... samples (squares and powers of two, which every Mitsuba sampler takes)."""
+import json
+import shlex
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+PEER_SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler")
+PEER_FIRST_SPP = 4  # Mitsuba's ldsampler takes no fewer (it rounds 1 up to 4)
+
+
+def check_template(template):
+    for field in ("{sampler}", "{spp}", "{out}"):
+        if field not in template:
+            raise InputError("command line", "--peer", template, f"needs the placeholder {field}")
+
+
+def run_peer(template, sampler, spp, out):
+    """The peer's render: (seconds, its stdout's JSON); InputError naming --peer when it fails."""
+    command = template.format(sampler=shlex.quote(sampler), spp=spp, out=shlex.quote(str(out)))
+    result = subprocess.run(command, shell=True, capture_output=True, text=True)
+    lines = result.stdout.strip().splitlines()
+    try:  # the object may follow a logger's colour codes on its line
+        facts = json.loads(lines[-1][lines[-1].index("{"):])
+        seconds = float(facts["median_s"])
+    except (IndexError, ValueError, KeyError, TypeError):
+        raise InputError("command line", "--peer", command, f"exit status {result.returncode}, no JSON line with "
+                         f"median_s: {(result.stderr.strip().splitlines() or ['no output'])[-1][:200]}") from None
+    return seconds, facts
+
+
+def peer_rows(template, names, max_spp, reference, box, error, flip, read_image):
+    """One row per (peer sampler, sample count), named "peer:SAMPLER", in converge's row format (rmse by
+    `error`, flip by `flip`; no estimated_rmse: the peer does not estimate its error)."""
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="converge-peer-") as tmp:
+        for name in names:
+            spp = PEER_FIRST_SPP
+            while spp <= max_spp:
+                out = Path(tmp) / f"{name}-{spp}.exr"
+                seconds, facts = run_peer(template, name, spp, out)
+                image = read_image(out)
+                rows.append({"sampler": f"peer:{name}", "spp": facts.get("spp", spp), "seconds": seconds,
+                             "rmse": error(image, reference),
+                             "estimated_rmse": None, "flip": flip(image, reference), "crop": image[box],
+                             "crop_rmse": error(image[box], reference[box])})
+                spp *= 4
+    return rows
+
+
+def time_to_reach(rows, level):
+    """The least time any of `rows` takes to reach RMSE `level`, interpolated log-log between a pattern's
+    measured renders (None where none reaches it)."""
+    best = None
+    for name in dict.fromkeys(r["sampler"] for r in rows):
+        points = sorted((r["seconds"], r["rmse"]) for r in rows if r["sampler"] == name and r["seconds"] > 0)
+        for (t0, e0), (t1, e1) in zip(points, points[1:]):
+            if e0 > level >= e1 and e1 > 0:
+                t = float(np.exp(np.interp(np.log(level), [np.log(e1), np.log(e0)], [np.log(t1), np.log(t0)])))
+                best = t if best is None else min(best, t)
+                break
+        else:
+            if points and points[0][1] <= level:
+                best = points[0][0] if best is None else min(best, points[0][0])
+    return best
+
+
+def race(rows, levels):
+    """For each RMSE level: our best time, the peer's best time, and their ratio (ours / theirs)."""
+    ours = [r for r in rows if not r["sampler"].startswith("peer:")]
+    theirs = [r for r in rows if r["sampler"].startswith("peer:")]
+    table = []
+    for level in levels:
+        a, b = time_to_reach(ours, level), time_to_reach(theirs, level)
+        table.append({"rmse": level, "ours_s": a, "peer_s": b, "ratio": None if a is None or b is None else a / b})
+    return table

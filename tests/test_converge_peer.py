@@ -1,0 +1,62 @@
+"""converge --peer (raytrace/tools/converge_peer.py): another renderer's patterns in the same study, against
+the same reference, here a stand-in peer script that writes a known image; and the race table's
+interpolation of the time to reach an error."""
+import io
+import sys
+
+import numpy as np
+import pytest
+
+from helpers import CORNELL
+from raytrace.errors import InputError
+from raytrace.tools.converge import converge
+from raytrace.tools.converge_peer import race, time_to_reach
+
+FAKE_PEER = """
+import json, sys
+import numpy as np, OpenImageIO as oiio
+sampler, spp, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+noise = np.random.default_rng(spp).normal(0, 0.2 / spp ** 0.5, (8, 8, 3)).astype(np.float32)
+oiio.ImageBuf(np.ascontiguousarray(0.3 + noise)).write(out)
+print("\\x1b[0m" + json.dumps({"sampler": sampler, "median_s": 0.01 * spp}))  # after colour codes, as Mitsuba
+"""
+
+
+def test_peer_rows_beside_ours(tmp_path):
+    script = tmp_path / "peer.py"
+    script.write_text(FAKE_PEER)
+    text = io.StringIO()
+    result = converge(CORNELL, ["random"], 16, tmp_path / "out", width=8, height=8, light_samples=1,
+                      reference_spp=64, out=text, clamp=True, peer_samplers=["independent", "stratified"],
+                      peer=f"{sys.executable} {script} {{sampler}} {{spp}} {{out}}")
+    peer = [r for r in result["rows"] if r["sampler"].startswith("peer:")]
+    assert [(r["sampler"], r["spp"], r["seconds"]) for r in peer] == [
+        (f"peer:{s}", n, 0.01 * n) for s in ("independent", "stratified") for n in (4, 16)]
+    assert all(r["rmse"] > 0 for r in peer) and peer[0]["rmse"] > peer[1]["rmse"]  # less noise with more spp
+    assert [t["rmse"] for t in result["race"]] == [0.05, 0.02, 0.01, 0.005]
+    assert "peer:stratified" in (tmp_path / "out" / "converge.csv").read_text()
+
+
+@pytest.mark.parametrize("peer, message", [
+    ("echo {sampler} {spp}", "needs the placeholder {out}"),
+    ("echo {sampler} {spp} {out}", "no JSON line with median_s"),
+])
+def test_bad_peers_are_one_line(tmp_path, peer, message):
+    """Also: fewer than 4 samples leave the peer nothing to measure."""
+    with pytest.raises(InputError, match="--max-spp = 1: must be at least 4 with --peer"):
+        converge(CORNELL, ["random"], 1, tmp_path / "x", peer="{sampler}{spp}{out}", out=io.StringIO())
+    with pytest.raises(InputError, match="--peer") as e:
+        converge(CORNELL, ["random"], 4, tmp_path / "out", width=8, height=8, light_samples=1, reference_spp=16,
+                 out=io.StringIO(), peer=peer, peer_samplers=["independent"])
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_time_to_reach_interpolates_log_log():
+    """Errors 0.04 at 1 s and 0.01 at 4 s: the slope is -1, so 0.02 is reached at 2 s; 0.04 at once; 0.005
+    never; of two patterns the faster counts."""
+    rows = [{"sampler": "a", "seconds": 1.0, "rmse": 0.04}, {"sampler": "a", "seconds": 4.0, "rmse": 0.01},
+            {"sampler": "b", "seconds": 3.0, "rmse": 0.02}]
+    assert np.isclose(time_to_reach(rows, 0.02), 2.0)
+    assert time_to_reach(rows, 0.04) == 1.0 and time_to_reach(rows, 0.005) is None
+    table = race(rows + [{"sampler": "peer:x", "seconds": 8.0, "rmse": 0.02}], [0.02])
+    assert np.isclose(table[0]["ratio"], 2.0 / 8.0)
