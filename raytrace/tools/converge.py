@@ -37,7 +37,7 @@ from ..outputs import Outputs, scene_inputs, write_json
 from ..renderer.image import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
 from ..scene import load_scene
-from .converge_peer import PEER_FIRST_SPP, PEER_SAMPLERS, check_template, peer_rows, race
+from .converge_peer import PEER_SAMPLERS, check_template, peer_rows, race
 
 CLI = "command line"
 COLUMNS = ("sampler", "spp", "seconds", "rmse", "estimated_rmse", "flip")
@@ -291,8 +291,6 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     names = check_samplers(samplers)
     if peer is not None:
         check_template(peer)
-        if max_spp < PEER_FIRST_SPP:
-            raise InputError(CLI, "--max-spp", max_spp, f"must be at least {PEER_FIRST_SPP} with --peer")
     error = clamped_rmse if clamp else rmse
     _check_range(max_spp, "--max-spp", 1, MAX_SPP)
     _check_range(reference_spp, "--reference-spp", 1, MAX_SPP)

@@ -4,9 +4,10 @@ and the time each side needs to reach an error.
 TEMPLATE is a shell command with the placeholders {sampler}, {spp} and {out}: it renders the scene at the
 study's size with that sampler and pixel sample count, writes a linear EXR to {out}, and prints as its last
 line a JSON object whose `median_s` is the render's own time (without loading the scene or compiling), as
-`converge` times its own renders (their passes alone), and may say its `spp` (the count it took). Mitsuba 3's
-script beside this project's peers does that with --sampler, --spp and --out. The peer's patterns are
-measured at 4, 16, 64, ... samples (squares and powers of two, which every Mitsuba sampler takes)."""
+`converge` times its own renders (their passes alone), and may say its `spp`, the count it took (Mitsuba's
+ldsampler rounds 1 up to 4: that render then counts once). Mitsuba 3's script beside this project's peers
+does that with --sampler, --spp and --out. The peer's patterns are measured at 1, 4, 16, ... samples
+(squares and powers of two, which every Mitsuba sampler takes)."""
 import json
 import shlex
 import subprocess
@@ -18,7 +19,6 @@ import numpy as np
 from ..errors import InputError
 
 PEER_SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler")
-PEER_FIRST_SPP = 4  # Mitsuba's ldsampler takes no fewer (it rounds 1 up to 4)
 
 
 def check_template(template):
@@ -47,16 +47,18 @@ def peer_rows(template, names, max_spp, reference, box, error, flip, read_image)
     rows = []
     with tempfile.TemporaryDirectory(prefix="converge-peer-") as tmp:
         for name in names:
-            spp = PEER_FIRST_SPP
+            spp = 1
             while spp <= max_spp:
                 out = Path(tmp) / f"{name}-{spp}.exr"
                 seconds, facts = run_peer(template, name, spp, out)
+                took, spp = facts.get("spp", spp), spp * 4
+                if rows and rows[-1]["sampler"] == f"peer:{name}" and rows[-1]["spp"] == took:
+                    continue  # rounded up to the count measured before (Mitsuba's ldsampler: 1 to 4)
                 image = read_image(out)
-                rows.append({"sampler": f"peer:{name}", "spp": facts.get("spp", spp), "seconds": seconds,
+                rows.append({"sampler": f"peer:{name}", "spp": took, "seconds": seconds,
                              "rmse": error(image, reference),
                              "estimated_rmse": None, "flip": flip(image, reference), "crop": image[box],
                              "crop_rmse": error(image[box], reference[box])})
-                spp *= 4
     return rows
 
 
