@@ -48,7 +48,7 @@ MIN_MONTAGE_SECONDS = 0.05
 # floor, and the corner where the floor meets the green wall.
 DEFAULT_CROP = (0.70, 0.72, 0.18, 0.18)
 OUTPUTS = ["converge.csv", "converge.png", "montage.png"]
-RACE_LEVELS = (0.05, 0.02, 0.01, 0.005)  # RMSE levels at which --peer's times are set beside ours
+RACE_LEVELS = (0.05, 0.02, 0.01, 0.005, 0.002, 0.001)  # RMSE levels at which --peer's times are set beside ours
 REFERENCE_OUTPUTS = ["reference.exr", "reference.json"]  # when the reference is rendered here
 
 
@@ -321,7 +321,8 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         seconds = montage_seconds or montage_seconds_default(rows)
         panels = montage(names, rows, seconds)
         write_outputs(outputs, files, rows, names, panels, reference, facts, box,
-                      f"{Path(scene_path).name}: {width} x {height}, {light_samples} light samples", seconds, metadata)
+                      f"{Path(scene_path).name}: {width} x {height}, {light_samples} light samples"
+                      + (", images clamped to [0, 1]" if clamp else ""), seconds, metadata)
         outputs.commit()
     paths = [Path(out_dir) / name for name in names_out]
     print_table(rows, out)
