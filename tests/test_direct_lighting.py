@@ -7,6 +7,7 @@ estimate (its own key, random light samples), so the mean over lanes differs fro
 about its standard error, SE = sd / sqrt(lanes). The tests allow 5 SE (a chance of about 6e-7 per case for a
 normal mean; with 512 lanes the central limit holds well for these bounded-variance cases), plus the float32
 rounding of each sample's geometry term, a few ulp relative, far below that: 1e-5 relative."""
+import dataclasses
 import re
 import tomllib
 
@@ -216,3 +217,18 @@ def test_shading_from_the_command_line(cornell):
     assert "-DHAS_DIRECT_LIGHTING=1" in stats.build_options and not np.array_equal(direct, phong)
     with pytest.raises(InputError, match="--shading = 'pbr'"):
         raytrace.render(cornell, width=16, height=16, shading="pbr")
+
+
+def test_textures_in_the_direct_model(cornell):
+    """textured_cornell.toml (colour, normal and height maps, a BVH) shaded by direct lighting: the maps
+    are compiled in beside it, the image is finite, and its colour maps show (a textured scene differs from
+    the same scene with every map removed)."""
+    scene = raytrace.load_scene(cornell.path.replace("cornell.toml", "textured_cornell.toml"))
+    options = dict(width=48, height=48, spp=4, light_samples=4, shading="direct")
+    image, stats = raytrace.render(scene, **options)
+    assert {"-DHAS_DIRECT_LIGHTING=1", "-DHAS_COLOUR_MAPS=1", "-DHAS_NORMAL_MAPS=1", "-DHAS_HEIGHT_MAPS=1"} <= \
+        set(stats.build_options)
+    assert np.isfinite(image).all() and stats.extra["nonfinite_values"] == 0 and image.mean() > 0
+    plain = [dataclasses.replace(m, colour_map=-1, normal_map=-1, height_map=-1) for m in scene.materials]
+    untextured, _ = raytrace.render(dataclasses.replace(scene, materials=plain), **options)
+    assert np.abs(image - untextured).mean() > 0.1 * image.mean()  # the light of colour 1 is a dim radiance
