@@ -40,7 +40,7 @@ def test_peer_rows_beside_ours(tmp_path):
 
 @pytest.mark.parametrize("peer, message", [
     ("echo {sampler} {spp}", "needs the placeholder {out}"),
-    ("echo {sampler} {spp} {out}", "no JSON line with median_s"),
+    ("echo {sampler} {spp} {out}", "no JSON object with a positive median_s"),
 ])
 def test_bad_peers_are_one_line(tmp_path, peer, message):
     with pytest.raises(InputError, match="--peer") as e:

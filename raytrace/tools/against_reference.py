@@ -16,17 +16,16 @@ from .. import load_scene
 from ..numerics import rmse
 from ..render import render_progressive
 from ..renderer.image import write_image_file
-from .converge import read_reference
+from .converge import clamped_rmse, read_reference
 
 DIFFERENCE_GAIN = 10.0
 
 
 def compare(ours, reference):
     """The figures of `ours` against `reference` (H x W x 3, linear)."""
-    clamp = lambda a: np.clip(a, 0.0, 1.0)  # noqa: E731
-    return {"rmse_clamped": rmse(clamp(ours), clamp(reference)), "rmse": rmse(ours, reference),
+    return {"rmse_clamped": clamped_rmse(ours, reference), "rmse": rmse(ours, reference),
             "mean_ours": ours.reshape(-1, 3).mean(0).tolist(), "mean_reference": reference.reshape(-1, 3).mean(0).tolist(),
-            "max_abs_clamped": float(np.abs(clamp(ours) - clamp(reference)).max())}
+            "max_abs_clamped": float(np.abs(np.clip(ours, 0.0, 1.0) - np.clip(reference, 0.0, 1.0)).max())}
 
 
 def side_by_side(ours, reference):

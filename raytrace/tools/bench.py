@@ -159,20 +159,21 @@ def machine(device, target):
             "cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version()}
 
 
-def run_peer(command):
-    """Another renderer's benchmark, run by the shell: its last line of output must be a JSON object with
-    its `mrays_per_s` counted the nominal way (every shadow ray of every camera ray). A command that does not
-    keep that promise is bad input: InputError naming --peer."""
+def run_peer(command, field="mrays_per_s"):
+    """Another renderer's benchmark, run by the shell: its last line of output must be a JSON object (after
+    any colour codes a logger left on the line) with a positive `field`: for bench, its `mrays_per_s` counted
+    the nominal way (every shadow ray of every camera ray); for converge --peer, its render's `median_s`. A
+    command that does not keep that promise is bad input: InputError naming --peer."""
     done = subprocess.run(command, shell=True, capture_output=True, text=True, errors="replace")
     lines = done.stdout.strip().splitlines()
     try:
-        result = json.loads(lines[-1])
-        if not 0 < float(result["mrays_per_s"]) < math.inf:
-            raise ValueError("not a positive rate")
+        result = json.loads(lines[-1][lines[-1].index("{"):])
+        if not 0 < float(result[field]) < math.inf:
+            raise ValueError("not a positive number")
     except (IndexError, ValueError, KeyError, TypeError):
         last = (done.stderr.strip().splitlines() or lines or ["no output"])[-1]
         raise InputError("command line", "--peer", command, f"its last line of output is no JSON object with a "
-                         f"positive mrays_per_s (exit status {done.returncode}): {last}") from None
+                         f"positive {field} (exit status {done.returncode}): {last[:200]}") from None
     return result
 
 

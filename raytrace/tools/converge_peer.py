@@ -8,15 +8,14 @@ line a JSON object whose `median_s` is the render's own time (without loading th
 ldsampler rounds 1 up to 4: that render then counts once). Mitsuba 3's script beside this project's peers
 does that with --sampler, --spp and --out. The peer's patterns are measured at 1, 4, 16, ... samples
 (squares and powers of two, which every Mitsuba sampler takes)."""
-import json
 import shlex
-import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
+from . import bench
 
 PEER_SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler")
 
@@ -28,17 +27,10 @@ def check_template(template):
 
 
 def run_peer(template, sampler, spp, out):
-    """The peer's render: (seconds, its stdout's JSON); InputError naming --peer when it fails."""
-    command = template.format(sampler=shlex.quote(sampler), spp=spp, out=shlex.quote(str(out)))
-    result = subprocess.run(command, shell=True, capture_output=True, text=True)
-    lines = result.stdout.strip().splitlines()
-    try:  # the object may follow a logger's colour codes on its line
-        facts = json.loads(lines[-1][lines[-1].index("{"):])
-        seconds = float(facts["median_s"])
-    except (IndexError, ValueError, KeyError, TypeError):
-        raise InputError("command line", "--peer", command, f"exit status {result.returncode}, no JSON line with "
-                         f"median_s: {(result.stderr.strip().splitlines() or ['no output'])[-1][:200]}") from None
-    return seconds, facts
+    """The peer's render: (seconds, its JSON); InputError naming --peer when it fails (bench.run_peer)."""
+    facts = bench.run_peer(template.format(sampler=shlex.quote(sampler), spp=spp, out=shlex.quote(str(out))),
+                           "median_s")
+    return float(facts["median_s"]), facts
 
 
 def peer_rows(template, names, max_spp, reference, box, error, flip, read_image):
