@@ -22,39 +22,30 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
     return vmax(ndotl, 0.0f) + phong_power(vmin(vmax(v3_dot(r, v), 0.0f), 1.0f), shininess);
 }
 
-/* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. The light
- * samples come from the light sample pattern, randomised under `key` and the light's index. A light
- * sample counts where it lies above both the surface (ng: else the surface itself would block it) and the
- * shading normal (n: the lobes of a bumped surface). */
+/* A light sample counts where it lies above both the surface (ng: else the surface itself would block it) and
+ * the shading normal (n: the lobes of a bumped surface); it weighs its Phong lobes, and the light 1 / N. */
+inline vint sample_counts(ShadingPoint sp, vec3 q, vec3 light_normal)
+{
+    vec3 l = v3_direction(v3_sub(q, sp.p));
+    return (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f);
+}
+
+inline vfloat sample_weight(ShadingPoint sp, vec3 q, vec3 light_normal, vec3 v)
+{
+    return phong_lobes(sp.n, v3_direction(v3_sub(q, sp.p)), v, sp.shininess);
+}
+
+inline float light_scale(__global const Light *light) { return 1.0f; }
+
+#include "light_sampling.cl"
+
+/* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. */
 inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const uint2 *light_samples,
                   vuint key, vfloat *rays)
 {
     vint surface = (hit.t < INFINITY) & (hit.material >= 0);
-    vec3 origin = offset_ray_origin(sp.p, sp.err, sp.ng); /* every lit sample is on ng's side */
-    vec3 v = v3_scale(r.d, -1.0f);
-    vec3 direct = v3_splat(0.0f, 0.0f, 0.0f);
-    int n_samples = s->params->light_samples;
-    for (int li = 0; li < s->params->n_lights && ANY(surface); ++li) {
-        __global const Light *light = &s->lights[li];
-        vuint light_key = stream_key(key, li);
-        vec3 light_normal = v3_uniform(light->shape.normal);
-        vfloat q_err = light_point_error(light);
-        uint skip = rectangles_out_of_reach(s, light, origin, surface);
-        vfloat sum = 0.0f;
-        for (int j = 0; j < n_samples; ++j) {
-            vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
-            vec3 l = v3_direction(v3_sub(q, sp.p));
-            vint lit = surface & (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f);
-            if (!ANY(lit))
-                continue;
-            *rays += MASK_TO_ONE(lit);
-            lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal), skip, lit);
-            sum += SELECT((vfloat)(0.0f), phong_lobes(sp.n, l, v, sp.shininess), lit);
-        }
-        direct = v3_madd(direct, sum * (1.0f / n_samples), v3_uniform(light->colour));
-    }
-    vec3 ambient = v3_uniform(s->params->ambient);
-    vec3 colour = v3_mul(sp.k, v3_add(ambient, direct));
+    vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), surface, light_samples, key, rays);
+    vec3 colour = v3_mul(sp.k, v3_add(v3_uniform(s->params->ambient), direct));
     return v3_select(hit.emitted, colour, surface);
 }
 
