@@ -8,7 +8,6 @@ scheduler spends on a task that does nothing (ms a task, submitted and gathered 
 table and writes JSON (--json)."""
 import argparse
 import json
-import os
 import sys
 import time
 
@@ -16,6 +15,7 @@ import numpy as np
 
 from .. import load_scene
 from ..render import render_progressive
+from ..renderer.distributed import client_for, close_all
 from ..renderer.progressive import Accumulator
 
 DEFAULT = dict(width=2048, height=2048, spp=64, progress=False)
@@ -48,13 +48,8 @@ def task_cost(client, n=2000):
 
 
 def measure(scene_paths, options, out=sys.stdout):
-    from dask.distributed import Client, LocalCluster
     rows = []
-    clusters = {n: LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                env={"POCL_MAX_PTHREAD_COUNT": str(max(1, (os.cpu_count() or 1) // n))},
-                                silence_logs=40)
-                for n in (1, 2)}
-    clients = {n: Client(c) for n, c in clusters.items()}
+    clients = {n: client_for(f"local:{n}") for n in (1, 2)}  # as --scheduler local:N starts them
     try:
         for path in scene_paths:
             scene = load_scene(path)
@@ -73,9 +68,7 @@ def measure(scene_paths, options, out=sys.stdout):
         print(f"client merge: {rates['merge_mb_per_s']:.0f} MB/s of float32 sums; scheduler: "
               f"{rates['task_ms']:.2f} ms a task", file=out, flush=True)
     finally:
-        for n in clients:
-            clients[n].close()
-            clusters[n].close()
+        close_all()
     return {"options": {k: v for k, v in options.items() if k != "progress"}, "scenes": rows, **rates}
 
 
