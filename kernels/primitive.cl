@@ -64,7 +64,7 @@ inline void hit_rectangle(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
 }
 
 #if HAS_TRIANGLES
-inline void hit_triangle(const Scene *s, Hit *hit, Ray r, RayShear shear, int i, vfloat tmax)
+ALWAYS_INLINE void hit_triangle(const Scene *s, Hit *hit, Ray r, RayShear shear, int i, vfloat tmax)
 {
     __global const Triangle *tri = &s->triangles[i];
     vfloat dt, b0, b1, b2, err;
@@ -103,7 +103,7 @@ inline vint blocks_rectangle(const Scene *s, Ray r, int i)
 }
 
 #if HAS_TRIANGLES
-inline vint blocks_triangle(const Scene *s, Ray r, RayShear shear, int i)
+ALWAYS_INLINE vint blocks_triangle(const Scene *s, Ray r, RayShear shear, int i)
 {
     vfloat dt, b0, b1, b2;
     return hit_on_segment(intersect_triangle(&s->triangles[i], r, shear, &dt, &b0, &b1, &b2), dt);
@@ -167,7 +167,7 @@ inline RayShear triangle_shear(PrimitiveRay *p)
 #endif
 
 /* The closest-hit test of primitive `index` of `kind` (SHAPE_*), merged into *hit; tmax bounds t. */
-inline void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int kind, int index, vfloat tmax)
+ALWAYS_INLINE void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int kind, int index, vfloat tmax)
 {
 #if HAS_TRIANGLES
     if (kind == SHAPE_TRIANGLE)
@@ -184,7 +184,7 @@ inline void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int kind, i
 }
 
 /* The lanes whose shadow segment primitive `index` of `kind` blocks; a `skip`ped rectangle blocks none. */
-inline vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, int index, uint skip)
+ALWAYS_INLINE vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, int index, uint skip)
 {
 #if HAS_TRIANGLES
     if (kind == SHAPE_TRIANGLE)

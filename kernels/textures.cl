@@ -44,7 +44,7 @@ inline vfloat channel8(vuint word, int shift) { return CONVERT_VFLOAT(AS_VINT((w
 
 /* Texel (i, j) of each lane's level, decoded to linear RGB: one load per lane and word (three more through
  * the sRGB table), the decoding on lanes. Inlined: its result would otherwise pass through memory. */
-__attribute__((always_inline)) inline vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
+ALWAYS_INLINE vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
 {
     int at[LANES];
     float r[LANES], g[LANES], b[LANES];
