@@ -11,7 +11,7 @@ launch and output buffer already are, and its rows are contiguous in the client'
 
 A worker builds its OpenCL context, the program and the scene's device buffers once per scene and options
 (contexts cannot be pickled): `_device_renders` keeps them per worker process, keyed by a digest of the
-pickled scene and options. Tasks carry their pass and band in their arguments and are submitted with
+scene and options, which the client pickles once and scatters as bytes to every worker. Tasks carry their pass and band in their arguments and are submitted with
 pure=False, so Dask never merges two of them. A worker that dies loses nothing but time: the scheduler
 runs its tasks again elsewhere, with the same arguments and so the same sums.
 
@@ -75,18 +75,21 @@ def close_all():
             cluster.close()
 
 
-def scene_digest(scene, options):
-    """The key of a worker's DeviceRender: the scene and every option that reaches the device."""
-    return hashlib.sha256(pickle.dumps((scene, options))).hexdigest()
+def pickled_render(scene, options):
+    """(bytes, digest): the scene and every option that reaches the device, pickled once, and the key of a
+    worker's DeviceRender for them."""
+    payload = pickle.dumps((scene, options))
+    return payload, hashlib.sha256(payload).hexdigest()
 
 
-def render_band(scene, options, resolved, digest, sample0, n, row0, rows):
+def render_band(payload, resolved, digest, sample0, n, row0, rows):
     """On a worker: the float32 sums of pixel samples [sample0, sample0 + n) over `rows` rows from row0, the
-    rays traced, the kernel seconds, and what the statistics say of the worker's device. `resolved` is the
-    client's render.Resolved: the options checked once, against the client's scene file."""
+    rays traced, the kernel seconds, and what the statistics say of the worker's device. `payload` is
+    pickled_render's, unpickled once per worker and render; `resolved` is the client's render.Resolved: the
+    options checked once, against the client's scene file."""
     if digest not in _device_renders:
         _device_renders.clear()  # one scene at a time: device memory is the worker's to keep small
-        _device_renders[digest] = DeviceRender(scene, options, resolved)
+        _device_renders[digest] = DeviceRender(*pickle.loads(payload), resolved)
     d = _device_renders[digest]
     d.set_samples(sample0, n)
     sums, rays, seconds = d.bands.run_band(d.queue, d.args, row0, rows)
@@ -99,14 +102,14 @@ class DaskPasses:
 
     def __init__(self, client, scene, options, resolved, bands):
         self.client, self.passes, self.bands, self.resolved = client, resolved.passes, bands, resolved
-        self.options = dataclasses.replace(options, scheduler=None, client=None, progress=False)
-        self.digest = scene_digest(scene, self.options)
-        self.scene = client.scatter(scene, broadcast=True, hash=False)
+        payload, self.digest = pickled_render(
+            scene, dataclasses.replace(options, scheduler=None, client=None, progress=False))
+        self.payload = client.scatter(payload, broadcast=True, hash=False)
         self.futures, self.last_info = {}, None
 
     def _submit(self, k):
         sample0, n = self.passes[k]
-        self.futures[k] = [self.client.submit(render_band, self.scene, self.options, self.resolved, self.digest,
+        self.futures[k] = [self.client.submit(render_band, self.payload, self.resolved, self.digest,
                                               sample0, n, row0, rows, pure=False) for row0, rows in self.bands]
 
     def run_pass(self, k, acc):

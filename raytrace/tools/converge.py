@@ -195,7 +195,7 @@ def _pyplot():
     return plt
 
 
-def plot_convergence(rows, names, reference_facts, title, path):
+def plot_convergence(rows, names, reference_facts, title, path, values="linear"):
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=100)
     for name in names:
@@ -209,7 +209,7 @@ def plot_convergence(rows, names, reference_facts, title, path):
                    label=f"the reference's own estimated RMSE, {reference_facts['estimated_rmse']:.2e}\n"
                          "(two halves of passes: an overestimate for sobol)")
     ax.set_xlabel("seconds (the render's passes; kernel build excluded)")
-    ax.set_ylabel("RMSE against the reference (linear)")
+    ax.set_ylabel(f"RMSE against the reference ({values})")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="lower left")
@@ -263,14 +263,16 @@ def print_table(rows, out):
               f"{r['flip']:>9.4f}", file=out)
 
 
-def write_outputs(outputs, files, rows, names, panels, reference, facts, box, title, seconds, metadata=None):
+def write_outputs(outputs, files, rows, names, panels, reference, facts, box, title, seconds, metadata=None,
+                  values="linear"):
     """converge.csv, converge.png and montage.png, and with `metadata` the rendered reference's
-    reference.exr and reference.json, into their reserved temporaries `files` (by name) of `outputs`."""
+    reference.exr and reference.json, into their reserved temporaries `files` (by name) of `outputs`; the
+    errors are of `values` (linear, or clamped to [0, 1])."""
     ys, xs = box
     caption = (f"{title}; the crop: pixels x {xs.start}..{xs.stop - 1}, y {ys.start}..{ys.stop - 1}.\nEach pattern's "
-               f"longest measured render within {seconds:.3g} s; RMSE over the crop against the reference (linear).")
+               f"longest measured render within {seconds:.3g} s; RMSE over the crop against the reference ({values}).")
     writers = {"converge.csv": lambda path: write_csv(rows, path),
-               "converge.png": lambda path: plot_convergence(rows, names, facts, title, path),
+               "converge.png": lambda path: plot_convergence(rows, names, facts, title, path, values),
                "montage.png": lambda path: draw_montage(panels, reference[box], facts, caption, path),
                "reference.exr": lambda path: write_image_file(path, reference, metadata),
                "reference.json": lambda path: write_json(path, facts)}
@@ -321,8 +323,8 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         seconds = montage_seconds or montage_seconds_default(rows)
         panels = montage(names, rows, seconds)
         write_outputs(outputs, files, rows, names, panels, reference, facts, box,
-                      f"{Path(scene_path).name}: {width} x {height}, {light_samples} light samples"
-                      + (", images clamped to [0, 1]" if clamp else ""), seconds, metadata)
+                      f"{Path(scene_path).name}: {width} x {height}, {light_samples} light samples", seconds,
+                      metadata, "clamped to [0, 1]" if clamp else "linear")
         outputs.commit()
     paths = [Path(out_dir) / name for name in names_out]
     print_table(rows, out)
