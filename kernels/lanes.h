@@ -92,9 +92,10 @@ inline vfloat vcopysign(vfloat x, vfloat s)
 {
     return AS_VFLOAT((AS_VUINT(x) & 0x7fffffffU) | (AS_VUINT(s) & 0x80000000U));
 }
-/* Whether any (all) lanes of a mask are set. Clang's reductions of a comparison's mask compile to one
- * kortest (AVX-512) or movmsk (AVX2) where the shuffles below take ten instructions; ANY is the traversal's
- * branch at every node (bvh.cl). Compilers without them take the shuffles. */
+/* Whether any (all) lanes of a mask are set. Clang's reductions of a comparison's mask compile to one mask
+ * test (ktestw with AVX-512, in perf annotate) where the shuffles below take ten instructions; ANY is the
+ * traversal's branch at every node (bvh.cl). They are Clang builtins, not an OpenCL extension: a compiler
+ * without them takes the shuffles. */
 #ifdef __has_builtin
 #if __has_builtin(__builtin_reduce_or) && __has_builtin(__builtin_reduce_and) && LANES > 1
 #define HAS_REDUCE 1

@@ -60,8 +60,8 @@ inline vfloat triangle_t_error(vec3 a, vec3 b, vec3 c, vec3 e, vfloat inv_det, v
 }
 
 /* t of the hit or +inf; *dt: a bound on t's error; *b0, *b1, *b2: the barycentric weights of v0, v1, v2. */
-ALWAYS_INLINE vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s, vfloat *dt, vfloat *b0,
-                                 vfloat *b1, vfloat *b2)
+ALWAYS_INLINE vfloat intersect_triangle(__global const Triangle *tri, Ray r, RayShear s, vfloat *dt,
+                                        vfloat *b0, vfloat *b1, vfloat *b2)
 {
     /* No fused multiply-add in the edge functions: e(a, b) must be exactly -e(b, a), so that the two
      * triangles sharing an edge see the same value with opposite signs. */
