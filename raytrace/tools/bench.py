@@ -3,7 +3,9 @@
 Per scene: rays per second of the renderer's kernel (as `render` picks it for the device) against the
 scalar kernel (LANES=1) on the same device in the same process, so that machines and loads cancel out in
 the ratio; then the whole `python -m raytrace render` in child processes, with an empty kernel cache
-(cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory."""
+(cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory.
+The scenes' own renders are taken in turns (one of each, then again), so that each scene's time against
+the first's is measured in the same minutes: a shared machine's speed drifts by 10-20% over minutes."""
 import json
 import math
 import os
@@ -49,6 +51,21 @@ def cpu_model():
 def _features(scene, kwargs):
     """The kernel variant `render` picks for the scene on the device."""
     return Features.of(scene, default_lanes(select_device(kwargs.get("device"))))
+
+
+def in_turns(scenes, repeat, kwargs):
+    """Each scene's best of `repeat` renders (RenderStats) by the kernel `render` picks, taken in turns:
+    every scene once, then every scene again, so that a slow spell of the machine falls on all of them."""
+    features = [_features(scene, kwargs) for scene in scenes]
+    for scene, f in zip(scenes, features):
+        render(scene, **kwargs, features=f, progress=False)  # build and first launch (code generation): not timed
+    best = [None] * len(scenes)
+    for _ in range(repeat):
+        for k, (scene, f) in enumerate(zip(scenes, features)):
+            stats = render(scene, **kwargs, features=f, progress=False)[1]
+            if best[k] is None or stats.render_seconds < best[k].render_seconds:
+                best[k] = stats
+    return best
 
 
 def _best(scene, repeat, **kwargs):
@@ -104,12 +121,10 @@ def _processes(scene_path, kwargs):
         return run_child(scene_path, kwargs, cache, Path(tmp)), run_child(scene_path, kwargs, cache, Path(tmp))
 
 
-def measure(scene_path, scene, repeat, kwargs):
-    """One row of the table (and of the JSON)."""
+def measure(scene_path, scene, repeat, kwargs, stats):
+    """One row of the table (and of the JSON), around `stats`, the scene's best render from in_turns."""
     say = lambda what: print(f"bench: {scene_path}: {what}", file=sys.stderr, flush=True)  # noqa: E731
     features = _features(scene, kwargs)
-    say(f"LANES={features.lanes}, best of {repeat}")
-    stats = _best(scene, repeat, features=features, **kwargs)
     say(f"scalar baseline (LANES=1), best of {repeat}")
     scalar = _best(scene, repeat, features=Features.of(scene, 1), **kwargs)
     say("child processes, cold and warm kernel cache")
@@ -135,6 +150,7 @@ COLUMNS = [("scene", lambda r: r["scene"]),
            ("Mrays/s", lambda r: f"{r['mrays_per_s']:.2f}"),
            ("nominal Mrays/s", lambda r: f"{r['nominal_mrays_per_s']:.2f}"),
            ("render s", lambda r: f"{r['render_seconds']:.3f}"),
+           ("x first's s", lambda r: f"{r['time_ratio_to_first']:.2f}"),
            ("build cold s", lambda r: f"{r['build_seconds_cold']:.2f}"),
            ("build warm s", lambda r: f"{r['build_seconds_warm']:.2f}"),
            ("process cold s", lambda r: f"{r['process_seconds_cold']:.2f}"),
@@ -188,7 +204,11 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, outpu
         width, height = resolve(scene, RenderOptions(**kwargs))[:2]
         check_memory(width, height)
     select_device(kwargs.get("device"))
-    rows = [measure(path, scene, repeat, kwargs) for path, scene in scenes]
+    print(f"bench: every scene's render, best of {repeat}, in turns", file=sys.stderr, flush=True)
+    best = in_turns([scene for _, scene in scenes], repeat, kwargs)
+    rows = [measure(path, scene, repeat, kwargs, stats) for (path, scene), stats in zip(scenes, best)]
+    for row in rows:
+        row["time_ratio_to_first"] = row["render_seconds"] / rows[0]["render_seconds"]
     info, first = machine(rows[0]["device"], rows[0]["target"]), rows[0]
     print(table(rows), file=out)
     print(f"{info['device']}; {first['width']}x{first['height']}, {first['spp']} spp x {first['light_samples']} "
