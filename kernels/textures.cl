@@ -3,7 +3,7 @@
  * All levels of all textures live in one buffer of 32-bit words (the host packs them; raytrace/mipmap.py).
  * 8-bit textures keep one word per RGBA texel on the device, a quarter of float4's memory and bandwidth,
  * and are decoded here: sRGB colour maps through a 256-entry table (exact, and cheaper than pow), data
- * maps by / 255. Coordinates follow OpenImageIO's (s, t): texel (i, j), row j from the top, has its centre
+ * maps by / 255. Height maps hold each texel's quad (types.h): a bilinear lookup reads one texel. Coordinates follow OpenImageIO's (s, t): texel (i, j), row j from the top, has its centre
  * at ((i + 1/2) / W, (j + 1/2) / H); the renderer's v runs up the image, so t = 1 - v.
  *
  * The texture is the same for every lane (material.cl groups lanes by material); the points, and so the
@@ -42,36 +42,84 @@ inline Levels mip_levels(TextureStore ts, int texture, vint level)
 /* The 8-bit channel at bit `shift` of each lane's word, as a float in [0, 255]. */
 inline vfloat channel8(vuint word, int shift) { return CONVERT_VFLOAT(AS_VINT((word >> shift) & 0xffU)); }
 
+/* The texel buffer's word at each lane's index: one load per lane. */
+ALWAYS_INLINE vuint texel_words(TextureStore ts, vint index)
+{
+    int at[LANES];
+    uint words[LANES];
+    VSTORE(index, at);
+    for (int k = 0; k < LANES; ++k)
+        words[k] = ts.texels[at[k]];
+    return VLOAD_UINT(words);
+}
+
 /* Texel (i, j) of each lane's level, decoded to linear RGB: one load per lane and word (three more through
- * the sRGB table), the decoding on lanes. Inlined: its result would otherwise pass through memory. */
+ * the sRGB table), the decoding on lanes; a height map's height thrice. Inlined: its result would otherwise
+ * pass through memory. */
 ALWAYS_INLINE vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
 {
     int at[LANES];
     float r[LANES], g[LANES], b[LANES];
     vint index = j * level.width + i;
-    if (encoding == TEXELS_FLOAT) {
+    if (encoding == TEXELS_FLOAT || encoding == TEXELS_QUADF) {
         VSTORE(level.offset + 4 * index, at);
         __global const float *texels = (__global const float *)ts.texels;
-        for (int k = 0; k < LANES; ++k) {
+        for (int k = 0; k < LANES; ++k)
             r[k] = texels[at[k]];
+        if (encoding == TEXELS_QUADF)
+            return v3(VLOAD(r), VLOAD(r), VLOAD(r));
+        for (int k = 0; k < LANES; ++k) {
             g[k] = texels[at[k] + 1];
             b[k] = texels[at[k] + 2];
         }
         return v3(VLOAD(r), VLOAD(g), VLOAD(b));
     }
+    vuint word = texel_words(ts, level.offset + index); /* r in the low byte */
+    if (encoding == TEXELS_UNORM8 || encoding == TEXELS_QUAD8) {
+        vec3 c = v3_scale(v3(channel8(word, 0), channel8(word, 8), channel8(word, 16)), (vfloat)(1.0f / 255.0f));
+        return encoding == TEXELS_QUAD8 ? v3(c.x, c.x, c.x) : c;
+    }
     uint words[LANES];
-    VSTORE(level.offset + index, at);
-    for (int k = 0; k < LANES; ++k)
-        words[k] = ts.texels[at[k]];
-    vuint word = VLOAD_UINT(words); /* r in the low byte */
-    if (encoding == TEXELS_UNORM8)
-        return v3_scale(v3(channel8(word, 0), channel8(word, 8), channel8(word, 16)), (vfloat)(1.0f / 255.0f));
+    VSTORE(word, words);
     for (int k = 0; k < LANES; ++k) {
         r[k] = ts.srgb_to_linear[words[k] & 0xffU];
         g[k] = ts.srgb_to_linear[(words[k] >> 8) & 0xffU];
         b[k] = ts.srgb_to_linear[(words[k] >> 16) & 0xffU];
     }
     return v3(VLOAD(r), VLOAD(g), VLOAD(b));
+}
+
+/* The heights of a height map's texel (i, j) and of its neighbours (i + 1, j), (i, j + 1), (i + 1, j + 1), from
+ * its quad (TEXELS_QUAD8 or TEXELS_QUADF): one texel read per lane, decoded as texel_fetch decodes each. */
+typedef struct { vfloat h00, h10, h01, h11; } Quad;
+
+ALWAYS_INLINE Quad quad_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
+{
+    Quad q;
+    vint index = j * level.width + i;
+    if (encoding == TEXELS_QUAD8) {
+        vuint word = texel_words(ts, level.offset + index);
+        q.h00 = channel8(word, 0) * (1.0f / 255.0f);
+        q.h10 = channel8(word, 8) * (1.0f / 255.0f);
+        q.h01 = channel8(word, 16) * (1.0f / 255.0f);
+        q.h11 = channel8(word, 24) * (1.0f / 255.0f);
+        return q;
+    }
+    int at[LANES];
+    float h00[LANES], h10[LANES], h01[LANES], h11[LANES];
+    VSTORE(level.offset + 4 * index, at);
+    __global const float *texels = (__global const float *)ts.texels;
+    for (int k = 0; k < LANES; ++k) {
+        h00[k] = texels[at[k]];
+        h10[k] = texels[at[k] + 1];
+        h01[k] = texels[at[k] + 2];
+        h11[k] = texels[at[k] + 3];
+    }
+    q.h00 = VLOAD(h00);
+    q.h10 = VLOAD(h10);
+    q.h01 = VLOAD(h01);
+    q.h11 = VLOAD(h11);
+    return q;
 }
 
 /* i mod n in [0, n). The callers' indices come from reduce_coordinate, within a period of [0, n), where one
@@ -123,7 +171,9 @@ inline vec3 texture_nearest(TextureStore ts, int encoding, Levels level, vec2 st
     return texel_fetch(ts, encoding, level, i, j);
 }
 
-/* Bilinear interpolation between the four texel centres around st in each lane's level. */
+/* Bilinear interpolation between the four texel centres around st in each lane's level. A height map reads
+ * one quad per lane where no lane's four texels wrap around an edge, and mixes its heights with the same
+ * operations as the four texels': the same result. */
 inline vec3 texture_bilinear(TextureStore ts, int encoding, Levels level, vec2 st, int wrap)
 {
     vfloat x = reduce_coordinate(st.x * CONVERT_VFLOAT(level.width) - 0.5f, level.width, wrap);
@@ -133,6 +183,12 @@ inline vec3 texture_bilinear(TextureStore ts, int encoding, Levels level, vec2 s
     vint ix = CONVERT_VINT(fx), iy = CONVERT_VINT(fy);
     vint i0 = wrap_index(ix, level.width, wrap), i1 = wrap_index(ix + 1, level.width, wrap);
     vint j0 = wrap_index(iy, level.height, wrap), j1 = wrap_index(iy + 1, level.height, wrap);
+    if ((encoding == TEXELS_QUAD8 || encoding == TEXELS_QUADF) && ALL((i1 == i0 + 1) & (j1 == j0 + 1))) {
+        Quad q = quad_fetch(ts, encoding, level, i0, j0);
+        vfloat top = MAD(wx, q.h10 - q.h00, q.h00), bottom = MAD(wx, q.h11 - q.h01, q.h01);
+        vfloat h = MAD(wy, bottom - top, top);
+        return v3(h, h, h);
+    }
     vec3 top = v3_mix(texel_fetch(ts, encoding, level, i0, j0), texel_fetch(ts, encoding, level, i1, j0), wx);
     vec3 bottom = v3_mix(texel_fetch(ts, encoding, level, i0, j1), texel_fetch(ts, encoding, level, i1, j1), wx);
     return v3_mix(top, bottom, wy);

@@ -84,6 +84,11 @@ typedef struct {
 #define TEXELS_SRGB8 0  /* RGBA8 in one word, r in the low byte, sRGB-encoded: decoded through a table */
 #define TEXELS_UNORM8 1 /* RGBA8 in one word, linear data (normal and height maps) */
 #define TEXELS_FLOAT 2  /* RGBA float32 in four words */
+/* Height maps, whose height is the first channel, store each texel's quad instead: its own height, then those
+ * of (i + 1, j), (i, j + 1) and (i + 1, j + 1), 0 beyond the level's edges, so that a bilinear lookup within
+ * the edges reads one texel instead of four (textures.cl). */
+#define TEXELS_QUAD8 3  /* four 8-bit heights in one word, the texel's own in the low byte */
+#define TEXELS_QUADF 4  /* four float32 heights in four words */
 
 typedef struct {
     int first_level, n_levels; /* its levels in the MipLevel table, finest first */

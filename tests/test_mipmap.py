@@ -67,8 +67,8 @@ def test_packed_layout():
                 make_texture(rng.random((9, 4, 1)).astype(np.float32), "float", "height"),
                 make_texture(rng.integers(0, 256, (3, 3, 3), dtype=np.uint8), "8-bit", "normal")]
     texels, levels, table = packing.pack_textures(textures)
-    assert table.tolist() == [(0, 3, 0), (3, 4, 2), (7, 2, 1)]
-    words = [(1 if t.encoding != structs.TEXELS_FLOAT else 4) for t in textures for _ in t.levels]
+    assert table.tolist() == [(0, 3, 0), (3, 4, structs.TEXELS_QUADF), (7, 2, 1)]
+    words = [structs.TEXEL_WORDS[t.encoding] for t in textures for _ in t.levels]
     end = 0
     for (offset, width, height), per_texel in zip(levels.tolist(), words):
         assert offset >= end and (per_texel == 1 or offset % 4 == 0)
@@ -82,7 +82,9 @@ def test_every_level_is_reachable(harness):
     in one packed buffer."""
     rng = np.random.default_rng(4)
     textures = [make_texture(rng.integers(0, 256, (8, 16, 3), dtype=np.uint8), "8-bit", "colour"),
-                make_texture(rng.random((16, 8, 3)).astype(np.float32), "float", "colour")]
+                make_texture(rng.random((16, 8, 3)).astype(np.float32), "float", "colour"),
+                make_texture(rng.integers(0, 256, (8, 16, 1), dtype=np.uint8), "8-bit", "height"),
+                make_texture(rng.random((16, 8, 1)).astype(np.float32), "float", "height")]
     for index, texture in enumerate(textures):
         levels = stored_levels(texture)
         w0, h0 = texture.size

@@ -50,7 +50,7 @@ def height_reach(scene, material):
     if material.height_map < 0:
         return 0.0
     texture = scene.textures[material.height_map]
-    if texture.encoding != structs.TEXELS_FLOAT:
+    if texture.encoding not in structs.FLOAT_TEXELS:
         return abs(material.height_scale)
     largest = max(float(np.abs(level[:, :, 0]).max()) for level in texture.levels)
     return abs(material.height_scale) * largest

@@ -175,7 +175,7 @@ def pack_textures(textures, source="scene"):
         texture_table.append((len(level_table), len(texture.levels), texture.encoding))
         for level in texture.levels:
             words = np.ascontiguousarray(level).view("<u4").ravel()
-            if texture.encoding == structs.TEXELS_FLOAT and offset % 4:
+            if texture.encoding in structs.FLOAT_TEXELS and offset % 4:
                 chunks.append(np.zeros(4 - offset % 4, np.uint32))
                 offset += 4 - offset % 4
             level_table.append((offset, level.shape[1], level.shape[0]))

@@ -74,3 +74,13 @@ def pyramid_8bit(codes, srgb):
     """Levels of an H x W x 4 uint8 image, filtered in linear values, each stored as 8-bit codes."""
     levels = pyramid(decode_8bit(codes, srgb))
     return [np.asarray(codes, np.uint8)] + [encode_8bit(level, srgb) for level in levels[1:]]
+
+
+def height_quads(level):
+    """An H x W x 4 level's first channel (a height map's heights) as quads, the layout of kernels/types.h's
+    TEXELS_QUAD8 and TEXELS_QUADF: each texel with its right, lower and lower-right neighbours' heights, 0
+    beyond the edges (where the neighbour depends on the wrap mode: the kernel reads those from the
+    neighbours' own texels). Same dtype as the level."""
+    h = np.zeros((level.shape[0] + 1, level.shape[1] + 1), level.dtype)
+    h[:-1, :-1] = level[..., 0]
+    return np.stack([h[:-1, :-1], h[:-1, 1:], h[1:, :-1], h[1:, 1:]], axis=2)

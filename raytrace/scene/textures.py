@@ -7,7 +7,9 @@ What the values mean:
 - 1 channel is grey, 2 are grey and alpha, 3 or 4 are RGB (and alpha); alpha is not used.
 
 8-bit textures stay 8-bit on the device (one 32-bit word per RGBA texel, decoded in the kernel); the rest
-are stored as float32 RGBA.
+are stored as float32 RGBA. Height maps, whose height is the first channel, hold each texel's height and
+those of its right, lower and lower-right neighbours instead (kernels/types.h's TEXELS_QUAD8 and
+TEXELS_QUADF), so that a bilinear lookup reads one texel instead of four.
 
 A file that cannot be a texture is refused with one InputError naming the scene file, the key and the
 texture: unreadable or corrupt files (the libraries' own error line, captured from file descriptor 2 where
@@ -222,6 +224,9 @@ def make_texture(pixels, kind, role, path="<array>"):
         linear = srgb_to_linear(rgb) if role == "colour" and kind == "integer" else rgb.astype(np.float64)
         encoding = structs.TEXELS_FLOAT
         levels = [level.astype(np.float32) for level in mipmap.pyramid(_rgba(linear, 1.0))]
+    if role == "height":  # the height is the first channel: the texels hold their neighbours' instead
+        encoding = structs.TEXELS_QUAD8 if encoding == structs.TEXELS_UNORM8 else structs.TEXELS_QUADF
+        levels = [mipmap.height_quads(level) for level in levels]
     return Texture(path, role, encoding, levels)
 
 
