@@ -3,8 +3,9 @@
  * All levels of all textures live in one buffer of 32-bit words (the host packs them; raytrace/mipmap.py).
  * 8-bit textures keep one word per RGBA texel on the device, a quarter of float4's memory and bandwidth,
  * and are decoded here: sRGB colour maps through a 256-entry table (exact, and cheaper than pow), data
- * maps by / 255. Height maps hold each texel's quad (types.h): a bilinear lookup reads one texel. Coordinates follow OpenImageIO's (s, t): texel (i, j), row j from the top, has its centre
- * at ((i + 1/2) / W, (j + 1/2) / H); the renderer's v runs up the image, so t = 1 - v.
+ * maps by / 255. Height maps hold each texel's quad (types.h): a bilinear lookup reads one texel.
+ * Coordinates follow OpenImageIO's (s, t): texel (i, j), row j from the top, has its centre at
+ * ((i + 1/2) / W, (j + 1/2) / H); the renderer's v runs up the image, so t = 1 - v.
  *
  * The texture is the same for every lane (material.cl groups lanes by material); the points, and so the
  * levels and texels, differ per lane: the arithmetic runs on lanes, and only the loads are one per lane.
