@@ -16,16 +16,13 @@
 
 /* A light sample counts where it lies above the surface (ng and the shading normal n) and in front of the
  * light; it weighs cos(theta_s) cos(theta_l) / r^2, and the light A / pi over its N samples. */
-inline vint sample_counts(ShadingPoint sp, vec3 q, vec3 light_normal)
+inline vint sample_counts(ShadingPoint sp, vec3 l, vec3 light_normal)
 {
-    vec3 l = v3_direction(v3_sub(q, sp.p));
     return (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f) & (v3_dot(light_normal, l) < 0.0f);
 }
 
-inline vfloat sample_weight(ShadingPoint sp, vec3 q, vec3 light_normal, vec3 v)
+inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v)
 {
-    vec3 w = v3_sub(q, sp.p);
-    vec3 l = v3_direction(w);
     return v3_dot(sp.n, l) * -v3_dot(light_normal, l) / v3_dot(w, w);
 }
 

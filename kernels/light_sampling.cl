@@ -10,7 +10,8 @@
 #include "material.cl"
 
 /* sum over lights of colour (light_scale / N) sum_j V_j sample_weight_j, for the lanes of `surface`, seen
- * along -v; *rays counts the shadow rays traced per lane. */
+ * along -v; *rays counts the shadow rays traced per lane. The models see each sample as w = q - p and its unit
+ * direction l, formed once here. */
 inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __global const uint2 *light_samples,
                        vuint key, vfloat *rays)
 {
@@ -26,12 +27,13 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
             vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
-            vint lit = surface & sample_counts(sp, q, light_normal);
+            vec3 w = v3_sub(q, sp.p), l = v3_direction(w); /* towards the sample, and its unit direction */
+            vint lit = surface & sample_counts(sp, l, light_normal);
             if (!ANY(lit))
                 continue;
             *rays += MASK_TO_ONE(lit);
             lit &= !occluded(s, shadow_segment(origin, q, q_err, light_normal), skip, lit);
-            sum += SELECT((vfloat)(0.0f), sample_weight(sp, q, light_normal, v), lit);
+            sum += SELECT((vfloat)(0.0f), sample_weight(sp, w, l, light_normal, v), lit);
         }
         total = v3_madd(total, sum * (light_scale(light) / n_samples), v3_uniform(light->colour));
     }

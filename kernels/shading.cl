@@ -24,15 +24,14 @@ inline vfloat phong_lobes(vec3 n, vec3 l, vec3 v, vfloat shininess)
 
 /* A light sample counts where it lies above both the surface (ng: else the surface itself would block it) and
  * the shading normal (n: the lobes of a bumped surface); it weighs its Phong lobes, and the light 1 / N. */
-inline vint sample_counts(ShadingPoint sp, vec3 q, vec3 light_normal)
+inline vint sample_counts(ShadingPoint sp, vec3 l, vec3 light_normal)
 {
-    vec3 l = v3_direction(v3_sub(q, sp.p));
     return (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f);
 }
 
-inline vfloat sample_weight(ShadingPoint sp, vec3 q, vec3 light_normal, vec3 v)
+inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v)
 {
-    return phong_lobes(sp.n, v3_direction(v3_sub(q, sp.p)), v, sp.shininess);
+    return phong_lobes(sp.n, l, v, sp.shininess);
 }
 
 inline float light_scale(__global const Light *light) { return 1.0f; }
