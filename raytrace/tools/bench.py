@@ -53,10 +53,11 @@ def _features(scene, kwargs):
     return Features.of(scene, default_lanes(select_device(kwargs.get("device"))))
 
 
-def in_turns(scenes, repeat, kwargs):
-    """Each scene's best of `repeat` renders (RenderStats) by the kernel `render` picks, taken in turns:
-    every scene once, then every scene again, so that a slow spell of the machine falls on all of them."""
-    features = [_features(scene, kwargs) for scene in scenes]
+def in_turns(scenes, repeat, kwargs, features=None):
+    """Each scene's best of `repeat` renders (RenderStats) by its `features` (default: the kernel `render`
+    picks), taken in turns: every scene once, then every scene again, so that a slow spell of the machine
+    falls on all of them."""
+    features = features or [_features(scene, kwargs) for scene in scenes]
     for scene, f in zip(scenes, features):
         render(scene, **kwargs, features=f, progress=False)  # build and first launch (code generation): not timed
     best = [None] * len(scenes)
@@ -66,12 +67,6 @@ def in_turns(scenes, repeat, kwargs):
             if best[k] is None or stats.render_seconds < best[k].render_seconds:
                 best[k] = stats
     return best
-
-
-def _best(scene, repeat, **kwargs):
-    render(scene, **kwargs, progress=False)  # build and first launch (code generation): not timed
-    runs = [render(scene, **kwargs, progress=False)[1] for _ in range(repeat)]
-    return min(runs, key=lambda s: s.render_seconds)
 
 
 def _render_argv(kwargs):
@@ -126,7 +121,7 @@ def measure(scene_path, scene, repeat, kwargs, stats):
     say = lambda what: print(f"bench: {scene_path}: {what}", file=sys.stderr, flush=True)  # noqa: E731
     features = _features(scene, kwargs)
     say(f"scalar baseline (LANES=1), best of {repeat}")
-    scalar = _best(scene, repeat, features=Features.of(scene, 1), **kwargs)
+    [scalar] = in_turns([scene], repeat, kwargs, [Features.of(scene, 1)])
     say("child processes, cold and warm kernel cache")
     cold, warm = _processes(scene_path, kwargs)
     nominal = stats.width * stats.height * stats.spp * (1 + stats.light_samples * len(scene.lights))
@@ -234,7 +229,7 @@ def beside_peer(command, scene, first, repeat, kwargs):
     print(f"bench: --peer {command}", file=sys.stderr, flush=True)
     result = run_peer(command)
     print(f"bench: {first['scene']}: again, right after the peer, best of {repeat}", file=sys.stderr, flush=True)
-    again = _best(scene, repeat, features=_features(scene, kwargs), **kwargs)
+    [again] = in_turns([scene], repeat, kwargs)
     beside = first["nominal_rays"] / again.render_seconds / 1e6
     best = peer_best_rate(result)
     return {"peer": result, "peer_best_mrays_per_s": best, "beside_peer_nominal_mrays_per_s": beside,
