@@ -38,6 +38,28 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
     return surface_rectangle(&s->rectangles[index], p);
 }
 
+/* The surface points of the textured lanes' hits (zeros on the others): on lanes where every lane hit one
+ * rectangle (neighbouring pixels mostly do: walls and floors), else one lane at a time. */
+inline Surface textured_surface(const Scene *s, Hit hit, const int *textured)
+{
+    int first = FIRST_LANE(hit.index);
+    if (ALL((hit.kind == SHAPE_RECTANGLE) & (hit.index == first)))
+        return surface_rectangle_lanes(&s->rectangles[first], hit.p);
+    int kind[LANES], index[LANES];
+    float b1[LANES], b2[LANES];
+    VSTORE(hit.kind, kind);
+    VSTORE(hit.index, index);
+    VSTORE(hit.b1, b1);
+    VSTORE(hit.b2, b2);
+    Lanes3 p = v3_spill(hit.p);
+    SurfaceLanes surface;
+    const SurfacePoint none = {(float2)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f)};
+    for (int i = 0; i < LANES; ++i)
+        set_surface_lane(&surface, i,
+                         textured[i] ? surface_point(s, kind[i], index[i], lane3(&p, i), b1[i], b2[i]) : none);
+    return surface_fill(&surface);
+}
+
 /* What texturing needs of the lanes' hits, before a material's uv transform: the surface points, their
  * shading frames and the footprints of the pixel samples in (u, v). */
 typedef struct {
@@ -46,11 +68,11 @@ typedef struct {
     UVDerivatives duv;
 } TexturedHits;
 
-inline TexturedHits textured_hits(const Scene *s, const SurfaceLanes *lanes, vec3 d, vec3 p, vec3 ng)
+inline TexturedHits textured_hits(const Scene *s, Surface surface, vec3 d, vec3 p, vec3 ng)
 {
     __constant const RenderParams *params = s->params;
     TexturedHits h;
-    h.surface = surface_fill(lanes);
+    h.surface = surface;
     h.frame = shading_frame(h.surface);
     vec3 dpdx, dpdy;
     camera_footprint(s->camera, params->footprint_scale, 1.0f / params->width, 1.0f / params->height, d, p, ng,
@@ -169,8 +191,6 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     Lanes3 n = v3_spill(sp.n);
 #endif
 #if HAS_TEXTURES
-    Lanes3 p = v3_spill(sp.p);
-    SurfaceLanes surface;
     int textured[LANES], any_textured = 0;
 #endif
     for (int i = 0; i < LANES; ++i) {
@@ -178,9 +198,6 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_TEXTURES
         textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
         any_textured |= textured[i];
-        SurfacePoint none = {(float2)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f)};
-        set_surface_lane(&surface, i,
-                         textured[i] ? surface_point(s, kind[i], index[i], lane3(&p, i), b1[i], b2[i]) : none);
 #endif
         if (m[i] < 0)
             continue;
@@ -201,7 +218,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_TEXTURES
     if (!any_textured)
         return sp;
-    TexturedHits h = textured_hits(s, &surface, r.d, sp.p, sp.ng);
+    TexturedHits h = textured_hits(s, textured_surface(s, hit, textured), r.d, sp.p, sp.ng);
     for (int i = 0; i < LANES; ++i) {
         if (!textured[i])
             continue;

@@ -79,9 +79,25 @@ inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
     return sp;
 }
 
+typedef struct { vec2 uv; vec3 dpdu, dpdv, n, tangent; } Surface; /* SurfacePoint on lanes */
+
+/* surface_rectangle on lanes, for lanes that all hit rectangle r: the same operations in the same order. */
+inline Surface surface_rectangle_lanes(__global const Rectangle *r, vec3 p)
+{
+    vfloat rx = p.x - r->center.x, ry = p.y - r->center.y, rz = p.z - r->center.z;
+    float3 t = f3(r->tangent), b = f3(r->bitangent), dpdu = t * (2.0f * r->half_x), dpdv = b * (2.0f * r->half_y);
+    Surface s;
+    s.uv.x = (rx * t.x + ry * t.y + rz * t.z) / (2.0f * r->half_x) + 0.5f;
+    s.uv.y = (rx * b.x + ry * b.y + rz * b.z) / (2.0f * r->half_y) + 0.5f;
+    s.dpdu = v3_splat(dpdu.x, dpdu.y, dpdu.z);
+    s.dpdv = v3_splat(dpdv.x, dpdv.y, dpdv.z);
+    s.n = v3_uniform(r->normal);
+    s.tangent = v3_splat(t.x, t.y, t.z);
+    return s;
+}
+
 /* The surface points of the lanes' hits, found one lane at a time (the shapes that lanes hit differ) and
  * moved into lanes for the rest of texturing. */
-typedef struct { vec2 uv; vec3 dpdu, dpdv, n, tangent; } Surface;
 typedef struct { float u[LANES], v[LANES]; Lanes3 dpdu, dpdv, n, tangent; } SurfaceLanes;
 
 inline void set_surface_lane(SurfaceLanes *a, int i, SurfacePoint sp)

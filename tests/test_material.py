@@ -68,7 +68,7 @@ def maps(tmp_path_factory):
 
 
 SHAPES = {
-    "rectangle": {"type": "rectangle", "center": [0.0, 0.5, 0.0], "size": [3.0, 3.0], "normal": [0.0, 0.0, 1.0],
+    "rectangle": {"type": "rectangle", "center": [0.0, 0.5, 0.0], "size": [3.0, 2.2], "normal": [0.0, 0.0, 1.0],
                   "tangent": [1.0, 0.0, 0.0]},
     "triangle": {"type": "triangle", "vertices": [[-1.5, 1.0, 0.0], [1.5, 0.5, 0.2], [0.0, 1.2, 2.2]],
                  "uv": [[0.1, 0.0], [1.3, 0.2], [0.5, 1.1]]},
