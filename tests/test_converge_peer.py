@@ -9,7 +9,7 @@ import pytest
 
 from helpers import CORNELL
 from raytrace.errors import InputError
-from raytrace.tools.converge import converge
+from raytrace.tools.converge import clamped_rmse, converge, rmse
 from raytrace.tools.converge_peer import race, time_to_reach
 
 FAKE_PEER = """
@@ -36,6 +36,18 @@ def test_peer_rows_beside_ours(tmp_path):
     # the stand-in takes at least 4 samples, as Mitsuba's ldsampler: its 1-sample render counts as 4, once
     assert [t["rmse"] for t in result["race"]] == [0.05, 0.02, 0.01, 0.005, 0.002, 0.001]
     assert "peer:stratified" in (tmp_path / "out" / "converge.csv").read_text()
+    assert "its own estimated RMSE" in text.getvalue() and "(of linear values)" in text.getvalue()
+
+
+def test_clamped_error_is_bounded_by_the_linear_one():
+    """Why converge --clamp may draw the renders' estimates of linear error beside clamped errors: clamping to
+    [0, 1] moves no two values further apart, so the clamped RMSE never exceeds the linear one; images with
+    values above 1 (direct lighting's) and below 0 make it strictly smaller."""
+    rng = np.random.default_rng(4)
+    a, b = rng.uniform(-0.5, 3.0, (2, 16, 16, 3)).astype(np.float32)
+    assert clamped_rmse(a, b) < rmse(a, b)
+    c = np.clip(a, 0.0, 1.0)
+    assert np.isclose(clamped_rmse(c, np.clip(b, 0.0, 1.0)), rmse(c, np.clip(b, 0.0, 1.0)))
 
 
 @pytest.mark.parametrize("peer, message", [

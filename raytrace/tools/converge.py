@@ -4,9 +4,12 @@ What is measured: for each pixel sample pattern, renders at 1, 2, 4, ... samples
 for the patterns that need square counts; one render for center), each timed by its passes alone
 (RenderStats.wall_seconds: the kernel build is done by an untimed render first), and compared with a
 reference image of the same scene, size and light samples:
-- rmse: the root mean square difference over all pixels and channels of the linear images;
-- estimated_rmse: what the render itself estimates from its two halves of passes (raytrace/progressive.py);
-  the two columns side by side show how far the estimate is from the truth for each pattern;
+- rmse: the root mean square difference over all pixels and channels of the linear images (with --clamp,
+  of the images clamped to [0, 1]);
+- estimated_rmse: what the render itself estimates from its two halves of passes (raytrace/progressive.py),
+  always of linear values; the two columns side by side show how far the estimate is from the truth for
+  each pattern. Clamping moves no two values further apart, so with --clamp it bounds the clamped error
+  from above (it equals it where no value exceeds 1);
 - flip: the mean FLIP error (Andersson et al., "FLIP: A Difference Evaluator for Alternating Images",
   HPG 2020) between the two images as the project's 8-bit files encode them, LDR, at FLIP's default 67
   pixels per degree.
@@ -205,8 +208,9 @@ def plot_convergence(rows, names, reference_facts, title, path, values="linear")
         ax.loglog([r["seconds"] for r in mine], [r["rmse"] for r in mine], marker="o", label=label,
                    ls="--" if name.startswith("peer:") else "-")
     if reference_facts["estimated_rmse"] is not None:
+        bound = "" if values == "linear" else " of linear values\n(a bound on the clamped one)"
         ax.axhline(reference_facts["estimated_rmse"], color="black", ls="--", lw=1,
-                   label=f"the reference's own estimated RMSE, {reference_facts['estimated_rmse']:.2e}\n"
+                   label=f"the reference's own estimated RMSE{bound}, {reference_facts['estimated_rmse']:.2e}\n"
                          "(two halves of passes: an overestimate for sobol)")
     ax.set_xlabel("seconds (the render's passes; kernel build excluded)")
     ax.set_ylabel(f"RMSE against the reference ({values})")
@@ -313,7 +317,7 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         reference, facts, metadata = given + (None,) if given else render_reference(
             scene, reference_spp or min(MAX_SPP, 16 * max_spp), (seed + REFERENCE_SEED_OFFSET) % 2**32, common)
         print(f"reference: {facts.get('file', 'rendered')}, {facts['spp'] or '?'} spp, its own estimated RMSE "
-              f"{_number(facts['estimated_rmse'])}", file=out)
+              f"{_number(facts['estimated_rmse'])}" + (" (of linear values)" if clamp else ""), file=out)
         common["seed"] = seed
         rows = measure(scene, names, max_spp, reference, common, box, out, error)
         if peer is not None:
