@@ -9,7 +9,6 @@ levels are filtered in linear values (decoded from sRGB for colour maps) and enc
 import numpy as np
 
 
-
 def _box_axis(image, axis):
     """Halve `image` along `axis` (n -> max(1, n // 2)) by area averaging."""
     n = image.shape[axis]
@@ -64,20 +63,20 @@ def encode_8bit(linear, srgb):
 
 
 def decode_8bit(codes, srgb):
-    """Linear float64 values of H x W x 4 codes (RGB through the sRGB curve when srgb, alpha linear)."""
+    """Linear float64 values of H x W x C codes (RGB through the sRGB curve when srgb, alpha linear)."""
     linear = codes / 255.0
     linear[..., :3] = _decode_table(srgb)[codes[..., :3]]
     return linear
 
 
 def pyramid_8bit(codes, srgb):
-    """Levels of an H x W x 4 uint8 image, filtered in linear values, each stored as 8-bit codes."""
+    """Levels of an H x W x C uint8 image (channel 3, if any, alpha), filtered in linear values, each stored as 8-bit codes."""
     levels = pyramid(decode_8bit(codes, srgb))
     return [np.asarray(codes, np.uint8)] + [encode_8bit(level, srgb) for level in levels[1:]]
 
 
 def height_quads(level):
-    """An H x W x 4 level's first channel (a height map's heights) as quads, the layout of kernels/types.h's
+    """An H x W x C level's first channel (a height map's heights) as quads, the layout of kernels/types.h's
     TEXELS_QUAD8 and TEXELS_QUADF: each texel with its right, lower and lower-right neighbours' heights, 0
     beyond the edges (where the neighbour depends on the wrap mode: the kernel reads those from the
     neighbours' own texels). Same dtype as the level."""

@@ -175,6 +175,11 @@ def _rgba(rgb, alpha):
     return np.concatenate([rgb, np.full(rgb.shape[:2] + (1,), alpha, rgb.dtype)], axis=2)
 
 
+def _filtered(rgb, role, alpha):
+    """The channels the MIP pyramid filters: RGBA, or a height map's height (its first channel) alone."""
+    return rgb[..., :1] if role == "height" else _rgba(rgb, alpha)
+
+
 def load_texture(path, role, source, key):
     """Read `path` for `role`; errors name the scene file (`source`), the key and the path."""
     def fail(problem):
@@ -219,12 +224,12 @@ def make_texture(pixels, kind, role, path="<array>"):
     rgb = _rgb(pixels)
     if kind == "8-bit":
         encoding = structs.TEXELS_SRGB8 if role == "colour" else structs.TEXELS_UNORM8
-        levels = mipmap.pyramid_8bit(_rgba(rgb, 255), srgb=encoding == structs.TEXELS_SRGB8)
+        levels = mipmap.pyramid_8bit(_filtered(rgb, role, 255), srgb=encoding == structs.TEXELS_SRGB8)
     else:  # other integer formats arrive as floats in [0, 1] (or [-1, 1], refused for colours)
         linear = srgb_to_linear(rgb) if role == "colour" and kind == "integer" else rgb.astype(np.float64)
         encoding = structs.TEXELS_FLOAT
-        levels = [level.astype(np.float32) for level in mipmap.pyramid(_rgba(linear, 1.0))]
-    if role == "height":  # the height is the first channel: the texels hold their neighbours' instead
+        levels = [level.astype(np.float32) for level in mipmap.pyramid(_filtered(linear, role, 1.0))]
+    if role == "height":  # the texels hold their neighbours' heights too
         encoding = structs.TEXELS_QUAD8 if encoding == structs.TEXELS_UNORM8 else structs.TEXELS_QUADF
         levels = [mipmap.height_quads(level) for level in levels]
     return Texture(path, role, encoding, levels)
