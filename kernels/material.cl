@@ -38,8 +38,8 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
     return surface_rectangle(&s->rectangles[index], p);
 }
 
-/* The surface points of the textured lanes' hits (zeros on the others): on lanes where every lane hit one
- * rectangle (neighbouring pixels mostly do: walls and floors), else one lane at a time. */
+/* The surface points of the textured lanes' hits (the other lanes' values are never kept): on lanes where
+ * every lane hit one rectangle (neighbouring pixels mostly do: walls and floors), else one lane at a time. */
 inline Surface textured_surface(const Scene *s, Hit hit, const int *textured)
 {
     int first = FIRST_LANE(hit.index);
