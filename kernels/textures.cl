@@ -3,7 +3,8 @@
  * All levels of all textures live in one buffer of 32-bit words (the host packs them; raytrace/mipmap.py).
  * 8-bit textures keep one word per RGBA texel on the device, a quarter of float4's memory and bandwidth,
  * and are decoded here: sRGB colour maps through a 256-entry table (exact, and cheaper than pow), data
- * maps by / 255. Height maps hold each texel's quad (types.h): a bilinear lookup reads one texel.
+ * maps by / 255. Height maps hold each texel's quad (types.h): a bilinear lookup reads one texel, of one
+ * word (8-bit maps), two (16-bit: code / 65535) or four (float).
  * Coordinates follow OpenImageIO's (s, t): texel (i, j), row j from the top, has its centre at
  * ((i + 1/2) / W, (j + 1/2) / H); the renderer's v runs up the image, so t = 1 - v.
  *
@@ -54,6 +55,12 @@ ALWAYS_INLINE vuint texel_words(TextureStore ts, vint index)
     return VLOAD_UINT(words);
 }
 
+/* The 16-bit half of each lane's word at bit `shift`, as a height in [0, 1]. */
+inline vfloat height16(vuint word, int shift)
+{
+    return CONVERT_VFLOAT(AS_VINT((word >> shift) & 0xffffU)) * (1.0f / 65535.0f);
+}
+
 /* Texel (i, j) of each lane's level, decoded to linear RGB: one load per lane and word (three more through
  * the sRGB table), the decoding on lanes; a height map's height thrice. Inlined: its result would otherwise
  * pass through memory. */
@@ -75,6 +82,10 @@ ALWAYS_INLINE vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint
         }
         return v3(VLOAD(r), VLOAD(g), VLOAD(b));
     }
+    if (encoding == TEXELS_QUAD16) {
+        vfloat h = height16(texel_words(ts, level.offset + 2 * index), 0);
+        return v3(h, h, h);
+    }
     vuint word = texel_words(ts, level.offset + index); /* r in the low byte */
     if (encoding == TEXELS_UNORM8 || encoding == TEXELS_QUAD8) {
         vec3 c = v3_scale(v3(channel8(word, 0), channel8(word, 8), channel8(word, 16)), (vfloat)(1.0f / 255.0f));
@@ -91,7 +102,8 @@ ALWAYS_INLINE vec3 texel_fetch(TextureStore ts, int encoding, Levels level, vint
 }
 
 /* The heights of a height map's texel (i, j) and of its neighbours (i + 1, j), (i, j + 1), (i + 1, j + 1), from
- * its quad (TEXELS_QUAD8 or TEXELS_QUADF): one texel read per lane, decoded as texel_fetch decodes each. */
+ * its quad (TEXELS_QUAD8, TEXELS_QUAD16 or TEXELS_QUADF): one texel read per lane, decoded as texel_fetch
+ * decodes each. */
 typedef struct { vfloat h00, h10, h01, h11; } Quad;
 
 ALWAYS_INLINE Quad quad_fetch(TextureStore ts, int encoding, Levels level, vint i, vint j)
@@ -104,6 +116,21 @@ ALWAYS_INLINE Quad quad_fetch(TextureStore ts, int encoding, Levels level, vint 
         q.h10 = channel8(word, 8) * (1.0f / 255.0f);
         q.h01 = channel8(word, 16) * (1.0f / 255.0f);
         q.h11 = channel8(word, 24) * (1.0f / 255.0f);
+        return q;
+    }
+    if (encoding == TEXELS_QUAD16) {
+        int at[LANES];
+        uint w0[LANES], w1[LANES];
+        VSTORE(level.offset + 2 * index, at);
+        for (int k = 0; k < LANES; ++k) {
+            w0[k] = ts.texels[at[k]];
+            w1[k] = ts.texels[at[k] + 1];
+        }
+        vuint upper = VLOAD_UINT(w0), lower = VLOAD_UINT(w1);
+        q.h00 = height16(upper, 0);
+        q.h10 = height16(upper, 16);
+        q.h01 = height16(lower, 0);
+        q.h11 = height16(lower, 16);
         return q;
     }
     int at[LANES];
@@ -184,7 +211,8 @@ inline vec3 texture_bilinear(TextureStore ts, int encoding, Levels level, vec2 s
     vint ix = CONVERT_VINT(fx), iy = CONVERT_VINT(fy);
     vint i0 = wrap_index(ix, level.width, wrap), i1 = wrap_index(ix + 1, level.width, wrap);
     vint j0 = wrap_index(iy, level.height, wrap), j1 = wrap_index(iy + 1, level.height, wrap);
-    if ((encoding == TEXELS_QUAD8 || encoding == TEXELS_QUADF) && ALL((i1 == i0 + 1) & (j1 == j0 + 1))) {
+    int quads = encoding == TEXELS_QUAD8 || encoding == TEXELS_QUAD16 || encoding == TEXELS_QUADF;
+    if (quads && ALL((i1 == i0 + 1) & (j1 == j0 + 1))) {
         Quad q = quad_fetch(ts, encoding, level, i0, j0);
         vfloat top = MAD(wx, q.h10 - q.h00, q.h00), bottom = MAD(wx, q.h11 - q.h01, q.h01);
         vfloat h = MAD(wy, bottom - top, top);

@@ -89,6 +89,8 @@ typedef struct {
  * the edges reads one texel instead of four (textures.cl). */
 #define TEXELS_QUAD8 3  /* four 8-bit heights in one word, the texel's own in the low byte */
 #define TEXELS_QUADF 4  /* four float32 heights in four words */
+#define TEXELS_QUAD16 5 /* four 16-bit heights (code / 65535) in two words: the texel's own and its right
+                           neighbour's in the first (own in the low half), the lower two in the second */
 
 typedef struct {
     int first_level, n_levels; /* its levels in the MipLevel table, finest first */

@@ -37,8 +37,9 @@ MIP_LEVEL = np.dtype([("offset", "<i4"), ("width", "<i4"), ("height", "<i4")])
 
 # kernels/types.h: WRAP_*, TEXELS_*, FILTER_*
 WRAP_MODES = {"repeat": 0, "clamp": 1, "mirror": 2}
-TEXELS_SRGB8, TEXELS_UNORM8, TEXELS_FLOAT, TEXELS_QUAD8, TEXELS_QUADF = 0, 1, 2, 3, 4
-TEXEL_WORDS = {TEXELS_SRGB8: 1, TEXELS_UNORM8: 1, TEXELS_FLOAT: 4, TEXELS_QUAD8: 1, TEXELS_QUADF: 4}
+TEXELS_SRGB8, TEXELS_UNORM8, TEXELS_FLOAT, TEXELS_QUAD8, TEXELS_QUADF, TEXELS_QUAD16 = 0, 1, 2, 3, 4, 5
+TEXEL_WORDS = {TEXELS_SRGB8: 1, TEXELS_UNORM8: 1, TEXELS_FLOAT: 4, TEXELS_QUAD8: 1, TEXELS_QUADF: 4, TEXELS_QUAD16: 2}
+QUAD_TEXELS = (TEXELS_QUAD8, TEXELS_QUAD16, TEXELS_QUADF)  # height maps' quads
 FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in the texel buffer
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 

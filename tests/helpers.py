@@ -55,11 +55,13 @@ def kernel_lookup(harness, textures, index, filter_name, wrap, s, t, derivs=None
 
 def stored_levels(texture):
     """The levels as the device holds them, decoded to linear float64 (8-bit ones through the same table
-    the kernel uses): what the filters must interpolate. A height map's quads (TEXELS_QUAD8, TEXELS_QUADF)
-    give each texel's own height, in all three channels, as the kernel's lookups do."""
-    quads = texture.encoding in (structs.TEXELS_QUAD8, structs.TEXELS_QUADF)
+    the kernel uses, 16-bit ones as code / 65535): what the filters must interpolate. A height map's quads
+    (structs.QUAD_TEXELS) give each texel's own height, in all three channels, as the kernel's lookups do."""
+    quads = texture.encoding in structs.QUAD_TEXELS
     if texture.encoding in structs.FLOAT_TEXELS:
         levels = [level.astype(np.float64) for level in texture.levels]
+    elif texture.encoding == structs.TEXELS_QUAD16:
+        levels = [level / 65535.0 for level in texture.levels]
     else:
         levels = [mipmap.decode_8bit(level, texture.encoding == structs.TEXELS_SRGB8) for level in texture.levels]
     return [np.repeat(level[..., :1], 3, axis=2) if quads else level[..., :3] for level in levels]

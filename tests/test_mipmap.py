@@ -59,6 +59,18 @@ def test_eight_bit_levels_are_the_nearest_codes():
                 assert np.all(error <= np.abs(table[neighbour] - exact[..., :3]) + 1e-15)
 
 
+def test_sixteen_bit_levels_are_the_nearest_codes():
+    """16-bit height maps: level 0 keeps the codes; each coarser level holds the code nearest to the exact
+    average of code / 65535 (within half a code), in the levels' layout."""
+    codes = np.random.default_rng(5).integers(0, 65536, (12, 20, 1)).astype(np.uint16)
+    levels = mipmap.pyramid_16bit(codes)
+    exact = mipmap.pyramid(codes / 65535.0)
+    np.testing.assert_array_equal(levels[0], codes)
+    assert [level.shape for level in levels] == [level.shape for level in exact]
+    for stored, average in zip(levels[1:], exact[1:]):
+        assert stored.dtype == np.uint16 and np.all(np.abs(stored / 65535.0 - average) <= 0.5 / 65535.0 + 1e-15)
+
+
 def test_packed_layout():
     """Offsets increase, levels never overlap, float levels are 16-byte aligned, and the buffer ends where
     the last level does."""
@@ -84,7 +96,8 @@ def test_every_level_is_reachable(harness):
     textures = [make_texture(rng.integers(0, 256, (8, 16, 3), dtype=np.uint8), "8-bit", "colour"),
                 make_texture(rng.random((16, 8, 3)).astype(np.float32), "float", "colour"),
                 make_texture(rng.integers(0, 256, (8, 16, 1), dtype=np.uint8), "8-bit", "height"),
-                make_texture(rng.random((16, 8, 1)).astype(np.float32), "float", "height")]
+                make_texture(rng.random((16, 8, 1)).astype(np.float32), "float", "height"),
+                make_texture(rng.random((8, 16, 1)).astype(np.float32), "16-bit", "height")]
     for index, texture in enumerate(textures):
         levels = stored_levels(texture)
         w0, h0 = texture.size

@@ -71,19 +71,22 @@ def test_eight_bit_stays_eight_bit(tmp_path):
     assert texels.nbytes == 4 * sum(level.shape[0] * level.shape[1] for level in colour.levels)
 
 
-@pytest.mark.parametrize("kind, encoding", [("8-bit", structs.TEXELS_QUAD8), ("float", structs.TEXELS_QUADF)])
+@pytest.mark.parametrize("kind, encoding", [("8-bit", structs.TEXELS_QUAD8), ("16-bit", structs.TEXELS_QUAD16),
+                                           ("float", structs.TEXELS_QUADF)])
 def test_height_maps_hold_quads(kind, encoding):
     """A height map's texel (i, j) holds its own height and those of (i + 1, j), (i, j + 1) and (i + 1, j + 1),
-    0 beyond the edges, at every level (kernels/types.h); the words per texel stay 1 (8-bit) and 4."""
+    0 beyond the edges, at every level (kernels/types.h); the words per texel stay 1 (8-bit), 2 (16-bit: level
+    0 the file's codes, as OpenImageIO gives them, code / 65535 in float32) and 4."""
     rng = np.random.default_rng(3)
-    codes = rng.integers(1, 256, (5, 7, 1))
-    heights = codes.astype(np.uint8) if kind == "8-bit" else (codes / 255).astype(np.float32)
+    codes = rng.integers(1, 65536 if kind == "16-bit" else 256, (5, 7, 1))
+    heights = {"8-bit": codes.astype(np.uint8), "16-bit": (codes / 65535).astype(np.float32),
+               "float": (codes / 255).astype(np.float32)}[kind]
     texture = make_texture(heights, kind, "height")
     assert texture.encoding == encoding and len(texture.levels) == 3  # 7 x 5, 3 x 2, 1 x 1
     for level in texture.levels:
         h = np.pad(level[..., 0], ((0, 1), (0, 1)))
         np.testing.assert_array_equal(level, np.stack([h[:-1, :-1], h[:-1, 1:], h[1:, :-1], h[1:, 1:]], axis=2))
-    np.testing.assert_array_equal(texture.levels[0][..., 0], heights[..., 0])
+    np.testing.assert_array_equal(texture.levels[0][..., 0], codes[..., 0] if kind == "16-bit" else heights[..., 0])
     texels, _, _ = packing.pack_textures([texture])
     assert texels.size == structs.TEXEL_WORDS[encoding] * sum(level[..., 0].size for level in texture.levels)
 
@@ -178,17 +181,18 @@ def test_srgb_table_is_the_standard_curve():
 @pytest.fixture(scope="module")
 def textures():
     """An 8-bit sRGB colour map (11 x 6), an 8-bit data map (8 x 8), a float height map (5 x 9, in quads), a
-    float colour map (7 x 4) and an 8-bit height map (6 x 10, in quads)."""
+    float colour map (7 x 4), an 8-bit height map (6 x 10, in quads) and a 16-bit one (7 x 5, in quads)."""
     rng = np.random.default_rng(7)
     return [make_texture(rng.integers(0, 256, (6, 11, 3), dtype=np.uint8), "8-bit", "colour"),
             make_texture(rng.integers(0, 256, (8, 8, 3), dtype=np.uint8), "8-bit", "normal"),
             make_texture(rng.uniform(-1, 4, (9, 5, 1)).astype(np.float32), "float", "height"),
             make_texture(rng.uniform(0, 4, (4, 7, 3)).astype(np.float32), "float", "colour"),
-            make_texture(rng.integers(0, 256, (10, 6, 1), dtype=np.uint8), "8-bit", "height")]
+            make_texture(rng.integers(0, 256, (10, 6, 1), dtype=np.uint8), "8-bit", "height"),
+            make_texture((rng.integers(0, 65536, (5, 7, 1)) / 65535).astype(np.float32), "16-bit", "height")]
 
 
 @pytest.mark.parametrize("wrap", list(structs.WRAP_MODES))
-@pytest.mark.parametrize("index", [0, 1, 2, 3, 4], ids=["srgb8", "unorm8", "quadf", "float", "quad8"])
+@pytest.mark.parametrize("index", [0, 1, 2, 3, 4, 5], ids=["srgb8", "unorm8", "quadf", "float", "quad8", "quad16"])
 def test_nearest_and_bilinear_match_reference(harness, textures, index, wrap):
     """Level-0 lookups at random points over several periods, in each wrap mode and storage. Bilinear: the
     weights are float32 products of coordinates up to 2.5 * 11 texels (error ~ 2^-24 * 30 per weight), on

@@ -85,7 +85,7 @@ def test_constants_match_device(cl_env):
     names |= {f"SHAPE_{k.upper()}": v for k, v in structs.SHAPES.items()}
     names |= {"TEXELS_SRGB8": structs.TEXELS_SRGB8, "TEXELS_UNORM8": structs.TEXELS_UNORM8,
               "TEXELS_FLOAT": structs.TEXELS_FLOAT, "TEXELS_QUAD8": structs.TEXELS_QUAD8,
-              "TEXELS_QUADF": structs.TEXELS_QUADF}
+              "TEXELS_QUADF": structs.TEXELS_QUADF, "TEXELS_QUAD16": structs.TEXELS_QUAD16}
     names |= {"BVH_STACK": structs.BVH_STACK, "CULLED_RECTANGLES": structs.CULLED_RECTANGLES}
     assert run_int_kernel(cl_env, values_kernel(names), len(names)) == list(names.values())
 

@@ -4,7 +4,7 @@ A level has max(1, W // 2) x max(1, H // 2) texels of the level above, each the 
 the part of the finer level it covers (a box filter): for even sizes the 2 x 2 mean, for odd sizes the
 three input texels under a 2 + 1/m wide box, weighted by their overlap. The pyramid ends at 1 x 1. 8-bit
 levels are filtered in linear values (decoded from sRGB for colour maps) and encoded back to the nearest
-8-bit code; level 0 keeps the file's codes exactly.
+8-bit code; level 0 keeps the file's codes exactly. 16-bit height maps keep 16-bit codes in the same way.
 """
 import numpy as np
 
@@ -70,14 +70,22 @@ def decode_8bit(codes, srgb):
 
 
 def pyramid_8bit(codes, srgb):
-    """Levels of an H x W x C uint8 image (channel 3, if any, alpha), filtered in linear values, each stored as 8-bit codes."""
+    """Levels of an H x W x C uint8 image (channel 3, if any, alpha), filtered in linear values, each stored as
+    8-bit codes."""
     levels = pyramid(decode_8bit(codes, srgb))
     return [np.asarray(codes, np.uint8)] + [encode_8bit(level, srgb) for level in levels[1:]]
 
 
+def pyramid_16bit(codes):
+    """Levels of an H x W x C uint16 image of linear data (code / 65535), each stored as the nearest 16-bit
+    codes; level 0 keeps the file's codes exactly."""
+    levels = pyramid(codes / 65535.0)
+    return [np.asarray(codes, np.uint16)] + [np.rint(level * 65535.0).astype(np.uint16) for level in levels[1:]]
+
+
 def height_quads(level):
     """An H x W x C level's first channel (a height map's heights) as quads, the layout of kernels/types.h's
-    TEXELS_QUAD8 and TEXELS_QUADF: each texel with its right, lower and lower-right neighbours' heights, 0
+    TEXELS_QUAD8, TEXELS_QUAD16 and TEXELS_QUADF: each texel with its right, lower and lower-right neighbours' heights, 0
     beyond the edges (where the neighbour depends on the wrap mode: the kernel reads those from the
     neighbours' own texels). Same dtype as the level."""
     h = np.zeros((level.shape[0] + 1, level.shape[1] + 1), level.dtype)

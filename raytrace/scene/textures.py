@@ -8,8 +8,10 @@ What the values mean:
 
 8-bit textures stay 8-bit on the device (one 32-bit word per RGBA texel, decoded in the kernel); the rest
 are stored as float32 RGBA. Height maps, whose height is the first channel, hold each texel's height and
-those of its right, lower and lower-right neighbours instead (kernels/types.h's TEXELS_QUAD8 and
-TEXELS_QUADF), so that a bilinear lookup reads one texel instead of four.
+those of its right, lower and lower-right neighbours instead (kernels/types.h's TEXELS_QUAD8, TEXELS_QUAD16
+and TEXELS_QUADF), so that a bilinear lookup reads one texel instead of four; 8- and 16-bit height maps keep
+codes of their own depth at every level (the coarser levels' nearest codes to their exact averages), so that
+a quad takes one word or two.
 
 A file that cannot be a texture is refused with one InputError naming the scene file, the key and the
 texture: unreadable or corrupt files (the libraries' own error line, captured from file descriptor 2 where
@@ -50,9 +52,10 @@ class Texture:
 
 
 def read_image(path):
-    """(pixels H x W x C, kind) of the first image in the file, kind "8-bit" (uint8 codes), "integer" (other
-    integer formats, as floats in [0, 1], or [-1, 1] when signed), "float" or "double" (float64, so that values
-    beyond float32's range stay visible); raises OSError with one line of the libraries' words."""
+    """(pixels H x W x C, kind) of the first image in the file, kind "8-bit" (uint8 codes), "16-bit" (uint16
+    codes as floats, code / 65535), "integer" (other integer formats, as floats in [0, 1], or [-1, 1] when
+    signed), "float" or "double" (float64, so that values beyond float32's range stay visible); raises
+    OSError with one line of the libraries' words."""
     printed = []
     try:
         with _stderr_captured(printed):
@@ -110,8 +113,8 @@ def _read_image(path):
     try:
         spec = image.spec()
         base = spec.format.basetype
-        kind = "8-bit" if base == oiio.UINT8 else "double" if base == oiio.DOUBLE \
-            else "float" if base in (oiio.HALF, oiio.FLOAT) else "integer"
+        kind = {oiio.UINT8: "8-bit", oiio.UINT16: "16-bit", oiio.HALF: "float", oiio.FLOAT: "float",
+                oiio.DOUBLE: "double"}.get(base, "integer")
         _check_spec(image.format_name(), spec, kind)
         pixels = image.read_image(0, 0, 0, spec.nchannels, {"8-bit": "uint8", "double": "double"}.get(kind, "float"))
         if pixels is None:
@@ -220,17 +223,22 @@ def _check_pixels(pixels, kind, role):
 
 
 def make_texture(pixels, kind, role, path="<array>"):
-    """A Texture from H x W x C pixels as read_image gives them (kind "8-bit", "integer", "float" or "double")."""
+    """A Texture from H x W x C pixels as read_image gives them (kind "8-bit", "16-bit", "integer", "float" or
+    "double")."""
     rgb = _rgb(pixels)
     if kind == "8-bit":
         encoding = structs.TEXELS_SRGB8 if role == "colour" else structs.TEXELS_UNORM8
         levels = mipmap.pyramid_8bit(_filtered(rgb, role, 255), srgb=encoding == structs.TEXELS_SRGB8)
+    elif kind == "16-bit" and role == "height":
+        encoding = structs.TEXELS_QUAD16
+        levels = mipmap.pyramid_16bit(np.rint(rgb[..., :1] * 65535.0).astype(np.uint16))
     else:  # other integer formats arrive as floats in [0, 1] (or [-1, 1], refused for colours)
-        linear = srgb_to_linear(rgb) if role == "colour" and kind == "integer" else rgb.astype(np.float64)
+        linear = srgb_to_linear(rgb) if role == "colour" and kind in ("16-bit", "integer") else rgb.astype(np.float64)
         encoding = structs.TEXELS_FLOAT
         levels = [level.astype(np.float32) for level in mipmap.pyramid(_filtered(linear, role, 1.0))]
     if role == "height":  # the texels hold their neighbours' heights too
-        encoding = structs.TEXELS_QUAD8 if encoding == structs.TEXELS_UNORM8 else structs.TEXELS_QUADF
+        encoding = {structs.TEXELS_UNORM8: structs.TEXELS_QUAD8, structs.TEXELS_FLOAT: structs.TEXELS_QUADF}.get(
+            encoding, encoding)
         levels = [mipmap.height_quads(level) for level in levels]
     return Texture(path, role, encoding, levels)
 
