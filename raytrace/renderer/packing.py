@@ -165,8 +165,6 @@ def material_structs(materials):
     return a
 
 
-
-
 def pack_textures(textures, source="scene"):
     """(texels: uint32 words, MipLevel table, Texture table) for a list of raytrace.textures.Texture.
     8-bit levels take one word per texel (RGBA, r in the low byte); float levels four, 16-byte aligned."""

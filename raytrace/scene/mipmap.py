@@ -85,9 +85,9 @@ def pyramid_16bit(codes):
 
 def height_quads(level):
     """An H x W x C level's first channel (a height map's heights) as quads, the layout of kernels/types.h's
-    TEXELS_QUAD8, TEXELS_QUAD16 and TEXELS_QUADF: each texel with its right, lower and lower-right neighbours' heights, 0
-    beyond the edges (where the neighbour depends on the wrap mode: the kernel reads those from the
-    neighbours' own texels). Same dtype as the level."""
+    TEXELS_QUAD8, TEXELS_QUAD16 and TEXELS_QUADF: each texel with its right, lower and lower-right
+    neighbours' heights, 0 beyond the edges (where the neighbour depends on the wrap mode: the kernel reads
+    those from the neighbours' own texels). Same dtype as the level."""
     h = np.zeros((level.shape[0] + 1, level.shape[1] + 1), level.dtype)
     h[:-1, :-1] = level[..., 0]
     return np.stack([h[:-1, :-1], h[:-1, 1:], h[1:, :-1], h[1:, 1:]], axis=2)

@@ -237,8 +237,8 @@ def make_texture(pixels, kind, role, path="<array>"):
         encoding = structs.TEXELS_FLOAT
         levels = [level.astype(np.float32) for level in mipmap.pyramid(_filtered(linear, role, 1.0))]
     if role == "height":  # the texels hold their neighbours' heights too
-        encoding = {structs.TEXELS_UNORM8: structs.TEXELS_QUAD8, structs.TEXELS_FLOAT: structs.TEXELS_QUADF}.get(
-            encoding, encoding)
+        encoding = {structs.TEXELS_UNORM8: structs.TEXELS_QUAD8, structs.TEXELS_QUAD16: structs.TEXELS_QUAD16,
+                    structs.TEXELS_FLOAT: structs.TEXELS_QUADF}[encoding]
         levels = [mipmap.height_quads(level) for level in levels]
     return Texture(path, role, encoding, levels)
 
