@@ -17,7 +17,8 @@ TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1, "--repe
 FIELDS = ["scene", "lights", "width", "height", "spp", "light_samples", "rays", "render_seconds", "mrays_per_s",
           "nominal_rays", "nominal_mrays_per_s", "scalar_render_seconds", "scalar_mrays_per_s", "ratio_to_scalar",
           "build_seconds_cold", "build_seconds_warm", "process_seconds_cold", "process_seconds_warm",
-          "peak_host_bytes", "device_bytes", "device", "build_options", "cold", "warm", "time_ratio_to_first"]
+          "peak_host_bytes", "device_bytes", "device", "build_options", "cold", "warm", "time_ratio_to_first",
+          "paired_time_ratio_to_first"]
 
 
 def test_bench_json_and_table(tmp_path):
@@ -36,6 +37,7 @@ def test_bench_json_and_table(tmp_path):
                 "process_seconds_warm", "build_seconds_warm"):
         assert 0 < row[key] < math.inf, key
     assert row["build_seconds_cold"] >= row["build_seconds_warm"] and row["time_ratio_to_first"] == 1
+    assert row["paired_time_ratio_to_first"] == 1
     assert row["peak_host_bytes"] > 0 and row["device_bytes"] > 0
     header, line, machine = r.stdout.strip().splitlines()
     assert header.split()[:2] == ["scene", "Mrays/s"] and line.startswith(row["scene"])
@@ -80,9 +82,15 @@ def test_scenes_are_rendered_in_turns(monkeypatch):
         return None, Stats(next(seconds))
 
     monkeypatch.setattr(bench, "render", fake_render)
-    best = bench.in_turns([a, b], 3, {})
+    best, seconds = bench.in_turns([a, b], 3, {})
     assert order == [a, b, a, b, a, b, a, b]
-    assert [s.render_seconds for s in best] == [3, 6]
+    assert [s.render_seconds for s in best] == [3, 6] and seconds == [[5, 3, 4], [7, 8, 6]]
+
+
+def test_paired_ratios_are_medians_of_one_turns_ratios():
+    """Scene b against scene a turn by turn (7/5, 8/3, 6/4): the median 1.5, where the fastest renders' ratio
+    (6/3 = 2) pairs a's lucky turn with b's best; the first scene's own ratio is 1."""
+    assert bench.paired_ratios([[5, 3, 4], [7, 8, 6]]) == [1.0, 1.5]
 
 
 def test_suite_scenes():

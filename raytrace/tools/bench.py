@@ -5,11 +5,14 @@ scalar kernel (LANES=1) on the same device in the same process, so that machines
 the ratio; then the whole `python -m raytrace render` in child processes, with an empty kernel cache
 (cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory.
 The scenes' own renders are taken in turns (one of each, then again), so that each scene's time against
-the first's is measured in the same minutes: a shared machine's speed drifts by 10-20% over minutes."""
+the first's is measured in the same minutes: a shared machine's speed drifts by 10-20% over minutes. Two
+ratios: "x first's s" of the two fastest renders, and "paired", the median over turns of the ratio of one
+turn's two renders (taken seconds apart, so that a slow spell falls on both)."""
 import json
 import math
 import os
 import platform
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -54,19 +57,27 @@ def _features(scene, kwargs):
 
 
 def in_turns(scenes, repeat, kwargs, features=None):
-    """Each scene's best of `repeat` renders (RenderStats) by its `features` (default: the kernel `render`
-    picks), taken in turns: every scene once, then every scene again, so that a slow spell of the machine
-    falls on all of them."""
+    """`repeat` renders of each scene by its `features` (default: the kernel `render` picks), taken in turns:
+    every scene once, then every scene again, so that a slow spell of the machine falls on all of them.
+    Returns (each scene's fastest RenderStats, each scene's render seconds turn by turn)."""
     features = features or [_features(scene, kwargs) for scene in scenes]
     for scene, f in zip(scenes, features):
         render(scene, **kwargs, features=f, progress=False)  # build and first launch (code generation): not timed
-    best = [None] * len(scenes)
+    best, seconds = [None] * len(scenes), [[] for _ in scenes]
     for _ in range(repeat):
         for k, (scene, f) in enumerate(zip(scenes, features)):
             stats = render(scene, **kwargs, features=f, progress=False)[1]
+            seconds[k].append(stats.render_seconds)
             if best[k] is None or stats.render_seconds < best[k].render_seconds:
                 best[k] = stats
-    return best
+    return best, seconds
+
+
+def paired_ratios(seconds):
+    """Each scene's time against the first scene's as the median over turns of the two renders of one turn,
+    taken seconds apart: a slow spell of a shared machine falls on both, where the ratio of the two fastest
+    renders can pair a lucky minute with an unlucky one."""
+    return [statistics.median(t / t0 for t, t0 in zip(times, seconds[0])) for times in seconds]
 
 
 def _render_argv(kwargs):
@@ -121,7 +132,7 @@ def measure(scene_path, scene, repeat, kwargs, stats):
     say = lambda what: print(f"bench: {scene_path}: {what}", file=sys.stderr, flush=True)  # noqa: E731
     features = _features(scene, kwargs)
     say(f"scalar baseline (LANES=1), best of {repeat}")
-    [scalar] = in_turns([scene], repeat, kwargs, [Features.of(scene, 1)])
+    [scalar], _ = in_turns([scene], repeat, kwargs, [Features.of(scene, 1)])
     say("child processes, cold and warm kernel cache")
     cold, warm = _processes(scene_path, kwargs)
     nominal = stats.width * stats.height * stats.spp * (1 + stats.light_samples * len(scene.lights))
@@ -146,6 +157,7 @@ COLUMNS = [("scene", lambda r: r["scene"]),
            ("nominal Mrays/s", lambda r: f"{r['nominal_mrays_per_s']:.2f}"),
            ("render s", lambda r: f"{r['render_seconds']:.3f}"),
            ("x first's s", lambda r: f"{r['time_ratio_to_first']:.2f}"),
+           ("paired", lambda r: f"{r['paired_time_ratio_to_first']:.2f}"),
            ("build cold s", lambda r: f"{r['build_seconds_cold']:.2f}"),
            ("build warm s", lambda r: f"{r['build_seconds_warm']:.2f}"),
            ("process cold s", lambda r: f"{r['process_seconds_cold']:.2f}"),
@@ -200,10 +212,11 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, outpu
         check_memory(width, height)
     select_device(kwargs.get("device"))
     print(f"bench: every scene's render, best of {repeat}, in turns", file=sys.stderr, flush=True)
-    best = in_turns([scene for _, scene in scenes], repeat, kwargs)
+    best, seconds = in_turns([scene for _, scene in scenes], repeat, kwargs)
     rows = [measure(path, scene, repeat, kwargs, stats) for (path, scene), stats in zip(scenes, best)]
-    for row in rows:
+    for row, paired in zip(rows, paired_ratios(seconds)):
         row["time_ratio_to_first"] = row["render_seconds"] / rows[0]["render_seconds"]
+        row["paired_time_ratio_to_first"] = paired
     info, first = machine(rows[0]["device"], rows[0]["target"]), rows[0]
     print(table(rows), file=out)
     print(f"{info['device']}; {first['width']}x{first['height']}, {first['spp']} spp x {first['light_samples']} "
@@ -229,7 +242,7 @@ def beside_peer(command, scene, first, repeat, kwargs):
     print(f"bench: --peer {command}", file=sys.stderr, flush=True)
     result = run_peer(command)
     print(f"bench: {first['scene']}: again, right after the peer, best of {repeat}", file=sys.stderr, flush=True)
-    [again] = in_turns([scene], repeat, kwargs)
+    [again], _ = in_turns([scene], repeat, kwargs)
     beside = first["nominal_rays"] / again.render_seconds / 1e6
     best = peer_best_rate(result)
     return {"peer": result, "peer_best_mrays_per_s": best, "beside_peer_nominal_mrays_per_s": beside,
