@@ -11,9 +11,10 @@ launch and output buffer already are, and its rows are contiguous in the client'
 
 A worker builds its OpenCL context, the program and the scene's device buffers once per scene and options
 (contexts cannot be pickled): `_device_renders` keeps them per worker process, keyed by a digest of the
-scene and options, which the client pickles once and scatters as bytes to every worker. Tasks carry their pass and band in their arguments and are submitted with
-pure=False, so Dask never merges two of them. A worker that dies loses nothing but time: the scheduler
-runs its tasks again elsewhere, with the same arguments and so the same sums.
+scene and options, which the client pickles once and scatters as bytes to every worker. Tasks carry their
+pass and band in their arguments and are submitted with pure=False, so Dask never merges two of them. A
+worker that dies loses nothing but time: the scheduler runs its tasks again elsewhere, with the same
+arguments and so the same sums.
 
 Addresses: `local:N` starts a LocalCluster of N worker processes of one thread each (PoCL's threads shared
 out among them); `tcp://host:port` is a running scheduler (`dask scheduler`, `dask worker ...`)."""

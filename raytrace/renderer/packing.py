@@ -167,7 +167,8 @@ def material_structs(materials):
 
 def pack_textures(textures, source="scene"):
     """(texels: uint32 words, MipLevel table, Texture table) for a list of raytrace.textures.Texture.
-    8-bit levels take one word per texel (RGBA, r in the low byte); float levels four, 16-byte aligned."""
+    Words per texel as structs.TEXEL_WORDS gives them: 8-bit levels one (RGBA, r in the low byte), 16-bit
+    height quads two, float levels four, 16-byte aligned."""
     chunks, level_table, texture_table, offset = [], [], [], 0
     for texture in textures:
         texture_table.append((len(level_table), len(texture.levels), texture.encoding))

@@ -231,7 +231,7 @@ def make_texture(pixels, kind, role, path="<array>"):
         levels = mipmap.pyramid_8bit(_filtered(rgb, role, 255), srgb=encoding == structs.TEXELS_SRGB8)
     elif kind == "16-bit" and role == "height":
         encoding = structs.TEXELS_QUAD16
-        levels = mipmap.pyramid_16bit(np.rint(rgb[..., :1] * 65535.0).astype(np.uint16))
+        levels = mipmap.pyramid_16bit(np.rint(_filtered(rgb, role, 1.0) * 65535.0).astype(np.uint16))
     else:  # other integer formats arrive as floats in [0, 1] (or [-1, 1], refused for colours)
         linear = srgb_to_linear(rgb) if role == "colour" and kind in ("16-bit", "integer") else rgb.astype(np.float64)
         encoding = structs.TEXELS_FLOAT
