@@ -1,4 +1,4 @@
-/* Lane-generic arithmetic: one work-item shades LANES pixels at once (8 on CPUs, 1 on GPUs).
+/* Lane-generic arithmetic: one work-item shades LANES pixels at once (the CPU's vector width, 1 on GPUs).
  *
  * PoCL does not vectorise a branchy ray tracer across work-items, so on CPUs the kernel is written on
  * explicit vector types; on GPUs LANES=1 turns the same source into plain scalar code. Masks are the
@@ -15,6 +15,19 @@
 #if !LANE_WIDTH_ACCEPTED(LANES)
 #error "LANES must be 1, 4, 8 or 16"
 #endif
+
+/* A work-item's pixels: a tile of TILE_COLUMNS x TILE_ROWS, as nearly square as LANES allows, so that its
+ * rays stay close together: a packet's rays then open fewer BVH nodes (bvh.cl) and its texture lookups share
+ * more cache lines than those of a row of LANES pixels. With 16 lanes, 4 x 4 instead of 16 x 1 took 18-26%
+ * less time on mesh_cornell and 6-12% on scene 0 (one process, renders alternating). */
+#if LANES == 16
+#define TILE_ROWS 4
+#elif LANES == 1
+#define TILE_ROWS 1
+#else
+#define TILE_ROWS 2
+#endif
+#define TILE_COLUMNS (LANES / TILE_ROWS)
 
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)

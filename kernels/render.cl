@@ -1,11 +1,13 @@
 /* The per-pixel pipeline: generate camera rays, intersect, find the material's shading point, shade (the
  * scene's model: the course's Phong, or direct lighting), accumulate.
  *
- * One work-item renders LANES neighbouring pixels of one row: x = LANES * get_global_id(0) + lane,
- * y = row0 + get_global_id(1). A launch takes the pixel samples [sample0, sample0 + n_samples) of a
- * progressive render (the host accumulates passes). The output holds this launch's band of rows only, so
- * its size is bounded whatever the image's: planes of width * get_global_size(1) floats, row y at y - row0:
- * R, G, B (sums over the launch's pixel samples, linear) and the number of rays traced for the pixel. */
+ * One work-item renders a tile of LANES pixels, TILE_COLUMNS x TILE_ROWS (lanes.h), lane by lane along its
+ * rows: work-item (i, j) starts at pixel x = TILE_COLUMNS i, y = row0 + TILE_ROWS j. A launch renders the
+ * band of rows [row0, row1) with the pixel samples [sample0, sample0 + n_samples) of a progressive render
+ * (the host accumulates passes); lanes beyond the band or the image's width compute and store nothing. The
+ * output holds the band only, so its size is bounded whatever the image's: planes of width * (row1 - row0)
+ * floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear) and the number of rays
+ * traced for the pixel. */
 #include "camera.cl"
 #if HAS_DIRECT_LIGHTING
 #include "direct_lighting.cl"
@@ -25,44 +27,48 @@ inline void kahan_add(vec3 *sum, vec3 *carry, vec3 x)
     *sum = t;
 }
 
-inline void store_lanes(__global float *plane, int index, vfloat value, vint active)
+/* plane[index] = value in the active lanes. */
+inline void store_lanes(__global float *plane, vint index, vfloat value, vint active)
 {
     float v[LANES];
-    int a[LANES];
+    int a[LANES], at[LANES];
     VSTORE(value, v);
     VSTORE(active, a);
+    VSTORE(index, at);
     for (int i = 0; i < LANES; ++i)
         if (a[i])
-            plane[index + i] = v[i];
+            plane[at[i]] = v[i];
 }
 
 __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                      __global const uint2 *pixel_samples, /* the pixel and light sample tables (samplers.cl) */
-                     __global const uint2 *light_samples, int sample0, int n_samples, int row0,
+                     __global const uint2 *light_samples, int sample0, int n_samples, int row0, int row1,
                      __global float *out)
 {
     const Scene scene = SCENE_FROM_PARAMETERS;
     const TextureStore ts = TEXTURES_FROM_PARAMETERS;
     const int width = params->width, height = params->height;
-    const int x0 = LANES * get_global_id(0), y = row0 + get_global_id(1);
-    if (y >= height)
+    const vint x = TILE_COLUMNS * (int)get_global_id(0) + LANE_IDS % TILE_COLUMNS;
+    const vint y = row0 + TILE_ROWS * (int)get_global_id(1) + LANE_IDS / TILE_COLUMNS;
+    const vint active = (x < width) & (y < row1);
+    if (!ANY(active))
         return;
-    vint active = (x0 + LANE_IDS) < width;
-    vfloat x = CONVERT_VFLOAT(x0 + LANE_IDS);
 
-    vuint key = pixel_key(AS_VUINT(y * width + x0 + LANE_IDS), params->seed);
+    vuint key = pixel_key(AS_VUINT(y * width + x), params->seed);
     vec3 sum = v3_splat(0.0f, 0.0f, 0.0f), carry = sum; /* compensated: a launch may hold 32768 samples */
     vfloat rays = 0.0f;
     for (int s = sample0; s < sample0 + n_samples; ++s) {
         vec2 offset = sample_2d(pixel_samples, s, params->pixel_sampler, key);
-        Ray ray = generate_camera_ray(camera, x + offset.x, (vfloat)(y) + offset.y, 1.0f / width, 1.0f / height);
+        Ray ray = generate_camera_ray(camera, CONVERT_VFLOAT(x) + offset.x, CONVERT_VFLOAT(y) + offset.y, 1.0f / width,
+                                      1.0f / height);
         Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
         kahan_add(&sum, &carry, shade(&scene, ray, hit, sp, light_samples, stream_key(key, s), &rays));
     }
     rays += (float)n_samples;
 
-    const int plane = width * (int)get_global_size(1), index = (y - row0) * width + x0;
+    const int plane = width * (row1 - row0);
+    const vint index = (y - row0) * width + x;
     store_lanes(out, index, sum.x, active);
     store_lanes(out + plane, index, sum.y, active);
     store_lanes(out + 2 * plane, index, sum.z, active);

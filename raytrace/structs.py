@@ -64,4 +64,7 @@ BVH_STACK = 64                # levels of a BVH the kernel's traversal stack hol
 CULLED_RECTANGLES = 32        # rectangles that shadow rays may skip: one bit each in a Light's masks
 LANE_WIDTHS = (1, 4, 8, 16)   # pixels per work-item the kernel accepts
 
+# kernels/lanes.h: a work-item's tile of pixels has LANES / TILE_ROWS[LANES] columns
+TILE_ROWS = {1: 1, 4: 2, 8: 2, 16: 4}
+
 MAX_WORDS = (1 << 31) - 1  # the texel store's offsets are int32 words in the kernel

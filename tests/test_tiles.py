@@ -15,16 +15,17 @@ ROW_BYTES = OUTPUT_PLANES * 4 * SIZE["width"]     # one row of the kernel's outp
 
 
 def test_many_bands_give_the_one_band_image_bit_for_bit(cornell, lanes):
-    """A budget of 4 rows cuts 61 rows into 15 bands of 4 and a last one of 1. Every pixel's samples depend
+    """A budget of 5 rows cuts 61 rows into 12 bands of 5 and a last one of 1. Every pixel's samples depend
     on its absolute position only, so any band height must give the same bits. It fails if a band writes or
     is copied at the wrong offset (index not relative to row0, planes spaced by the image's height rather
     than the band's, the short last band read with the full band's layout), if a band is launched twice or
-    not at all, or if the prefix sum for the error estimate misses bands (the variance would differ: 12
-    random samples in 3 passes of 4 take prefixes at 4 and 8 samples)."""
+    not at all, if a work-item's tile of pixels (2 or 4 rows, lanes.h) that reaches past its band stores
+    the rows beyond it, or if the prefix sum for the error estimate misses bands (the variance would differ:
+    12 random samples in 3 passes of 4 take prefixes at 4 and 8 samples)."""
     options = dict(spp=12, sampler="random", light_samples=4, lanes=lanes, **SIZE)
     image, variance, stats = render_progressive(cornell, **options)
-    banded_image, banded_variance, banded = render_progressive(cornell, max_band_bytes=4 * ROW_BYTES, **options)
-    assert stats.extra["band_rows"] == 61 and banded.extra["band_rows"] == 4 and banded.passes == 3
+    banded_image, banded_variance, banded = render_progressive(cornell, max_band_bytes=5 * ROW_BYTES, **options)
+    assert stats.extra["band_rows"] == 61 and banded.extra["band_rows"] == 5 and banded.passes == 3
     np.testing.assert_array_equal(banded_image, image)
     np.testing.assert_array_equal(banded_variance, variance)
     assert banded.rays == stats.rays and banded.estimated_rmse == stats.estimated_rmse

@@ -9,11 +9,11 @@ from raytrace import structs
 from raytrace.renderer.program import build
 
 
-def run_int_kernel(cl_env, source, n):
-    """Run a one-work-item kernel `values(__global int *out)` from `source` (with types.h included); its n
-    ints."""
+def run_int_kernel(cl_env, source, n, options=()):
+    """Run a one-work-item kernel `values(__global int *out)` from `source` (with types.h included), built
+    with `options`; its n ints."""
     context, queue = cl_env
-    program, _ = build(context, f'#include "types.h"\n{source}')
+    program, _ = build(context, f'#include "types.h"\n{source}', list(options))
     out = np.zeros(max(n, 1), np.int32)
     buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
     cl.Kernel(program, "values")(queue, (1,), None, buf)
@@ -94,6 +94,15 @@ def test_lane_widths_match_device(cl_env):
     """limits.h's LANE_WIDTH_ACCEPTED against structs.LANE_WIDTHS, for every width up to 64."""
     accepted = run_int_kernel(cl_env, values_kernel([f"LANE_WIDTH_ACCEPTED({n})" for n in range(65)]), 65)
     assert [n for n in range(65) if accepted[n]] == list(structs.LANE_WIDTHS)
+
+
+@pytest.mark.parametrize("lanes", structs.LANE_WIDTHS)
+def test_tile_shape_matches_device(cl_env, lanes):
+    """lanes.h's tile of pixels per work-item against structs.TILE_ROWS at every lane width: the host sizes
+    its launch grid by it. The tile holds LANES pixels and is as nearly square as a power of two allows."""
+    source = f'#include "lanes.h"\n{values_kernel(["TILE_ROWS", "TILE_COLUMNS"])}'
+    rows, columns = run_int_kernel(cl_env, source, 2, [f"-DLANES={lanes}"])
+    assert rows == structs.TILE_ROWS[lanes] and rows * columns == lanes and columns in (rows, 2 * rows)
 
 
 @pytest.mark.parametrize("lanes", [0, 2, 3, 32])

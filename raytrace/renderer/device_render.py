@@ -6,6 +6,7 @@ import numpy as np
 import pyopencl as cl
 
 from ..errors import InputError
+from ..structs import TILE_ROWS
 from .cpu_target import apply_target, check_lanes, describe_target
 from .device import context_for, default_lanes, describe, select_device
 from .interface import KernelArguments
@@ -27,16 +28,17 @@ def band_rows(r, max_band_bytes):
 
 class _Bands:
     """The image as bands of whole rows (band_rows), one launch each, through one device output buffer of a
-    band."""
+    band. A launch is a grid of the kernel's tiles of pixels (TILE_ROWS); the last row of tiles may reach
+    past the band, and the kernel stores nothing there."""
 
-    def __init__(self, context, width, height, columns, rows, lanes):
+    def __init__(self, context, width, height, rows, lanes):
         # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
         # around it, and the two cores share out the small groups evenly (measured 10% faster than the
         # default shape on scene 0); the scalar kernel and GPUs keep the runtime's choice.
         cpu = all(d.type & cl.device_type.CPU for d in context.devices)
         self.local_size = (1, 1) if cpu and lanes > 1 else None
-        self.rows = rows
-        self.width, self.height, self.columns = width, height, columns
+        self.rows, self.tile_rows = rows, TILE_ROWS[lanes]
+        self.width, self.height, self.columns = width, height, -(-width // (lanes // self.tile_rows))
         self.host = np.empty(OUTPUT_PLANES * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
 
@@ -51,7 +53,8 @@ class _Bands:
         rows = min(self.rows, self.height - row0) if rows is None else rows
         args.set("out", self.host, self.device)
         args.set("row0", np.int32(row0))
-        event = args.launch(queue, (self.columns, rows), self.local_size)
+        args.set("row1", np.int32(row0 + rows))
+        event = args.launch(queue, (self.columns, -(-rows // self.tile_rows)), self.local_size)
         event.wait()
         out = self.host[:OUTPUT_PLANES * rows * self.width].reshape(OUTPUT_PLANES, rows, self.width)
         cl.enqueue_copy(queue, out, self.device)
@@ -90,8 +93,7 @@ class DeviceRender:
             raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
                              "out of memory building the scene's BVH and tables") from None
         self.texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
-        self.bands = _Bands(context, r.width, r.height, -(-r.width // self.features.lanes),
-                            band_rows(r, options.max_band_bytes), self.features.lanes)
+        self.bands = _Bands(context, r.width, r.height, band_rows(r, options.max_band_bytes), self.features.lanes)
 
     def set_samples(self, sample0, n):
         self.args.set("sample0", np.int32(sample0))
