@@ -1,6 +1,6 @@
 /* Traversal of the bounding volume hierarchy built on the host (raytrace/bvh.py; pbrt-v4 section 7.3.5).
  *
- * Packets: the LANES rays of a work-item (neighbouring pixels, or their shadow rays towards one light sample)
+ * Packets: the LANES rays of a work-item (its tile of pixels, or their shadow rays towards one light sample)
  * walk the tree together. A node is entered when any lane that is still looking meets its box; lanes that
  * miss it are masked by the primitive tests' own t ranges. Children are visited near first, by the first
  * lane's direction along the split axis (the packet's rays are nearly parallel), so that the closest hit
