@@ -242,8 +242,7 @@ inline vec3 texture_bilinear(TextureStore ts, int encoding, Levels level, vec2 s
     vint ix = CONVERT_VINT(fx), iy = CONVERT_VINT(fy);
     vint i0 = wrap_index(ix, level.width, wrap), i1 = wrap_index(ix + 1, level.width, wrap);
     vint j0 = wrap_index(iy, level.height, wrap), j1 = wrap_index(iy + 1, level.height, wrap);
-    int quads = encoding == TEXELS_QUAD8 || encoding == TEXELS_QUAD16 || encoding == TEXELS_QUADF;
-    if (quads && ALL((i1 == i0 + 1) & (j1 == j0 + 1))) {
+    if (TEXELS_ARE_QUADS(encoding) && ALL((i1 == i0 + 1) & (j1 == j0 + 1))) {
         Quad q = quad_fetch(ts, encoding, level, i0, j0);
         vfloat top = MAD(wx, q.h10 - q.h00, q.h00), bottom = MAD(wx, q.h11 - q.h01, q.h01);
         vfloat h = MAD(wy, bottom - top, top);

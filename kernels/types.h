@@ -91,6 +91,7 @@ typedef struct {
 #define TEXELS_QUADF 4  /* four float32 heights in four words */
 #define TEXELS_QUAD16 5 /* four 16-bit heights (code / 65535) in two words: the texel's own and its right
                            neighbour's in the first (own in the low half), the lower two in the second */
+#define TEXELS_ARE_QUADS(e) ((e) == TEXELS_QUAD8 || (e) == TEXELS_QUADF || (e) == TEXELS_QUAD16)
 
 typedef struct {
     int first_level, n_levels; /* its levels in the MipLevel table, finest first */

@@ -90,6 +90,14 @@ def test_constants_match_device(cl_env):
     assert run_int_kernel(cl_env, values_kernel(names), len(names)) == list(names.values())
 
 
+def test_quad_encodings_match_device(cl_env):
+    """types.h's TEXELS_ARE_QUADS against structs.QUAD_TEXELS, for every encoding the host knows and one
+    beyond."""
+    encodings = range(max(structs.TEXEL_WORDS) + 2)
+    found = run_int_kernel(cl_env, values_kernel([f"TEXELS_ARE_QUADS({e})" for e in encodings]), len(encodings))
+    assert [e for e in encodings if found[e]] == sorted(structs.QUAD_TEXELS)
+
+
 def test_lane_widths_match_device(cl_env):
     """limits.h's LANE_WIDTH_ACCEPTED against structs.LANE_WIDTHS, for every width up to 64."""
     accepted = run_int_kernel(cl_env, values_kernel([f"LANE_WIDTH_ACCEPTED({n})" for n in range(65)]), 65)
