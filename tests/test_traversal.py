@@ -48,6 +48,19 @@ def mesh_scene(cornell):
     return dataclasses.replace(cornell, triangles=cornell.triangles + triangles)
 
 
+GRID_LINES = np.arange(9, dtype=np.float64) * 0.25 - 1.0  # x and y of flat_grid's vertices, before the offset
+
+
+def flat_grid(cornell, offset=0.0):
+    """Scene 0's camera and light over nothing but 128 flat triangles at z = 0.5: two per cell of the grid
+    GRID_LINES x GRID_LINES, moved by `offset` in x and y. Their boxes have lo == hi in z and share faces."""
+    corners = np.stack(np.meshgrid(GRID_LINES, GRID_LINES, indexing="ij"), -1)
+    quads = np.stack([corners[:-1, :-1], corners[1:, :-1], corners[1:, 1:], corners[:-1, 1:]], 2).reshape(-1, 4, 2)
+    flat = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]) + offset
+    vertices = np.concatenate([flat, np.full((len(flat), 3, 1), 0.5)], -1)
+    return dataclasses.replace(cornell, rectangles=[], ellipsoids=[], triangles=[Triangle(v) for v in vertices])
+
+
 def trace(harness, scene, o, d, use_bvh, skip=0, active=None):
     active = np.ones(len(o)) if active is None else active
     args = {**scene_args(scene, features=Features(bvh=use_bvh)), "skip": np.uint32(skip), "o": planar(o),
@@ -104,12 +117,8 @@ def test_rays_in_box_faces(harness, cornell):
     grid's lines and vertices, and rays along x in the grid's plane. A zero direction component makes the
     slab distances 0 * inf = NaN there: a box test that lets the NaN pick the other infinity misses every one
     of these (measured: all 64 downward rays lost)."""
-    k = np.arange(9, dtype=np.float64) * 0.25 - 1.0
-    corners = np.stack(np.meshgrid(k, k, indexing="ij"), -1)
-    quads = np.stack([corners[:-1, :-1], corners[1:, :-1], corners[1:, 1:], corners[:-1, 1:]], 2).reshape(-1, 4, 2)
-    flat = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
-    vertices = np.concatenate([flat, np.full((len(flat), 3, 1), 0.5)], -1)
-    scene = dataclasses.replace(cornell, rectangles=[], ellipsoids=[], triangles=[Triangle(v) for v in vertices])
+    k = GRID_LINES
+    scene = flat_grid(cornell)
     rng = np.random.default_rng(37)
     n = 128
     down = np.stack([rng.choice(k, n // 2), rng.uniform(-1, 1, n // 2), np.full(n // 2, 1.0)], 1)
@@ -128,17 +137,13 @@ def test_rays_far_from_the_origin(harness, cornell):
     """Slanted rays close by the vertices of a grid of flat triangles 1000 units from the origin (through
     them, but for the origin's rounding to float32, 6e-5 there): most hits lie within 1e-4 of their
     triangle box's edges, and o / d, up to 1e5 for direction components of 0.01, dwarfs the hit distances
-    (1). The slab distances of the box test must not round by more than the test widens them: the
+    (about 1). The slab distances of the box test must not round by more than the test widens them: the
     subtract-then-multiply form rounds each by a few ulps of itself, a multiply-add form (o / d rounded
     once per ray, then subtracted: one operation less a slab) by an ulp of o / d, 1e-3 here. Measured: that
     form widened by 2 gamma(3) of the distance, as this one is, loses 101 to 128 of the 256 hits (by lane
     width). The widening itself is not what this checks: here the kernel's form finds every hit without it."""
-    k = np.arange(9, dtype=np.float64) * 0.25 - 1.0
-    corners = np.stack(np.meshgrid(k, k, indexing="ij"), -1)
-    quads = np.stack([corners[:-1, :-1], corners[1:, :-1], corners[1:, 1:], corners[:-1, 1:]], 2).reshape(-1, 4, 2)
-    flat = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]) + 1000.0
-    vertices = np.concatenate([flat, np.full((len(flat), 3, 1), 0.5)], -1)
-    scene = dataclasses.replace(cornell, rectangles=[], ellipsoids=[], triangles=[Triangle(v) for v in vertices])
+    k = GRID_LINES
+    scene = flat_grid(cornell, offset=1000.0)
     rng = np.random.default_rng(41)
     n = 256
     through = np.stack([rng.choice(k[1:-1], n) + 1000.0, rng.choice(k[1:-1], n) + 1000.0, np.full(n, 0.5)], 1)
