@@ -181,7 +181,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     float sh[LANES];
     Lanes3 k = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
     VSTORE(hit.material, m);
-#if HAS_SURFACE_DATA
+#if HAS_SMOOTH_NORMALS /* the hits' shapes and barycentrics, for interpolating normals per lane */
     int kind[LANES], index[LANES];
     float b1[LANES], b2[LANES];
     VSTORE(hit.kind, kind);
@@ -212,7 +212,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     }
     sp.k = v3_fill(&k);
     sp.shininess = VLOAD(sh);
-#if HAS_SURFACE_DATA
+#if HAS_SMOOTH_NORMALS
     sp.n = v3_fill(&n);
 #endif
 #if HAS_TEXTURES
