@@ -7,7 +7,8 @@
  * (the host accumulates passes); lanes beyond the band or the image's width compute and store nothing. The
  * output holds the band only, so its size is bounded whatever the image's: planes of width * (row1 - row0)
  * floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear) and the number of rays
- * traced for the pixel. */
+ * traced for the pixel. A measuring build (COUNT_VISITS, scene.h) stores two planes more: the BVH node visits of
+ * the work-item's closest-hit and shadow traversals, each shared equally among its pixels. */
 #include "camera.cl"
 #if HAS_DIRECT_LIGHTING
 #include "direct_lighting.cl"
@@ -25,6 +26,16 @@ inline void kahan_add(vec3 *sum, vec3 *carry, vec3 x)
     vec3 t = v3_add(*sum, y);
     *carry = v3_sub(v3_sub(t, *sum), y);
     *sum = t;
+}
+
+/* The number of lanes set in `mask`. */
+inline int count_lanes(vint mask)
+{
+    int m[LANES], n = 0;
+    VSTORE(mask, m);
+    for (int i = 0; i < LANES; ++i)
+        n += m[i] != 0;
+    return n;
 }
 
 /* plane[index] = value in the active lanes. */
@@ -45,7 +56,13 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                      __global const uint2 *light_samples, int sample0, int n_samples, int row0, int row1,
                      __global float *out)
 {
+#if COUNT_VISITS
+    int visits[2] = {0, 0};
+    Scene scene = SCENE_FROM_PARAMETERS;
+    scene.visits = visits;
+#else
     const Scene scene = SCENE_FROM_PARAMETERS;
+#endif
     const TextureStore ts = TEXTURES_FROM_PARAMETERS;
     const int width = params->width, height = params->height;
     const vint x = TILE_COLUMNS * (int)get_global_id(0) + LANE_IDS % TILE_COLUMNS;
@@ -73,4 +90,9 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
     store_lanes(out + plane, index, sum.y, active);
     store_lanes(out + 2 * plane, index, sum.z, active);
     store_lanes(out + 3 * plane, index, rays, active);
+#if COUNT_VISITS
+    const float pixels = (float)count_lanes(active);
+    store_lanes(out + 4 * plane, index, (vfloat)(visits[0] / pixels), active);
+    store_lanes(out + 5 * plane, index, (vfloat)(visits[1] / pixels), active);
+#endif
 }

@@ -2,7 +2,9 @@
  * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
  * HAS_HEIGHT_MAPS and HAS_SMOOTH_NORMALS (set by the host from the scene) leave out the code of what a scene
  * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING the shading model
- * (direct_lighting.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant. */
+ * (direct_lighting.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant.
+ * COUNT_VISITS (never derived from a scene: `bench --scaling` and `bench --visits` set it) builds a render
+ * kernel that also counts its BVH node visits (render.cl). */
 #ifndef SCENE_H
 #define SCENE_H
 
@@ -27,6 +29,9 @@ typedef struct {
     __global const int *prims;     /* its leaves' primitive references, index * 4 + SHAPE_* */
     __global const uint *culled_subtrees; /* per node: the bits of the rectangles it holds when it holds only
                                            * rectangles shadow rays may skip (intersect.cl), else 0 */
+#if COUNT_VISITS
+    int *visits; /* a measuring build's BVH node visits of the work-item: closest hits', shadow rays' (bvh.cl) */
+#endif
 } Scene;
 
 /* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */

@@ -96,12 +96,15 @@ def test_missing_embreex_is_one_line_input_error(room, monkeypatch):
 
 
 def test_scaling_command_line_with_embree(tmp_path):
-    """The smallest --scaling run with --embree: the column in the CSV, the figure in the printed line."""
+    """The smallest --scaling run with --embree: the column in the CSV, the figure in the printed line; and
+    the BVH node visits per ray (tools/visits.py), positive: the room and the torus are in one BVH."""
     pytest.importorskip("embreex")
     r = run("bench", "--scaling", tmp_path / "out", "--max-triangles", 100, "--embree")
     assert r.returncode == 0, r.stderr
-    header, row = (tmp_path / "out" / "scaling.csv").read_text().splitlines()
-    assert header.split(",")[-1] == "embree_ns_per_ray" and float(row.split(",")[-1]) > 0
+    header, row = (l.split(",") for l in (tmp_path / "out" / "scaling.csv").read_text().splitlines())
+    assert header[-1] == "embree_ns_per_ray" and float(row[-1]) > 0
+    values = dict(zip(header, row))
+    assert float(values["visits_per_camera_ray"]) > 0 and float(values["visits_per_shadow_ray"]) > 0
     assert "Embree" in r.stdout and (tmp_path / "out" / "scaling.png").stat().st_size > 0
 
 

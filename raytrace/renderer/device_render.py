@@ -15,6 +15,7 @@ from .program import Features, render_program
 from .progressive import CHANNELS
 
 OUTPUT_PLANES = CHANNELS + 1  # the kernel's output: R, G, B sums and the ray count, float32
+VISIT_KINDS = ("closest_hit", "shadow")  # a COUNT_VISITS build's two planes more: its BVH node visits
 WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch, so that a launch stays short
 
 
@@ -29,9 +30,10 @@ def band_rows(r, max_band_bytes):
 class _Bands:
     """The image as bands of whole rows (band_rows), one launch each, through one device output buffer of a
     band. A launch is a grid of the kernel's tiles of pixels (TILE_ROWS); the last row of tiles may reach
-    past the band, and the kernel stores nothing there."""
+    past the band, and the kernel stores nothing there. A measuring build's node visits (VISIT_KINDS) add up
+    in `visits`."""
 
-    def __init__(self, context, width, height, rows, lanes):
+    def __init__(self, context, width, height, rows, lanes, count_visits=False):
         # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
         # around it, and the two cores share out the small groups evenly (measured 10% faster than the
         # default shape on scene 0); the scalar kernel and GPUs keep the runtime's choice.
@@ -39,7 +41,9 @@ class _Bands:
         self.local_size = (1, 1) if cpu and lanes > 1 else None
         self.rows, self.tile_rows = rows, TILE_ROWS[lanes]
         self.width, self.height, self.columns = width, height, -(-width // (lanes // self.tile_rows))
-        self.host = np.empty(OUTPUT_PLANES * self.rows * width, np.float32)
+        self.planes = OUTPUT_PLANES + len(VISIT_KINDS) * count_visits
+        self.visits = np.zeros(self.planes - OUTPUT_PLANES)
+        self.host = np.empty(self.planes * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
 
     def starts(self):
@@ -56,8 +60,9 @@ class _Bands:
         args.set("row1", np.int32(row0 + rows))
         event = args.launch(queue, (self.columns, -(-rows // self.tile_rows)), self.local_size)
         event.wait()
-        out = self.host[:OUTPUT_PLANES * rows * self.width].reshape(OUTPUT_PLANES, rows, self.width)
+        out = self.host[:self.planes * rows * self.width].reshape(self.planes, rows, self.width)
         cl.enqueue_copy(queue, out, self.device)
+        self.visits += out[OUTPUT_PLANES:].sum(axis=(1, 2), dtype=np.float64)
         return out[:CHANNELS], out[CHANNELS].sum(dtype=np.float64), (event.profile.end - event.profile.start) * 1e-9
 
     def run_pass(self, queue, args, acc):
@@ -93,7 +98,8 @@ class DeviceRender:
             raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
                              "out of memory building the scene's BVH and tables") from None
         self.texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
-        self.bands = _Bands(context, r.width, r.height, band_rows(r, options.max_band_bytes), self.features.lanes)
+        self.bands = _Bands(context, r.width, r.height, band_rows(r, options.max_band_bytes), self.features.lanes,
+                            self.features.count_visits)
 
     def set_samples(self, sample0, n):
         self.args.set("sample0", np.int32(sample0))
@@ -106,7 +112,9 @@ class DeviceRender:
                 "build_seconds": self.build_seconds, "texture_bytes": self.texture_bytes,
                 "extra": {"target": describe_target(self.device, self.features.lanes), "band_rows": bands.rows,
                           "device_output_bytes": bands.host.nbytes,
-                          "device_bytes": sum(b.size for b in self.buffers.values()) + bands.device.size}}
+                          "device_bytes": sum(b.size for b in self.buffers.values()) + bands.device.size,
+                          **({"node_visits": dict(zip(VISIT_KINDS, bands.visits.tolist()))}
+                             if self.features.count_visits else {})}}
 
 
 class LocalPasses:

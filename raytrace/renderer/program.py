@@ -37,6 +37,7 @@ class Features:
     smooth_normals: bool = False
     bvh: bool = False
     direct_lighting: bool = False  # the scene's shading: radiometric direct lighting, else Phong
+    count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
 
     @property
     def textures(self):
@@ -55,7 +56,8 @@ class Features:
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
                  "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps,
                  "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting}
-        return [f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
+        return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
+                + ["-DCOUNT_VISITS=1"] * self.count_visits)
 
 
 def build(context, source, options=()):

@@ -3,7 +3,8 @@
 Per scene: rays per second of the renderer's kernel (as `render` picks it for the device) against the
 scalar kernel (LANES=1) on the same device in the same process, so that machines and loads cancel out in
 the ratio; then the whole `python -m raytrace render` in child processes, with an empty kernel cache
-(cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory.
+(cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory; and
+the BVH node visits per camera and per shadow ray, counted by a measuring build of the kernel (visits.py).
 The scenes' own renders are taken in turns (one of each, then again), so that each scene's time against
 the first's is measured in the same minutes: a shared machine's speed drifts by 10-20% over minutes. Two
 ratios: "x first's s" of the two fastest renders, and "paired", the median over turns of the ratio of one
@@ -26,6 +27,7 @@ from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 from ..render import RenderOptions, check_memory, render, resolve
 from ..scene import load_scene
+from .visits import node_visits
 
 ROOT = Path(__file__).resolve().parents[2]
 # Scene 0, textures, texture filtering under strong minification, and the largest mesh scene that renders
@@ -135,6 +137,8 @@ def measure(scene_path, scene, repeat, kwargs, stats):
     [scalar], _ = in_turns([scene], repeat, kwargs, [Features.of(scene, 1)])
     say("child processes, cold and warm kernel cache")
     cold, warm = _processes(scene_path, kwargs)
+    say("BVH node visits (a counting build)")
+    visits = node_visits(scene, features, **kwargs, progress=False) if features.bvh else {}
     nominal = stats.width * stats.height * stats.spp * (1 + stats.light_samples * len(scene.lights))
     return {"scene": str(scene_path), "lights": len(scene.lights), "triangles": scene.triangle_count,
             "width": stats.width, "height": stats.height, "spp": stats.spp, "light_samples": stats.light_samples,
@@ -148,7 +152,8 @@ def measure(scene_path, scene, repeat, kwargs, stats):
             "process_seconds_cold": cold["process_seconds"], "process_seconds_warm": warm["process_seconds"],
             "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
             "device_bytes": stats.extra["device_bytes"], "device": stats.device, "target": stats.extra["target"],
-            "cold": cold, "warm": warm}
+            "visits_per_camera_ray": visits.get("visits_per_camera_ray"),
+            "visits_per_shadow_ray": visits.get("visits_per_shadow_ray"), "cold": cold, "warm": warm}
 
 
 MIB = 2**20
@@ -164,7 +169,14 @@ COLUMNS = [("scene", lambda r: r["scene"]),
            ("process warm s", lambda r: f"{r['process_seconds_warm']:.2f}"),
            ("host peak MiB", lambda r: f"{r['peak_host_bytes'] / MIB:.0f}"),
            ("device MiB", lambda r: f"{r['device_bytes'] / MIB:.1f}"),
-           ("x scalar", lambda r: f"{r['ratio_to_scalar']:.2f}")]
+           ("x scalar", lambda r: f"{r['ratio_to_scalar']:.2f}"),
+           ("nodes/camera ray", lambda r: _optional(r["visits_per_camera_ray"])),
+           ("nodes/shadow ray", lambda r: _optional(r["visits_per_shadow_ray"]))]
+
+
+def _optional(value):
+    """A figure that a scene may lack (node visits without a BVH): "-" then."""
+    return "-" if value is None else f"{value:.2f}"
 
 
 def table(rows):

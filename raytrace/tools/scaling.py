@@ -1,11 +1,13 @@
 """How the renderer's cost grows with the triangle count: `python -m raytrace bench --scaling`.
 
 A procedural mesh (a displaced torus, raytrace/meshgen.py) of 10^2 ... 10^6 (10^7 with --max-triangles)
-triangles stands in scene 0's room instead of the tetrahedron and the ellipsoid; each is rendered at
-256 x 256 with 4 pixel samples x 4 light samples (fixed: the render options of `bench` do not apply). With a BVH the time per ray should grow like log N;
-a loop over every shape grows like N. Writes scaling.csv and scaling.png (log-log: seconds per ray and BVH
-build seconds against the number of triangles). With embree=True (--embree) each row also has Embree's ns per ray
-on the same geometry and kinds of rays (embree_anchor.py), on one core: beside ours, its growth is the anchor."""
+triangles stands in scene 0's room instead of the tetrahedron and the ellipsoid; each is rendered at 256 x 256
+with 4 pixel samples x 4 light samples (fixed: the render options of `bench` do not apply). With a BVH the
+time per ray should grow like log N; a loop over every shape grows like N. Writes scaling.csv and scaling.png
+(log-log: seconds per ray and BVH build seconds against the number of triangles); each row also has the BVH
+node visits per camera and per shadow ray (visits.py, counted in this process). With embree=True (--embree)
+each row also has Embree's ns per ray on the same geometry and kinds of rays (embree_anchor.py), on one core:
+beside ours, its growth is the anchor."""
 import csv
 import dataclasses
 import time
@@ -19,10 +21,11 @@ from ..render import render
 from ..scene import Material, MeshShape, load_scene
 from ..renderer.packing import primitive_boxes, triangle_soup
 from . import embree_anchor
+from .visits import node_visits
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
 COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",
-           "nominal_mrays_per_s"]
+           "nominal_mrays_per_s", "visits_per_camera_ray", "visits_per_shadow_ray"]
 
 
 GOLD = Material("scaling gold", np.array([1.0, 0.8, 0.4]), shininess=40.0)
@@ -38,7 +41,8 @@ def mesh_room(scene, triangles):
 
 
 def measure(scene, scheduler=None):
-    """One row of the table: BVH build seconds (alone, as the render does it) and the best of three renders."""
+    """One row of the table: BVH build seconds (alone, as the render does it), the best of three renders and
+    the BVH node visits per camera and per shadow ray (visits.py)."""
     lo, hi, _ = primitive_boxes(scene, triangle_soup(scene))
     start = time.perf_counter()
     bvh.build(lo, hi)
@@ -47,10 +51,13 @@ def measure(scene, scheduler=None):
     render(scene, **options)  # the kernel's build and first launch: not timed
     stats = min((render(scene, **options)[1] for _ in range(3)), key=lambda s: s.render_seconds)
     nominal = OPTIONS["width"] * OPTIONS["height"] * OPTIONS["spp"] * (1 + OPTIONS["light_samples"])
+    visits = node_visits(scene, **OPTIONS)
     return {"triangles": scene.triangle_count, "build_seconds": build_seconds,
             "render_seconds": stats.render_seconds, "rays": stats.rays,
             "seconds_per_ray": stats.render_seconds / stats.rays, "mrays_per_s": stats.mrays_per_s,
-            "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6}
+            "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6,
+            "visits_per_camera_ray": visits["visits_per_camera_ray"],
+            "visits_per_shadow_ray": visits["visits_per_shadow_ray"]}
 
 
 def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, scheduler=None):
@@ -70,7 +77,8 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, sc
         if out:
             r = rows[-1]
             print(f"{r['triangles']:>9d} triangles: BVH {r['build_seconds']:7.2f} s, render {r['render_seconds']:6.3f} s, "
-                  f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s"
+                  f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s, BVH nodes per "
+                  f"camera ray {r['visits_per_camera_ray']:.2f}, per shadow ray {r['visits_per_shadow_ray']:.2f}"
                   + (f"; Embree {anchor['ns_per_ray']:7.1f} ns per ray on 1 core "
                      f"({anchor['ns_per_ray_all_cores']:.1f} ideal on {anchor['cores']})" if anchor else ""),
                   file=out, flush=True)

@@ -1,0 +1,26 @@
+"""BVH node visits per ray, counted by the render kernel itself: the figure that explains where a mesh's time
+goes (`bench` and `bench --scaling` print it beside the seconds).
+
+A measuring build of the scene's kernel (Features.count_visits: -DCOUNT_VISITS, kernels/bvh.cl) counts every
+node whose box a traversal tests, once per work-item traversal: with packets, one visit tests all of a
+work-item's lanes, so a figure below 1 per ray is the packets' saving. The counting build renders the same
+image bit for bit (tests/test_visits.py); its seconds are not the renderer's and are not reported."""
+import dataclasses
+
+from ..render import render
+from ..renderer.device import default_lanes, select_device
+from ..renderer.program import Features
+
+
+def node_visits(scene, features=None, **render_kwargs):
+    """The render's BVH node visits per camera ray (closest-hit traversals) and per shadow ray, with the ray
+    counts they are divided by, for the kernel variant `features` (default: the one render() picks); 0
+    visits where the kernel loops over the shapes without a BVH."""
+    features = features or Features.of(scene, default_lanes(select_device(render_kwargs.get("device"))))
+    _, stats = render(scene, features=dataclasses.replace(features, count_visits=True), **render_kwargs)
+    visits = stats.extra["node_visits"]
+    camera_rays = stats.width * stats.height * stats.spp
+    shadow_rays = stats.rays - camera_rays
+    return {"camera_rays": camera_rays, "shadow_rays": shadow_rays,
+            "visits_per_camera_ray": visits["closest_hit"] / camera_rays,
+            "visits_per_shadow_ray": visits["shadow"] / shadow_rays if shadow_rays else 0.0}

@@ -1,0 +1,67 @@
+"""The node-visit counter (raytrace/tools/visits.py; COUNT_VISITS in kernels/bvh.cl and render.cl): a measuring
+build of the render kernel that counts the BVH boxes its traversals test, per work-item, and the figures
+`bench` prints from it. The counts are checked exactly where the tree's shape fixes them, at every lane width
+this machine runs."""
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from raytrace.render import render
+from raytrace.renderer.program import Features
+from raytrace.scene import Camera, Triangle
+from raytrace.structs import TILE_ROWS
+from raytrace.tools.visits import node_visits
+
+# 10 x 6 pixels: the tiles of 4 x 4, 4 x 2 and 2 x 2 pixels (lanes.h) reach past the image's edges, so a
+# work-item's count is shared among fewer pixels than lanes.
+SIZE = dict(width=10, height=6, spp=4, light_samples=4, progress=False)
+FAR = 100.0  # a triangle this far along x meets no ray of the scene below
+
+
+def floor_scene(cornell, far_triangle):
+    """A large floor triangle under scene 0's light, seen from straight above by a camera between the two:
+    every camera ray meets the floor and every floor point in view sees the whole light, so every lane casts
+    every shadow ray. With far_triangle, a second triangle that no ray meets, far off along x."""
+    white = cornell.rectangles[0].material
+    floor = Triangle(np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [0.0, 10.0, 0.0]]), white)
+    far = Triangle(np.array([[FAR, 0.0, 0.0], [FAR + 1, 0.0, 0.0], [FAR, 1.0, 0.0]]), white)
+    camera = Camera(np.array([0.0, 0.0, 1.5]), np.array([0.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]), 45.0, 1.0)
+    return dataclasses.replace(cornell, camera=camera, rectangles=[], ellipsoids=[],
+                               triangles=[floor, far] if far_triangle else [floor])
+
+
+@pytest.mark.parametrize("far_triangle,boxes", [(False, 1), (True, 3)])
+def test_visits_are_the_boxes_tested(cornell, lanes, far_triangle, boxes):
+    """One triangle: the BVH is one leaf, and every traversal tests 1 box. Two triangles: a root and two
+    leaves, and every traversal tests all 3 boxes (the far leaf's box is tested and missed). A work-item
+    traces one closest-hit traversal per pixel sample and one shadow traversal per light sample (every lane
+    lit), so the visits per ray are boxes x work-items / pixels exactly: with lanes, the packets' saving.
+    (The per-pixel shares are float32 quotients, summed in float64: rel 1e-6.) It fails if the counter counts
+    lanes rather than work-items, only the nodes entered (2 instead of 3), misses a traversal kind, or if a
+    work-item's count is divided among its lanes rather than among its pixels in the image."""
+    scene = floor_scene(cornell, far_triangle)
+    features = dataclasses.replace(Features.of(scene, lanes), bvh=True)
+    visits = node_visits(scene, features, **SIZE)
+    rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
+    work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
+    pixels = SIZE["width"] * SIZE["height"]
+    assert visits["camera_rays"] == pixels * SIZE["spp"]
+    assert visits["shadow_rays"] == visits["camera_rays"] * SIZE["light_samples"]  # every lane lit
+    assert visits["visits_per_camera_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
+    assert visits["visits_per_shadow_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
+
+
+def test_counting_build_renders_the_same_image(cornell, lanes):
+    """The counter must not change what it measures: scene 0 (BVH, culled walls, shadow rays stopping when a
+    packet is blocked) renders the same bits with and without it, with the same ray count. It fails if
+    counting perturbs a traversal (a visit counted by evaluating the box test differently) or the output's
+    first four planes."""
+    features = dataclasses.replace(Features.of(cornell, lanes), bvh=True)
+    options = dict(SIZE, width=33, height=21)
+    plain, plain_stats = render(cornell, features=features, **options)
+    counted, counted_stats = render(cornell, features=dataclasses.replace(features, count_visits=True), **options)
+    np.testing.assert_array_equal(counted, plain)
+    assert counted_stats.rays == plain_stats.rays
+    assert "node_visits" in counted_stats.extra and "node_visits" not in plain_stats.extra
