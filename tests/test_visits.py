@@ -12,7 +12,7 @@ from raytrace.render import render
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Triangle
 from raytrace.structs import TILE_ROWS
-from raytrace.tools.visits import node_visits
+from raytrace.tools.visits import node_visits, pixels_with_half
 
 # 10 x 6 pixels: the tiles of 4 x 4, 4 x 2 and 2 x 2 pixels (lanes.h) reach past the image's edges, so a
 # work-item's count is shared among fewer pixels than lanes.
@@ -51,6 +51,22 @@ def test_visits_are_the_boxes_tested(cornell, lanes, far_triangle, boxes):
     assert visits["shadow_rays"] == visits["camera_rays"] * SIZE["light_samples"]  # every lane lit
     assert visits["visits_per_camera_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
     assert visits["visits_per_shadow_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
+    # Each pixel holds its work-item's count over the pixels it shares it with: boxes x samples / pixels of its
+    # tile inside the image.
+    y, x = np.mgrid[:SIZE["height"], :SIZE["width"]]
+    tile_pixels = (np.minimum(columns, SIZE["width"] - x // columns * columns)
+                   * np.minimum(rows, SIZE["height"] - y // rows * rows))
+    np.testing.assert_allclose(visits["closest_hit_map"], boxes * SIZE["spp"] / tile_pixels, rtol=1e-6)
+    np.testing.assert_allclose(visits["shadow_map"], boxes * SIZE["spp"] * SIZE["light_samples"] / tile_pixels,
+                               rtol=1e-6)
+
+
+@pytest.mark.parametrize("visit_map,fraction", [([[3, 1], [0, 0]], 1 / 4), ([[1, 1], [1, 1]], 2 / 4),
+                                                ([[1, 2], [3, 2]], 2 / 4), ([[0, 0]], 0.0)])
+def test_pixels_with_half_the_visits(visit_map, fraction):
+    """The fewest pixels whose visits reach half of the total: 3 of 4 alone; two of four equal; 3 + 2 of 8
+    (3 alone is less than half); none without visits."""
+    assert pixels_with_half(np.array(visit_map, float)) == fraction
 
 
 def test_counting_build_renders_the_same_image(cornell, lanes):

@@ -31,7 +31,7 @@ class _Bands:
     """The image as bands of whole rows (band_rows), one launch each, through one device output buffer of a
     band. A launch is a grid of the kernel's tiles of pixels (TILE_ROWS); the last row of tiles may reach
     past the band, and the kernel stores nothing there. A measuring build's node visits (VISIT_KINDS) add up
-    in `visits`."""
+    pixel by pixel in `visits`, a float64 array of VISIT_KINDS x height x width."""
 
     def __init__(self, context, width, height, rows, lanes, count_visits=False):
         # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
@@ -42,7 +42,7 @@ class _Bands:
         self.rows, self.tile_rows = rows, TILE_ROWS[lanes]
         self.width, self.height, self.columns = width, height, -(-width // (lanes // self.tile_rows))
         self.planes = OUTPUT_PLANES + len(VISIT_KINDS) * count_visits
-        self.visits = np.zeros(self.planes - OUTPUT_PLANES)
+        self.visits = np.zeros((self.planes - OUTPUT_PLANES, height, width))  # empty unless counting
         self.host = np.empty(self.planes * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
 
@@ -62,7 +62,7 @@ class _Bands:
         event.wait()
         out = self.host[:self.planes * rows * self.width].reshape(self.planes, rows, self.width)
         cl.enqueue_copy(queue, out, self.device)
-        self.visits += out[OUTPUT_PLANES:].sum(axis=(1, 2), dtype=np.float64)
+        self.visits[:, row0:row0 + rows] += out[OUTPUT_PLANES:]
         return out[:CHANNELS], out[CHANNELS].sum(dtype=np.float64), (event.profile.end - event.profile.start) * 1e-9
 
     def run_pass(self, queue, args, acc):
@@ -113,8 +113,8 @@ class DeviceRender:
                 "extra": {"target": describe_target(self.device, self.features.lanes), "band_rows": bands.rows,
                           "device_output_bytes": bands.host.nbytes,
                           "device_bytes": sum(b.size for b in self.buffers.values()) + bands.device.size,
-                          **({"node_visits": dict(zip(VISIT_KINDS, bands.visits.tolist()))}
-                             if self.features.count_visits else {})}}
+                          **({"node_visits": dict(zip(VISIT_KINDS, bands.visits.sum(axis=(1, 2)).tolist())),
+                              "node_visit_map": bands.visits} if self.features.count_visits else {})}}
 
 
 class LocalPasses:

@@ -153,7 +153,9 @@ def measure(scene_path, scene, repeat, kwargs, stats):
             "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
             "device_bytes": stats.extra["device_bytes"], "device": stats.device, "target": stats.extra["target"],
             "visits_per_camera_ray": visits.get("visits_per_camera_ray"),
-            "visits_per_shadow_ray": visits.get("visits_per_shadow_ray"), "cold": cold, "warm": warm}
+            "visits_per_shadow_ray": visits.get("visits_per_shadow_ray"),
+            "pixels_with_half_the_shadow_visits": visits.get("pixels_with_half_the_shadow_visits"),
+            "cold": cold, "warm": warm}
 
 
 MIB = 2**20

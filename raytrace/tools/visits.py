@@ -7,6 +7,8 @@ work-item's lanes, so a figure below 1 per ray is the packets' saving. The count
 image bit for bit (tests/test_visits.py); its seconds are not the renderer's and are not reported."""
 import dataclasses
 
+import numpy as np
+
 from ..render import render
 from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
@@ -14,13 +16,28 @@ from ..renderer.program import Features
 
 def node_visits(scene, features=None, **render_kwargs):
     """The render's BVH node visits per camera ray (closest-hit traversals) and per shadow ray, with the ray
-    counts they are divided by, for the kernel variant `features` (default: the one render() picks); 0
-    visits where the kernel loops over the shapes without a BVH."""
+    counts they are divided by, the per-pixel maps of visits (height x width, summed over the pixel's
+    samples) and how concentrated the shadow visits are, for the kernel variant `features` (default: the one
+    render() picks); 0 visits where the kernel loops over the shapes without a BVH."""
     features = features or Features.of(scene, default_lanes(select_device(render_kwargs.get("device"))))
     _, stats = render(scene, features=dataclasses.replace(features, count_visits=True), **render_kwargs)
     visits = stats.extra["node_visits"]
     camera_rays = stats.width * stats.height * stats.spp
     shadow_rays = stats.rays - camera_rays
+    closest_map, shadow_map = stats.extra["node_visit_map"]
     return {"camera_rays": camera_rays, "shadow_rays": shadow_rays,
             "visits_per_camera_ray": visits["closest_hit"] / camera_rays,
-            "visits_per_shadow_ray": visits["shadow"] / shadow_rays if shadow_rays else 0.0}
+            "visits_per_shadow_ray": visits["shadow"] / shadow_rays if shadow_rays else 0.0,
+            "pixels_with_half_the_shadow_visits": pixels_with_half(shadow_map),
+            "closest_hit_map": closest_map, "shadow_map": shadow_map}
+
+
+def pixels_with_half(visit_map):
+    """The smallest fraction of the image's pixels whose visits make up half of all (0 without any): how
+    concentrated a traversal's cost is. A pixel's visits are its work-items' shared equally among their
+    pixels (kernels/render.cl), so a packet's cost is spread over its tile."""
+    per_pixel = np.sort(visit_map.ravel())[::-1]
+    total = per_pixel.sum()
+    if total <= 0:
+        return 0.0
+    return (np.searchsorted(np.cumsum(per_pixel), total / 2) + 1) / per_pixel.size
