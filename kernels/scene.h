@@ -3,7 +3,7 @@
  * HAS_HEIGHT_MAPS and HAS_SMOOTH_NORMALS (set by the host from the scene) leave out the code of what a scene
  * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING the shading model
  * (direct_lighting.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant.
- * COUNT_VISITS (never derived from a scene: `bench --scaling` and `bench --visits` set it) builds a render
+ * COUNT_VISITS (never derived from a scene: `bench` and `bench --scaling` set it) builds a render
  * kernel that also counts its BVH node visits (render.cl). */
 #ifndef SCENE_H
 #define SCENE_H

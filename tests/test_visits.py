@@ -81,3 +81,20 @@ def test_counting_build_renders_the_same_image(cornell, lanes):
     np.testing.assert_array_equal(counted, plain)
     assert counted_stats.rays == plain_stats.rays
     assert "node_visits" in counted_stats.extra and "node_visits" not in plain_stats.extra
+
+
+def test_banded_counts_add_up_within_the_budget(cornell, lanes):
+    """A budget of 8 rows of the counting build's six planes cuts 21 rows into bands of 8, 8 and 5; 8 is a
+    multiple of every tile's height, so the work-items, and with them every pixel's count, are those of one
+    band. It fails if a band's visit planes land on the wrong rows of the map, if the budget ignores the two
+    planes more (the buffer would hold 8 rows of four planes: 12 rows), or if bands are counted twice."""
+    features = dataclasses.replace(Features.of(cornell, lanes), bvh=True)
+    options = dict(SIZE, width=33, height=21)
+    whole = node_visits(cornell, features, **options)
+    row_bytes = 6 * 4 * options["width"]
+    _, stats = render(cornell, features=dataclasses.replace(features, count_visits=True),
+                      max_band_bytes=8 * row_bytes, **options)
+    assert stats.extra["band_rows"] == 8 and stats.extra["device_output_bytes"] == 8 * row_bytes
+    closest, shadow = stats.extra["node_visit_map"]
+    np.testing.assert_array_equal(closest, whole["closest_hit_map"])
+    np.testing.assert_array_equal(shadow, whole["shadow_map"])

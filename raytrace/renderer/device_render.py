@@ -19,10 +19,11 @@ VISIT_KINDS = ("closest_hit", "shadow")  # a COUNT_VISITS build's two planes mor
 WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch, so that a launch stays short
 
 
-def band_rows(r, max_band_bytes):
-    """Rows a launch renders: at most max_band_bytes of output (but at least one row) and WORK_PER_LAUNCH work
-    units. Any banding gives the same sums, pixel by pixel; a Dask task is one band of one pass."""
-    row_bytes = OUTPUT_PLANES * np.dtype(np.float32).itemsize * r.width
+def band_rows(r, max_band_bytes, planes=OUTPUT_PLANES):
+    """Rows a launch renders: at most max_band_bytes of output in `planes` (but at least one row) and
+    WORK_PER_LAUNCH work units. Any banding gives the same sums, pixel by pixel; a Dask task is one band of
+    one pass."""
+    row_bytes = planes * np.dtype(np.float32).itemsize * r.width
     work_per_row = r.width * r.work * r.passes[0][1]
     return max(1, min(r.height, max_band_bytes // row_bytes, WORK_PER_LAUNCH // work_per_row))
 
@@ -33,7 +34,7 @@ class _Bands:
     past the band, and the kernel stores nothing there. A measuring build's node visits (VISIT_KINDS) add up
     pixel by pixel in `visits`, a float64 array of VISIT_KINDS x height x width."""
 
-    def __init__(self, context, width, height, rows, lanes, count_visits=False):
+    def __init__(self, context, width, height, rows, lanes, planes=OUTPUT_PLANES):
         # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
         # around it, and the two cores share out the small groups evenly (measured 10% faster than the
         # default shape on scene 0); the scalar kernel and GPUs keep the runtime's choice.
@@ -41,7 +42,7 @@ class _Bands:
         self.local_size = (1, 1) if cpu and lanes > 1 else None
         self.rows, self.tile_rows = rows, TILE_ROWS[lanes]
         self.width, self.height, self.columns = width, height, -(-width // (lanes // self.tile_rows))
-        self.planes = OUTPUT_PLANES + len(VISIT_KINDS) * count_visits
+        self.planes = planes
         self.visits = np.zeros((self.planes - OUTPUT_PLANES, height, width))  # empty unless counting
         self.host = np.empty(self.planes * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
@@ -98,8 +99,9 @@ class DeviceRender:
             raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
                              "out of memory building the scene's BVH and tables") from None
         self.texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
-        self.bands = _Bands(context, r.width, r.height, band_rows(r, options.max_band_bytes), self.features.lanes,
-                            self.features.count_visits)
+        planes = OUTPUT_PLANES + len(VISIT_KINDS) * self.features.count_visits
+        self.bands = _Bands(context, r.width, r.height, band_rows(r, options.max_band_bytes, planes),
+                            self.features.lanes, planes)
 
     def set_samples(self, sample0, n):
         self.args.set("sample0", np.int32(sample0))
