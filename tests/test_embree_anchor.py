@@ -97,7 +97,8 @@ def test_missing_embreex_is_one_line_input_error(room, monkeypatch):
 
 def test_scaling_command_line_with_embree(tmp_path):
     """The smallest --scaling run with --embree: the column in the CSV, the figure in the printed line; and
-    the BVH node visits per ray (tools/visits.py), positive: the room and the torus are in one BVH."""
+    the BVH node visits per ray (tools/visits.py), positive: the room and the torus are in one BVH, and
+    their map."""
     pytest.importorskip("embreex")
     r = run("bench", "--scaling", tmp_path / "out", "--max-triangles", 100, "--embree")
     assert r.returncode == 0, r.stderr
@@ -106,6 +107,7 @@ def test_scaling_command_line_with_embree(tmp_path):
     values = dict(zip(header, row))
     assert float(values["visits_per_camera_ray"]) > 0 and float(values["visits_per_shadow_ray"]) > 0
     assert "Embree" in r.stdout and (tmp_path / "out" / "scaling.png").stat().st_size > 0
+    assert (tmp_path / "out" / "visits.png").stat().st_size > 0
 
 
 def test_embree_without_scaling_is_refused():

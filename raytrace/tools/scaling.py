@@ -5,7 +5,8 @@ triangles stands in scene 0's room instead of the tetrahedron and the ellipsoid;
 with 4 pixel samples x 4 light samples (fixed: the render options of `bench` do not apply). With a BVH the
 time per ray should grow like log N; a loop over every shape grows like N. Writes scaling.csv and scaling.png
 (log-log: seconds per ray and BVH build seconds against the number of triangles); each row also has the BVH
-node visits per camera and per shadow ray (visits.py, counted in this process). With embree=True (--embree)
+node visits per camera and per shadow ray (visits.py, counted in this process), and visits.png maps them
+pixel by pixel for the smallest and the largest mesh. With embree=True (--embree)
 each row also has Embree's ns per ray on the same geometry and kinds of rays (embree_anchor.py), on one core:
 beside ours, its growth is the anchor."""
 import csv
@@ -21,7 +22,7 @@ from ..render import render
 from ..scene import Material, MeshShape, load_scene
 from ..renderer.packing import primitive_boxes, triangle_soup
 from . import embree_anchor
-from .visits import node_visits
+from .visits import node_visits, plot_maps
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
 COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",
@@ -42,7 +43,7 @@ def mesh_room(scene, triangles):
 
 def measure(scene, scheduler=None):
     """One row of the table: BVH build seconds (alone, as the render does it), the best of three renders and
-    the BVH node visits per camera and per shadow ray (visits.py)."""
+    the BVH node visits per camera and per shadow ray, after the counting render's whole result (visits.py)."""
     lo, hi, _ = primitive_boxes(scene, triangle_soup(scene))
     start = time.perf_counter()
     bvh.build(lo, hi)
@@ -52,7 +53,7 @@ def measure(scene, scheduler=None):
     stats = min((render(scene, **options)[1] for _ in range(3)), key=lambda s: s.render_seconds)
     nominal = OPTIONS["width"] * OPTIONS["height"] * OPTIONS["spp"] * (1 + OPTIONS["light_samples"])
     visits = node_visits(scene, **OPTIONS)
-    return {"triangles": scene.triangle_count, "build_seconds": build_seconds,
+    return visits, {"triangles": scene.triangle_count, "build_seconds": build_seconds,
             "render_seconds": stats.render_seconds, "rays": stats.rays,
             "seconds_per_ray": stats.render_seconds / stats.rays, "mrays_per_s": stats.mrays_per_s,
             "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6,
@@ -66,12 +67,15 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, sc
     scene = load_scene(scene_path)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    rows = []
+    rows, maps = [], []
     counts = [10**k for k in range(2, 8) if 10**k <= max_triangles]
     for n in counts:
         room = mesh_room(scene, n)
         anchor = embree_anchor.measure(room) if embree else None
-        rows.append(measure(room, scheduler))
+        visits, row = measure(room, scheduler)
+        rows.append(row)
+        if n in (counts[0], counts[-1]):
+            maps.append((f"{room.triangle_count:,} triangles", visits))
         if anchor:
             rows[-1]["embree_ns_per_ray"] = anchor["ns_per_ray"]
         if out:
@@ -92,6 +96,7 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, sc
         writer.writeheader()
         writer.writerows(rows)
     plot(rows, out_dir / "scaling.png")
+    plot_maps(maps, out_dir / "visits.png", OPTIONS["spp"])
     return rows
 
 

@@ -41,3 +41,24 @@ def pixels_with_half(visit_map):
     if total <= 0:
         return 0.0
     return (np.searchsorted(np.cumsum(per_pixel), total / 2) + 1) / per_pixel.size
+
+
+def plot_maps(labelled, path, spp):
+    """The visit maps of several renders side by side (`labelled`: (label, node_visits result) pairs), camera
+    rays above and shadow rays below, as BVH nodes per pixel sample, each row on one colour scale so that the
+    renders compare. Needs matplotlib (the analysis extra), imported here."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    kinds = (("closest_hit_map", "camera rays"), ("shadow_map", "shadow rays"))
+    fig, axes = plt.subplots(2, len(labelled), figsize=(3.2 * len(labelled) + 1, 6.4), squeeze=False)
+    for row, (key, what) in zip(axes, kinds):
+        top = max(v[key].max() for _, v in labelled) / spp or 1.0
+        for ax, (label, v) in zip(row, labelled):
+            shown = ax.imshow(v[key] / spp, cmap="magma", vmin=0, vmax=top, interpolation="nearest")
+            ax.set_title(f"{label}: {what}", fontsize=9)
+            ax.set_xticks([])
+            ax.set_yticks([])
+        fig.colorbar(shown, ax=list(row), shrink=0.8, label="BVH nodes per pixel sample")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
