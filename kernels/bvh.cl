@@ -64,14 +64,6 @@ inline int order_children(__global const BVHNode *nodes, int i, BoxRay b, int *f
     return far_first ? i + 1 : right;
 }
 
-/* A measuring build (COUNT_VISITS, scene.h) counts every node whose box a traversal tests, closest hits' as
- * kind 0 and shadow rays' as kind 1, per work-item: for a packet, one visit tests all its lanes. */
-#if COUNT_VISITS
-#define COUNT_VISIT(s, kind) (++(s)->visits[kind])
-#else
-#define COUNT_VISIT(s, kind) ((void)0)
-#endif
-
 inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
 {
     BoxRay b = box_ray(r);
@@ -79,7 +71,7 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
     int stack[BVH_STACK], top = 0, i = 0;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
-        COUNT_VISIT(s, 0);
+        COUNT_VISIT(s, VISITS_CLOSEST_NODES);
         if (ANY(meets_box(node, r, b, vmin(tmax, hit->t)))) {
             if (node->count <= 0) {
                 stack[top++] = order_children(s->nodes, i, b, &i);
@@ -116,7 +108,7 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
         if (!skipped_subtree(s, i, skip) &&
-            (COUNT_VISIT(s, 1), ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !settled))) {
+            (COUNT_VISIT(s, VISITS_SHADOW_NODES), ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !settled))) {
             if (node->count <= 0) {
                 stack[top++] = order_children(s->nodes, i, b, &i);
                 continue;

@@ -169,6 +169,7 @@ inline RayShear triangle_shear(PrimitiveRay *p)
 /* The closest-hit test of primitive `index` of `kind` (SHAPE_*), merged into *hit; tmax bounds t. */
 ALWAYS_INLINE void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int kind, int index, vfloat tmax)
 {
+    COUNT_VISIT(s, VISITS_CLOSEST_PRIMITIVES);
 #if HAS_TRIANGLES
     if (kind == SHAPE_TRIANGLE)
         hit_triangle(s, hit, p->r, triangle_shear(p), index, tmax);
@@ -183,20 +184,21 @@ ALWAYS_INLINE void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int 
 #endif
 }
 
-/* The lanes whose shadow segment primitive `index` of `kind` blocks; a `skip`ped rectangle blocks none. */
+/* The lanes whose shadow segment primitive `index` of `kind` blocks; a `skip`ped rectangle blocks none (and is
+ * not counted as tested). */
 ALWAYS_INLINE vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, int index, uint skip)
 {
 #if HAS_TRIANGLES
     if (kind == SHAPE_TRIANGLE)
-        return blocks_triangle(s, p->r, triangle_shear(p), index);
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_triangle(s, p->r, triangle_shear(p), index));
 #endif
 #if HAS_RECTANGLES
     if (kind == SHAPE_RECTANGLE && !skipped(skip, index))
-        return blocks_rectangle(s, p->r, index);
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_rectangle(s, p->r, index));
 #endif
 #if HAS_ELLIPSOIDS
     if (kind == SHAPE_ELLIPSOID)
-        return blocks_ellipsoid(s, p->r, index);
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p->r, index));
 #endif
     return (vint)(0);
 }

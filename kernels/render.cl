@@ -7,8 +7,8 @@
  * (the host accumulates passes); lanes beyond the band or the image's width compute and store nothing. The
  * output holds the band only, so its size is bounded whatever the image's: planes of width * (row1 - row0)
  * floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear) and the number of rays
- * traced for the pixel. A measuring build (COUNT_VISITS, scene.h) stores two planes more: the BVH node visits of
- * the work-item's closest-hit and shadow traversals, each shared equally among its pixels. */
+ * traced for the pixel. A measuring build (COUNT_VISITS, scene.h) stores VISIT_KINDS planes more: the counts of
+ * nodes and primitives the work-item's traversals tested, each shared equally among its pixels. */
 #include "camera.cl"
 #if HAS_DIRECT_LIGHTING
 #include "direct_lighting.cl"
@@ -57,7 +57,7 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                      __global float *out)
 {
 #if COUNT_VISITS
-    int visits[2] = {0, 0};
+    int visits[VISIT_KINDS] = {0};
     Scene scene = SCENE_FROM_PARAMETERS;
     scene.visits = visits;
 #else
@@ -92,7 +92,7 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
     store_lanes(out + 3 * plane, index, rays, active);
 #if COUNT_VISITS
     const float pixels = (float)count_lanes(active);
-    store_lanes(out + 4 * plane, index, (vfloat)(visits[0] / pixels), active);
-    store_lanes(out + 5 * plane, index, (vfloat)(visits[1] / pixels), active);
+    for (int k = 0; k < VISIT_KINDS; ++k)
+        store_lanes(out + (4 + k) * plane, index, (vfloat)(visits[k] / pixels), active);
 #endif
 }

@@ -4,7 +4,7 @@
  * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING the shading model
  * (direct_lighting.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant.
  * COUNT_VISITS (never derived from a scene: `bench` and `bench --scaling` set it) builds a render
- * kernel that also counts its BVH node visits (render.cl). */
+ * kernel that also counts the nodes and primitives its traversals test (below). */
 #ifndef SCENE_H
 #define SCENE_H
 
@@ -30,9 +30,23 @@ typedef struct {
     __global const uint *culled_subtrees; /* per node: the bits of the rectangles it holds when it holds only
                                            * rectangles shadow rays may skip (intersect.cl), else 0 */
 #if COUNT_VISITS
-    int *visits; /* a measuring build's BVH node visits of the work-item: closest hits', shadow rays' (bvh.cl) */
+    int *visits; /* a measuring build's counts of the work-item's traversal work, VISITS_* below */
 #endif
 } Scene;
+
+/* A measuring build (COUNT_VISITS) counts what a work-item's traversals test: BVH nodes (their boxes, bvh.cl)
+ * and primitives (primitive.cl), of closest-hit and of shadow traversals, once per test of all its lanes.
+ * render.cl stores the counts as planes of its output, raytrace/tools/visits.py reads them. */
+#define VISITS_CLOSEST_NODES 0
+#define VISITS_SHADOW_NODES 1
+#define VISITS_CLOSEST_PRIMITIVES 2
+#define VISITS_SHADOW_PRIMITIVES 3
+#define VISIT_KINDS 4
+#if COUNT_VISITS
+#define COUNT_VISIT(s, kind) (++(s)->visits[kind])
+#else
+#define COUNT_VISIT(s, kind) ((void)0)
+#endif
 
 /* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */
 typedef struct {

@@ -1,5 +1,5 @@
 """Helpers the test modules share: the checkout's paths, the command line run as a user runs it, the
-planar layout of the test kernels' arrays, and texture lookups in the kernel, in OpenImageIO and as the
+planar layout of the test kernels' arrays, kernels that report the device's constants, and texture lookups in the kernel, in OpenImageIO and as the
 device stores the levels. Fixtures are in conftest.py."""
 import os
 import subprocess
@@ -8,9 +8,11 @@ from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
+import pyopencl as cl
 
 from raytrace import structs
 from raytrace.renderer import packing
+from raytrace.renderer.program import build
 from raytrace.scene import mipmap
 from raytrace.tools.probe import planar  # noqa: F401 (for the tests)
 
@@ -77,3 +79,21 @@ def openimageio_lookup(folder, image, mipmode, s, t, derivs=None):
     opt.mipmode, opt.interpmode = mipmode, oiio.InterpMode.Bilinear
     derivs = np.zeros((4, len(s))) if derivs is None else derivs
     return np.array([system.texture(path, opt, a, b, *map(float, d), 3) for a, b, d in zip(s, t, derivs.T)])
+
+
+def run_int_kernel(cl_env, source, n, options=()):
+    """Run a one-work-item kernel `values(__global int *out)` from `source` (with types.h included), built
+    with `options`; its n ints."""
+    context, queue = cl_env
+    program, _ = build(context, f'#include "types.h"\n{source}', list(options))
+    out = np.zeros(max(n, 1), np.int32)
+    buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    cl.Kernel(program, "values")(queue, (1,), None, buf)
+    cl.enqueue_copy(queue, out, buf)
+    return out[:n].tolist()
+
+
+def values_kernel(expressions):
+    """The source of a kernel `values` that stores each C expression's int value, in order."""
+    body = "\n".join(f"    out[{i}] = {e};" for i, e in enumerate(expressions))
+    return f"__kernel void values(__global int *out)\n{{\n{body}\n}}\n"

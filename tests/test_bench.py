@@ -18,7 +18,8 @@ FIELDS = ["scene", "lights", "width", "height", "spp", "light_samples", "rays", 
           "nominal_rays", "nominal_mrays_per_s", "scalar_render_seconds", "scalar_mrays_per_s", "ratio_to_scalar",
           "build_seconds_cold", "build_seconds_warm", "process_seconds_cold", "process_seconds_warm",
           "peak_host_bytes", "device_bytes", "device", "build_options", "cold", "warm", "time_ratio_to_first",
-          "paired_time_ratio_to_first", "visits_per_camera_ray", "visits_per_shadow_ray"]
+          "paired_time_ratio_to_first", "visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray",
+          "primitives_per_shadow_ray", "pixels_with_half_the_shadow_visits"]
 
 
 def test_bench_json_and_table(tmp_path):
@@ -39,10 +40,12 @@ def test_bench_json_and_table(tmp_path):
     assert row["build_seconds_cold"] >= row["build_seconds_warm"] and row["time_ratio_to_first"] == 1
     assert row["paired_time_ratio_to_first"] == 1
     assert row["peak_host_bytes"] > 0 and row["device_bytes"] > 0
-    assert row["visits_per_camera_ray"] > 0 and row["visits_per_shadow_ray"] > 0  # scene 0 has a BVH
+    for key in ("visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray",
+                "primitives_per_shadow_ray", "pixels_with_half_the_shadow_visits"):
+        assert 0 < row[key] < math.inf, key  # scene 0 has a BVH
     header, line, machine = r.stdout.strip().splitlines()
     assert header.split()[:2] == ["scene", "Mrays/s"] and line.startswith(row["scene"])
-    assert header.endswith("nodes/camera ray  nodes/shadow ray")
+    assert header.endswith("nodes/camera ray  nodes/shadow ray  prims/camera ray  prims/shadow ray")
     assert "16x16, 1 spp x 1 light samples; best of 1" in machine and data["machine"]["cpu"] in machine
 
 

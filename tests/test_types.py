@@ -7,23 +7,7 @@ import pytest
 
 from raytrace import structs
 from raytrace.renderer.program import build
-
-
-def run_int_kernel(cl_env, source, n, options=()):
-    """Run a one-work-item kernel `values(__global int *out)` from `source` (with types.h included), built
-    with `options`; its n ints."""
-    context, queue = cl_env
-    program, _ = build(context, f'#include "types.h"\n{source}', list(options))
-    out = np.zeros(max(n, 1), np.int32)
-    buf = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
-    cl.Kernel(program, "values")(queue, (1,), None, buf)
-    cl.enqueue_copy(queue, out, buf)
-    return out[:n].tolist()
-
-
-def values_kernel(expressions):
-    body = "\n".join(f"    out[{i}] = {e};" for i, e in enumerate(expressions))
-    return f"__kernel void values(__global int *out)\n{{\n{body}\n}}\n"
+from helpers import run_int_kernel, values_kernel
 
 
 def test_struct_layout_matches_device(cl_env):

@@ -1,6 +1,6 @@
-"""The node-visit counter (raytrace/tools/visits.py; COUNT_VISITS in kernels/bvh.cl and render.cl): a measuring
-build of the render kernel that counts the BVH boxes its traversals test, per work-item, and the figures
-`bench` prints from it. The counts are checked exactly where the tree's shape fixes them, at every lane width
+"""The traversal counters (raytrace/tools/visits.py; COUNT_VISITS in kernels/scene.h, bvh.cl, primitive.cl and
+render.cl): a measuring build of the render kernel that counts the BVH boxes and the primitives its traversals
+test, per work-item, and the figures `bench` prints from them. The counts are checked exactly where the tree's shape fixes them, at every lane width
 this machine runs."""
 import dataclasses
 import math
@@ -11,8 +11,10 @@ import pytest
 from raytrace.render import render
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Triangle
+from raytrace.renderer.device_render import VISIT_KINDS
 from raytrace.structs import TILE_ROWS
 from raytrace.tools.visits import node_visits, pixels_with_half
+from helpers import run_int_kernel, values_kernel
 
 # 10 x 6 pixels: the tiles of 4 x 4, 4 x 2 and 2 x 2 pixels (lanes.h) reach past the image's edges, so a
 # work-item's count is shared among fewer pixels than lanes.
@@ -32,17 +34,20 @@ def floor_scene(cornell, far_triangle):
                                triangles=[floor, far] if far_triangle else [floor])
 
 
-@pytest.mark.parametrize("far_triangle,boxes", [(False, 1), (True, 3)])
-def test_visits_are_the_boxes_tested(cornell, lanes, far_triangle, boxes):
-    """One triangle: the BVH is one leaf, and every traversal tests 1 box. Two triangles: a root and two
-    leaves, and every traversal tests all 3 boxes (the far leaf's box is tested and missed). A work-item
-    traces one closest-hit traversal per pixel sample and one shadow traversal per light sample (every lane
-    lit), so the visits per ray are boxes x work-items / pixels exactly: with lanes, the packets' saving.
-    (The per-pixel shares are float32 quotients, summed in float64: rel 1e-6.) It fails if the counter counts
-    lanes rather than work-items, only the nodes entered (2 instead of 3), misses a traversal kind, or if a
-    work-item's count is divided among its lanes rather than among its pixels in the image."""
+@pytest.mark.parametrize("far_triangle,bvh,boxes,primitives", [(False, True, 1, 1), (True, True, 3, 1),
+                                                                 (True, False, 0, 2)])
+def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle, bvh, boxes, primitives):
+    """One triangle: the BVH is one leaf, and every traversal tests 1 box and 1 triangle. Two triangles: a
+    root and two leaves, and every traversal tests all 3 boxes (the far leaf's box is tested and missed) but
+    only the floor's triangle; without a BVH, both triangles and no box. A work-item traces one closest-hit
+    traversal per pixel sample and one shadow traversal per light sample (every lane lit), so the counts per
+    ray are boxes (or primitives) x work-items / pixels exactly: with lanes, the packets' saving. (The
+    per-pixel shares are float32 quotients, summed in float64: rel 1e-6.) It fails if the counter counts
+    lanes rather than work-items, only the nodes entered (2 instead of 3), the primitives of leaves missed,
+    misses a traversal kind, or if a work-item's count is divided among its lanes rather than among its
+    pixels in the image."""
     scene = floor_scene(cornell, far_triangle)
-    features = dataclasses.replace(Features.of(scene, lanes), bvh=True)
+    features = dataclasses.replace(Features.of(scene, lanes), bvh=bvh)
     visits = node_visits(scene, features, **SIZE)
     rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
     work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
@@ -51,6 +56,8 @@ def test_visits_are_the_boxes_tested(cornell, lanes, far_triangle, boxes):
     assert visits["shadow_rays"] == visits["camera_rays"] * SIZE["light_samples"]  # every lane lit
     assert visits["visits_per_camera_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
     assert visits["visits_per_shadow_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
+    assert visits["primitives_per_camera_ray"] == pytest.approx(primitives * work_items / pixels, rel=1e-6)
+    assert visits["primitives_per_shadow_ray"] == pytest.approx(primitives * work_items / pixels, rel=1e-6)
     # Each pixel holds its work-item's count over the pixels it shares it with: boxes x samples / pixels of its
     # tile inside the image.
     y, x = np.mgrid[:SIZE["height"], :SIZE["width"]]
@@ -80,21 +87,32 @@ def test_counting_build_renders_the_same_image(cornell, lanes):
     counted, counted_stats = render(cornell, features=dataclasses.replace(features, count_visits=True), **options)
     np.testing.assert_array_equal(counted, plain)
     assert counted_stats.rays == plain_stats.rays
-    assert "node_visits" in counted_stats.extra and "node_visits" not in plain_stats.extra
+    assert "visits" in counted_stats.extra and "visits" not in plain_stats.extra
 
 
 def test_banded_counts_add_up_within_the_budget(cornell, lanes):
-    """A budget of 8 rows of the counting build's six planes cuts 21 rows into bands of 8, 8 and 5; 8 is a
+    """A budget of 8 rows of the counting build's eight planes cuts 21 rows into bands of 8, 8 and 5; 8 is a
     multiple of every tile's height, so the work-items, and with them every pixel's count, are those of one
     band. It fails if a band's visit planes land on the wrong rows of the map, if the budget ignores the two
-    planes more (the buffer would hold 8 rows of four planes: 12 rows), or if bands are counted twice."""
+    planes more (the buffer would hold 8 rows of four planes: 16 rows), or if bands are counted twice."""
     features = dataclasses.replace(Features.of(cornell, lanes), bvh=True)
     options = dict(SIZE, width=33, height=21)
     whole = node_visits(cornell, features, **options)
-    row_bytes = 6 * 4 * options["width"]
+    row_bytes = 8 * 4 * options["width"]
     _, stats = render(cornell, features=dataclasses.replace(features, count_visits=True),
                       max_band_bytes=8 * row_bytes, **options)
     assert stats.extra["band_rows"] == 8 and stats.extra["device_output_bytes"] == 8 * row_bytes
-    closest, shadow = stats.extra["node_visit_map"]
+    closest, shadow = stats.extra["visit_maps"][:2]
     np.testing.assert_array_equal(closest, whole["closest_hit_map"])
     np.testing.assert_array_equal(shadow, whole["shadow_map"])
+
+
+def test_visit_kinds_match_the_kernel(cl_env):
+    """The host's names of the counting build's planes (device_render.VISIT_KINDS) against scene.h's VISITS_*
+    indices, in order: the host reads plane 4 + k as kind k."""
+    names = ["VISIT_KINDS", "VISITS_CLOSEST_NODES", "VISITS_SHADOW_NODES", "VISITS_CLOSEST_PRIMITIVES",
+             "VISITS_SHADOW_PRIMITIVES"]
+    source = f'#include "scene.h"\n{values_kernel(names)}'
+    n, *indices = run_int_kernel(cl_env, source, 5, ["-DLANES=1"])
+    assert n == len(VISIT_KINDS) and indices == [VISIT_KINDS.index(k) for k in (
+        "closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives")]

@@ -15,7 +15,8 @@ from .program import Features, render_program
 from .progressive import CHANNELS
 
 OUTPUT_PLANES = CHANNELS + 1  # the kernel's output: R, G, B sums and the ray count, float32
-VISIT_KINDS = ("closest_hit", "shadow")  # a COUNT_VISITS build's two planes more: its BVH node visits
+# A COUNT_VISITS build's planes more: the nodes and primitives its traversals test (kernels/scene.h's VISITS_*)
+VISIT_KINDS = ("closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives")
 WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch, so that a launch stays short
 
 
@@ -31,8 +32,8 @@ def band_rows(r, max_band_bytes, planes=OUTPUT_PLANES):
 class _Bands:
     """The image as bands of whole rows (band_rows), one launch each, through one device output buffer of a
     band. A launch is a grid of the kernel's tiles of pixels (TILE_ROWS); the last row of tiles may reach
-    past the band, and the kernel stores nothing there. A measuring build's node visits (VISIT_KINDS) add up
-    pixel by pixel in `visits`, a float64 array of VISIT_KINDS x height x width."""
+    past the band, and the kernel stores nothing there. A measuring build's counts (VISIT_KINDS) add up pixel
+    by pixel in `visits`, a float64 array of VISIT_KINDS x height x width."""
 
     def __init__(self, context, width, height, rows, lanes, planes=OUTPUT_PLANES):
         # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
@@ -115,8 +116,8 @@ class DeviceRender:
                 "extra": {"target": describe_target(self.device, self.features.lanes), "band_rows": bands.rows,
                           "device_output_bytes": bands.host.nbytes,
                           "device_bytes": sum(b.size for b in self.buffers.values()) + bands.device.size,
-                          **({"node_visits": dict(zip(VISIT_KINDS, bands.visits.sum(axis=(1, 2)).tolist())),
-                              "node_visit_map": bands.visits} if self.features.count_visits else {})}}
+                          **({"visits": dict(zip(VISIT_KINDS, bands.visits.sum(axis=(1, 2)).tolist())),
+                              "visit_maps": bands.visits} if self.features.count_visits else {})}}
 
 
 class LocalPasses:

@@ -4,7 +4,8 @@ Per scene: rays per second of the renderer's kernel (as `render` picks it for th
 scalar kernel (LANES=1) on the same device in the same process, so that machines and loads cancel out in
 the ratio; then the whole `python -m raytrace render` in child processes, with an empty kernel cache
 (cold) and with the cache it filled (warm), for build seconds, process seconds and peak host memory; and
-the BVH node visits per camera and per shadow ray, counted by a measuring build of the kernel (visits.py).
+the BVH nodes and primitives tested per camera and per shadow ray, counted by a measuring build of the
+kernel (visits.py).
 The scenes' own renders are taken in turns (one of each, then again), so that each scene's time against
 the first's is measured in the same minutes: a shared machine's speed drifts by 10-20% over minutes. Two
 ratios: "x first's s" of the two fastest renders, and "paired", the median over turns of the ratio of one
@@ -32,6 +33,8 @@ from .visits import node_visits
 ROOT = Path(__file__).resolve().parents[2]
 # Scene 0, textures, texture filtering under strong minification, and the largest mesh scene that renders
 # in seconds (10^5 triangles; mesh_million's BVH build alone takes longer than the rest of the suite).
+VISIT_FIELDS = ["visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray",
+                "primitives_per_shadow_ray", "pixels_with_half_the_shadow_visits"]
 SUITE = ["cornell.toml", "textured_cornell.toml", "grid_floor.toml", "mesh_cornell.toml"]
 
 
@@ -137,8 +140,8 @@ def measure(scene_path, scene, repeat, kwargs, stats):
     [scalar], _ = in_turns([scene], repeat, kwargs, [Features.of(scene, 1)])
     say("child processes, cold and warm kernel cache")
     cold, warm = _processes(scene_path, kwargs)
-    say("BVH node visits (a counting build)")
-    visits = node_visits(scene, features, **kwargs, progress=False) if features.bvh else {}
+    say("BVH nodes and primitives tested (a counting build)")
+    visits = node_visits(scene, features, **kwargs, progress=False)
     nominal = stats.width * stats.height * stats.spp * (1 + stats.light_samples * len(scene.lights))
     return {"scene": str(scene_path), "lights": len(scene.lights), "triangles": scene.triangle_count,
             "width": stats.width, "height": stats.height, "spp": stats.spp, "light_samples": stats.light_samples,
@@ -152,9 +155,7 @@ def measure(scene_path, scene, repeat, kwargs, stats):
             "process_seconds_cold": cold["process_seconds"], "process_seconds_warm": warm["process_seconds"],
             "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
             "device_bytes": stats.extra["device_bytes"], "device": stats.device, "target": stats.extra["target"],
-            "visits_per_camera_ray": visits.get("visits_per_camera_ray"),
-            "visits_per_shadow_ray": visits.get("visits_per_shadow_ray"),
-            "pixels_with_half_the_shadow_visits": visits.get("pixels_with_half_the_shadow_visits"),
+            **{key: visits[key] for key in VISIT_FIELDS},
             "cold": cold, "warm": warm}
 
 
@@ -172,13 +173,10 @@ COLUMNS = [("scene", lambda r: r["scene"]),
            ("host peak MiB", lambda r: f"{r['peak_host_bytes'] / MIB:.0f}"),
            ("device MiB", lambda r: f"{r['device_bytes'] / MIB:.1f}"),
            ("x scalar", lambda r: f"{r['ratio_to_scalar']:.2f}"),
-           ("nodes/camera ray", lambda r: _optional(r["visits_per_camera_ray"])),
-           ("nodes/shadow ray", lambda r: _optional(r["visits_per_shadow_ray"]))]
-
-
-def _optional(value):
-    """A figure that a scene may lack (node visits without a BVH): "-" then."""
-    return "-" if value is None else f"{value:.2f}"
+           ("nodes/camera ray", lambda r: f"{r['visits_per_camera_ray']:.2f}"),
+           ("nodes/shadow ray", lambda r: f"{r['visits_per_shadow_ray']:.2f}"),
+           ("prims/camera ray", lambda r: f"{r['primitives_per_camera_ray']:.2f}"),
+           ("prims/shadow ray", lambda r: f"{r['primitives_per_shadow_ray']:.2f}")]
 
 
 def table(rows):

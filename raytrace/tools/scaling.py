@@ -5,8 +5,8 @@ triangles stands in scene 0's room instead of the tetrahedron and the ellipsoid;
 with 4 pixel samples x 4 light samples (fixed: the render options of `bench` do not apply). With a BVH the
 time per ray should grow like log N; a loop over every shape grows like N. Writes scaling.csv and scaling.png
 (log-log: seconds per ray and BVH build seconds against the number of triangles); each row also has the BVH
-node visits per camera and per shadow ray (visits.py, counted in this process), and visits.png maps them
-pixel by pixel for the smallest and the largest mesh. With embree=True (--embree)
+nodes and primitives tested per camera and per shadow ray (visits.py, counted in this process), and
+visits.png maps the node visits pixel by pixel for the smallest and the largest mesh. With embree=True (--embree)
 each row also has Embree's ns per ray on the same geometry and kinds of rays (embree_anchor.py), on one core:
 beside ours, its growth is the anchor."""
 import csv
@@ -26,7 +26,8 @@ from .visits import node_visits, plot_maps
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
 COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",
-           "nominal_mrays_per_s", "visits_per_camera_ray", "visits_per_shadow_ray"]
+           "nominal_mrays_per_s", "visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray",
+           "primitives_per_shadow_ray"]
 
 
 GOLD = Material("scaling gold", np.array([1.0, 0.8, 0.4]), shininess=40.0)
@@ -43,7 +44,7 @@ def mesh_room(scene, triangles):
 
 def measure(scene, scheduler=None):
     """One row of the table: BVH build seconds (alone, as the render does it), the best of three renders and
-    the BVH node visits per camera and per shadow ray, after the counting render's whole result (visits.py)."""
+    the BVH nodes and primitives tested per ray, after the counting render's whole result (visits.py)."""
     lo, hi, _ = primitive_boxes(scene, triangle_soup(scene))
     start = time.perf_counter()
     bvh.build(lo, hi)
@@ -57,8 +58,7 @@ def measure(scene, scheduler=None):
             "render_seconds": stats.render_seconds, "rays": stats.rays,
             "seconds_per_ray": stats.render_seconds / stats.rays, "mrays_per_s": stats.mrays_per_s,
             "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6,
-            "visits_per_camera_ray": visits["visits_per_camera_ray"],
-            "visits_per_shadow_ray": visits["visits_per_shadow_ray"]}
+            **{key: visits[key] for key in COLUMNS[-4:]}}
 
 
 def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, scheduler=None):
@@ -81,8 +81,9 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, sc
         if out:
             r = rows[-1]
             print(f"{r['triangles']:>9d} triangles: BVH {r['build_seconds']:7.2f} s, render {r['render_seconds']:6.3f} s, "
-                  f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s, BVH nodes per "
-                  f"camera ray {r['visits_per_camera_ray']:.2f}, per shadow ray {r['visits_per_shadow_ray']:.2f}"
+                  f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s, BVH nodes and "
+                  f"primitives per camera ray {r['visits_per_camera_ray']:.2f} and {r['primitives_per_camera_ray']:.2f}, "
+                  f"per shadow ray {r['visits_per_shadow_ray']:.2f} and {r['primitives_per_shadow_ray']:.2f}"
                   + (f"; Embree {anchor['ns_per_ray']:7.1f} ns per ray on 1 core "
                      f"({anchor['ns_per_ray_all_cores']:.1f} ideal on {anchor['cores']})" if anchor else ""),
                   file=out, flush=True)

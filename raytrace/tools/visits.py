@@ -1,10 +1,12 @@
-"""BVH node visits per ray, counted by the render kernel itself: the figure that explains where a mesh's time
-goes (`bench` and `bench --scaling` print it beside the seconds).
+"""BVH node visits and primitive tests per ray, counted by the render kernel itself: the figures that explain
+where a mesh's time goes (`bench` and `bench --scaling` print them beside the seconds), the two terms of the
+surface area heuristic's cost (pbrt-v4 section 7.3.2) as the render's own rays meet them.
 
-A measuring build of the scene's kernel (Features.count_visits: -DCOUNT_VISITS, kernels/bvh.cl) counts every
-node whose box a traversal tests, once per work-item traversal: with packets, one visit tests all of a
-work-item's lanes, so a figure below 1 per ray is the packets' saving. The counting build renders the same
-image bit for bit (tests/test_visits.py); its seconds are not the renderer's and are not reported."""
+A measuring build of the scene's kernel (Features.count_visits: -DCOUNT_VISITS, kernels/scene.h) counts every
+node whose box a traversal tests and every primitive it tests, once per work-item: with packets, one test
+covers all of a work-item's lanes, so a figure below 1 per ray is the packets' saving. The counting build
+renders the same image bit for bit (tests/test_visits.py); its seconds are not the renderer's and are not
+reported."""
 import dataclasses
 
 import numpy as np
@@ -15,19 +17,23 @@ from ..renderer.program import Features
 
 
 def node_visits(scene, features=None, **render_kwargs):
-    """The render's BVH node visits per camera ray (closest-hit traversals) and per shadow ray, with the ray
-    counts they are divided by, the per-pixel maps of visits (height x width, summed over the pixel's
-    samples) and how concentrated the shadow visits are, for the kernel variant `features` (default: the one
-    render() picks); 0 visits where the kernel loops over the shapes without a BVH."""
+    """What the render's traversals test per camera ray (closest-hit traversals) and per shadow ray: BVH
+    nodes and primitives, with the ray counts they are divided by, the per-pixel maps of node visits (height
+    x width, summed over the pixel's samples) and how concentrated the shadow rays' node visits are, for the
+    kernel variant `features` (default: the one render() picks). Without a BVH the kernel loops over every
+    shape: 0 nodes, and every shape a primitive test."""
     features = features or Features.of(scene, default_lanes(select_device(render_kwargs.get("device"))))
     _, stats = render(scene, features=dataclasses.replace(features, count_visits=True), **render_kwargs)
-    visits = stats.extra["node_visits"]
+    visits = stats.extra["visits"]
     camera_rays = stats.width * stats.height * stats.spp
     shadow_rays = stats.rays - camera_rays
-    closest_map, shadow_map = stats.extra["node_visit_map"]
+    per_shadow_ray = lambda n: n / shadow_rays if shadow_rays else 0.0  # noqa: E731
+    closest_map, shadow_map = stats.extra["visit_maps"][:2]
     return {"camera_rays": camera_rays, "shadow_rays": shadow_rays,
-            "visits_per_camera_ray": visits["closest_hit"] / camera_rays,
-            "visits_per_shadow_ray": visits["shadow"] / shadow_rays if shadow_rays else 0.0,
+            "visits_per_camera_ray": visits["closest_hit_nodes"] / camera_rays,
+            "visits_per_shadow_ray": per_shadow_ray(visits["shadow_nodes"]),
+            "primitives_per_camera_ray": visits["closest_hit_primitives"] / camera_rays,
+            "primitives_per_shadow_ray": per_shadow_ray(visits["shadow_primitives"]),
             "pixels_with_half_the_shadow_visits": pixels_with_half(shadow_map),
             "closest_hit_map": closest_map, "shadow_map": shadow_map}
 
