@@ -2,9 +2,15 @@
  *
  * Packets: the LANES rays of a work-item (its tile of pixels, or their shadow rays towards one light sample)
  * walk the tree together. A node is entered when any lane that is still looking meets its box; lanes that
- * miss it are masked by the primitive tests' own t ranges. Children are visited near first, by the first
- * lane's direction along the split axis (the packet's rays are nearly parallel), so that the closest hit
- * found early culls the far subtrees. With LANES=1 (GPUs) this is ordinary single-ray traversal. */
+ * miss it are masked by the primitive tests' own t ranges. Closest-hit traversals visit children near first,
+ * by the first lane's direction along the split axis (the packet's rays are nearly parallel), so that the
+ * closest hit found early culls the far subtrees. Shadow rays visit them far first, from the light's end of
+ * the segment: a segment starts on a surface, and the subtrees around its origin (a mesh's neighbouring
+ * triangles, which it leaves) rarely block it, so a blocker is found sooner and a packet whose lanes are all
+ * blocked stops before it opens them. Measured with the counting build (tools/visits.py, 512 x 512, 16 x 16
+ * samples, 16 lanes): mesh_cornell's shadow rays open 18% fewer nodes and test 33% fewer primitives, scene
+ * 0's 3% more nodes; an unblocked ray visits the same nodes in either order. With LANES=1 (GPUs) this is
+ * ordinary single-ray traversal. */
 #ifndef BVH_CL
 #define BVH_CL
 
@@ -56,12 +62,13 @@ inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax
     return near <= far * (1.0f + 2.0f * GAMMA(3));
 }
 
-/* The children of interior node `i` in the order to visit them: *first, then the returned second. */
-inline int order_children(__global const BVHNode *nodes, int i, BoxRay b, int *first)
+/* The children of interior node `i` in the order to visit them: *first, then the returned second. Near first
+ * along the first lane's direction on the node's split axis, or far first with `far_first`. */
+inline int order_children(__global const BVHNode *nodes, int i, BoxRay b, int far_first, int *first)
 {
-    int right = nodes[i].offset, far_first = b.negative[-nodes[i].count];
-    *first = far_first ? right : i + 1;
-    return far_first ? i + 1 : right;
+    int right = nodes[i].offset, right_first = b.negative[-nodes[i].count] != far_first;
+    *first = right_first ? right : i + 1;
+    return right_first ? i + 1 : right;
 }
 
 inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
@@ -74,7 +81,7 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
         COUNT_VISIT(s, VISITS_CLOSEST_NODES);
         if (ANY(meets_box(node, r, b, vmin(tmax, hit->t)))) {
             if (node->count <= 0) {
-                stack[top++] = order_children(s->nodes, i, b, &i);
+                stack[top++] = order_children(s->nodes, i, b, 0, &i);
                 continue;
             }
             for (int k = node->offset; k < node->offset + node->count; ++k)
@@ -110,7 +117,7 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
         if (!skipped_subtree(s, i, skip) &&
             (COUNT_VISIT(s, VISITS_SHADOW_NODES), ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !settled))) {
             if (node->count <= 0) {
-                stack[top++] = order_children(s->nodes, i, b, &i);
+                stack[top++] = order_children(s->nodes, i, b, 1, &i);
                 continue;
             }
             for (int k = node->offset; k < node->offset + node->count; ++k)
