@@ -28,7 +28,8 @@ inline void kahan_add(vec3 *sum, vec3 *carry, vec3 x)
     *sum = t;
 }
 
-/* The number of lanes set in `mask`. */
+#if COUNT_VISITS
+/* The number of lanes set in `mask`: the pixels among which a measuring build shares its counts. */
 inline int count_lanes(vint mask)
 {
     int m[LANES], n = 0;
@@ -37,6 +38,7 @@ inline int count_lanes(vint mask)
         n += m[i] != 0;
     return n;
 }
+#endif
 
 /* plane[index] = value in the active lanes. */
 inline void store_lanes(__global float *plane, vint index, vfloat value, vint active)
