@@ -28,13 +28,11 @@ from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 from ..render import RenderOptions, check_memory, render, resolve
 from ..scene import load_scene
-from .visits import node_visits
+from .visits import PER_RAY, node_visits
 
 ROOT = Path(__file__).resolve().parents[2]
 # Scene 0, textures, texture filtering under strong minification, and the largest mesh scene that renders
 # in seconds (10^5 triangles; mesh_million's BVH build alone takes longer than the rest of the suite).
-VISIT_FIELDS = ["visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray",
-                "primitives_per_shadow_ray", "pixels_with_half_the_shadow_visits"]
 SUITE = ["cornell.toml", "textured_cornell.toml", "grid_floor.toml", "mesh_cornell.toml"]
 
 
@@ -155,7 +153,7 @@ def measure(scene_path, scene, repeat, kwargs, stats):
             "process_seconds_cold": cold["process_seconds"], "process_seconds_warm": warm["process_seconds"],
             "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
             "device_bytes": stats.extra["device_bytes"], "device": stats.device, "target": stats.extra["target"],
-            **{key: visits[key] for key in VISIT_FIELDS},
+            **{key: visits[key] for key in (*PER_RAY, "pixels_with_half_the_shadow_visits")},
             "cold": cold, "warm": warm}
 
 

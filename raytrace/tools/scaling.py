@@ -22,12 +22,11 @@ from ..render import render
 from ..scene import Material, MeshShape, load_scene
 from ..renderer.packing import primitive_boxes, triangle_soup
 from . import embree_anchor
-from .visits import node_visits, plot_maps
+from .visits import PER_RAY, node_visits, plot_maps
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
 COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",
-           "nominal_mrays_per_s", "visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray",
-           "primitives_per_shadow_ray"]
+           "nominal_mrays_per_s", *PER_RAY]
 
 
 GOLD = Material("scaling gold", np.array([1.0, 0.8, 0.4]), shininess=40.0)
@@ -58,7 +57,7 @@ def measure(scene, scheduler=None):
             "render_seconds": stats.render_seconds, "rays": stats.rays,
             "seconds_per_ray": stats.render_seconds / stats.rays, "mrays_per_s": stats.mrays_per_s,
             "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6,
-            **{key: visits[key] for key in COLUMNS[-4:]}}
+            **{key: visits[key] for key in PER_RAY}}
 
 
 def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, scheduler=None):

@@ -15,6 +15,9 @@ from ..render import render
 from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 
+# The per-ray figures of node_visits, in the order bench and bench --scaling list them.
+PER_RAY = ("visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray", "primitives_per_shadow_ray")
+
 
 def node_visits(scene, features=None, **render_kwargs):
     """What the render's traversals test per camera ray (closest-hit traversals) and per shadow ray: BVH
