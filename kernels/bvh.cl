@@ -103,23 +103,43 @@ inline int skipped_subtree(const Scene *s, int i, uint skip)
     return only != 0u && (only & ~skip) == 0u;
 }
 
+/* Whether a shadow packet enters node j: the node is not skipped and a lane still unsettled meets its box. */
+inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settled)
+{
+    if (skipped_subtree(s, j, skip))
+        return 0;
+    COUNT_VISIT(s, VISITS_SHADOW_NODES);
+    return ANY(meets_box(&s->nodes[j], r, b, (vfloat)(1.0f)) & !settled);
+}
+
 /* intersect.cl's occluded() over the hierarchy: the `skip`ped rectangles are not tested, nor the subtrees
  * that hold nothing else (a room's walls). Lanes outside `active` count as settled from the start, so they
- * open no node: a packet's traversal is the union of its active rays' only. */
+ * open no node: a packet's traversal is the union of its active rays' only. An opened node's two children
+ * are tested together, and only those the packet enters are visited (the second pushed, without the lanes
+ * that met it: a shadow ray needs no distance to cull by): the two box tests are independent, so they
+ * overlap in the CPU's pipeline, and a missed child costs no trip through the stack. In one process against
+ * testing each child when it is popped (renders alternating, 9-11 each, both orders): mesh_cornell 2-7%
+ * less time, the 10^6-triangle torus of `bench --scaling` 7%, scene 0 within the noise. */
 inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
 {
     BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
     vint settled = !active;
     int stack[BVH_STACK], top = 0, i = 0;
+    if (!enters(s, 0, r, b, skip, settled))
+        return settled & active;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
-        if (!skipped_subtree(s, i, skip) &&
-            (COUNT_VISIT(s, VISITS_SHADOW_NODES), ANY(meets_box(node, r, b, (vfloat)(1.0f)) & !settled))) {
-            if (node->count <= 0) {
-                stack[top++] = order_children(s->nodes, i, b, 1, &i);
+        if (node->count <= 0) {
+            int first, second = order_children(s->nodes, i, b, 1, &first);
+            int in_first = enters(s, first, r, b, skip, settled), in_second = enters(s, second, r, b, skip, settled);
+            stack[top] = second; /* kept only when both are entered: no branch to mispredict */
+            top += in_first & in_second;
+            if (in_first | in_second) {
+                i = in_first ? first : second;
                 continue;
             }
+        } else {
             for (int k = node->offset; k < node->offset + node->count; ++k)
                 settled |= primitive_blocks(s, &p, s->prims[k] & 3, s->prims[k] >> 2, skip);
             if (ALL(settled))
