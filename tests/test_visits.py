@@ -68,6 +68,27 @@ def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle
                                rtol=1e-6)
 
 
+def test_closest_hits_test_a_pushed_node_again(cornell, lanes):
+    """Closest-hit traversals test both children of a node they open and push the farther when both are met
+    (kernels/bvh.cl); popped, it is tested again against the closer hit found since. The scene: the floor
+    under a small triangle at z = 1.4 that covers the whole view of the camera above it (z = 1.5). The root
+    splits them along z (SAH: 1 + (800 + 32) / 912 < 2, a leaf of both), and every camera ray meets both
+    leaves' boxes: the traversal tests the root's box and both leaves', enters the near one (the cover), hits
+    it at t = 0.1 and tests the floor's box again, now beyond the hit: 4 boxes, 1 primitive (per work-item). It
+    fails if the pushed node is not tested again (3 boxes and the floor's triangle: 2 primitives), or if the
+    children are tested one at a time, when popped (3 boxes, 1 primitive)."""
+    white = cornell.rectangles[0].material
+    cover = Triangle(np.array([[-2.0, -2.0, 1.4], [2.0, -2.0, 1.4], [0.0, 2.0, 1.4]]), white)
+    scene = floor_scene(cornell, False)
+    scene = dataclasses.replace(scene, triangles=scene.triangles + [cover])
+    visits = node_visits(scene, dataclasses.replace(Features.of(scene, lanes), bvh=True), **SIZE)
+    rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
+    work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
+    pixels = SIZE["width"] * SIZE["height"]
+    assert visits["visits_per_camera_ray"] == pytest.approx(4 * work_items / pixels, rel=1e-6)
+    assert visits["primitives_per_camera_ray"] == pytest.approx(work_items / pixels, rel=1e-6)
+
+
 @pytest.mark.parametrize("visit_map,fraction", [([[3, 1], [0, 0]], 1 / 4), ([[1, 1], [1, 1]], 2 / 4),
                                                 ([[1, 2], [3, 2]], 2 / 4), ([[0, 0]], 0.0)])
 def test_pixels_with_half_the_visits(visit_map, fraction):
