@@ -1,4 +1,4 @@
-/* Traversal of the bounding volume hierarchy built on the host (raytrace/bvh.py; pbrt-v4 section 7.3.5).
+/* Traversal of the bounding volume hierarchy built on the host (raytrace/renderer/bvh.py; pbrt-v4 section 7.3.5).
  *
  * Packets: the LANES rays of a work-item (its tile of pixels, or their shadow rays towards one light sample)
  * walk the tree together. A node is entered when any lane that is still looking meets its box; lanes that
@@ -9,8 +9,9 @@
  * triangles, which it leaves) rarely block it, so a blocker is found sooner and a packet whose lanes are all
  * blocked stops before it opens them. Measured with the counting build (tools/visits.py, 512 x 512, 16 x 16
  * samples, 16 lanes): mesh_cornell's shadow rays open 18% fewer nodes and test 33% fewer primitives, scene
- * 0's 3% more nodes; an unblocked ray visits the same nodes in either order. With LANES=1 (GPUs) this is
- * ordinary single-ray traversal. */
+ * 0's 3% more nodes; an unblocked ray visits the same nodes in either order. Both kinds test an opened node's
+ * two children together and push the second only when both are met (each function says how). With LANES=1
+ * (GPUs) this is ordinary single-ray traversal. */
 #ifndef BVH_CL
 #define BVH_CL
 
