@@ -30,13 +30,13 @@ def node_visits(scene, features=None, **render_kwargs):
     visits = stats.extra["visits"]
     camera_rays = stats.width * stats.height * stats.spp
     shadow_rays = stats.rays - camera_rays
-    per_shadow_ray = lambda n: n / shadow_rays if shadow_rays else 0.0  # noqa: E731
+    shadow_divisor = max(shadow_rays, 1)  # no shadow rays: no shadow counts either, 0 per ray
     closest_map, shadow_map = stats.extra["visit_maps"][:2]
     return {"camera_rays": camera_rays, "shadow_rays": shadow_rays,
             "visits_per_camera_ray": visits["closest_hit_nodes"] / camera_rays,
-            "visits_per_shadow_ray": per_shadow_ray(visits["shadow_nodes"]),
+            "visits_per_shadow_ray": visits["shadow_nodes"] / shadow_divisor,
             "primitives_per_camera_ray": visits["closest_hit_primitives"] / camera_rays,
-            "primitives_per_shadow_ray": per_shadow_ray(visits["shadow_primitives"]),
+            "primitives_per_shadow_ray": visits["shadow_primitives"] / shadow_divisor,
             "pixels_with_half_the_shadow_visits": pixels_with_half(shadow_map),
             "closest_hit_map": closest_map, "shadow_map": shadow_map}
 
