@@ -11,7 +11,8 @@
  * samples, 16 lanes): mesh_cornell's shadow rays open 18% fewer nodes and test 33% fewer primitives, scene
  * 0's 3% more nodes; an unblocked ray visits the same nodes in either order. Both kinds test an opened node's
  * two children together and push the second only when both are met (each function says how). With LANES=1
- * (GPUs) this is ordinary single-ray traversal. */
+ * (GPUs) this is ordinary single-ray traversal. Shadow packets traverse the whole tree only when their sweep
+ * towards the light meets more leaves than it keeps (shadow_sweep.cl). */
 #ifndef BVH_CL
 #define BVH_CL
 

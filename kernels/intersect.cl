@@ -1,12 +1,15 @@
 /* Closest hit over every shape and light, and the any-hit test of shadow rays: over a BVH (bvh.cl) when the
  * host built one, else a loop over every shape. Either way each primitive goes through primitive.cl's one
- * dispatch on its kind, tested by all lanes at once. */
+ * dispatch on its kind, tested by all lanes at once. With a BVH, a packet's shadow rays towards one light
+ * test only the leaves their sweep meets (shadow_sweep.cl) when it meets few. */
 #ifndef INTERSECT_CL
 #define INTERSECT_CL
 
 #include "primitive.cl"
 #if HAS_BVH
-#include "bvh.cl"
+#include "shadow_sweep.cl"
+#else
+typedef struct { int n; } SweptLeaves; /* without a BVH: every shape (n = -1) */
 #endif
 
 #if !HAS_BVH
@@ -86,6 +89,30 @@ inline vint occluded(const Scene *s, Ray r, uint skip, vint active)
         for (int i = 0; i < shape_count(s, kind) && !ALL(settled); ++i)
             settled |= primitive_blocks(s, &p, kind, i, skip);
     return settled & active;
+#endif
+}
+
+/* What the segments from the origins of `lanes` towards `light` may meet, for occluded_among(): the leaves
+ * of their sweep (shadow_sweep.cl), none at all (n = 0) where it meets nothing the light's samples could be
+ * blocked by, or everything (n = -1). */
+inline SweptLeaves shadow_candidates(const Scene *s, __global const Light *light, vec3 origin, vint lanes, uint skip)
+{
+#if HAS_BVH
+    Sweep w = shadow_sweep(light, origin, lanes);
+    return swept_leaves(s, &w, skip);
+#else
+    SweptLeaves every = {-1};
+    return every;
+#endif
+}
+
+/* occluded() of a segment among the shadow candidates of its packet and light. */
+inline vint occluded_among(const Scene *s, const SweptLeaves *candidates, Ray r, uint skip, vint active)
+{
+#if HAS_BVH
+    return swept_occluded(s, candidates, r, skip, active);
+#else
+    return occluded(s, r, skip, active);
 #endif
 }
 

@@ -129,6 +129,39 @@ inline int or_lanes(int16 m) { int8 t = m.lo | m.hi; int4 u = t.lo | t.hi; int2 
 inline int and_lanes(int16 m) { int8 t = m.lo & m.hi; int4 u = t.lo & t.hi; int2 w = u.lo & u.hi; return w.x & w.y; }
 #endif
 
+/* The smallest (largest) of a vector's lanes, for values that are numbers or infinities. */
+#if LANES == 1
+inline float min_lane(float x) { return x; }
+inline float max_lane(float x) { return x; }
+#else
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_reduce_min) && __has_builtin(__builtin_reduce_max)
+#define HAS_REDUCE_MIN_MAX 1
+#endif
+#endif
+#ifdef HAS_REDUCE_MIN_MAX
+inline float min_lane(vfloat x) { return __builtin_reduce_min(x); }
+inline float max_lane(vfloat x) { return __builtin_reduce_max(x); }
+#else
+inline float min_lane(vfloat x)
+{
+    float a[LANES];
+    VSTORE(x, a);
+    for (int i = 1; i < LANES; ++i)
+        a[0] = a[i] < a[0] ? a[i] : a[0];
+    return a[0];
+}
+inline float max_lane(vfloat x)
+{
+    float a[LANES];
+    VSTORE(x, a);
+    for (int i = 1; i < LANES; ++i)
+        a[0] = a[i] > a[0] ? a[i] : a[0];
+    return a[0];
+}
+#endif
+#endif
+
 /* A mask as 0/1 floats, e.g. to count rays per lane. */
 #define MASK_TO_ONE(m) SELECT((vfloat)(0.0f), (vfloat)(1.0f), (m))
 

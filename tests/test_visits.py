@@ -14,7 +14,8 @@ from raytrace.scene import Camera, Triangle
 from raytrace.renderer.device_render import VISIT_KINDS
 from raytrace.structs import TILE_ROWS
 from raytrace.tools.visits import node_visits, pixels_with_half
-from helpers import run_int_kernel, values_kernel
+from helpers import planar, run_int_kernel, values_kernel
+from raytrace.tools.probe import scene_args
 
 # 10 x 6 pixels: the tiles of 4 x 4, 4 x 2 and 2 x 2 pixels (lanes.h) reach past the image's edges, so a
 # work-item's count is shared among fewer pixels than lanes.
@@ -34,28 +35,33 @@ def floor_scene(cornell, far_triangle):
                                triangles=[floor, far] if far_triangle else [floor])
 
 
-@pytest.mark.parametrize("far_triangle,bvh,boxes,primitives", [(False, True, 1, 1), (True, True, 3, 1),
-                                                                 (True, False, 0, 2)])
-def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle, bvh, boxes, primitives):
-    """One triangle: the BVH is one leaf, and every traversal tests 1 box and 1 triangle. Two triangles: a
-    root and two leaves, and every traversal tests all 3 boxes (the far leaf's box is tested and missed) but
-    only the floor's triangle; without a BVH, both triangles and no box. A work-item traces one closest-hit
-    traversal per pixel sample and one shadow traversal per light sample (every lane lit), so the counts per
-    ray are boxes (or primitives) x work-items / pixels exactly: with lanes, the packets' saving. (The
-    per-pixel shares are float32 quotients, summed in float64: rel 1e-6.) It fails if the counter counts
-    lanes rather than work-items, only the nodes entered (2 instead of 3), the primitives of leaves missed,
-    misses a traversal kind, or if a work-item's count is divided among its lanes rather than among its
-    pixels in the image."""
+@pytest.mark.parametrize("far_triangle,bvh,boxes,swept,primitives", [(False, True, 1, 1, 1), (True, True, 3, 3, 1),
+                                                                       (True, False, 0, 0, 2)])
+def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle, bvh, boxes, swept, primitives):
+    """One triangle: the BVH is one leaf, and every closest-hit traversal tests 1 box and 1 triangle. Two
+    triangles: a root and two leaves, and every closest-hit traversal tests all 3 boxes (the far leaf's box is
+    tested and missed) but only the floor's triangle; without a BVH, both triangles and no box. Shadow rays
+    first sweep the tree once per packet and light (kernels/shadow_sweep.cl), testing `swept` boxes (the root
+    alone, or the root and both leaves), and find the floor's leaf (the segments start in its plane, so the
+    sweep touches it); each light sample then tests that leaf's box and triangle: 1 box and 1 primitive. A
+    work-item traces one closest-hit traversal per pixel sample, one sweep per pixel sample and light, and one
+    shadow test per light sample (every lane lit), so the counts per ray are boxes (or primitives) x
+    work-items / pixels exactly: with lanes, the packets' saving. (The per-pixel shares are float32 quotients,
+    summed in float64: rel 1e-6.) It fails if the counter counts lanes rather than work-items, only the nodes
+    entered (2 instead of 3), the primitives of leaves missed, misses a traversal kind or the sweep, or if a
+    work-item's count is divided among its lanes rather than among its pixels in the image."""
     scene = floor_scene(cornell, far_triangle)
     features = dataclasses.replace(Features.of(scene, lanes), bvh=bvh)
     visits = node_visits(scene, features, **SIZE)
     rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
     work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
     pixels = SIZE["width"] * SIZE["height"]
+    samples = SIZE["light_samples"]
+    shadow_boxes = swept / samples + (1 if bvh else 0)  # per shadow ray of a work-item
     assert visits["camera_rays"] == pixels * SIZE["spp"]
-    assert visits["shadow_rays"] == visits["camera_rays"] * SIZE["light_samples"]  # every lane lit
+    assert visits["shadow_rays"] == visits["camera_rays"] * samples  # every lane lit
     assert visits["visits_per_camera_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
-    assert visits["visits_per_shadow_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
+    assert visits["visits_per_shadow_ray"] == pytest.approx(shadow_boxes * work_items / pixels, rel=1e-6)
     assert visits["primitives_per_camera_ray"] == pytest.approx(primitives * work_items / pixels, rel=1e-6)
     assert visits["primitives_per_shadow_ray"] == pytest.approx(primitives * work_items / pixels, rel=1e-6)
     # Each pixel holds its work-item's count over the pixels it shares it with: boxes x samples / pixels of its
@@ -64,8 +70,7 @@ def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle
     tile_pixels = (np.minimum(columns, SIZE["width"] - x // columns * columns)
                    * np.minimum(rows, SIZE["height"] - y // rows * rows))
     np.testing.assert_allclose(visits["closest_hit_map"], boxes * SIZE["spp"] / tile_pixels, rtol=1e-6)
-    np.testing.assert_allclose(visits["shadow_map"], boxes * SIZE["spp"] * SIZE["light_samples"] / tile_pixels,
-                               rtol=1e-6)
+    np.testing.assert_allclose(visits["shadow_map"], shadow_boxes * SIZE["spp"] * samples / tile_pixels, rtol=1e-6)
 
 
 def test_closest_hits_test_a_pushed_node_again(cornell, lanes):
@@ -97,14 +102,26 @@ def test_pixels_with_half_the_visits(visit_map, fraction):
     assert pixels_with_half(np.array(visit_map, float)) == fraction
 
 
-def test_shadow_rays_open_the_far_end_first(cornell, lanes):
-    """Shadow rays visit a node's children far first (from the light's end, kernels/bvh.cl). The scene: a
-    floor of 800 small triangles, seen from above, and one large triangle above the camera, below the light,
-    that blocks every shadow ray. The root's split puts the floor and the blocker apart along z, so a shadow
-    traversal tests the root's box and both its children's (the blocker's leaf and the floor's subtree), enters
-    the blocker's leaf first and stops with every lane blocked: 3 boxes and 1 primitive (per work-item). It
-    fails if shadow rays go near first (they would open the floor's subtree around their origins first: about
-    a dozen boxes more) or if a blocked packet does not stop."""
+SHADOW_VISITS = """
+#include "intersect.cl"
+/* The boxes and primitives one shadow traversal of the whole tree (bvh.cl) tests, per work-item. */
+__kernel void shadow_visits(int n, SCENE_PARAMETERS, __global const float *o, __global const float *d,
+                            __global float *boxes, __global float *primitives)
+{
+    int visits[VISIT_KINDS] = {0};
+    Scene s = SCENE_FROM_PARAMETERS;
+    s.visits = visits;
+    Ray r = {IN3(o), IN3(d)};
+    occluded(&s, r, 0u, (vfloat)(0.0f) == 0.0f);
+    OUT(boxes, (vfloat)(visits[VISITS_SHADOW_NODES]));
+    OUT(primitives, (vfloat)(visits[VISITS_SHADOW_PRIMITIVES]));
+}
+"""
+
+
+def blocked_floor(cornell):
+    """A floor of 800 small triangles, seen from above, and one large triangle above the camera, below the
+    light, that blocks every shadow ray. The root's split puts the floor and the blocker apart along z."""
     white = cornell.rectangles[0].material
     grid = np.linspace(-2.0, 2.0, 21)
     floor = [Triangle(np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0]]), white) for x0, x1 in zip(grid, grid[1:])
@@ -112,13 +129,38 @@ def test_shadow_rays_open_the_far_end_first(cornell, lanes):
     floor += [Triangle(np.array([[x0, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]]), white) for x0, x1 in zip(grid, grid[1:])
               for y0, y1 in zip(grid, grid[1:])]
     blocker = Triangle(np.array([[-10.0, -10.0, 1.7], [0.0, 10.0, 1.7], [10.0, -10.0, 1.7]]), white)
-    scene = dataclasses.replace(floor_scene(cornell, False), triangles=floor + [blocker])
+    return dataclasses.replace(floor_scene(cornell, False), triangles=floor + [blocker])
+
+
+def test_shadow_traversals_open_the_far_end_first(harness, cornell):
+    """A shadow traversal of the tree visits a node's children far first (from the light's end, kernels/bvh.cl):
+    packets of segments from tiles of the floor up to the light test the root's box and both its children's
+    (the blocker's leaf and the floor's subtree), enter the blocker's leaf first and stop with every lane
+    blocked: 3 boxes and 1 primitive per work-item. It fails if they go near first (they would open the floor's
+    subtree around their origins first: about a dozen boxes more) or if a blocked packet does not stop."""
+    rng = np.random.default_rng(3)
+    tiles = rng.uniform(-1.5, 1.5, (256, 1, 2))
+    xy = (tiles + rng.uniform(0, 0.02, (256, harness.lanes, 2))).reshape(-1, 2)
+    o = np.column_stack([xy, np.full(len(xy), 1e-3)])
+    d = np.array([0.1, 0.0, 1.9]) - o
+    args = {**scene_args(blocked_floor(cornell), features=Features(bvh=True)), "o": planar(o), "d": planar(d)}
+    out = harness.run(SHADOW_VISITS, "shadow_visits", len(o), args, {"boxes": 1, "primitives": 1},
+                      HAS_TRIANGLES=1, HAS_BVH=1, COUNT_VISITS=1)
+    np.testing.assert_array_equal(out["boxes"], 3)
+    np.testing.assert_array_equal(out["primitives"], 1)
+
+
+def test_swept_leaves_go_far_first(cornell, lanes):
+    """The leaves a packet's sweep meets (kernels/shadow_sweep.cl) are listed far first too, so that every light
+    sample of a render over the blocked floor tests the blocker's leaf and its one triangle first and stops:
+    1 primitive per work-item and shadow ray. It fails if the list goes near first (the floor's leaves under
+    the tile, with their triangles, come first) or if a blocked sample goes on."""
+    scene = blocked_floor(cornell)
     visits = node_visits(scene, Features.of(scene, lanes), **SIZE)
     rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
     work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
     pixels = SIZE["width"] * SIZE["height"]
     assert visits["shadow_rays"] == pixels * SIZE["spp"] * SIZE["light_samples"]  # every lane lit
-    assert visits["visits_per_shadow_ray"] == pytest.approx(3 * work_items / pixels, rel=1e-6)
     assert visits["primitives_per_shadow_ray"] == pytest.approx(work_items / pixels, rel=1e-6)
 
 

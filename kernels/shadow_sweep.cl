@@ -1,0 +1,162 @@
+/* The volume swept by a packet's shadow segments towards one light, traversed once per packet and light: the
+ * BVH's leaves it meets are then the only ones each of the light's samples needs to test (Benthin and Wald,
+ * "Efficient Ray Traced Soft Shadows using Multi-Frusta Tracing", HPG 2009, trace a frustum per packet and
+ * light the same way). Every segment runs from a lane's origin o, in the box O of the packet's origins, to a
+ * point near the light, in a box L around it; at t in [0, 1] it is at (1 - t) o + t e, within the box
+ * (1 - t) O + t L. That moving box sweeps a volume holding every segment of every sample, and a node the
+ * volume misses holds nothing that can block one. Where the volume meets a handful of leaves (most packets:
+ * the floor seen by a light with nothing in between), a sample tests only their boxes and shapes, or
+ * nothing at all; where it meets more than SWEEP_LEAVES (a packet on a finely meshed surface: its segments
+ * start among the mesh's leaves), each sample traverses the tree as before (bvh.cl). The blocked lanes are
+ * the same either way: the primitive tests decide, the sweep only leaves out leaves no segment reaches. */
+#ifndef SHADOW_SWEEP_CL
+#define SHADOW_SWEEP_CL
+
+#include "bvh.cl"
+#include "lights.cl"
+
+/* More leaves than this, and each sample traverses the tree. Against 16 (one process, renders alternating):
+ * the 10^3-triangle torus of `bench --scaling` 4-6% less time (a sweep that overflows stops sooner), scene 0
+ * and mesh_cornell the same; 6 leaves cost mesh_cornell 7-9%. */
+#define SWEEP_LEAVES 8
+
+/* The box (1 - t) O + t L: on each axis its low side moves from O's low to L's, its high side from O's high to
+ * L's. A node's box [b0, b1] overlaps it where lo(t) <= b1 and hi(t) >= b0: each a bound on t, above or below
+ * by the sign of the side's motion. */
+typedef struct {
+    float3 o_lo, o_hi;          /* O */
+    float3 inv_lo, inv_hi;      /* 1 / (L_lo - O_lo), 1 / (L_hi - O_hi): +inf where a side does not move */
+    int3 lo_rises, hi_rises;    /* where L_lo >= O_lo, L_hi >= O_hi (masks) */
+    int towards_negative[3];    /* the light's side of the origins, per axis: children are visited far first */
+} Sweep;
+
+/* The lanes' minimum and maximum of x over `lanes` (at least one). */
+inline float lanes_min(vfloat x, vint lanes) { return min_lane(SELECT((vfloat)(INFINITY), x, lanes)); }
+inline float lanes_max(vfloat x, vint lanes) { return max_lane(SELECT((vfloat)(-INFINITY), x, lanes)); }
+
+/* The sweep from the origins of `lanes` to light: L is the light's box widened by where a shadow segment can
+ * end (lights.cl). A sample point q is within gamma(4) (|c| + ext) of c + du t + dv b, its ideal point in the
+ * box c +- ext (light_point_error); shadow_segment pushes it off the light by err <= q_err + gamma(2) |n|.|q - o|
+ * along the unit normal n (offset_ray_origin: err n_i, plus the sum's rounding and one float step, within
+ * 3u (|q_i| + err |n_i|)), and the segment's end o + fl(q' - o) is within u |q' - o|_i of that point q'. With
+ * reach_i >= |q - o|_i over both boxes, L = c +- (ext + m), m_i = err |n_i| + gamma(8) (|c_i| + ext_i + err +
+ * reach_i), holds every end with room for the roundings of m itself. */
+inline Sweep shadow_sweep(__global const Light *light, vec3 origin, vint lanes)
+{
+    Sweep w;
+    w.o_lo = (float3)(lanes_min(origin.x, lanes), lanes_min(origin.y, lanes), lanes_min(origin.z, lanes));
+    w.o_hi = (float3)(lanes_max(origin.x, lanes), lanes_max(origin.y, lanes), lanes_max(origin.z, lanes));
+    __global const Rectangle *r = &light->shape;
+    float3 c = f3(r->center), n = abs3(f3(r->normal));
+    float3 ext = abs3(f3(r->tangent)) * r->half_x + abs3(f3(r->bitangent)) * r->half_y;
+    float3 reach_lo = abs3(c + ext - w.o_lo), reach_hi = abs3(w.o_hi - (c - ext));
+    float3 reach = (1.0f + GAMMA(8)) * (reach_hi > reach_lo ? reach_hi : reach_lo);
+    float err = (light_point_error(light) + GAMMA(2) * dot3(n, reach)) * (1.0f + GAMMA(8));
+    float3 m = err * n + GAMMA(8) * (abs3(c) + ext + err + reach);
+    /* + 0: a side that does not move gets +0, and 1 / +0 = +inf: its bound is then O's own, on any node */
+    float3 d_lo = (c - ext - m) - w.o_lo + 0.0f, d_hi = (c + ext + m) - w.o_hi + 0.0f;
+    w.inv_lo = 1.0f / d_lo;
+    w.inv_hi = 1.0f / d_hi;
+    w.lo_rises = d_lo >= 0.0f;
+    w.hi_rises = d_hi >= 0.0f;
+    w.towards_negative[0] = c.x < 0.5f * (w.o_lo.x + w.o_hi.x);
+    w.towards_negative[1] = c.y < 0.5f * (w.o_lo.y + w.o_hi.y);
+    w.towards_negative[2] = c.z < 0.5f * (w.o_lo.z + w.o_hi.z);
+    return w;
+}
+
+/* The smallest (largest) of start and the components of v that are numbers: a NaN bound, 0 * inf from a side
+ * that does not move and touches the node (b1 == O_lo), is met and limits nothing. */
+inline float min_bound(float start, float3 v)
+{
+    start = v.x < start ? v.x : start;
+    start = v.y < start ? v.y : start;
+    return v.z < start ? v.z : start;
+}
+inline float max_bound(float start, float3 v)
+{
+    start = v.x > start ? v.x : start;
+    start = v.y > start ? v.y : start;
+    return v.z > start ? v.z : start;
+}
+
+/* Whether the sweep meets node j's box for some t in [0, 1]. Each bound rounds 8 times (the side's motion,
+ * the reciprocal as 5 (ray.h), the distance and the product): within gamma(8) of itself, so widening the
+ * upper end by 2 gamma(9) (and its own rounding) never misses a node the exact sweep meets (as pbrt-v4's
+ * slab test, section 6.8.2). A side that does not move bounds t by +-inf: met or not at all. */
+inline int sweep_meets(const Scene *s, const Sweep *w, int j)
+{
+    COUNT_VISIT(s, VISITS_SHADOW_NODES);
+    __global const BVHNode *node = &s->nodes[j];
+    float3 lo = (float3)(node->lo[0], node->lo[1], node->lo[2]), hi = (float3)(node->hi[0], node->hi[1], node->hi[2]);
+    float3 t_lo = (hi - w->o_lo) * w->inv_lo; /* where the low side passes the node's high side */
+    float3 t_hi = (lo - w->o_hi) * w->inv_hi; /* where the high side passes the node's low side */
+    const float3 inf = (float3)(INFINITY);
+    float upper = min_bound(min_bound(1.0f, w->lo_rises ? t_lo : inf), w->hi_rises ? inf : t_hi);
+    float lower = max_bound(max_bound(0.0f, w->lo_rises ? -inf : t_lo), w->hi_rises ? t_hi : -inf);
+    return lower <= upper * (1.0f + 2.0f * GAMMA(9));
+}
+
+/* The leaves a sweep meets, far first from the light's side as shadow traversals go (bvh.cl); n = -1 when
+ * there are more than SWEEP_LEAVES. */
+typedef struct { int n, leaf[SWEEP_LEAVES]; } SweptLeaves;
+
+inline int sweep_enters(const Scene *s, const Sweep *w, int j, uint skip)
+{
+    return !skipped_subtree(s, j, skip) && sweep_meets(s, w, j);
+}
+
+inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
+{
+    SweptLeaves out = {0};
+    int stack[BVH_STACK], top = 0, i = 0;
+    if (!sweep_enters(s, w, 0, skip))
+        return out;
+    for (;;) {
+        __global const BVHNode *node = &s->nodes[i];
+        if (node->count <= 0) {
+            int right_first = w->towards_negative[-node->count] == 0;
+            int first = right_first ? node->offset : i + 1, second = right_first ? i + 1 : node->offset;
+            int in_first = sweep_enters(s, w, first, skip), in_second = sweep_enters(s, w, second, skip);
+            stack[top] = second;
+            top += in_first & in_second;
+            if (in_first | in_second) {
+                i = in_first ? first : second;
+                continue;
+            }
+        } else {
+            if (out.n == SWEEP_LEAVES) {
+                out.n = -1;
+                return out;
+            }
+            out.leaf[out.n++] = i;
+        }
+        if (top == 0)
+            return out;
+        i = stack[--top];
+    }
+}
+
+/* occluded() of one sample's segment r, given the leaves its packet's sweep met: their boxes and shapes only,
+ * or the whole tree when there were too many. */
+inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uint skip, vint active)
+{
+    if (leaves->n < 0)
+        return bvh_occluded(s, r, skip, active);
+    BoxRay b = box_ray(r);
+    PrimitiveRay p = primitive_ray(r);
+    vint settled = !active;
+    for (int l = 0; l < leaves->n; ++l) {
+        int i = leaves->leaf[l];
+        if (!enters(s, i, r, b, skip, settled))
+            continue;
+        __global const BVHNode *node = &s->nodes[i];
+        for (int k = node->offset; k < node->offset + node->count; ++k)
+            settled |= primitive_blocks(s, &p, s->prims[k] & 3, s->prims[k] >> 2, skip);
+        if (ALL(settled))
+            break;
+    }
+    return settled & active;
+}
+
+#endif

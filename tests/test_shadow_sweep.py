@@ -1,0 +1,199 @@
+"""The sweep of a packet's shadow segments towards a light (kernels/shadow_sweep.cl), at every lane width.
+
+Its promise is containment: every point of every segment that lights_sum traces from the packet's origins to
+the light lies in the volume, so that no leaf it misses can hold a blocker. The tests check that promise
+point by point, check that the volume is not simply everything (boxes clearly outside it, by a float64
+reference of the same volume, are missed), and check the renderer's use of it against the plain traversal:
+the same blocked lanes, segment by segment."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from helpers import planar
+from raytrace import structs
+from raytrace.renderer.packing import light_structs
+from raytrace.renderer.program import Features
+from raytrace.scene import Light, Triangle, meshgen
+from raytrace.tools.probe import scene_args
+
+SOURCE = """
+#include "intersect.cl"
+/* The segments lights_sum traces from each work-item's origins to its light's points uv. */
+__kernel void segments(int n, __global const Light *lights, __global const float *o, __global const float *uv,
+                       __global float *ro, __global float *rd)
+{
+    __global const Light *light = &lights[get_global_id(0)];
+    vec2 u = {IN(uv), IN(uv + n)};
+    Ray r = shadow_segment(IN3(o), light_point(light, u), light_point_error(light), v3_uniform(light->shape.normal));
+    OUT3(ro, r.o);
+    OUT3(rd, r.d);
+}
+
+/* Whether the sweep from each work-item's origins to its light meets the box of each of its lanes. */
+__kernel void meets(int n, __global const Light *lights, __global const BVHNode *nodes, __global const float *o,
+                    __global float *met)
+{
+    Scene s = {.nodes = nodes};
+    Sweep w = shadow_sweep(&lights[get_global_id(0)], IN3(o), (vfloat)(0.0f) == 0.0f);
+    for (int k = 0; k < LANES; ++k) {
+        int j = get_global_id(0) * LANES + k;
+        met[j] = sweep_meets(&s, &w, j);
+    }
+}
+
+/* A sample's blocked lanes as lights_sum finds them (the sweep's leaves), and by the plain traversal, from
+ * the origins of the active lanes to light 0's points uv; the number of leaves the sweep met. */
+__kernel void shadows(int n, SCENE_PARAMETERS, __global const float *o, __global const float *uv,
+                      __global const float *active, __global float *swept, __global float *traversed,
+                      __global float *leaves)
+{
+    const Scene s = SCENE_FROM_PARAMETERS;
+    vec3 origin = IN3(o);
+    vint lanes = IN(active) > 0.0f;
+    uint skip = rectangles_out_of_reach(&s, lights, origin, lanes);
+    SweptLeaves candidates = shadow_candidates(&s, lights, origin, lanes, skip);
+    vec2 u = {IN(uv), IN(uv + n)};
+    Ray r = shadow_segment(origin, light_point(lights, u), light_point_error(lights), v3_uniform(lights->shape.normal));
+    vint blocked = (vint)(0);
+    if (candidates.n != 0)
+        blocked = occluded_among(&s, &candidates, r, skip, lanes);
+    OUT(swept, MASK_TO_ONE(blocked));
+    OUT(traversed, MASK_TO_ONE(occluded(&s, r, skip, lanes)));
+    OUT(leaves, (vfloat)(candidates.n));
+}
+"""
+
+LARGEST_BELOW_ONE = np.nextafter(np.float32(1), np.float32(0))
+
+
+def random_lights(rng, count, scale):
+    """Lights of random orientation and size, `scale` away from the origin at most."""
+    lights = []
+    for _ in range(count):
+        normal = rng.normal(size=3)
+        normal /= np.linalg.norm(normal)
+        tangent = np.cross(normal, rng.normal(size=3))
+        tangent /= np.linalg.norm(tangent)
+        lights.append(Light(center=rng.uniform(-scale, scale, 3), size=rng.uniform(0.05, 1.0, 2) * scale / 4,
+                            normal=normal, tangent=tangent))
+    return light_structs(lights)
+
+
+def packets(rng, count, lanes, scale):
+    """Origins of `count` packets: each around its own centre, spread by 1e-4 to 0.3 of the scale (a tile of
+    pixels on one surface, or rays that have little in common)."""
+    centres = rng.uniform(-scale, scale, (count, 1, 3))
+    spread = scale * 10.0 ** rng.uniform(-4, np.log10(0.3), (count, 1, 1))
+    return (centres + spread * rng.uniform(-1, 1, (count, lanes, 3))).reshape(-1, 3)
+
+
+def light_box(light):
+    """The light's own box, c +- (|t| hx + |b| hy), in float64."""
+    shape = light["shape"]
+    c, t, b = (np.array(shape[k].tolist(), np.float64) for k in ("center", "tangent", "bitangent"))
+    ext = np.abs(t) * shape["half_x"] + np.abs(b) * shape["half_y"]
+    return c - ext, c + ext
+
+
+def point_boxes(p):
+    """float32 boxes around the float64 points p, rounded outwards as the BVH's are (renderer/bvh.py)."""
+    lo, hi = p.astype(np.float32), p.astype(np.float32)
+    lo = np.where(lo > p, np.nextafter(lo, np.float32(-np.inf)), lo)
+    hi = np.where(hi < p, np.nextafter(hi, np.float32(np.inf)), hi)
+    nodes = np.zeros(len(p), structs.BVH_NODE)
+    nodes["lo"], nodes["hi"] = lo, hi
+    return nodes
+
+
+def sweep_meets_reference(o_lo, o_hi, l_lo, l_hi, b_lo, b_hi):
+    """float64: whether the box (1 - t) O + t L overlaps B for some t in [0, 1]. On each axis, lo(t) <= b_hi
+    and hi(t) >= b_lo are linear in t: each keeps t on one side of a root, or holds everywhere or nowhere."""
+    lower, upper = np.zeros(len(b_lo)), np.ones(len(b_lo))
+    for start, end, bound, sign in ((o_lo, l_lo, b_hi, 1.0), (o_hi, l_hi, b_lo, -1.0)):
+        # sign * (start + t (end - start) - bound) <= 0
+        slope, value = sign * (end - start), sign * (start - bound)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            root = -value / slope
+        upper = np.minimum(upper, np.where(slope > 0, root, np.inf).min(1))
+        lower = np.maximum(lower, np.where(slope < 0, root, -np.inf).max(1))
+        lower = np.where(((slope == 0) & (value > 0)).any(1), np.inf, lower)
+    return lower <= upper
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e3])
+def test_segments_lie_in_their_sweep(harness, lanes, scale):
+    """Points of the very segments lights_sum traces (shadow_segment towards light_point, with the light's
+    corners among the samples: uv 0 and the float below 1), at t = 0, 1/2 and 1: each inside the sweep of its
+    packet, as a box no larger than its float32 rounding. The segment's end lies off the light by the offset
+    that keeps it from the light's own surface, and its direction rounds: the sweep's light box is widened by
+    bounds on both (shadow_sweep.cl). Far from the origin (scale 1e3) the roundings are larger."""
+    rng = np.random.default_rng(5)
+    count = 2048 // lanes
+    lights = random_lights(rng, count, scale)
+    o = packets(rng, count, lanes, scale)
+    uv = rng.uniform(0, 1, (len(o), 2))
+    uv[::3] = rng.choice([0.0, LARGEST_BELOW_ONE], (len(uv[::3]), 2))
+    segment = harness.run(SOURCE, "segments", len(o), [lights, planar(o), planar(uv).ravel()], {"ro": 3, "rd": 3},
+                          HAS_BVH=1)
+    ro, rd = segment["ro"].T, segment["rd"].T
+    for t in (0.0, 0.5, 1.0):
+        met = harness.run(SOURCE, "meets", len(o), [lights, point_boxes(ro + t * rd), planar(o)], {"met": 1},
+                          HAS_BVH=1)["met"]
+        assert met.all(), f"t = {t}: {np.count_nonzero(met == 0)} of {len(met)} points outside their sweep"
+
+
+def test_sweep_misses_what_lies_outside(harness, lanes):
+    """Random boxes near the segments against the float64 volume between the packet's box and the light's:
+    those it meets are met, those it misses even with the light's box widened by 1e-4 are missed (the kernel's own widening is a
+    few float32 roundings). Both kinds are common, so a sweep that meets everything fails."""
+    rng = np.random.default_rng(8)
+    count = 4096 // lanes
+    lights = random_lights(rng, count, 1.0)
+    o = packets(rng, count, lanes, 1.0)
+    per_packet = o.reshape(count, lanes, 3)
+    o_lo, o_hi = (np.repeat(f(per_packet, 1), lanes, 0) for f in (np.min, np.max))
+    l_lo, l_hi = (np.repeat(b, lanes, 0) for b in np.transpose([light_box(light) for light in lights], (1, 0, 2)))
+    # boxes around points between the two boxes, moved by about 0.05 (the scene spans 2)
+    t = rng.uniform(0, 1, (len(o), 1))
+    centres = (1 - t) * rng.uniform(o_lo, o_hi) + t * rng.uniform(l_lo, l_hi) + rng.normal(0, 0.05, (len(o), 3))
+    half = 10.0 ** rng.uniform(-4, -1, (len(o), 3))
+    boxes = np.zeros(len(o), structs.BVH_NODE)
+    boxes["lo"], boxes["hi"] = centres - half, centres + half
+    met = harness.run(SOURCE, "meets", len(o), [lights, boxes, planar(o)], {"met": 1}, HAS_BVH=1)["met"]
+    b_lo, b_hi = boxes["lo"].astype(np.float64), boxes["hi"].astype(np.float64)
+    inside = sweep_meets_reference(o_lo, o_hi, l_lo, l_hi, b_lo, b_hi)
+    outside = ~sweep_meets_reference(o_lo, o_hi, l_lo - 1e-4, l_hi + 1e-4, b_lo, b_hi)
+    assert 0.1 < inside.mean() < 0.9 and outside.mean() > 0.1
+    assert met[inside].all(), f"{np.count_nonzero(met[inside] == 0)} boxes inside the sweep missed"
+    assert not met[outside].any(), f"{np.count_nonzero(met[outside])} boxes outside the sweep met"
+
+
+@pytest.fixture(scope="module")
+def torus_room(cornell):
+    """Scene 0 with a torus of 10^4 triangles under its light: packets whose sweeps meet no leaf, a few, or
+    more than the kernel keeps."""
+    torus = meshgen.torus(10_000)
+    vertices = torus.vertices * 0.4 + [0.0, 0.2, 1.0]
+    return dataclasses.replace(cornell, triangles=cornell.triangles + [Triangle(vertices[f]) for f in torus.faces])
+
+
+def test_swept_shadows_agree_with_traversal(harness, lanes, torus_room):
+    """lights_sum's shadow test through the sweep's leaves against the plain traversal of the same segments,
+    lane by lane: the sweep only leaves out leaves, the primitive tests decide, so the answers must agree
+    exactly. Packets of every spread, from anywhere in the room, some lanes inactive; the light's points at
+    random and at its corners."""
+    rng = np.random.default_rng(17)
+    count = 4096 // lanes
+    o = packets(rng, count, lanes, 0.95) + [0.0, 0.0, 0.95]
+    o[: len(o) // 2] = packets(rng, count // 2, lanes, 0.5) + [0.0, 0.2, 1.0]  # half of them around the torus
+    uv = rng.uniform(0, 1, (len(o), 2))
+    uv[::4] = rng.choice([0.0, LARGEST_BELOW_ONE], (len(uv[::4]), 2))
+    active = (rng.uniform(size=len(o)) < 0.8).astype(np.float32)
+    args = {**scene_args(torus_room, features=Features(bvh=True)), "o": planar(o), "uv": planar(uv).ravel(), "active": active}
+    out = harness.run(SOURCE, "shadows", len(o), args, {"swept": 1, "traversed": 1, "leaves": 1},
+                      HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1, HAS_BVH=1)
+    leaves = out["leaves"][::lanes]
+    assert 0.1 < out["traversed"][active > 0].mean() < 0.9
+    assert (leaves == -1).mean() > 0.05 and (leaves == 0).mean() > 0.05 and (leaves > 0).mean() > 0.05
+    np.testing.assert_array_equal(out["swept"], out["traversed"])
