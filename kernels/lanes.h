@@ -129,37 +129,44 @@ inline int or_lanes(int16 m) { int8 t = m.lo | m.hi; int4 u = t.lo | t.hi; int2 
 inline int and_lanes(int16 m) { int8 t = m.lo & m.hi; int4 u = t.lo & t.hi; int2 w = u.lo & u.hi; return w.x & w.y; }
 #endif
 
-/* The smallest (largest) of a vector's lanes, for values that are numbers or infinities. */
+/* The smallest (largest) of a vector's lanes, for values that are numbers or infinities: halves compared
+ * lane-wise (Clang's __builtin_reduce_min keeps fmin's NaN rules, one scalar step and NaN test per lane). */
+#define LANE_MIN(a, b) ((b) < (a) ? (b) : (a))
+#define LANE_MAX(a, b) ((b) > (a) ? (b) : (a))
 #if LANES == 1
 inline float min_lane(float x) { return x; }
 inline float max_lane(float x) { return x; }
 #else
-#if defined(__has_builtin)
-#if __has_builtin(__builtin_reduce_min) && __has_builtin(__builtin_reduce_max)
-#define HAS_REDUCE_MIN_MAX 1
-#endif
-#endif
-#ifdef HAS_REDUCE_MIN_MAX
-inline float min_lane(vfloat x) { return __builtin_reduce_min(x); }
-inline float max_lane(vfloat x) { return __builtin_reduce_max(x); }
-#else
 inline float min_lane(vfloat x)
 {
-    float a[LANES];
-    VSTORE(x, a);
-    for (int i = 1; i < LANES; ++i)
-        a[0] = a[i] < a[0] ? a[i] : a[0];
-    return a[0];
+#if LANES == 16
+    float8 x8 = LANE_MIN(x.lo, x.hi);
+#elif LANES == 8
+    float8 x8 = x;
+#endif
+#if LANES >= 8
+    float4 x4 = LANE_MIN(x8.lo, x8.hi);
+#else
+    float4 x4 = x;
+#endif
+    float2 x2 = LANE_MIN(x4.lo, x4.hi);
+    return LANE_MIN(x2.x, x2.y);
 }
 inline float max_lane(vfloat x)
 {
-    float a[LANES];
-    VSTORE(x, a);
-    for (int i = 1; i < LANES; ++i)
-        a[0] = a[i] > a[0] ? a[i] : a[0];
-    return a[0];
-}
+#if LANES == 16
+    float8 x8 = LANE_MAX(x.lo, x.hi);
+#elif LANES == 8
+    float8 x8 = x;
 #endif
+#if LANES >= 8
+    float4 x4 = LANE_MAX(x8.lo, x8.hi);
+#else
+    float4 x4 = x;
+#endif
+    float2 x2 = LANE_MAX(x4.lo, x4.hi);
+    return LANE_MAX(x2.x, x2.y);
+}
 #endif
 
 /* A mask as 0/1 floats, e.g. to count rays per lane. */

@@ -25,7 +25,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         vec3 light_normal = v3_uniform(light->shape.normal);
         vfloat q_err = light_point_error(light);
         uint skip = rectangles_out_of_reach(s, light, origin, surface);
-        SweptLeaves candidates = shadow_candidates(s, light, origin, surface, skip);
+        SweptLeaves candidates = shadow_candidates(s, light, origin, surface, skip, n_samples);
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
             vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));

@@ -65,8 +65,7 @@ inline Sweep shadow_sweep(__global const Light *light, vec3 origin, vint lanes)
     return w;
 }
 
-/* The smallest (largest) of start and the components of v that are numbers: a NaN bound, 0 * inf from a side
- * that does not move and touches the node (b1 == O_lo), is met and limits nothing. */
+/* The smallest (largest) of start and the components of v that are numbers: a NaN bound is ignored. */
 inline float min_bound(float start, float3 v)
 {
     start = v.x < start ? v.x : start;
@@ -83,7 +82,9 @@ inline float max_bound(float start, float3 v)
 /* Whether the sweep meets node j's box for some t in [0, 1]. Each bound rounds 8 times (the side's motion,
  * the reciprocal as 5 (ray.h), the distance and the product): within gamma(8) of itself, so widening the
  * upper end by 2 gamma(9) (and its own rounding) never misses a node the exact sweep meets (as pbrt-v4's
- * slab test, section 6.8.2). A side that does not move bounds t by +-inf: met or not at all. */
+ * slab test, section 6.8.2). A side that does not move bounds t by +-inf (met or not at all), or by NaN where
+ * it touches the node (0 * inf): a NaN bound is dropped, which can only let more nodes in. The two bounds of
+ * an axis are merged lane-wise first, so that only two minima run across the axes. */
 inline int sweep_meets(const Scene *s, const Sweep *w, int j)
 {
     COUNT_VISIT(s, VISITS_SHADOW_NODES);
@@ -92,8 +93,10 @@ inline int sweep_meets(const Scene *s, const Sweep *w, int j)
     float3 t_lo = (hi - w->o_lo) * w->inv_lo; /* where the low side passes the node's high side */
     float3 t_hi = (lo - w->o_hi) * w->inv_hi; /* where the high side passes the node's low side */
     const float3 inf = (float3)(INFINITY);
-    float upper = min_bound(min_bound(1.0f, w->lo_rises ? t_lo : inf), w->hi_rises ? inf : t_hi);
-    float lower = max_bound(max_bound(0.0f, w->lo_rises ? -inf : t_lo), w->hi_rises ? t_hi : -inf);
+    float3 up_lo = w->lo_rises ? t_lo : inf, up_hi = w->hi_rises ? inf : t_hi;
+    float3 down_lo = w->lo_rises ? -inf : t_lo, down_hi = w->hi_rises ? t_hi : -inf;
+    float upper = min_bound(1.0f, up_hi < up_lo ? up_hi : up_lo);
+    float lower = max_bound(0.0f, down_hi > down_lo ? down_hi : down_lo);
     return lower <= upper * (1.0f + 2.0f * GAMMA(9));
 }
 

@@ -42,9 +42,10 @@ __kernel void meets(int n, __global const Light *lights, __global const BVHNode 
     }
 }
 
-/* A sample's blocked lanes as lights_sum finds them (the sweep's leaves), and by the plain traversal, from
- * the origins of the active lanes to light 0's points uv; the number of leaves the sweep met. */
-__kernel void shadows(int n, SCENE_PARAMETERS, __global const float *o, __global const float *uv,
+/* A sample's blocked lanes as lights_sum finds them for one of `samples` light samples (among the sweep's
+ * leaves), and by the plain traversal, from the origins of the active lanes to light 0's points uv; the
+ * number of leaves the sweep met. */
+__kernel void shadows(int n, SCENE_PARAMETERS, int samples, __global const float *o, __global const float *uv,
                       __global const float *active, __global float *swept, __global float *traversed,
                       __global float *leaves)
 {
@@ -52,7 +53,7 @@ __kernel void shadows(int n, SCENE_PARAMETERS, __global const float *o, __global
     vec3 origin = IN3(o);
     vint lanes = IN(active) > 0.0f;
     uint skip = rectangles_out_of_reach(&s, lights, origin, lanes);
-    SweptLeaves candidates = shadow_candidates(&s, lights, origin, lanes, skip);
+    SweptLeaves candidates = shadow_candidates(&s, lights, origin, lanes, skip, samples);
     vec2 u = {IN(uv), IN(uv + n)};
     Ray r = shadow_segment(origin, light_point(lights, u), light_point_error(lights), v3_uniform(lights->shape.normal));
     vint blocked = (vint)(0);
@@ -182,7 +183,7 @@ def test_swept_shadows_agree_with_traversal(harness, lanes, torus_room):
     """lights_sum's shadow test through the sweep's leaves against the plain traversal of the same segments,
     lane by lane: the sweep only leaves out leaves, the primitive tests decide, so the answers must agree
     exactly. Packets of every spread, from anywhere in the room, some lanes inactive; the light's points at
-    random and at its corners."""
+    random and at its corners. With one light sample there is no sweep: every packet traverses the tree."""
     rng = np.random.default_rng(17)
     count = 4096 // lanes
     o = packets(rng, count, lanes, 0.95) + [0.0, 0.0, 0.95]
@@ -190,10 +191,15 @@ def test_swept_shadows_agree_with_traversal(harness, lanes, torus_room):
     uv = rng.uniform(0, 1, (len(o), 2))
     uv[::4] = rng.choice([0.0, LARGEST_BELOW_ONE], (len(uv[::4]), 2))
     active = (rng.uniform(size=len(o)) < 0.8).astype(np.float32)
-    args = {**scene_args(torus_room, features=Features(bvh=True)), "o": planar(o), "uv": planar(uv).ravel(), "active": active}
-    out = harness.run(SOURCE, "shadows", len(o), args, {"swept": 1, "traversed": 1, "leaves": 1},
-                      HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1, HAS_BVH=1)
+    args = {**scene_args(torus_room, features=Features(bvh=True)), "samples": np.int32(16), "o": planar(o),
+            "uv": planar(uv).ravel(), "active": active}
+    outputs = {"swept": 1, "traversed": 1, "leaves": 1}
+    shapes = dict(HAS_RECTANGLES=1, HAS_TRIANGLES=1, HAS_ELLIPSOIDS=1, HAS_BVH=1)
+    out = harness.run(SOURCE, "shadows", len(o), args, outputs, **shapes)
     leaves = out["leaves"][::lanes]
     assert 0.1 < out["traversed"][active > 0].mean() < 0.9
     assert (leaves == -1).mean() > 0.05 and (leaves == 0).mean() > 0.05 and (leaves > 0).mean() > 0.05
     np.testing.assert_array_equal(out["swept"], out["traversed"])
+    single = harness.run(SOURCE, "shadows", len(o), {**args, "samples": np.int32(1)}, outputs, **shapes)
+    np.testing.assert_array_equal(single["leaves"], -1)  # one sample: no sweep, the whole tree
+    np.testing.assert_array_equal(single["swept"], out["traversed"])
