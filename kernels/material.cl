@@ -98,6 +98,18 @@ inline vec3 bump_normal(vec3 dpdu, vec3 dpdv, vec3 n, vfloat dh_du, vfloat dh_dv
     return v3_unit_or(v3_sub(n, v3_scale(grad, 1.0f / a)), n);
 }
 
+/* The filter of the footprint dst on `texture`: the one *last found, for texture *last_texture, where the two
+ * have the same shape (mipmap.cl), else found anew (and kept). */
+inline TextureFilter material_filter(TextureStore ts, int texture, Footprint dst, int filter, TextureFilter *last,
+                                     int *last_texture)
+{
+    if (*last_texture >= 0 && same_shape(ts, *last_texture, texture))
+        return texture_filter_like(ts, texture, last);
+    *last_texture = texture;
+    *last = texture_filter(ts, texture, dst, filter);
+    return *last;
+}
+
 /* Material m's textures on the lanes of `mask` (their hits in h): the colour *k, the shading normal *n (a
  * normal or height map; it starts as the facing geometric normal ng), and the shading point *p displaced by
  * a height map, with its error bound *err (ray.h). Every lane computes; only the mask's lanes keep the
@@ -111,13 +123,18 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
     Footprint dst = {h->duv.u_x * scale_u, -(h->duv.v_x * scale_v), h->duv.u_y * scale_u, -(h->duv.v_y * scale_v)};
     const int wrap = m->wrap;
     vec3 frame_n = h->frame.n, shading = frame_n;
+    TextureFilter tf; /* found once for the maps of one shape */
+    int shaped = -1;
 #if HAS_COLOUR_MAPS
-    if (m->colour_map >= 0)
-        *k = v3_select(*k, texture_lookup(ts, m->colour_map, st, dst, filter, wrap), mask);
+    if (m->colour_map >= 0) {
+        tf = material_filter(ts, m->colour_map, dst, filter, &tf, &shaped);
+        *k = v3_select(*k, texture_filtered(ts, &tf, st, wrap), mask);
+    }
 #endif
 #if HAS_NORMAL_MAPS
     if (m->normal_map >= 0) { /* tangent space: rgb = (x, y, z) / 2 + 1/2 */
-        vec3 c = texture_lookup(ts, m->normal_map, st, dst, filter, wrap);
+        tf = material_filter(ts, m->normal_map, dst, filter, &tf, &shaped);
+        vec3 c = texture_filtered(ts, &tf, st, wrap);
         vec3 mapped = v3_scale(h->frame.t, MAD(c.x, 2.0f, -1.0f));
         mapped = v3_madd(mapped, MAD(c.y, 2.0f, -1.0f), h->frame.b);
         mapped = v3_madd(mapped, MAD(c.z, 2.0f, -1.0f), frame_n);
@@ -130,7 +147,7 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
         vfloat du = vmax(0.5f * (vabs(dst.s_x) + vabs(dst.s_y)), (vfloat)(0.5f / top.width));
         vfloat dv = vmax(0.5f * (vabs(dst.t_x) + vabs(dst.t_y)), (vfloat)(0.5f / top.height));
         vec2 st_u = {st.x + du, st.y}, st_v = {st.x, st.y - dv};
-        TextureFilter tf = texture_filter(ts, m->height_map, dst, filter);
+        tf = material_filter(ts, m->height_map, dst, filter, &tf, &shaped);
         vfloat height = texture_filtered(ts, &tf, st, wrap).x;
         vfloat hu = texture_filtered(ts, &tf, st_u, wrap).x;
         vfloat hv = texture_filtered(ts, &tf, st_v, wrap).x;

@@ -16,7 +16,8 @@ typedef struct { vfloat s_x, t_x, s_y, t_y; } Footprint; /* ds/dx, dt/dx, ds/dy,
 
 typedef struct {
     int filter, encoding;  /* FILTER_*, TEXELS_* */
-    Levels fine, coarse;   /* levels l0 and l0 + 1 of the continuous level D (nearest, bilinear: level 0) */
+    vint l0, l1;           /* the levels l0 and l0 + 1 (at most the top) of the continuous level D, */
+    Levels fine, coarse;   /* and where they are (nearest, bilinear: level 0) */
     vfloat f;              /* coarse's weight D - l0 */
     int blend;             /* f > 0 in some lane */
     vec2 axis;             /* anisotropic: the major axis of the footprint in (s, t), */
@@ -65,11 +66,32 @@ inline TextureFilter texture_filter(TextureStore ts, int texture, Footprint dst,
     int top = ts.textures[texture].n_levels - 1;
     /* width 0 or NaN: level 0 */
     vfloat d = SELECT((vfloat)(0.0f), vmin(vmax(vlog2(width), 0.0f), (float)top), width > 0.0f);
-    vint l0 = CONVERT_VINT(d);
-    tf.f = d - CONVERT_VFLOAT(l0);
+    tf.l0 = CONVERT_VINT(d);
+    tf.l1 = SELECT(tf.l0, tf.l0 + 1, tf.l0 < top);
+    tf.f = d - CONVERT_VFLOAT(tf.l0);
     tf.blend = ANY(tf.f > 0.0f);
-    tf.fine = mip_levels(ts, texture, l0);
-    tf.coarse = tf.blend ? mip_levels(ts, texture, SELECT(l0, l0 + 1, l0 < top)) : tf.fine;
+    tf.fine = mip_levels(ts, texture, tf.l0);
+    tf.coarse = tf.blend ? mip_levels(ts, texture, tf.l1) : tf.fine;
+    return tf;
+}
+
+/* Whether textures a and b have the same level-0 size and number of levels: a filter found for one then
+ * serves the other (texture_filter_like). A material's maps are mostly made together, at one size. */
+inline int same_shape(TextureStore ts, int a, int b)
+{
+    __global const Texture *ta = &ts.textures[a], *tb = &ts.textures[b];
+    MipLevel la = ts.levels[ta->first_level], lb = ts.levels[tb->first_level];
+    return ta->n_levels == tb->n_levels && la.width == lb.width && la.height == lb.height;
+}
+
+/* texture_filter for `texture` and the footprint `like` was found for on a texture of the same shape: the same
+ * levels, weights and probes (they depend on the footprint and the shape alone), at texture's own offsets. */
+inline TextureFilter texture_filter_like(TextureStore ts, int texture, const TextureFilter *like)
+{
+    TextureFilter tf = *like;
+    tf.encoding = ts.textures[texture].encoding;
+    tf.fine = mip_levels(ts, texture, tf.l0);
+    tf.coarse = tf.blend ? mip_levels(ts, texture, tf.l1) : tf.fine;
     return tf;
 }
 

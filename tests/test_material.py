@@ -37,10 +37,10 @@ __kernel void shading(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS,
 SIZE = 64
 
 
-def smooth_map(rng, channels, lo, hi):
-    """A periodic SIZE x SIZE map of a few low-frequency waves in [lo, hi]: its texel-to-texel steps are
+def smooth_map(rng, channels, lo, hi, size=SIZE):
+    """A periodic size x size map of a few low-frequency waves in [lo, hi]: its texel-to-texel steps are
     small, so float32 rounding of coordinates moves a lookup by little (the tests' bounds use this)."""
-    y, x = np.mgrid[0:SIZE, 0:SIZE] * (2 * np.pi / SIZE)
+    y, x = np.mgrid[0:size, 0:size] * (2 * np.pi / size)
     out = []
     for _ in range(channels):
         a, b, c = rng.integers(1, 4, 3)
@@ -52,15 +52,17 @@ def smooth_map(rng, channels, lo, hi):
 @pytest.fixture(scope="module")
 def maps(tmp_path_factory):
     """Real files: an 8-bit sRGB colour map, an 8-bit normal map tilted up to ~35 degrees, a float height
-    map."""
+    map, and a float height map of half their size."""
     rng, folder = np.random.default_rng(8), tmp_path_factory.mktemp("maps")
     colour = np.round(smooth_map(rng, 3, 0.1, 0.9) * 255).astype(np.uint8)
     normal = np.concatenate([smooth_map(rng, 2, 0.3, 0.7), np.full((SIZE, SIZE, 1), 0.9)], axis=2)
     height = smooth_map(rng, 1, 0.0, 1.0).astype(np.float32)
+    small = smooth_map(rng, 1, 0.0, 1.0, SIZE // 2).astype(np.float32)
     files = {}
     for name, pixels, fmt in (("colour.png", colour, "uint8"), ("normal.png", np.round(normal * 255).astype(np.uint8),
-                                                                  "uint8"), ("height.exr", height, "float")):
-        spec = oiio.ImageSpec(SIZE, SIZE, pixels.shape[2], fmt)
+                                                                  "uint8"), ("height.exr", height, "float"),
+                              ("small_height.exr", small, "float")):
+        spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], fmt)
         out = oiio.ImageOutput.create(str(folder / name))
         assert out.open(str(folder / name), spec) and out.write_image(pixels) and out.close()
         files[name.split(".")[0]] = str(folder / name)
@@ -137,16 +139,18 @@ def kernel_shading(harness, scene, x, y, spp, filter_name):
 
 @pytest.mark.parametrize("shape", SHAPES)
 @pytest.mark.parametrize("filter_name", ["trilinear", "anisotropic"])
-def test_shading_point_matches_reference(harness, maps, shape, filter_name):
+@pytest.mark.parametrize("height", ["height", "small_height"])
+def test_shading_point_matches_reference(harness, maps, shape, filter_name, height):
     """All three maps at once, with a uv transform and mirror wrapping, on each kind of shape, at random
-    pixel positions. The maps are smooth (steps between texels <= ~0.1), so the kernel's float32 rounding
+    pixel positions; the height map of the maps' size (the kernel finds one filter for all three,
+    material.cl) or of half their size (a filter of its own: a shared one would read the wrong levels). The maps are smooth (steps between texels <= ~0.1), so the kernel's float32 rounding
     of uv (~1e-6 relative) and of the footprint (~1e-4 relative, from differences of hit points ~3 units
     from the camera) moves a lookup by < 1e-4 of the value range and the MIP level by < 2e-4: colour
     bound 1e-3. The bump divides differences of two such lookups by the step du ~ the footprint (>= 1/2
     texel = 1/128 of uv): 1e-4 / (1/128) * height_scale 0.05 tilts the normal by < 1e-3 radian on a
     tangent of unit size; with the normal map's own error, bound 3e-3 on the normal. Displaced points
     move by height_scale * h: error 0.05 * 1e-3, plus float32 of coordinates ~3: bound 1e-4."""
-    material = {"texture": maps["colour"], "normal_map": maps["normal"], "height_map": maps["height"],
+    material = {"texture": maps["colour"], "normal_map": maps["normal"], "height_map": maps[height],
                 "height_scale": 0.05, "uv_scale": [2.0, 1.5], "uv_offset": [0.1, -0.3], "wrap": "mirror"}
     scene = make_scene(shape, material)
     rng = np.random.default_rng(9)
