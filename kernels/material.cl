@@ -98,16 +98,15 @@ inline vec3 bump_normal(vec3 dpdu, vec3 dpdv, vec3 n, vfloat dh_du, vfloat dh_dv
     return v3_unit_or(v3_sub(n, v3_scale(grad, 1.0f / a)), n);
 }
 
-/* The filter of the footprint dst on `texture`: the one *last found, for texture *last_texture, where the two
- * have the same shape (mipmap.cl), else found anew (and kept). */
-inline TextureFilter material_filter(TextureStore ts, int texture, Footprint dst, int filter, TextureFilter *last,
-                                     int *last_texture)
+/* *tf becomes the filter of the footprint dst on `texture`: moved from texture *shaped, which it is the filter
+ * of, where the two have the same shape (mipmap.cl), else found anew. */
+inline void material_filter(TextureStore ts, int texture, Footprint dst, int filter, TextureFilter *tf, int *shaped)
 {
-    if (*last_texture >= 0 && same_shape(ts, *last_texture, texture))
-        return texture_filter_like(ts, texture, last);
-    *last_texture = texture;
-    *last = texture_filter(ts, texture, dst, filter);
-    return *last;
+    if (*shaped >= 0 && same_shape(ts, *shaped, texture))
+        texture_filter_move(ts, texture, tf);
+    else
+        *tf = texture_filter(ts, texture, dst, filter);
+    *shaped = texture;
 }
 
 /* Material m's textures on the lanes of `mask` (their hits in h): the colour *k, the shading normal *n (a
@@ -127,13 +126,13 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
     int shaped = -1;
 #if HAS_COLOUR_MAPS
     if (m->colour_map >= 0) {
-        tf = material_filter(ts, m->colour_map, dst, filter, &tf, &shaped);
+        material_filter(ts, m->colour_map, dst, filter, &tf, &shaped);
         *k = v3_select(*k, texture_filtered(ts, &tf, st, wrap), mask);
     }
 #endif
 #if HAS_NORMAL_MAPS
     if (m->normal_map >= 0) { /* tangent space: rgb = (x, y, z) / 2 + 1/2 */
-        tf = material_filter(ts, m->normal_map, dst, filter, &tf, &shaped);
+        material_filter(ts, m->normal_map, dst, filter, &tf, &shaped);
         vec3 c = texture_filtered(ts, &tf, st, wrap);
         vec3 mapped = v3_scale(h->frame.t, MAD(c.x, 2.0f, -1.0f));
         mapped = v3_madd(mapped, MAD(c.y, 2.0f, -1.0f), h->frame.b);
@@ -147,7 +146,7 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
         vfloat du = vmax(0.5f * (vabs(dst.s_x) + vabs(dst.s_y)), (vfloat)(0.5f / top.width));
         vfloat dv = vmax(0.5f * (vabs(dst.t_x) + vabs(dst.t_y)), (vfloat)(0.5f / top.height));
         vec2 st_u = {st.x + du, st.y}, st_v = {st.x, st.y - dv};
-        tf = material_filter(ts, m->height_map, dst, filter, &tf, &shaped);
+        material_filter(ts, m->height_map, dst, filter, &tf, &shaped);
         vfloat height = texture_filtered(ts, &tf, st, wrap).x;
         vfloat hu = texture_filtered(ts, &tf, st_u, wrap).x;
         vfloat hv = texture_filtered(ts, &tf, st_v, wrap).x;

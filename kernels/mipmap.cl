@@ -76,7 +76,7 @@ inline TextureFilter texture_filter(TextureStore ts, int texture, Footprint dst,
 }
 
 /* Whether textures a and b have the same level-0 size and number of levels: a filter found for one then
- * serves the other (texture_filter_like). A material's maps are mostly made together, at one size. */
+ * serves the other (texture_filter_move). A material's maps are mostly made together, at one size. */
 inline int same_shape(TextureStore ts, int a, int b)
 {
     __global const Texture *ta = &ts.textures[a], *tb = &ts.textures[b];
@@ -84,15 +84,14 @@ inline int same_shape(TextureStore ts, int a, int b)
     return ta->n_levels == tb->n_levels && la.width == lb.width && la.height == lb.height;
 }
 
-/* texture_filter for `texture` and the footprint `like` was found for on a texture of the same shape: the same
- * levels, weights and probes (they depend on the footprint and the shape alone), at texture's own offsets. */
-inline TextureFilter texture_filter_like(TextureStore ts, int texture, const TextureFilter *like)
+/* Makes *tf, found for a texture of the same shape, the filter of `texture`: the same levels, weights and probes
+ * (they depend on the footprint and the shape alone), at texture's own offsets. In place: a filter is 14
+ * vectors, and a copy of it is a call to memcpy. */
+inline void texture_filter_move(TextureStore ts, int texture, TextureFilter *tf)
 {
-    TextureFilter tf = *like;
-    tf.encoding = ts.textures[texture].encoding;
-    tf.fine = mip_levels(ts, texture, tf.l0);
-    tf.coarse = tf.blend ? mip_levels(ts, texture, tf.l1) : tf.fine;
-    return tf;
+    tf->encoding = ts.textures[texture].encoding;
+    tf->fine = mip_levels(ts, texture, tf->l0);
+    tf->coarse = tf->blend ? mip_levels(ts, texture, tf->l1) : tf->fine;
 }
 
 /* (1 - f) level l0 + f level l0 + 1 (where f = 0 the blend leaves level l0's value exactly). */
