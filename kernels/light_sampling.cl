@@ -1,9 +1,9 @@
 /* The light sampling both shading models share (shading.cl, direct_lighting.cl): for every light, its samples
  * from the light sample pattern (randomised under the pixel's key and the light's index), the ones that count
- * (sample_counts), their shadow segments (tested among what the packet's segments towards the light can
- * meet: intersect.cl's shadow_candidates, once per light), and the weights (sample_weight) of those nothing blocks, summed and
- * scaled (light_scale) by the light's colour. The including model defines those three before including this
- * file; a sample that does not count casts no shadow ray. */
+ * (sample_counts), their shadow segments (tested among what the packet's segments towards the light can meet:
+ * intersect.cl's shadow_candidates, once per light), and the weights (sample_weight) of those nothing blocks,
+ * summed and scaled (light_scale) by the light's colour. The including model defines those three before
+ * including this file; a sample that does not count casts no shadow ray. */
 #ifndef LIGHT_SAMPLING_CL
 #define LIGHT_SAMPLING_CL
 
@@ -25,7 +25,8 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         vec3 light_normal = v3_uniform(light->shape.normal);
         vfloat q_err = light_point_error(light);
         uint skip = rectangles_out_of_reach(s, light, origin, surface);
-        SweptLeaves candidates = shadow_candidates(s, light, origin, surface, skip, n_samples);
+        SweptLeaves candidates = {0};
+        int swept = 0; /* found at the first sample that counts: a packet facing away needs none */
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
             vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
@@ -33,6 +34,10 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
             vint lit = surface & sample_counts(sp, l, light_normal);
             if (!ANY(lit))
                 continue;
+            if (!swept) {
+                candidates = shadow_candidates(s, light, origin, surface, skip, n_samples);
+                swept = 1;
+            }
             *rays += MASK_TO_ONE(lit);
             if (candidates.n != 0) /* else nothing can block the light */
                 lit &= !occluded_among(s, &candidates, shadow_segment(origin, q, q_err, light_normal), skip, lit);

@@ -26,7 +26,7 @@
 typedef struct {
     float3 o_lo, o_hi;          /* O */
     float3 inv_lo, inv_hi;      /* 1 / (L_lo - O_lo), 1 / (L_hi - O_hi): +inf where a side does not move */
-    int3 lo_rises, hi_rises;    /* where L_lo >= O_lo, L_hi >= O_hi (masks) */
+    int3 lo_rises, hi_rises;    /* where L_lo >= O_lo, L_hi >= O_hi (masks: where the reciprocals are > 0) */
     int towards_negative[3];    /* the light's side of the origins, per axis: children are visited far first */
 } Sweep;
 
@@ -57,8 +57,8 @@ inline Sweep shadow_sweep(__global const Light *light, vec3 origin, vint lanes)
     float3 d_lo = (c - ext - m) - w.o_lo + 0.0f, d_hi = (c + ext + m) - w.o_hi + 0.0f;
     w.inv_lo = 1.0f / d_lo;
     w.inv_hi = 1.0f / d_hi;
-    w.lo_rises = d_lo >= 0.0f;
-    w.hi_rises = d_hi >= 0.0f;
+    w.lo_rises = w.inv_lo > 0.0f; /* from the reciprocal, so that a flushed subnormal motion agrees with it */
+    w.hi_rises = w.inv_hi > 0.0f;
     w.towards_negative[0] = c.x < 0.5f * (w.o_lo.x + w.o_hi.x);
     w.towards_negative[1] = c.y < 0.5f * (w.o_lo.y + w.o_hi.y);
     w.towards_negative[2] = c.z < 0.5f * (w.o_lo.z + w.o_hi.z);
@@ -83,8 +83,9 @@ inline float max_bound(float start, float3 v)
  * the reciprocal as 5 (ray.h), the distance and the product): within gamma(8) of itself, so widening the
  * upper end by 2 gamma(9) (and its own rounding) never misses a node the exact sweep meets (as pbrt-v4's
  * slab test, section 6.8.2). A side that does not move bounds t by +-inf (met or not at all), or by NaN where
- * it touches the node (0 * inf): a NaN bound is dropped, which can only let more nodes in. The two bounds of
- * an axis are merged lane-wise first, so that only two minima run across the axes. */
+ * it touches the node (0 * inf): a NaN bound is dropped, and so may be the other bound of its axis and kind
+ * when the two are merged, which can only let more nodes in. The two bounds of an axis are merged lane-wise
+ * first, so that only two minima run across the axes. */
 inline int sweep_meets(const Scene *s, const Sweep *w, int j)
 {
     COUNT_VISIT(s, VISITS_SHADOW_NODES);

@@ -143,9 +143,10 @@ def kernel_shading(harness, scene, x, y, spp, filter_name):
 def test_shading_point_matches_reference(harness, maps, shape, filter_name, height):
     """All three maps at once, with a uv transform and mirror wrapping, on each kind of shape, at random
     pixel positions; the height map of the maps' size (the kernel finds one filter for all three,
-    material.cl) or of half their size (a filter of its own: a shared one would read the wrong levels). The maps are smooth (steps between texels <= ~0.1), so the kernel's float32 rounding
-    of uv (~1e-6 relative) and of the footprint (~1e-4 relative, from differences of hit points ~3 units
-    from the camera) moves a lookup by < 1e-4 of the value range and the MIP level by < 2e-4: colour
+    material.cl) or of half their size (a filter of its own: a shared one would read the wrong levels; its
+    steps between texels double, and so does its bump's step du below, so its bound holds too). The maps are
+    smooth (steps between texels <= ~0.1), so the kernel's float32 rounding of uv (~1e-6 relative) and of
+    the footprint (~1e-4 relative, from differences of hit points ~3 units from the camera) moves a lookup by < 1e-4 of the value range and the MIP level by < 2e-4: colour
     bound 1e-3. The bump divides differences of two such lookups by the step du ~ the footprint (>= 1/2
     texel = 1/128 of uv): 1e-4 / (1/128) * height_scale 0.05 tilts the normal by < 1e-3 radian on a
     tangent of unit size; with the normal map's own error, bound 3e-3 on the normal. Displaced points

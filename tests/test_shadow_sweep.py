@@ -68,13 +68,14 @@ __kernel void shadows(int n, SCENE_PARAMETERS, int samples, __global const float
 LARGEST_BELOW_ONE = np.nextafter(np.float32(1), np.float32(0))
 
 
-def random_lights(rng, count, scale):
-    """Lights of random orientation and size, `scale` away from the origin at most."""
+def random_lights(rng, count, scale, axis_aligned=False):
+    """Lights of random orientation (or facing +-z, edges along x and y) and size, `scale` away from the
+    origin at most."""
     lights = []
     for _ in range(count):
-        normal = rng.normal(size=3)
+        normal = np.array([0.0, 0.0, rng.choice([-1.0, 1.0])]) if axis_aligned else rng.normal(size=3)
         normal /= np.linalg.norm(normal)
-        tangent = np.cross(normal, rng.normal(size=3))
+        tangent = np.array([1.0, 0.0, 0.0]) if axis_aligned else np.cross(normal, rng.normal(size=3))
         tangent /= np.linalg.norm(tangent)
         lights.append(Light(center=rng.uniform(-scale, scale, 3), size=rng.uniform(0.05, 1.0, 2) * scale / 4,
                             normal=normal, tangent=tangent))
@@ -122,17 +123,24 @@ def sweep_meets_reference(o_lo, o_hi, l_lo, l_hi, b_lo, b_hi):
     return lower <= upper
 
 
-@pytest.mark.parametrize("scale", [1.0, 1e3])
-def test_segments_lie_in_their_sweep(harness, lanes, scale):
+@pytest.mark.parametrize("scale,near_plane", [(1.0, False), (1e3, False), (1e4, True)])
+def test_segments_lie_in_their_sweep(harness, lanes, scale, near_plane):
     """Points of the very segments lights_sum traces (shadow_segment towards light_point, with the light's
     corners among the samples: uv 0 and the float below 1), at t = 0, 1/2 and 1: each inside the sweep of its
     packet, as a box no larger than its float32 rounding. The segment's end lies off the light by the offset
     that keeps it from the light's own surface, and its direction rounds: the sweep's light box is widened by
-    bounds on both (shadow_sweep.cl). Far from the origin (scale 1e3) the roundings are larger."""
+    bounds on both (shadow_sweep.cl). Far from the origin (scale 1e3) the roundings are larger; hardest where
+    packets lie within 1e-6 to 1e-3 of the scale from the plane of a light 1e4 away, facing +-z (the
+    segments run almost in the plane, and the sweep's sides along z barely move)."""
     rng = np.random.default_rng(5)
     count = 2048 // lanes
-    lights = random_lights(rng, count, scale)
+    lights = random_lights(rng, count, scale, axis_aligned=near_plane)
     o = packets(rng, count, lanes, scale)
+    if near_plane:  # each packet beside its light, just off its plane on either side
+        centre = lights["shape"]["center"].astype(np.float64)
+        off = rng.uniform(-scale / 2, scale / 2, (count, 3))
+        off[:, 2] = rng.choice([-1.0, 1.0], count) * scale * 10.0 ** rng.uniform(-6, -3, count)
+        o = (np.repeat(centre + off, lanes, 0) + rng.uniform(-1e-4, 1e-4, (len(o), 3)) * scale * [1, 1, 0])
     uv = rng.uniform(0, 1, (len(o), 2))
     uv[::3] = rng.choice([0.0, LARGEST_BELOW_ONE], (len(uv[::3]), 2))
     segment = harness.run(SOURCE, "segments", len(o), [lights, planar(o), planar(uv).ravel()], {"ro": 3, "rd": 3},
@@ -146,8 +154,8 @@ def test_segments_lie_in_their_sweep(harness, lanes, scale):
 
 def test_sweep_misses_what_lies_outside(harness, lanes):
     """Random boxes near the segments against the float64 volume between the packet's box and the light's:
-    those it meets are met, those it misses even with the light's box widened by 1e-4 are missed (the kernel's own widening is a
-    few float32 roundings). Both kinds are common, so a sweep that meets everything fails."""
+    those it meets are met, those it misses even with the light's box widened by 1e-4 are missed (the kernel's
+    own widening is a few float32 roundings). Both kinds are common, so a sweep that meets everything fails."""
     rng = np.random.default_rng(8)
     count = 4096 // lanes
     lights = random_lights(rng, count, 1.0)
