@@ -65,10 +65,11 @@ inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax
 }
 
 /* The children of interior node `i` in the order to visit them: *first, then the returned second. Near first
- * along the first lane's direction on the node's split axis, or far first with `far_first`. */
-inline int order_children(__global const BVHNode *nodes, int i, BoxRay b, int far_first, int *first)
+ * along a direction whose signs per axis are `negative` (a packet's first lane's: BoxRay) on the node's split
+ * axis, or far first with `far_first`. */
+inline int order_children(__global const BVHNode *nodes, int i, const int *negative, int far_first, int *first)
 {
-    int right = nodes[i].offset, right_first = b.negative[-nodes[i].count] != far_first;
+    int right = nodes[i].offset, right_first = negative[-nodes[i].count] != far_first;
     *first = right_first ? right : i + 1;
     return right_first ? i + 1 : right;
 }
@@ -96,7 +97,7 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
         if (node->count <= 0) {
-            int first, second = order_children(s->nodes, i, b, 0, &first);
+            int first, second = order_children(s->nodes, i, b.negative, 0, &first);
             vfloat t = vmin(tmax, hit->t);
             int in_first = meets_node(s, first, r, b, t), in_second = meets_node(s, second, r, b, t);
             stack[top] = second;
@@ -127,6 +128,15 @@ inline int skipped_subtree(const Scene *s, int i, uint skip)
     return only != 0u && (only & ~skip) == 0u;
 }
 
+/* The lanes that a shape of leaf `node` blocks (primitive.cl's any-hit tests). */
+ALWAYS_INLINE vint leaf_blocks(const Scene *s, PrimitiveRay *p, __global const BVHNode *node, uint skip)
+{
+    vint blocked = (vint)(0);
+    for (int k = node->offset; k < node->offset + node->count; ++k)
+        blocked |= primitive_blocks(s, p, s->prims[k] & 3, s->prims[k] >> 2, skip);
+    return blocked;
+}
+
 /* Whether a shadow packet enters node j: the node is not skipped and a lane still unsettled meets its box. */
 inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settled)
 {
@@ -155,7 +165,7 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
         if (node->count <= 0) {
-            int first, second = order_children(s->nodes, i, b, 1, &first);
+            int first, second = order_children(s->nodes, i, b.negative, 1, &first);
             int in_first = enters(s, first, r, b, skip, settled), in_second = enters(s, second, r, b, skip, settled);
             stack[top] = second; /* kept only when both are entered: no branch to mispredict */
             top += in_first & in_second;
@@ -164,8 +174,7 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
                 continue;
             }
         } else {
-            for (int k = node->offset; k < node->offset + node->count; ++k)
-                settled |= primitive_blocks(s, &p, s->prims[k] & 3, s->prims[k] >> 2, skip);
+            settled |= leaf_blocks(s, &p, node, skip);
             if (ALL(settled))
                 break;
         }

@@ -92,17 +92,18 @@ inline vint occluded(const Scene *s, Ray r, uint skip, vint active)
 #endif
 }
 
-/* What the segments of `samples` light samples from the origins of `lanes` towards `light` may meet, for
+/* What the segments of `samples` light samples from the origins of `lanes` towards `light` (its points within
+ * q_err of its plane) may meet, for
  * occluded_among(): the leaves of their sweep (shadow_sweep.cl), none at all (n = 0) where it meets nothing
  * the samples could be blocked by, or everything (n = -1). A single sample's segments are all the sweep would
  * bound, and traversing them costs less than the sweep (scene 0 with one light sample: 7-11% more time with
  * it): everything, then. */
-inline SweptLeaves shadow_candidates(const Scene *s, __global const Light *light, vec3 origin, vint lanes, uint skip,
-                                     int samples)
+inline SweptLeaves shadow_candidates(const Scene *s, __global const Light *light, float q_err, vec3 origin,
+                                     vint lanes, uint skip, int samples)
 {
 #if HAS_BVH
     if (samples > 1) {
-        Sweep w = shadow_sweep(light, origin, lanes);
+        Sweep w = shadow_sweep(light, q_err, origin, lanes);
         return swept_leaves(s, &w, skip);
     }
 #endif

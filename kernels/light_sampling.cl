@@ -35,7 +35,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
             if (!ANY(lit))
                 continue;
             if (!swept) {
-                candidates = shadow_candidates(s, light, origin, surface, skip, n_samples);
+                candidates = shadow_candidates(s, light, FIRST_LANE(q_err), origin, surface, skip, n_samples);
                 swept = 1;
             }
             *rays += MASK_TO_ONE(lit);

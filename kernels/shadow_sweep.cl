@@ -27,21 +27,22 @@ typedef struct {
     float3 o_lo, o_hi;          /* O */
     float3 inv_lo, inv_hi;      /* 1 / (L_lo - O_lo), 1 / (L_hi - O_hi): +inf where a side does not move */
     int3 lo_rises, hi_rises;    /* where L_lo >= O_lo, L_hi >= O_hi (masks: where the reciprocals are > 0) */
-    int towards_negative[3];    /* the light's side of the origins, per axis: children are visited far first */
+    int negative[3];            /* the signs of the way from the origins to the light: children go far first */
 } Sweep;
 
 /* The lanes' minimum and maximum of x over `lanes` (at least one). */
 inline float lanes_min(vfloat x, vint lanes) { return min_lane(SELECT((vfloat)(INFINITY), x, lanes)); }
 inline float lanes_max(vfloat x, vint lanes) { return max_lane(SELECT((vfloat)(-INFINITY), x, lanes)); }
 
-/* The sweep from the origins of `lanes` to light: L is the light's box widened by where a shadow segment can
+/* The sweep from the origins of `lanes` to light, whose points lie within q_err of its plane
+ * (light_point_error): L is the light's box widened by where a shadow segment can
  * end (lights.cl). A sample point q is within gamma(4) (|c| + ext) of c + du t + dv b, its ideal point in the
  * box c +- ext (light_point_error); shadow_segment pushes it off the light by err <= q_err + gamma(2) |n|.|q - o|
  * along the unit normal n (offset_ray_origin: err n_i, plus the sum's rounding and one float step, within
  * 3u (|q_i| + err |n_i|)), and the segment's end o + fl(q' - o) is within u |q' - o|_i of that point q'. With
  * reach_i >= |q - o|_i over both boxes, L = c +- (ext + m), m_i = err |n_i| + gamma(8) (|c_i| + ext_i + err +
  * reach_i), holds every end with room for the roundings of m itself. */
-inline Sweep shadow_sweep(__global const Light *light, vec3 origin, vint lanes)
+inline Sweep shadow_sweep(__global const Light *light, float q_err, vec3 origin, vint lanes)
 {
     Sweep w;
     w.o_lo = (float3)(lanes_min(origin.x, lanes), lanes_min(origin.y, lanes), lanes_min(origin.z, lanes));
@@ -51,7 +52,7 @@ inline Sweep shadow_sweep(__global const Light *light, vec3 origin, vint lanes)
     float3 ext = abs3(f3(r->tangent)) * r->half_x + abs3(f3(r->bitangent)) * r->half_y;
     float3 reach_lo = abs3(c + ext - w.o_lo), reach_hi = abs3(w.o_hi - (c - ext));
     float3 reach = (1.0f + GAMMA(8)) * (reach_hi > reach_lo ? reach_hi : reach_lo);
-    float err = (light_point_error(light) + GAMMA(2) * dot3(n, reach)) * (1.0f + GAMMA(8));
+    float err = (q_err + GAMMA(2) * dot3(n, reach)) * (1.0f + GAMMA(8));
     float3 m = err * n + GAMMA(8) * (abs3(c) + ext + err + reach);
     /* + 0: a side that does not move gets +0, and 1 / +0 = +inf: its bound is then O's own, on any node */
     float3 d_lo = (c - ext - m) - w.o_lo + 0.0f, d_hi = (c + ext + m) - w.o_hi + 0.0f;
@@ -59,9 +60,9 @@ inline Sweep shadow_sweep(__global const Light *light, vec3 origin, vint lanes)
     w.inv_hi = 1.0f / d_hi;
     w.lo_rises = w.inv_lo > 0.0f; /* from the reciprocal, so that a flushed subnormal motion agrees with it */
     w.hi_rises = w.inv_hi > 0.0f;
-    w.towards_negative[0] = c.x < 0.5f * (w.o_lo.x + w.o_hi.x);
-    w.towards_negative[1] = c.y < 0.5f * (w.o_lo.y + w.o_hi.y);
-    w.towards_negative[2] = c.z < 0.5f * (w.o_lo.z + w.o_hi.z);
+    w.negative[0] = c.x < 0.5f * (w.o_lo.x + w.o_hi.x);
+    w.negative[1] = c.y < 0.5f * (w.o_lo.y + w.o_hi.y);
+    w.negative[2] = c.z < 0.5f * (w.o_lo.z + w.o_hi.z);
     return w;
 }
 
@@ -119,8 +120,7 @@ inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
         if (node->count <= 0) {
-            int right_first = w->towards_negative[-node->count] == 0;
-            int first = right_first ? node->offset : i + 1, second = right_first ? i + 1 : node->offset;
+            int first, second = order_children(s->nodes, i, w->negative, 1, &first);
             int in_first = sweep_enters(s, w, first, skip), in_second = sweep_enters(s, w, second, skip);
             stack[top] = second;
             top += in_first & in_second;
@@ -154,9 +154,7 @@ inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uin
         int i = leaves->leaf[l];
         if (!enters(s, i, r, b, skip, settled))
             continue;
-        __global const BVHNode *node = &s->nodes[i];
-        for (int k = node->offset; k < node->offset + node->count; ++k)
-            settled |= primitive_blocks(s, &p, s->prims[k] & 3, s->prims[k] >> 2, skip);
+        settled |= leaf_blocks(s, &p, &s->nodes[i], skip);
         if (ALL(settled))
             break;
     }

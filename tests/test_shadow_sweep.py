@@ -35,7 +35,8 @@ __kernel void meets(int n, __global const Light *lights, __global const BVHNode 
                     __global float *met)
 {
     Scene s = {.nodes = nodes};
-    Sweep w = shadow_sweep(&lights[get_global_id(0)], IN3(o), (vfloat)(0.0f) == 0.0f);
+    __global const Light *light = &lights[get_global_id(0)];
+    Sweep w = shadow_sweep(light, light_point_error(light), IN3(o), (vfloat)(0.0f) == 0.0f);
     for (int k = 0; k < LANES; ++k) {
         int j = get_global_id(0) * LANES + k;
         met[j] = sweep_meets(&s, &w, j);
@@ -53,7 +54,7 @@ __kernel void shadows(int n, SCENE_PARAMETERS, int samples, __global const float
     vec3 origin = IN3(o);
     vint lanes = IN(active) > 0.0f;
     uint skip = rectangles_out_of_reach(&s, lights, origin, lanes);
-    SweptLeaves candidates = shadow_candidates(&s, lights, origin, lanes, skip, samples);
+    SweptLeaves candidates = shadow_candidates(&s, lights, light_point_error(lights), origin, lanes, skip, samples);
     vec2 u = {IN(uv), IN(uv + n)};
     Ray r = shadow_segment(origin, light_point(lights, u), light_point_error(lights), v3_uniform(lights->shape.normal));
     vint blocked = (vint)(0);
