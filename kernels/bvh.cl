@@ -137,13 +137,17 @@ ALWAYS_INLINE vint leaf_blocks(const Scene *s, PrimitiveRay *p, __global const B
     return blocked;
 }
 
+/* Whether a lane of a shadow packet that is still unsettled meets node j's box. */
+inline int unsettled_meets(const Scene *s, int j, Ray r, BoxRay b, vint settled)
+{
+    COUNT_VISIT(s, VISITS_SHADOW_NODES);
+    return ANY(meets_box(&s->nodes[j], r, b, (vfloat)(1.0f)) & !settled);
+}
+
 /* Whether a shadow packet enters node j: the node is not skipped and a lane still unsettled meets its box. */
 inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settled)
 {
-    if (skipped_subtree(s, j, skip))
-        return 0;
-    COUNT_VISIT(s, VISITS_SHADOW_NODES);
-    return ANY(meets_box(&s->nodes[j], r, b, (vfloat)(1.0f)) & !settled);
+    return !skipped_subtree(s, j, skip) && unsettled_meets(s, j, r, b, settled);
 }
 
 /* intersect.cl's occluded() over the hierarchy: the `skip`ped rectangles are not tested, nor the subtrees

@@ -129,10 +129,12 @@ inline int or_lanes(int16 m) { int8 t = m.lo | m.hi; int4 u = t.lo | t.hi; int2 
 inline int and_lanes(int16 m) { int8 t = m.lo & m.hi; int4 u = t.lo & t.hi; int2 w = u.lo & u.hi; return w.x & w.y; }
 #endif
 
-/* The smallest (largest) of a vector's lanes, for values that are numbers or infinities: halves compared
- * lane-wise (Clang's __builtin_reduce_min keeps fmin's NaN rules, one scalar step and NaN test per lane). */
+/* The smaller (larger) of a and b, component-wise: a where b is NaN, so that a NaN b is ignored. */
 #define LANE_MIN(a, b) ((b) < (a) ? (b) : (a))
 #define LANE_MAX(a, b) ((b) > (a) ? (b) : (a))
+
+/* The smallest (largest) of a vector's lanes, for values that are numbers or infinities: halves compared
+ * lane-wise (Clang's __builtin_reduce_min keeps fmin's NaN rules, one scalar step and NaN test per lane). */
 #if LANES == 1
 inline float min_lane(float x) { return x; }
 inline float max_lane(float x) { return x; }

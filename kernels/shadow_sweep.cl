@@ -51,7 +51,7 @@ inline Sweep shadow_sweep(__global const Light *light, float q_err, vec3 origin,
     float3 c = f3(r->center), n = abs3(f3(r->normal));
     float3 ext = abs3(f3(r->tangent)) * r->half_x + abs3(f3(r->bitangent)) * r->half_y;
     float3 reach_lo = abs3(c + ext - w.o_lo), reach_hi = abs3(w.o_hi - (c - ext));
-    float3 reach = (1.0f + GAMMA(8)) * (reach_hi > reach_lo ? reach_hi : reach_lo);
+    float3 reach = (1.0f + GAMMA(8)) * LANE_MAX(reach_lo, reach_hi);
     float err = (q_err + GAMMA(2) * dot3(n, reach)) * (1.0f + GAMMA(8));
     float3 m = err * n + GAMMA(8) * (abs3(c) + ext + err + reach);
     /* + 0: a side that does not move gets +0, and 1 / +0 = +inf: its bound is then O's own, on any node */
@@ -69,15 +69,15 @@ inline Sweep shadow_sweep(__global const Light *light, float q_err, vec3 origin,
 /* The smallest (largest) of start and the components of v that are numbers: a NaN bound is ignored. */
 inline float min_bound(float start, float3 v)
 {
-    start = v.x < start ? v.x : start;
-    start = v.y < start ? v.y : start;
-    return v.z < start ? v.z : start;
+    start = LANE_MIN(start, v.x);
+    start = LANE_MIN(start, v.y);
+    return LANE_MIN(start, v.z);
 }
 inline float max_bound(float start, float3 v)
 {
-    start = v.x > start ? v.x : start;
-    start = v.y > start ? v.y : start;
-    return v.z > start ? v.z : start;
+    start = LANE_MAX(start, v.x);
+    start = LANE_MAX(start, v.y);
+    return LANE_MAX(start, v.z);
 }
 
 /* Whether the sweep meets node j's box for some t in [0, 1]. Each bound rounds 8 times (the side's motion,
@@ -97,8 +97,8 @@ inline int sweep_meets(const Scene *s, const Sweep *w, int j)
     const float3 inf = (float3)(INFINITY);
     float3 up_lo = w->lo_rises ? t_lo : inf, up_hi = w->hi_rises ? inf : t_hi;
     float3 down_lo = w->lo_rises ? -inf : t_lo, down_hi = w->hi_rises ? t_hi : -inf;
-    float upper = min_bound(1.0f, up_hi < up_lo ? up_hi : up_lo);
-    float lower = max_bound(0.0f, down_hi > down_lo ? down_hi : down_lo);
+    float upper = min_bound(1.0f, LANE_MIN(up_lo, up_hi));
+    float lower = max_bound(0.0f, LANE_MAX(down_lo, down_hi));
     return lower <= upper * (1.0f + 2.0f * GAMMA(9));
 }
 
@@ -152,7 +152,7 @@ inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uin
     vint settled = !active;
     for (int l = 0; l < leaves->n; ++l) {
         int i = leaves->leaf[l];
-        if (!enters(s, i, r, b, skip, settled))
+        if (!unsettled_meets(s, i, r, b, settled)) /* not skipped: the sweep entered it with the same skip */
             continue;
         settled |= leaf_blocks(s, &p, &s->nodes[i], skip);
         if (ALL(settled))
