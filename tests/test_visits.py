@@ -23,6 +23,13 @@ SIZE = dict(width=10, height=6, spp=4, light_samples=4, progress=False)
 FAR = 100.0  # a triangle this far along x meets no ray of the scene below
 
 
+def work_items_and_pixels(lanes):
+    """The work-items rendering the SIZE image, a tile of TILE_ROWS x lanes / TILE_ROWS pixels each (the tiles at
+    its edges reach past it), and its pixels."""
+    rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
+    return math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows), SIZE["width"] * SIZE["height"]
+
+
 def floor_scene(cornell, far_triangle):
     """A large floor triangle under scene 0's light, seen from straight above by a camera between the two:
     every camera ray meets the floor and every floor point in view sees the whole light, so every lane casts
@@ -54,8 +61,7 @@ def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle
     features = dataclasses.replace(Features.of(scene, lanes), bvh=bvh)
     visits = node_visits(scene, features, **SIZE)
     rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
-    work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
-    pixels = SIZE["width"] * SIZE["height"]
+    work_items, pixels = work_items_and_pixels(lanes)
     samples = SIZE["light_samples"]
     shadow_boxes = swept / samples + (1 if bvh else 0)  # per shadow ray of a work-item
     assert visits["camera_rays"] == pixels * SIZE["spp"]
@@ -87,9 +93,7 @@ def test_closest_hits_test_a_pushed_node_again(cornell, lanes):
     scene = floor_scene(cornell, False)
     scene = dataclasses.replace(scene, triangles=scene.triangles + [cover])
     visits = node_visits(scene, dataclasses.replace(Features.of(scene, lanes), bvh=True), **SIZE)
-    rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
-    work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
-    pixels = SIZE["width"] * SIZE["height"]
+    work_items, pixels = work_items_and_pixels(lanes)
     assert visits["visits_per_camera_ray"] == pytest.approx(4 * work_items / pixels, rel=1e-6)
     assert visits["primitives_per_camera_ray"] == pytest.approx(work_items / pixels, rel=1e-6)
 
@@ -157,9 +161,7 @@ def test_swept_leaves_go_far_first(cornell, lanes):
     the tile, with their triangles, come first) or if a blocked sample goes on."""
     scene = blocked_floor(cornell)
     visits = node_visits(scene, Features.of(scene, lanes), **SIZE)
-    rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
-    work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
-    pixels = SIZE["width"] * SIZE["height"]
+    work_items, pixels = work_items_and_pixels(lanes)
     assert visits["shadow_rays"] == pixels * SIZE["spp"] * SIZE["light_samples"]  # every lane lit
     assert visits["primitives_per_shadow_ray"] == pytest.approx(work_items / pixels, rel=1e-6)
 
