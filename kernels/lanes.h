@@ -16,20 +16,6 @@
 #error "LANES must be 1, 4, 8 or 16"
 #endif
 
-/* A work-item's pixels: a tile of TILE_COLUMNS x TILE_ROWS, as nearly square as LANES allows, so that its
- * rays stay close together: a packet's rays then open fewer BVH nodes (bvh.cl) and its texture lookups share
- * more cache lines than those of a row of LANES pixels. With 16 lanes, 4 x 4 instead of 16 x 1 took 14-26%
- * less time on mesh_cornell and 2-12% on scene 0; with 8 lanes, 4 x 2 instead of 8 x 1 took 4-8% less on
- * mesh_cornell, and scene 0 and textured_cornell within 4% either way (one process, renders alternating). */
-#if LANES == 16
-#define TILE_ROWS 4
-#elif LANES == 1
-#define TILE_ROWS 1
-#else
-#define TILE_ROWS 2
-#endif
-#define TILE_COLUMNS (LANES / TILE_ROWS)
-
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 

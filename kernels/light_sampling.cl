@@ -21,7 +21,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
     int n_samples = s->params->light_samples;
     for (int li = 0; li < s->params->n_lights && ANY(surface); ++li) {
         __global const Light *light = &s->lights[li];
-        vuint light_key = stream_key(key, li);
+        vuint light_key = stream_key(key, (vuint)(li));
         vec3 light_normal = v3_uniform(light->shape.normal);
         vfloat q_err = light_point_error(light);
         uint skip = rectangles_out_of_reach(s, light, origin, surface);
@@ -29,7 +29,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         int swept = 0; /* found at the first sample that counts: a packet facing away needs none */
         vfloat sum = 0.0f;
         for (int j = 0; j < n_samples; ++j) {
-            vec3 q = light_point(light, sample_2d(light_samples, j, s->params->light_sampler, light_key));
+            vec3 q = light_point(light, sample_2d(light_samples, (vint)(j), s->params->light_sampler, light_key));
             vec3 w = v3_sub(q, sp.p), l = v3_direction(w); /* towards the sample, and its unit direction */
             vint lit = surface & sample_counts(sp, l, light_normal);
             if (!ANY(lit))

@@ -1,15 +1,16 @@
 /* The per-pixel pipeline: generate camera rays, intersect, find the material's shading point, shade (the
  * scene's model: the course's Phong, or direct lighting), accumulate.
  *
- * One work-item renders a tile of LANES pixels, TILE_COLUMNS x TILE_ROWS (lanes.h), lane by lane along its
- * rows: work-item (i, j) starts at pixel x = TILE_COLUMNS i, y = row0 + TILE_ROWS j. A launch renders the
- * band of rows [row0, row1) with the pixel samples [sample0, sample0 + n_samples) of a progressive render
- * (the host accumulates passes); lanes beyond the band or the image's width compute and store nothing. The
- * output holds the band only, so its size is bounded whatever the image's: planes of width * (row1 - row0)
- * floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear) and the number of rays
- * traced for the pixel. A measuring build (COUNT_VISITS, scene.h) stores VISIT_KINDS planes more: the counts of
- * nodes and primitives the work-item's traversals tested, each shared equally among its pixels. */
+ * A launch renders the band of rows [row0, row1) with the pixel samples [sample0, sample0 + n_samples) of a
+ * progressive render (the host accumulates passes). One work-item renders a tile of pixels, several samples
+ * of each at once where n_samples allows (tile.h); lanes beyond the band or the image's width compute and
+ * store nothing. The output holds the band only, so its size is bounded whatever the image's: planes of
+ * width * (row1 - row0) floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear) and
+ * the number of rays traced for the pixel. A measuring build (COUNT_VISITS, scene.h) stores VISIT_KINDS planes
+ * more: the counts of nodes and primitives the work-item's traversals tested, each shared equally among its
+ * pixels. */
 #include "camera.cl"
+#include "tile.h"
 #if HAS_DIRECT_LIGHTING
 #include "direct_lighting.cl"
 #else
@@ -40,6 +41,26 @@ inline int count_lanes(vint mask)
 }
 #endif
 
+/* Each pixel's sums over its `group` lanes (tile.h), in its first lane: the lanes' compensated sums (sum -
+ * carry, rounded once) added with compensation again, so that a pixel's sum stays within a few roundings of
+ * its samples' for any number of them (kahan_add). */
+inline vfloat pixel_sums(vfloat sum, vfloat carry, int group)
+{
+    float s[LANES], c[LANES];
+    VSTORE(sum, s);
+    VSTORE(carry, c);
+    for (int first = 0; first < LANES; first += group) {
+        float total = s[first] - c[first], lost = 0.0f;
+        for (int l = first + 1; l < first + group; ++l) {
+            float y = (s[l] - c[l]) - lost, t = total + y;
+            lost = (t - total) - y;
+            total = t;
+        }
+        s[first] = total;
+    }
+    return VLOAD(s);
+}
+
 /* plane[index] = value in the active lanes. */
 inline void store_lanes(__global float *plane, vint index, vfloat value, vint active)
 {
@@ -67,34 +88,34 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
 #endif
     const TextureStore ts = TEXTURES_FROM_PARAMETERS;
     const int width = params->width, height = params->height;
-    const vint x = TILE_COLUMNS * (int)get_global_id(0) + LANE_IDS % TILE_COLUMNS;
-    const vint y = row0 + TILE_ROWS * (int)get_global_id(1) + LANE_IDS / TILE_COLUMNS;
-    const vint active = (x < width) & (y < row1);
+    const Tile tile = work_item_tile(row0, n_samples);
+    const vint x = tile.x, y = tile.y, active = (x < width) & (y < row1);
     if (!ANY(active))
         return;
 
     vuint key = pixel_key(AS_VUINT(y * width + x), params->seed);
     vec3 sum = v3_splat(0.0f, 0.0f, 0.0f), carry = sum; /* compensated: a launch may hold 32768 samples */
     vfloat rays = 0.0f;
-    for (int s = sample0; s < sample0 + n_samples; ++s) {
+    for (int first = sample0; first < sample0 + n_samples; first += tile.group) {
+        vint s = first + tile.sample;
         vec2 offset = sample_2d(pixel_samples, s, params->pixel_sampler, key);
         Ray ray = generate_camera_ray(camera, CONVERT_VFLOAT(x) + offset.x, CONVERT_VFLOAT(y) + offset.y, 1.0f / width,
                                       1.0f / height);
         Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
-        kahan_add(&sum, &carry, shade(&scene, ray, hit, sp, light_samples, stream_key(key, s), &rays));
+        kahan_add(&sum, &carry, shade(&scene, ray, hit, sp, light_samples, stream_key(key, AS_VUINT(s)), &rays));
     }
-    rays += (float)n_samples;
+    rays += (float)(n_samples / tile.group);
 
     const int plane = width * (row1 - row0);
-    const vint index = (y - row0) * width + x;
-    store_lanes(out, index, sum.x, active);
-    store_lanes(out + plane, index, sum.y, active);
-    store_lanes(out + 2 * plane, index, sum.z, active);
-    store_lanes(out + 3 * plane, index, rays, active);
+    const vint index = (y - row0) * width + x, stored = active & (tile.sample == 0); /* a pixel's first lane */
+    store_lanes(out, index, pixel_sums(sum.x, carry.x, tile.group), stored);
+    store_lanes(out + plane, index, pixel_sums(sum.y, carry.y, tile.group), stored);
+    store_lanes(out + 2 * plane, index, pixel_sums(sum.z, carry.z, tile.group), stored);
+    store_lanes(out + 3 * plane, index, pixel_sums(rays, (vfloat)(0.0f), tile.group), stored);
 #if COUNT_VISITS
-    const float pixels = (float)count_lanes(active);
+    const float pixels = (float)count_lanes(stored);
     for (int k = 0; k < VISIT_KINDS; ++k)
-        store_lanes(out + (4 + k) * plane, index, (vfloat)(visits[k] / pixels), active);
+        store_lanes(out + (4 + k) * plane, index, (vfloat)(visits[k] / pixels), stored);
 #endif
 }

@@ -23,7 +23,7 @@ inline vuint hash(vuint x)
 }
 
 /* A key for a new stream below `key`: the hash of both, so that keys of different streams are unrelated. */
-inline vuint stream_key(vuint key, uint stream) { return hash(key ^ hash((vuint)(stream))); }
+inline vuint stream_key(vuint key, vuint stream) { return hash(key ^ hash(stream)); }
 
 /* The key of a pixel's sample streams, from the render's seed. */
 inline vuint pixel_key(vuint pixel, uint seed) { return hash(pixel ^ hash((vuint)(seed) + 0x9e3779b9U)); }
@@ -54,19 +54,42 @@ inline vuint owen_scramble(vuint v, vuint seed)
 
 inline vfloat fixed_to_unit(vuint v) { return CONVERT_VFLOAT(v >> 8) * 0x1p-24f; }
 
-/* Point i of the pattern `table`, randomised as `sampler` says under `key`. */
-inline vec2 sample_2d(__global const uint2 *table, int i, Sampler sampler, vuint key)
+/* Each lane's point i of the pattern `table`: one load where the lanes share i (a light sample, or every
+ * pixel sample when a work-item's lanes hold one sample each: tile.h), else one per lane. */
+inline void table_points(__global const uint2 *table, vint i, vuint *x, vuint *y)
 {
-    uint2 t = table[i];
-    vuint x = (vuint)(t.x), y = (vuint)(t.y);
+    int first = FIRST_LANE(i);
+    if (ALL(i == first)) {
+        uint2 t = table[first];
+        *x = (vuint)(t.x);
+        *y = (vuint)(t.y);
+        return;
+    }
+    int at[LANES];
+    uint tx[LANES], ty[LANES];
+    VSTORE(i, at);
+    for (int k = 0; k < LANES; ++k) {
+        uint2 t = table[at[k]];
+        tx[k] = t.x;
+        ty[k] = t.y;
+    }
+    *x = VLOAD_UINT(tx);
+    *y = VLOAD_UINT(ty);
+}
+
+/* Each lane's point i of the pattern `table`, randomised as `sampler` says under the lane's key. */
+inline vec2 sample_2d(__global const uint2 *table, vint i, Sampler sampler, vuint key)
+{
+    vuint x, y, index = AS_VUINT(i);
+    table_points(table, i, &x, &y);
     switch (sampler.randomize) {
     case RANDOMIZE_INDEPENDENT:
-        x = hash(key ^ hash((vuint)(2U * i)));
-        y = hash(key ^ hash((vuint)(2U * i + 1U)));
+        x = hash(key ^ hash(2U * index));
+        y = hash(key ^ hash(2U * index + 1U));
         break;
     case RANDOMIZE_JITTER: /* the corner's low 8 bits are 0: the offset stays in the stratum after >> 8 */
-        x += mul_hi(hash(key ^ hash((vuint)(2U * i))), (vuint)(sampler.cell_x)) << 8;
-        y += mul_hi(hash(key ^ hash((vuint)(2U * i + 1U))), (vuint)(sampler.cell_y)) << 8;
+        x += mul_hi(hash(key ^ hash(2U * index)), (vuint)(sampler.cell_x)) << 8;
+        y += mul_hi(hash(key ^ hash(2U * index + 1U)), (vuint)(sampler.cell_y)) << 8;
         break;
     case RANDOMIZE_SHIFT:
         x += hash(key ^ 0x68e31da4U);

@@ -62,9 +62,20 @@ STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "Tria
 # kernels/limits.h
 BVH_STACK = 64                # levels of a BVH the kernel's traversal stack holds: the host refuses deeper trees
 CULLED_RECTANGLES = 32        # rectangles that shadow rays may skip: one bit each in a Light's masks
-LANE_WIDTHS = (1, 4, 8, 16)   # pixels per work-item the kernel accepts
+LANE_WIDTHS = (1, 4, 8, 16)   # lanes (pixel samples at once) per work-item the kernel accepts
 
-# kernels/lanes.h: a work-item's tile of pixels has LANES / TILE_ROWS[LANES] columns
-TILE_ROWS = {1: 1, 4: 2, 8: 2, 16: 4}
+
+# kernels/tile.h: a work-item's lanes hold samples_at_once(...) samples of each pixel of its tile of pixels
+def samples_at_once(lanes, n_samples):
+    """The pixel samples of each pixel a work-item's lanes hold at once in a launch of n_samples: the
+    largest power of two dividing n_samples, at most `lanes`."""
+    return max(1, min(n_samples & -n_samples, lanes))
+
+
+def tile_shape(lanes, n_samples):
+    """(columns, rows) of a work-item's tile of pixels in a launch of n_samples pixel samples."""
+    pixels = lanes // samples_at_once(lanes, n_samples)
+    rows = 4 if pixels >= 16 else 2 if pixels >= 4 else 1
+    return pixels // rows, rows
 
 MAX_WORDS = (1 << 31) - 1  # the texel store's offsets are int32 words in the kernel

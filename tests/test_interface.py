@@ -4,6 +4,8 @@ compiler reports (raytrace/renderer/interface.py). These tests change that one d
 the host notices: a renamed, added or retyped argument is a KernelInterfaceError before any launch, and
 arguments in another order still render the same image."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -47,9 +49,7 @@ def test_arguments_in_another_order_render_the_same(monkeypatch, cornell):
 
 
 @pytest.mark.parametrize("change, message", [
-    (lambda s: s.replace("int n_samples, int row0", "int samples, int row0").replace(
-        "s < sample0 + n_samples", "s < sample0 + samples").replace("(float)n_samples", "(float)samples"),
-     "has no argument 'n_samples'"),
+    (lambda s: re.sub(r"\bn_samples\b", "samples", s), "has no argument 'n_samples'"),
     (lambda s: s.replace("int row0,", "int row0, int extra,"), "never set: extra"),
     (lambda s: s.replace("__global const uint2 *light_samples", "__global const float2 *light_samples").replace(
         "shade(&scene, ray, hit, sp, light_samples,", "shade(&scene, ray, hit, sp, (__global const uint2 *)light_samples,"),

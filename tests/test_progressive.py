@@ -51,7 +51,7 @@ def test_half_buffer_estimate_is_unbiased(passes, per_pass):
 
 def test_pass_size():
     assert pass_size(1, 10) == 1 and pass_size(16, 10) == 8 and pass_size(65536, 1) == 32768
-    assert pass_size(1024, 1 << 20) == 4  # at most 2^22 rays per pass
+    assert pass_size(1024, 1 << 24) == 4  # at most 2^26 rays per pass
 
 
 @pytest.mark.parametrize("sampler", ["random", "jittered", "halton", "sobol"])

@@ -13,16 +13,18 @@ M32 = np.uint64(0xFFFFFFFF)
 
 SAMPLE = """
 #include "samplers.cl"
-/* Work-item I draws points 0..count-1 for the pixels I*LANES .. I*LANES+LANES-1. out: count x-planes,
- * then count y-planes, of n pixels each. */
+/* Work-item I draws points 0..count-1 for the pixels p = I*LANES .. I*LANES+LANES-1, pixel p its point
+ * (i + stagger p) mod count at step i: with stagger 0 the lanes share each index, with 1 each lane has its own.
+ * out: count x-planes, then count y-planes, of n pixels each, by step. */
 __kernel void samples(int n, __global const uint2 *table, __global const Sampler *sampler, uint seed,
-                      uint stream, int count, __global float *out)
+                      uint stream, int count, int stagger, __global float *out)
 {
-    vuint key = pixel_key(AS_VUINT(I * LANES + LANE_IDS), seed);
+    vint pixel = I * LANES + LANE_IDS;
+    vuint key = pixel_key(AS_VUINT(pixel), seed);
     if (stream)
-        key = stream_key(key, stream - 1);
+        key = stream_key(key, (vuint)(stream - 1));
     for (int i = 0; i < count; ++i) {
-        vec2 u = sample_2d(table, i, *sampler, key);
+        vec2 u = sample_2d(table, (i + stagger * pixel) % count, *sampler, key);
         OUT(out + i * n, u.x);
         OUT(out + (count + i) * n, u.y);
     }
@@ -79,12 +81,14 @@ def reference_samples(pattern, pixels, seed, count, stream=None):
     return np.stack([(x >> np.uint64(8)) * 2.0**-24, (y >> np.uint64(8)) * 2.0**-24], axis=-1)
 
 
-def kernel_samples(harness, pattern, n_pixels, seed=0, count=None, stream=None):
-    """(count, n_pixels, 2) points drawn by the kernel for pixels 0 .. n_pixels-1."""
+def kernel_samples(harness, pattern, n_pixels, seed=0, count=None, stream=None, stagger=0):
+    """(count, n_pixels, 2) points drawn by the kernel for pixels 0 .. n_pixels-1, pixel p's point
+    (i + stagger p) mod count at step i."""
     count = count or len(pattern.points)
     out = harness.run(SAMPLE, "samples", n_pixels,
                       [pattern.table(), pattern.sampler_struct().reshape(1), np.uint32(seed),
-                       np.uint32(0 if stream is None else stream + 1), np.int32(count)], {"out": 2 * count})["out"]
+                       np.uint32(0 if stream is None else stream + 1), np.int32(count), np.int32(stagger)],
+                      {"out": 2 * count})["out"]
     return np.stack([out[:count], out[count:]], axis=-1)
 
 
@@ -167,12 +171,18 @@ def test_sobol_table_is_a_0_2_sequence():
 @pytest.mark.parametrize("name,n", [("center", 1), ("grid", 16), ("rotated-grid-ccw", 9), ("random", 16),
                                     ("jittered", 12), ("halton", 16), ("sobol", 64)])
 def test_kernel_matches_reference(harness, name, n):
-    """Exact: the randomisations are integer arithmetic, and (v >> 8) 2^-24 is exact in float32."""
+    """Exact: the randomisations are integer arithmetic, and (v >> 8) 2^-24 is exact in float32. Both ways of
+    reading the table: the lanes sharing an index (a light sample), or each lane its own (several samples of
+    a pixel at once, kernels/tile.h)."""
     pattern = samplers.pattern(name, n)
+    pixels = np.arange(64)
     for seed, stream in ((0, None), (7, None), (7, 3)):
+        want = reference_samples(pattern, pixels, seed, n, stream)
         got = kernel_samples(harness, pattern, 64, seed=seed, stream=stream)
-        np.testing.assert_array_equal(got, reference_samples(pattern, np.arange(64), seed, n, stream))
+        np.testing.assert_array_equal(got, want)
         assert np.all((got >= 0) & (got < 1))
+        staggered = kernel_samples(harness, pattern, 64, seed=seed, stream=stream, stagger=1)
+        np.testing.assert_array_equal(staggered, want[(np.arange(n)[:, None] + pixels) % n, pixels])
 
 
 def test_fixed_patterns_are_the_table_in_every_pixel(harness):

@@ -88,15 +88,6 @@ def test_lane_widths_match_device(cl_env):
     assert [n for n in range(65) if accepted[n]] == list(structs.LANE_WIDTHS)
 
 
-@pytest.mark.parametrize("lanes", structs.LANE_WIDTHS)
-def test_tile_shape_matches_device(cl_env, lanes):
-    """lanes.h's tile of pixels per work-item against structs.TILE_ROWS at every lane width: the host sizes
-    its launch grid by it. The tile holds LANES pixels and is as nearly square as a power of two allows."""
-    source = f'#include "lanes.h"\n{values_kernel(["TILE_ROWS", "TILE_COLUMNS"])}'
-    rows, columns = run_int_kernel(cl_env, source, 2, [f"-DLANES={lanes}"])
-    assert rows == structs.TILE_ROWS[lanes] and rows * columns == lanes and columns in (rows, 2 * rows)
-
-
 @pytest.mark.parametrize("lanes", [0, 2, 3, 32])
 def test_other_lane_widths_do_not_build(cl_env, lanes):
     with pytest.raises(cl.RuntimeError, match="LANES must be"):

@@ -12,22 +12,33 @@ from raytrace.render import render
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Triangle
 from raytrace.renderer.device_render import VISIT_KINDS
-from raytrace.structs import TILE_ROWS
+from raytrace.renderer.progressive import pass_size
+from raytrace.structs import samples_at_once, tile_shape
 from raytrace.tools.visits import node_visits, pixels_with_half
 from helpers import planar, run_int_kernel, values_kernel
 from raytrace.tools.probe import scene_args
 
-# 10 x 6 pixels: the tiles of 4 x 4, 4 x 2 and 2 x 2 pixels (lanes.h) reach past the image's edges, so a
-# work-item's count is shared among fewer pixels than lanes.
-SIZE = dict(width=10, height=6, spp=4, light_samples=4, progress=False)
+# 11 x 7 pixels: the tiles of 4 x 2, 2 x 2 and 2 x 1 pixels (kernels/tile.h, with 16, 8 and 4 lanes holding 2
+# samples of each pixel) reach past the image's edges, so a work-item's count is shared among fewer pixels
+# than its tile holds.
+SIZE = dict(width=11, height=7, spp=4, light_samples=4, progress=False)
+PASS = pass_size(SIZE["spp"], 1)  # the render's pixel samples per launch
 FAR = 100.0  # a triangle this far along x meets no ray of the scene below
 
 
-def work_items_and_pixels(lanes):
-    """The work-items rendering the SIZE image, a tile of TILE_ROWS x lanes / TILE_ROWS pixels each (the tiles at
-    its edges reach past it), and its pixels."""
-    rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
-    return math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows), SIZE["width"] * SIZE["height"]
+def tile_and_group(lanes):
+    """(columns, rows) of a work-item's tile of pixels and the samples of each pixel its lanes hold at once."""
+    return tile_shape(lanes, PASS), samples_at_once(lanes, PASS)
+
+
+def steps_and_pixels(lanes):
+    """The work-items' steps per pixel sample of the SIZE image, and its pixels. Its launches are grids of
+    tiles (the tiles at its edges reach past it), and a work-item takes one step per `group` samples of its
+    pixels: one closest-hit traversal, one sweep per light and one shadow test per light sample, whatever
+    its lanes."""
+    (columns, rows), group = tile_and_group(lanes)
+    work_items = math.ceil(SIZE["width"] / columns) * math.ceil(SIZE["height"] / rows)
+    return work_items / group, SIZE["width"] * SIZE["height"]
 
 
 def floor_scene(cornell, far_triangle):
@@ -51,32 +62,33 @@ def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle
     first sweep the tree once per packet and light (kernels/shadow_sweep.cl), testing `swept` boxes (the root
     alone, or the root and both leaves), and find the floor's leaf (the segments start in its plane, so the
     sweep touches it); each light sample then tests that leaf's box and triangle: 1 box and 1 primitive. A
-    work-item traces one closest-hit traversal per pixel sample, one sweep per pixel sample and light, and one
-    shadow test per light sample (every lane lit), so the counts per ray are boxes (or primitives) x
-    work-items / pixels exactly: with lanes, the packets' saving. (The per-pixel shares are float32 quotients,
+    work-item's step traces one closest-hit traversal, one sweep per light and one shadow test per light
+    sample (every lane lit), so the counts per ray are boxes (or primitives) x steps per pixel sample / pixels
+    exactly: with lanes, the packets' saving. (The per-pixel shares are float32 quotients,
     summed in float64: rel 1e-6.) It fails if the counter counts lanes rather than work-items, only the nodes
     entered (2 instead of 3), the primitives of leaves missed, misses a traversal kind or the sweep, or if a
     work-item's count is divided among its lanes rather than among its pixels in the image."""
     scene = floor_scene(cornell, far_triangle)
     features = dataclasses.replace(Features.of(scene, lanes), bvh=bvh)
     visits = node_visits(scene, features, **SIZE)
-    rows, columns = TILE_ROWS[lanes], lanes // TILE_ROWS[lanes]
-    work_items, pixels = work_items_and_pixels(lanes)
+    (columns, rows), group = tile_and_group(lanes)
+    steps, pixels = steps_and_pixels(lanes)
     samples = SIZE["light_samples"]
     shadow_boxes = swept / samples + (1 if bvh else 0)  # per shadow ray of a work-item
     assert visits["camera_rays"] == pixels * SIZE["spp"]
     assert visits["shadow_rays"] == visits["camera_rays"] * samples  # every lane lit
-    assert visits["visits_per_camera_ray"] == pytest.approx(boxes * work_items / pixels, rel=1e-6)
-    assert visits["visits_per_shadow_ray"] == pytest.approx(shadow_boxes * work_items / pixels, rel=1e-6)
-    assert visits["primitives_per_camera_ray"] == pytest.approx(primitives * work_items / pixels, rel=1e-6)
-    assert visits["primitives_per_shadow_ray"] == pytest.approx(primitives * work_items / pixels, rel=1e-6)
-    # Each pixel holds its work-item's count over the pixels it shares it with: boxes x samples / pixels of its
-    # tile inside the image.
+    assert visits["visits_per_camera_ray"] == pytest.approx(boxes * steps / pixels, rel=1e-6)
+    assert visits["visits_per_shadow_ray"] == pytest.approx(shadow_boxes * steps / pixels, rel=1e-6)
+    assert visits["primitives_per_camera_ray"] == pytest.approx(primitives * steps / pixels, rel=1e-6)
+    assert visits["primitives_per_shadow_ray"] == pytest.approx(primitives * steps / pixels, rel=1e-6)
+    # Each pixel holds its work-item's count over the pixels it shares it with: boxes x steps (samples / group)
+    # / pixels of its tile inside the image.
     y, x = np.mgrid[:SIZE["height"], :SIZE["width"]]
     tile_pixels = (np.minimum(columns, SIZE["width"] - x // columns * columns)
                    * np.minimum(rows, SIZE["height"] - y // rows * rows))
-    np.testing.assert_allclose(visits["closest_hit_map"], boxes * SIZE["spp"] / tile_pixels, rtol=1e-6)
-    np.testing.assert_allclose(visits["shadow_map"], shadow_boxes * SIZE["spp"] * samples / tile_pixels, rtol=1e-6)
+    np.testing.assert_allclose(visits["closest_hit_map"], boxes * SIZE["spp"] / group / tile_pixels, rtol=1e-6)
+    np.testing.assert_allclose(visits["shadow_map"], shadow_boxes * SIZE["spp"] / group * samples / tile_pixels,
+                               rtol=1e-6)
 
 
 def test_closest_hits_test_a_pushed_node_again(cornell, lanes):
@@ -93,9 +105,9 @@ def test_closest_hits_test_a_pushed_node_again(cornell, lanes):
     scene = floor_scene(cornell, False)
     scene = dataclasses.replace(scene, triangles=scene.triangles + [cover])
     visits = node_visits(scene, dataclasses.replace(Features.of(scene, lanes), bvh=True), **SIZE)
-    work_items, pixels = work_items_and_pixels(lanes)
-    assert visits["visits_per_camera_ray"] == pytest.approx(4 * work_items / pixels, rel=1e-6)
-    assert visits["primitives_per_camera_ray"] == pytest.approx(work_items / pixels, rel=1e-6)
+    steps, pixels = steps_and_pixels(lanes)
+    assert visits["visits_per_camera_ray"] == pytest.approx(4 * steps / pixels, rel=1e-6)
+    assert visits["primitives_per_camera_ray"] == pytest.approx(steps / pixels, rel=1e-6)
 
 
 @pytest.mark.parametrize("visit_map,fraction", [([[3, 1], [0, 0]], 1 / 4), ([[1, 1], [1, 1]], 2 / 4),
@@ -161,9 +173,9 @@ def test_swept_leaves_go_far_first(cornell, lanes):
     the tile, with their triangles, come first) or if a blocked sample goes on."""
     scene = blocked_floor(cornell)
     visits = node_visits(scene, Features.of(scene, lanes), **SIZE)
-    work_items, pixels = work_items_and_pixels(lanes)
+    steps, pixels = steps_and_pixels(lanes)
     assert visits["shadow_rays"] == pixels * SIZE["spp"] * SIZE["light_samples"]  # every lane lit
-    assert visits["primitives_per_shadow_ray"] == pytest.approx(work_items / pixels, rel=1e-6)
+    assert visits["primitives_per_shadow_ray"] == pytest.approx(steps / pixels, rel=1e-6)
 
 
 def test_counting_build_renders_the_same_image(cornell, lanes):

@@ -6,7 +6,7 @@ import numpy as np
 import pyopencl as cl
 
 from ..errors import InputError
-from ..structs import TILE_ROWS
+from ..structs import tile_shape
 from .cpu_target import apply_target, check_lanes, describe_target
 from .device import context_for, default_lanes, describe, select_device
 from .interface import KernelArguments
@@ -31,9 +31,10 @@ def band_rows(r, max_band_bytes, planes=OUTPUT_PLANES):
 
 class _Bands:
     """The image as bands of whole rows (band_rows), one launch each, through one device output buffer of a
-    band. A launch is a grid of the kernel's tiles of pixels (TILE_ROWS); the last row of tiles may reach
-    past the band, and the kernel stores nothing there. A measuring build's counts (VISIT_KINDS) add up pixel
-    by pixel in `visits`, a float64 array of VISIT_KINDS x height x width."""
+    band. A launch is a grid of the kernel's tiles of pixels, shaped by the launch's sample count
+    (structs.tile_shape); the last row of tiles may reach past the band, and the kernel stores nothing there.
+    A measuring build's counts (VISIT_KINDS) add up pixel by pixel in `visits`, a float64 array of
+    VISIT_KINDS x height x width."""
 
     def __init__(self, context, width, height, rows, lanes, planes=OUTPUT_PLANES):
         # One work-item per work-group for the vector kernel on CPUs: PoCL then runs no work-item loop
@@ -41,12 +42,16 @@ class _Bands:
         # default shape on scene 0); the scalar kernel and GPUs keep the runtime's choice.
         cpu = all(d.type & cl.device_type.CPU for d in context.devices)
         self.local_size = (1, 1) if cpu and lanes > 1 else None
-        self.rows, self.tile_rows = rows, TILE_ROWS[lanes]
-        self.width, self.height, self.columns = width, height, -(-width // (lanes // self.tile_rows))
+        self.rows, self.lanes, self.tile = rows, lanes, tile_shape(lanes, 1)
+        self.width, self.height = width, height
         self.planes = planes
         self.visits = np.zeros((self.planes - OUTPUT_PLANES, height, width))  # empty unless counting
         self.host = np.empty(self.planes * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
+
+    def set_samples(self, n):
+        """The launches that follow hold n pixel samples: their tiles' shape."""
+        self.tile = tile_shape(self.lanes, n)
 
     def starts(self):
         """The first row of every band, in the order a pass adds them."""
@@ -60,7 +65,8 @@ class _Bands:
         args.set("out", self.host, self.device)
         args.set("row0", np.int32(row0))
         args.set("row1", np.int32(row0 + rows))
-        event = args.launch(queue, (self.columns, -(-rows // self.tile_rows)), self.local_size)
+        columns, tile_rows = self.tile
+        event = args.launch(queue, (-(-self.width // columns), -(-rows // tile_rows)), self.local_size)
         event.wait()
         out = self.host[:self.planes * rows * self.width].reshape(self.planes, rows, self.width)
         cl.enqueue_copy(queue, out, self.device)
@@ -107,6 +113,7 @@ class DeviceRender:
     def set_samples(self, sample0, n):
         self.args.set("sample0", np.int32(sample0))
         self.args.set("n_samples", np.int32(n))
+        self.bands.set_samples(n)
 
     def info(self):
         """What the statistics say of the device and its build."""
