@@ -6,13 +6,13 @@
  * the closer together they stay, and the fewer BVH nodes the packet opens where a mesh's triangles are finer
  * than its spread of rays (bvh.cl). Counted by the kernel (tools/visits.py, 16 lanes): mesh_cornell's shadow
  * rays open 0.321 nodes a ray with 8 samples of 2 pixels against 0.504 with one sample of 16, its camera rays
- * 0.934 against 1.211; the 10^6-triangle torus of `bench --scaling` (4 samples of 4 pixels against one of 16)
- * 3.34 against 4.82 and 1.76 against 2.40; scene 0's counts change by 2% at most.
+ * 0.934 against 1.211; the 10^6-triangle torus of `bench --scaling` (its passes of 2 samples: 2 samples of 8
+ * pixels against one of 16) 4.24 against 4.82 and 2.17 against 2.40; scene 0's counts change by 2% at most.
  *
  * The pixels form a tile as nearly square as their count allows (4 x 4, 4 x 2, 2 x 2, 2 x 1, 1 x 1), so that
  * its rays stay close together too: with 16 lanes, 16 pixels in 4 x 4 instead of 16 x 1 took 14-26% less time
  * on mesh_cornell and 2-12% on scene 0 (one process, renders alternating). The host sizes its launch grid by
- * the same two functions (raytrace/structs.py: samples_at_once and tile_rows). */
+ * the same rules (raytrace/structs.py: samples_at_once and tile_shape). */
 #ifndef TILE_H
 #define TILE_H
 
@@ -26,8 +26,8 @@ inline int samples_at_once(int n_samples)
 
 inline int tile_rows(int pixels) { return pixels >= 16 ? 4 : pixels >= 4 ? 2 : 1; }
 
-/* Work-item (i, j)'s lanes: pixel (x, y) and the sample `first_sample + sample` of it. Its tile of pixels
- * starts at x = columns i, y = row0 + rows j. */
+/* Work-item (i, j)'s lanes: each lane's pixel (x, y), and which of the `group` samples of a step it takes
+ * (render.cl's loop). Its tile of pixels starts at x = columns i, y = row0 + rows j. */
 typedef struct { vint x, y, sample; int group; } Tile;
 
 inline Tile work_item_tile(int row0, int n_samples)
