@@ -19,7 +19,7 @@ def test_many_bands_give_the_one_band_image_bit_for_bit(cornell, lanes):
     on its absolute position only, so any band height must give the same bits. It fails if a band writes or
     is copied at the wrong offset (index not relative to row0, planes spaced by the image's height rather
     than the band's, the short last band read with the full band's layout), if a band is launched twice or
-    not at all, if a work-item's tile of pixels (2 or 4 rows, lanes.h) that reaches past its band stores
+    not at all, if a work-item's tile of pixels (1, 2 or 4 rows, kernels/tile.h) that reaches past its band stores
     the rows beyond it, or if the prefix sum for the error estimate misses bands (the variance would differ:
     12 random samples in 3 passes of 4 take prefixes at 4 and 8 samples)."""
     options = dict(spp=12, sampler="random", light_samples=4, lanes=lanes, **SIZE)
