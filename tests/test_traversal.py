@@ -15,7 +15,7 @@ from helpers import planar
 from raytrace.renderer import bvh
 from raytrace.scene import meshgen
 from raytrace.scene import Triangle
-from raytrace.renderer.packing import bvh_structs
+from raytrace.renderer.packing import bvh_structs, scene_tables, triangle_soup
 from raytrace.renderer.program import Features
 from raytrace.tools.probe import scene_args
 
@@ -109,6 +109,24 @@ def test_flattened_tree_is_what_the_kernel_expects(mesh_scene):
             stack += [(i + 1, level + 1), (nodes["offset"][i], level + 1)]
     assert depth < 64
     assert bvh.sah_cost(nodes) > 0
+
+
+def test_triangles_are_packed_in_leaf_order(mesh_scene):
+    """The packed triangle table is in the order the leaves reference it (packing.in_leaf_order): read leaf
+    by leaf, the triangle references number the triangles 0, 1, 2, ..., and each packed triangle is the one
+    the same reference named in the scene's order. Rectangles and ellipsoids keep their numbers. It fails if
+    the table keeps the scene's order (the torus's faces are not in leaf order) or if the table and the
+    references are renumbered differently (the traversal tests above would then disagree too)."""
+    _, before, _ = bvh_structs(mesh_scene, True)
+    tables = scene_tables(mesh_scene, features=Features(bvh=True))
+    after, packed = tables["prims"], tables["triangles"]
+    triangle = (after & 3) == 2
+    np.testing.assert_array_equal(after[~triangle], before[~triangle])
+    np.testing.assert_array_equal(after[triangle] >> 2, np.arange(np.count_nonzero(triangle)))
+    scene_order = triangle_soup(mesh_scene).v[before[triangle] >> 2].astype(np.float32)
+    for k in range(3):
+        np.testing.assert_array_equal(packed[f"v{k}"], scene_order[:, k])
+    assert not np.array_equal(before[triangle] >> 2, np.arange(np.count_nonzero(triangle)))
 
 
 def test_rays_in_box_faces(harness, cornell):

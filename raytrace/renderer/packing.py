@@ -96,9 +96,10 @@ def triangle_uv_structs(tris):
 
 @dataclass
 class TriangleSoup:
-    """Every triangle of a scene in the kernel's order (the scene file's triangles, then each mesh's), as
+    """Every triangle of a scene in the scene's order (the scene file's triangles, then each mesh's), as
     arrays: corners v (F, 3, 3), per-corner uvs (F, 3, 2), per-corner shading normals (F, 3, 3; the face's
-    own normal where a mesh is not smooth), materials (F,)."""
+    own normal where a mesh is not smooth), materials (F,). With a BVH the kernel gets them in its leaves'
+    order (in_leaf_order)."""
     v: np.ndarray
     uv: np.ndarray
     normals: np.ndarray
@@ -244,6 +245,20 @@ def bvh_structs(scene, use_bvh, soup=None):
     return nodes, refs[order], culled_subtrees(nodes, refs[order])
 
 
+def in_leaf_order(soup, prims):
+    """The soup's triangles renumbered in the order the BVH's leaves reference them, and the references
+    renumbered to match. A leaf's triangles then lie side by side in memory, and those of the leaves around
+    it close by (the nodes are depth first), wherever the mesh file put them: traversal reads them with
+    fewer cache misses (a torus of 10^6 triangles, whose rows of faces lie apart in its own order: bvh.cl
+    spent a fifth of its time waiting on triangle loads before). Rectangles and ellipsoids keep their
+    numbers (lights and culling name rectangles by theirs)."""
+    triangle = (prims & 3) == structs.SHAPES["triangle"]
+    order = prims[triangle] >> 2
+    prims = prims.copy()
+    prims[triangle] = np.arange(len(order), dtype=prims.dtype) * 4 + structs.SHAPES["triangle"]
+    return TriangleSoup(soup.v[order], soup.uv[order], soup.normals[order], soup.material[order]), prims
+
+
 class _GeometryCache:
     """The last scene's packed triangles and BVH: repeated renders of one Scene object (bench, converge, a
     progressive render's callers) pack its triangles and build its BVH once. Keyed by the object itself, so
@@ -257,11 +272,14 @@ def _geometry_tables(scene, uv, smooth, use_bvh):
     if cache.scene is scene and cache.key == (uv, smooth, use_bvh):
         return cache.tables
     soup = triangle_soup(scene)
+    nodes, prims, culled = bvh_structs(scene, use_bvh, soup)
+    if use_bvh:
+        soup, prims = in_leaf_order(soup, prims)
     unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
     tables = [triangle_records(soup.v, soup.material),
               triangle_uv_records(soup.v, soup.uv) if uv else unused(structs.TRIANGLE_UV),
               triangle_normal_records(soup.normals) if smooth else unused(structs.TRIANGLE_NORMALS),
-              *bvh_structs(scene, use_bvh, soup)]
+              nodes, prims, culled]
     cache.scene, cache.key, cache.tables = scene, (uv, smooth, use_bvh), tables
     return tables
 
