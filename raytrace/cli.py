@@ -78,6 +78,8 @@ def parser():
     b.add_argument("--peer", metavar="COMMAND", help="also run another renderer's benchmark (a shell command "
                    "whose last output line is JSON with its nominal mrays_per_s), measure the first scene again beside it "
                    "and report the ratio, best against best")
+    b.add_argument("--baseline", metavar="DIR", help="instead: this kernel against the kernels/ directory DIR "
+                   "(another commit's, from git worktree add) with the same types.h, rendered in turns in one process")
     b.add_argument("--scaling", metavar="DIR", help="instead: seconds per ray and BVH build seconds against "
                    "the triangle count of a procedural mesh in the scene's room; scaling.csv and .png in DIR")
     b.add_argument("--max-triangles", type=int, default=10**6, help="--scaling's largest mesh (default 10^6)")
@@ -161,12 +163,26 @@ def cmd_render(args):
           f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by {stats.stopped_by}", file=sys.stderr)
 
 
+def _bench_baseline(args):
+    from .tools.baseline import against_baseline
+    from .tools.bench import suite_scenes
+
+    for name in ("peer", "json", "scheduler"):
+        if getattr(args, name):
+            raise InputError("command line", f"--{name}", getattr(args, name), "not with --baseline")
+    if args.repeat < 1:
+        raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
+    against_baseline(args.scene or suite_scenes(), args.baseline, repeat=args.repeat, **_render_kwargs(args))
+
+
 def cmd_bench(args):
     """Exit status 1 when a child render fails."""
     from .tools.bench import BenchError, benchmark, suite_scenes
     from .tools.scaling import scaling
 
     if args.scaling:
+        if args.baseline is not None:
+            raise InputError("command line", "--baseline", args.baseline, "not with --scaling")
         if len(args.scene) > 1:
             raise InputError("command line", "scene", " ".join(args.scene), "--scaling takes one scene")
         if not 100 <= args.max_triangles <= 10**7:
@@ -178,6 +194,8 @@ def cmd_bench(args):
         return
     if args.embree:
         raise InputError("command line", "--embree", None, "only with --scaling")
+    if args.baseline is not None:
+        return _bench_baseline(args)
     if args.scheduler:  # the suite times kernels in child processes, against this machine's own scalar kernel
         raise InputError("command line", "--scheduler", args.scheduler, "bench takes it only with --scaling")
     if args.repeat < 1:

@@ -38,6 +38,7 @@ class Features:
     bvh: bool = False
     direct_lighting: bool = False  # the scene's shading: radiometric direct lighting, else Phong
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
+    kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
     @property
     def textures(self):
@@ -60,11 +61,12 @@ class Features:
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 
 
-def build(context, source, options=()):
-    """Build `source` with kernels/ on the include path, keeping each kernel's argument names and types for
-    the host to bind by (interface.py); returns (program, seconds)."""
+def build(context, source, options=(), kernels=""):
+    """Build `source` with kernels/ (or the directory `kernels`) on the include path, keeping each kernel's
+    argument names and types for the host to bind by (interface.py); returns (program, seconds)."""
     start = time.perf_counter()
-    program = cl.Program(context, source).build(options=[*options, "-cl-kernel-arg-info", "-I", str(kernel_dir())])
+    include = str(kernels or kernel_dir())
+    program = cl.Program(context, source).build(options=[*options, "-cl-kernel-arg-info", "-I", include])
     return program, time.perf_counter() - start
 
 
@@ -77,5 +79,5 @@ def render_program(context, features):
     key = (context, features, tuple(current_llvm_cpu(d) for d in context.devices))
     if key in _programs:
         return _programs[key], 0.0
-    _programs[key], seconds = build(context, '#include "render.cl"\n', features.options())
+    _programs[key], seconds = build(context, '#include "render.cl"\n', features.options(), features.kernels)
     return _programs[key], seconds

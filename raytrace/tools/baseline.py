@@ -1,0 +1,75 @@
+"""This checkout's kernel against a baseline's: `python -m raytrace bench [SCENE ...] --baseline DIR`.
+
+DIR is another kernels/ directory: another commit's, checked out beside this one (`git worktree add
+/tmp/base COMMIT`, then `--baseline /tmp/base/kernels`), or a copy with one change tried out. Both kernels
+are built for the same features from the same scene tables, packed by this checkout's host, and rendered in
+turns in one process (ours then the baseline's, then the baseline's then ours, and so on), so that a shared machine's drift falls
+on both: a kernel change is then measured to a few per cent where two processes minutes apart differ by
+10-30%. The host packs this checkout's structs, so the baseline's kernels/types.h must be the same file; a
+change to the host (packing, the BVH's build) needs two processes instead.
+
+Per scene it prints both kernels' fastest render and two ratios, ours over the baseline's (below 1: ours
+is faster): of the two fastest renders, and "paired", the median over turns of one turn's two renders."""
+import dataclasses
+import statistics
+import sys
+from pathlib import Path
+
+from ..errors import InputError
+from ..render import RenderOptions, check_memory, render, resolve
+from ..renderer.device import select_device
+from ..renderer.program import kernel_dir
+from ..scene import load_scene
+from .bench import _features
+
+
+def baseline_kernels(directory):
+    """The baseline's kernels/ directory as an absolute path, or InputError naming --baseline: it must hold
+    render.cl and the same types.h as this checkout's."""
+    path = Path(directory)
+    if not directory or not (path / "render.cl").is_file():
+        raise InputError("command line", "--baseline", directory, "holds no render.cl (give a kernels/ directory)")
+    try:
+        theirs = (path / "types.h").read_bytes()
+    except OSError as e:
+        raise InputError("command line", "--baseline", directory, f"its types.h cannot be read: {e.strerror}") from None
+    if theirs != (kernel_dir() / "types.h").read_bytes():
+        raise InputError("command line", "--baseline", directory, "its types.h differs from this checkout's (the "
+                         "host packs this checkout's structs): compare such kernels in two processes")
+    return str(path.resolve())
+
+
+def in_turns(scene, repeat, kwargs, features):
+    """Render seconds of `repeat` renders of the scene by each of two kernel variants, taken in turns, the
+    first of a turn alternating (a render can run faster or slower for following another); and the last
+    render's stats."""
+    for f in features:
+        render(scene, **kwargs, features=f, progress=False)  # build and first launch (code generation): not timed
+    seconds = [[], []]
+    for turn in range(repeat):
+        for k in (0, 1) if turn % 2 == 0 else (1, 0):
+            stats = render(scene, **kwargs, features=features[k], progress=False)[1]
+            seconds[k].append(stats.render_seconds)
+    return seconds, stats
+
+
+def against_baseline(scene_paths, baseline, repeat=3, out=sys.stdout, **kwargs):
+    """Each scene rendered `repeat` times by this checkout's kernel and by the baseline's (a kernels/
+    directory checked by baseline_kernels), in turns; prints a line a scene and returns the rows."""
+    baseline = baseline_kernels(baseline)
+    scenes = [(path, load_scene(path)) for path in scene_paths]
+    for _, scene in scenes:
+        check_memory(*resolve(scene, RenderOptions(**kwargs))[:2])
+    select_device(kwargs.get("device"))
+    rows = []
+    for path, scene in scenes:
+        print(f"bench: {path}: this kernel and the baseline's, in turns, {repeat} each", file=sys.stderr, flush=True)
+        ours = _features(scene, kwargs)
+        (mine, theirs), stats = in_turns(scene, repeat, kwargs, [ours, dataclasses.replace(ours, kernels=baseline)])
+        row = {"scene": str(path), "seconds": min(mine), "baseline_seconds": min(theirs),
+               "ratio": min(mine) / min(theirs), "paired_ratio": statistics.median(a / b for a, b in zip(mine, theirs))}
+        print(f"{path}: {row['seconds']:.4f} s, baseline {row['baseline_seconds']:.4f} s: x{row['ratio']:.3f} "
+              f"(paired x{row['paired_ratio']:.3f})", file=out, flush=True)
+        rows.append(row)
+    print(f"ours against {baseline}; {stats.device} [{stats.extra['target']}]; best of {repeat}", file=out)
+    return rows
