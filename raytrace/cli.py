@@ -167,11 +167,9 @@ def _bench_baseline(args):
     from .tools.baseline import against_baseline
     from .tools.bench import suite_scenes
 
-    for name in ("peer", "json", "scheduler"):
+    for name in ("peer", "json"):
         if getattr(args, name):
             raise InputError("command line", f"--{name}", getattr(args, name), "not with --baseline")
-    if args.repeat < 1:
-        raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
     against_baseline(args.scene or suite_scenes(), args.baseline, repeat=args.repeat, **_render_kwargs(args))
 
 
@@ -194,12 +192,12 @@ def cmd_bench(args):
         return
     if args.embree:
         raise InputError("command line", "--embree", None, "only with --scaling")
-    if args.baseline is not None:
-        return _bench_baseline(args)
     if args.scheduler:  # the suite times kernels in child processes, against this machine's own scalar kernel
         raise InputError("command line", "--scheduler", args.scheduler, "bench takes it only with --scaling")
     if args.repeat < 1:
         raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
+    if args.baseline is not None:
+        return _bench_baseline(args)
     scenes = args.scene or suite_scenes()
     with Outputs(inputs=scenes) as outputs:
         json_file = args.json and outputs.reserve("--json", args.json)
