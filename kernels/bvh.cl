@@ -18,17 +18,12 @@
 
 #include "primitive.cl"
 
-/* Per packet: the reciprocal direction for the slab test, the signs that order the children, and whether any
+/* Per ray: the reciprocal direction for the slab test, the signs that order the children, and whether any
  * lane's reciprocal direction has an infinite component (a zero or subnormal one in the direction: the slab
- * test's special case, below). When every lane of `lanes` shares the first lane's signs and nothing is
- * infinite (`one_octant`, most packets), each slab needs only its near and its far plane, each one multiply-add
- * from -o / d: the test below takes a third of the instructions. */
-typedef struct { vec3 inv_d, neg_o_inv_d; vfloat slack; int negative[3], any_zero, one_octant; } BoxRay;
+ * test's special case, below). */
+typedef struct { vec3 inv_d; int negative[3], any_zero; } BoxRay;
 
-/* Whether the lanes of `lanes` all have d's sign on an axis where the first lane's is `negative`. */
-inline vint same_sign(vfloat d, int negative) { return negative ? d < 0.0f : d >= 0.0f; }
-
-inline BoxRay box_ray(Ray r, vint lanes)
+inline BoxRay box_ray(Ray r)
 {
     BoxRay b;
     b.inv_d = v3(1.0f / r.d.x, 1.0f / r.d.y, 1.0f / r.d.z);
@@ -36,11 +31,6 @@ inline BoxRay box_ray(Ray r, vint lanes)
     b.negative[1] = FIRST_LANE(r.d.y) < 0.0f;
     b.negative[2] = FIRST_LANE(r.d.z) < 0.0f;
     b.any_zero = ANY((vabs(b.inv_d.x) == INFINITY) | (vabs(b.inv_d.y) == INFINITY) | (vabs(b.inv_d.z) == INFINITY));
-    b.neg_o_inv_d = v3(-r.o.x * b.inv_d.x, -r.o.y * b.inv_d.y, -r.o.z * b.inv_d.z);
-    vfloat q = v3_max_abs(b.neg_o_inv_d); /* not a number where an infinite inv_d meets o = 0 */
-    b.slack = GAMMA(8) * q;
-    vint octant = same_sign(r.d.x, b.negative[0]) & same_sign(r.d.y, b.negative[1]) & same_sign(r.d.z, b.negative[2]);
-    b.one_octant = !b.any_zero && ALL((octant & (q < INFINITY)) | !lanes);
     return b;
 }
 
@@ -61,42 +51,19 @@ inline void slab(float lo, float hi, vfloat o, vfloat inv_d, int any_zero, vfloa
     }
 }
 
-/* How much a computed far distance is widened before it is compared with the near one. Each slab distance
- * (b - o) / d rounds 7 times (the difference, the reciprocal as 5 (ray.h), the product): within gamma(7) of
- * itself, and the comparison's own multiply-add rounds twice more: 2 gamma(9) in all (pbrt-v4 section 6.8.2
- * has 2 gamma(3), for a correctly rounded reciprocal). */
-#define BOX_WIDENING (1.0f + 2.0f * GAMMA(9))
-
-/* The same distances as multiply-adds b / d - o / d: each rounds relative to itself as before, and by up to two
- * ulps of o / d besides (the two products, or the fused one and its sum), which cancel nothing where b is close
- * to o. Absolute, and per lane: slack = gamma(8) max |o / d| bounds twice that (near and far), with room
- * for its own rounding. Far from the origin o / d dwarfs the distances (tests/test_traversal.py). */
-inline vint meets_box_in_octant(__global const BVHNode *node, BoxRay b, vfloat tmax)
-{
-    const int *n = b.negative;
-    vfloat nx = MAD(n[0] ? node->hi[0] : node->lo[0], b.inv_d.x, b.neg_o_inv_d.x);
-    vfloat ny = MAD(n[1] ? node->hi[1] : node->lo[1], b.inv_d.y, b.neg_o_inv_d.y);
-    vfloat nz = MAD(n[2] ? node->hi[2] : node->lo[2], b.inv_d.z, b.neg_o_inv_d.z);
-    vfloat fx = MAD(n[0] ? node->lo[0] : node->hi[0], b.inv_d.x, b.neg_o_inv_d.x);
-    vfloat fy = MAD(n[1] ? node->lo[1] : node->hi[1], b.inv_d.y, b.neg_o_inv_d.y);
-    vfloat fz = MAD(n[2] ? node->lo[2] : node->hi[2], b.inv_d.z, b.neg_o_inv_d.z);
-    vfloat near = vmax(vmax(nx, ny), vmax(nz, 0.0f)), far = vmin(vmin(fx, fy), vmin(fz, tmax));
-    return near <= MAD(far, BOX_WIDENING, b.slack);
-}
-
 /* Lanes whose ray meets the node's box within [0, tmax]: the slabs' intervals intersected, the far distance
  * widened by the bound on the rounding of both slab distances, so that a box is never missed by a ray that
- * meets it (pbrt-v4 section 6.8.2). Lanes outside the BoxRay's `lanes` may answer anything. */
+ * meets it (pbrt-v4 section 6.8.2). Each distance (b - o) * (1 / d) rounds 7 times (the difference, the
+ * reciprocal as 5 (ray.h), the product): within gamma(7) of itself; the widening's product rounds once
+ * more. pbrt-v4's 2 gamma(3) counts a correctly rounded reciprocal, which OpenCL C does not promise. */
 inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax)
 {
-    if (b.one_octant)
-        return meets_box_in_octant(node, b, tmax);
     vfloat nx, fx, ny, fy, nz, fz;
     slab(node->lo[0], node->hi[0], r.o.x, b.inv_d.x, b.any_zero, &nx, &fx);
     slab(node->lo[1], node->hi[1], r.o.y, b.inv_d.y, b.any_zero, &ny, &fy);
     slab(node->lo[2], node->hi[2], r.o.z, b.inv_d.z, b.any_zero, &nz, &fz);
     vfloat near = vmax(vmax(nx, ny), vmax(nz, 0.0f)), far = vmin(vmin(fx, fy), vmin(fz, tmax));
-    return near <= far * BOX_WIDENING;
+    return near <= far * (1.0f + 2.0f * GAMMA(8));
 }
 
 /* The children of interior node `i` in the order to visit them: *first, then the returned second. Near first
@@ -124,7 +91,7 @@ inline int meets_node(const Scene *s, int j, Ray r, BoxRay b, vfloat t)
  * torus, scene 0, textured_cornell and mesh_cornell within the noise. */
 inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
 {
-    BoxRay b = box_ray(r, (vint)(0) == 0);
+    BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
     int stack[BVH_STACK], top = 0, i = 0;
     if (!meets_node(s, 0, r, b, vmin(tmax, hit->t)))
@@ -195,7 +162,7 @@ inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settle
  * less time, the 10^6-triangle torus of `bench --scaling` 7%, scene 0 within the noise. */
 inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
 {
-    BoxRay b = box_ray(r, active);
+    BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
     vint settled = !active;
     int stack[BVH_STACK], top = 0, i = 0;

@@ -147,7 +147,7 @@ inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uin
 {
     if (leaves->n < 0)
         return bvh_occluded(s, r, skip, active);
-    BoxRay b = box_ray(r, active);
+    BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
     vint settled = !active;
     for (int l = 0; l < leaves->n; ++l) {

@@ -151,24 +151,22 @@ def test_rays_in_box_faces(harness, cornell):
         np.testing.assert_array_equal(tree[key], loop[key], err_msg=key)
 
 
-@pytest.mark.parametrize("octant", ["mixed", "one"])
-def test_rays_far_from_the_origin(harness, cornell, octant):
+def test_rays_far_from_the_origin(harness, cornell):
     """Slanted rays close by the vertices of a grid of flat triangles 1000 units from the origin (through
     them, but for the origin's rounding to float32, 6e-5 there): most hits lie within 1e-4 of their
     triangle box's edges, and o / d, up to 1e5 for direction components of 0.01, dwarfs the hit distances
-    (about 1). The slab distances of the box test must not round by more than the test widens them. The
-    subtract-then-multiply form (packets whose directions have mixed signs) rounds each by a few ulps of
-    itself; the multiply-add form of packets in one octant (o / d once per ray, then one multiply-add a
-    plane) by up to an ulp of o / d besides, 1e-2 here, which the test's slack bounds. Measured: that form
-    widened by 2 gamma(3) of the distance alone, without the slack, loses 101 to 128 of the 256 hits (by
-    lane width)."""
+    (about 1). The slab distances of the box test must not round by more than the test widens them: the
+    subtract-then-multiply form rounds each by a few ulps of itself, a multiply-add form (o / d rounded
+    once per ray, then subtracted: one operation less a slab) by an ulp of o / d, 1e-3 here. Measured: that
+    form widened by 2 gamma(3) of the distance (this one by 2 gamma(8)) loses 101 to 128 of the 256 hits (by
+    lane width). The widening itself is not what this checks: here the kernel's form finds every hit without
+    it."""
     k = GRID_LINES
     scene = flat_grid(cornell, offset=1000.0)
     rng = np.random.default_rng(41)
     n = 256
     through = np.stack([rng.choice(k[1:-1], n) + 1000.0, rng.choice(k[1:-1], n) + 1000.0, np.full(n, 0.5)], 1)
-    sign = rng.choice([-1, 1], (n, 2)) if octant == "mixed" else np.ones((n, 2))
-    across = sign * rng.uniform(0.01, 0.2, (n, 2))
+    across = rng.choice([-1, 1], (n, 2)) * rng.uniform(0.01, 0.2, (n, 2))
     d = np.column_stack([across, -np.ones(n)])
     o = through - d
     loop = trace(harness, scene, o, d, False)
