@@ -12,7 +12,7 @@ from helpers import CORNELL, ROOT, run
 from raytrace.render import render
 from raytrace.renderer.program import Features
 from raytrace.scene import load_scene
-from raytrace.tools import baseline
+from raytrace.tools import baseline, bench
 
 TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1]
 
@@ -40,8 +40,8 @@ def test_the_baselines_kernels_are_built(copy, lanes):
 
 def test_turns_alternate_which_goes_first(monkeypatch):
     order = []
-    monkeypatch.setattr(baseline, "render", lambda scene, features, **kw: order.append(features) or (None, Stats()))
-    seconds, _ = baseline.in_turns("scene", 3, {}, ["ours", "theirs"])
+    monkeypatch.setattr(bench, "render", lambda scene, features, **kw: order.append(features) or (None, Stats()))
+    _, seconds = bench.in_turns(["scene", "scene"], 3, {}, ["ours", "theirs"], alternate=True)
     assert order == ["ours", "theirs"] + ["ours", "theirs", "theirs", "ours", "ours", "theirs"]
     assert seconds == [[1.0] * 3, [1.0] * 3]
 

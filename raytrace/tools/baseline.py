@@ -16,11 +16,11 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from ..render import RenderOptions, check_memory, render, resolve
+from ..render import RenderOptions, check_memory, resolve
 from ..renderer.device import select_device
 from ..renderer.program import kernel_dir
 from ..scene import load_scene
-from .bench import _features
+from .bench import _features, in_turns
 
 
 def baseline_kernels(directory):
@@ -39,20 +39,6 @@ def baseline_kernels(directory):
     return str(path.resolve())
 
 
-def in_turns(scene, repeat, kwargs, features):
-    """Render seconds of `repeat` renders of the scene by each of two kernel variants, taken in turns, the
-    first of a turn alternating (a render can run faster or slower for following another); and the last
-    render's stats."""
-    for f in features:
-        render(scene, **kwargs, features=f, progress=False)  # build and first launch (code generation): not timed
-    seconds = [[], []]
-    for turn in range(repeat):
-        for k in (0, 1) if turn % 2 == 0 else (1, 0):
-            stats = render(scene, **kwargs, features=features[k], progress=False)[1]
-            seconds[k].append(stats.render_seconds)
-    return seconds, stats
-
-
 def against_baseline(scene_paths, baseline, repeat=3, out=sys.stdout, **kwargs):
     """Each scene rendered `repeat` times by this checkout's kernel and by the baseline's (a kernels/
     directory checked by baseline_kernels), in turns; prints a line a scene and returns the rows."""
@@ -65,7 +51,9 @@ def against_baseline(scene_paths, baseline, repeat=3, out=sys.stdout, **kwargs):
     for path, scene in scenes:
         print(f"bench: {path}: this kernel and the baseline's, in turns, {repeat} each", file=sys.stderr, flush=True)
         ours = _features(scene, kwargs)
-        (mine, theirs), stats = in_turns(scene, repeat, kwargs, [ours, dataclasses.replace(ours, kernels=baseline)])
+        best, (mine, theirs) = in_turns([scene, scene], repeat, kwargs,
+                                        [ours, dataclasses.replace(ours, kernels=baseline)], alternate=True)
+        stats = best[0]
         row = {"scene": str(path), "seconds": min(mine), "baseline_seconds": min(theirs),
                "ratio": min(mine) / min(theirs), "paired_ratio": statistics.median(a / b for a, b in zip(mine, theirs))}
         print(f"{path}: {row['seconds']:.4f} s, baseline {row['baseline_seconds']:.4f} s: x{row['ratio']:.3f} "

@@ -59,16 +59,19 @@ def _features(scene, kwargs):
     return Features.of(scene, default_lanes(select_device(kwargs.get("device"))))
 
 
-def in_turns(scenes, repeat, kwargs, features=None):
+def in_turns(scenes, repeat, kwargs, features=None, alternate=False):
     """`repeat` renders of each scene by its `features` (default: the kernel `render` picks), taken in turns:
-    every scene once, then every scene again, so that a slow spell of the machine falls on all of them.
+    every scene once, then every scene again, so that a slow spell of the machine falls on all of them; with
+    `alternate`, every other turn in reverse order (a render can run faster or slower for following another).
     Returns (each scene's fastest RenderStats, each scene's render seconds turn by turn)."""
     features = features or [_features(scene, kwargs) for scene in scenes]
     for scene, f in zip(scenes, features):
         render(scene, **kwargs, features=f, progress=False)  # build and first launch (code generation): not timed
     best, seconds = [None] * len(scenes), [[] for _ in scenes]
-    for _ in range(repeat):
-        for k, (scene, f) in enumerate(zip(scenes, features)):
+    for turn in range(repeat):
+        order = range(len(scenes)) if not (alternate and turn % 2) else reversed(range(len(scenes)))
+        for k in order:
+            scene, f = scenes[k], features[k]
             stats = render(scene, **kwargs, features=f, progress=False)[1]
             seconds[k].append(stats.render_seconds)
             if best[k] is None or stats.render_seconds < best[k].render_seconds:
