@@ -5,10 +5,12 @@
  * progressive render (the host accumulates passes). One work-item renders a tile of pixels, several samples
  * of each at once where n_samples allows (tile.h); lanes beyond the band or the image's width compute and
  * store nothing. The output holds the band only, so its size is bounded whatever the image's: planes of
- * width * (row1 - row0) floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear) and
- * the number of rays traced for the pixel. A measuring build (COUNT_VISITS, scene.h) stores VISIT_KINDS planes
- * more: the counts of nodes and primitives the work-item's traversals tested, each shared equally among its
- * pixels. */
+ * width * (row1 - row0) floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear),
+ * the number of rays traced for the pixel, and, where n_first > 0, R, G, B again over the launch's first
+ * n_first samples only: the first half of a pass that holds both halves of the host's error estimate
+ * (raytrace/renderer/progressive.py), so that a pass may hold all of a render's samples and a work-item's
+ * lanes as many of a pixel's. A measuring build (COUNT_VISITS, scene.h) stores VISIT_KINDS planes more: the
+ * counts of nodes and primitives the work-item's traversals tested, each shared equally among its pixels. */
 #include "camera.cl"
 #include "tile.h"
 #if HAS_DIRECT_LIGHTING
@@ -16,6 +18,11 @@
 #else
 #include "shading.cl" /* the course's Phong model */
 #endif
+
+/* The output's planes (above): R, G, B, the ray count, R, G, B of the first n_first samples, the counts. */
+#define RAYS_PLANE 3
+#define FIRST_HALF_PLANE 4
+#define OUTPUT_PLANES 7
 
 /* sum += x, Kahan-compensated (Higham, "Accuracy and Stability of Numerical Algorithms", section 4.3): the
  * error stays within 2 roundings of the sum for any number of terms, where a plain float32 running sum of n
@@ -76,8 +83,8 @@ inline void store_lanes(__global float *plane, vint index, vfloat value, vint ac
 
 __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                      __global const uint2 *pixel_samples, /* the pixel and light sample tables (samplers.cl) */
-                     __global const uint2 *light_samples, int sample0, int n_samples, int row0, int row1,
-                     __global float *out)
+                     __global const uint2 *light_samples, int sample0, int n_samples, int n_first, int row0,
+                     int row1, __global float *out)
 {
 #if COUNT_VISITS
     int visits[VISIT_KINDS] = {0};
@@ -95,6 +102,7 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
 
     vuint key = pixel_key(AS_VUINT(y * width + x), params->seed);
     vec3 sum = v3_splat(0.0f, 0.0f, 0.0f), carry = sum; /* compensated: a launch may hold 32768 samples */
+    vec3 first_sum = sum, first_carry = sum;             /* over the samples before sample0 + n_first */
     vfloat rays = 0.0f;
     for (int first = sample0; first < sample0 + n_samples; first += tile.group) {
         vint s = first + tile.sample;
@@ -103,7 +111,10 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                                       1.0f / height);
         Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
-        kahan_add(&sum, &carry, shade(&scene, ray, hit, sp, light_samples, stream_key(key, AS_VUINT(s)), &rays));
+        vec3 value = shade(&scene, ray, hit, sp, light_samples, stream_key(key, AS_VUINT(s)), &rays);
+        kahan_add(&sum, &carry, value);
+        if (n_first > 0) /* uniform: the first pass only */
+            kahan_add(&first_sum, &first_carry, v3_select(v3_splat(0.0f, 0.0f, 0.0f), value, s < sample0 + n_first));
     }
     rays += (float)(n_samples / tile.group);
 
@@ -112,10 +123,16 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
     store_lanes(out, index, pixel_sums(sum.x, carry.x, tile.group), stored);
     store_lanes(out + plane, index, pixel_sums(sum.y, carry.y, tile.group), stored);
     store_lanes(out + 2 * plane, index, pixel_sums(sum.z, carry.z, tile.group), stored);
-    store_lanes(out + 3 * plane, index, pixel_sums(rays, (vfloat)(0.0f), tile.group), stored);
+    store_lanes(out + RAYS_PLANE * plane, index, pixel_sums(rays, (vfloat)(0.0f), tile.group), stored);
+    if (n_first > 0) {
+        __global float *first = out + FIRST_HALF_PLANE * plane;
+        store_lanes(first, index, pixel_sums(first_sum.x, first_carry.x, tile.group), stored);
+        store_lanes(first + plane, index, pixel_sums(first_sum.y, first_carry.y, tile.group), stored);
+        store_lanes(first + 2 * plane, index, pixel_sums(first_sum.z, first_carry.z, tile.group), stored);
+    }
 #if COUNT_VISITS
     const float pixels = (float)count_lanes(stored);
     for (int k = 0; k < VISIT_KINDS; ++k)
-        store_lanes(out + (4 + k) * plane, index, (vfloat)(visits[k] / pixels), stored);
+        store_lanes(out + (OUTPUT_PLANES + k) * plane, index, (vfloat)(visits[k] / pixels), stored);
 #endif
 }

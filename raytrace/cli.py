@@ -159,7 +159,7 @@ def cmd_render(args):
     error = "" if stats.estimated_rmse is None else (
         f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)")
     print(f"{Path(args.output)}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}) x {stats.light_samples} "
-          f"light samples ({stats.light_sampler}) in {stats.passes} passes, {stats.render_seconds:.3f} s, "
+          f"light samples ({stats.light_sampler}) in {stats.passes} pass{'es' * (stats.passes != 1)}, {stats.render_seconds:.3f} s, "
           f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by {stats.stopped_by}", file=sys.stderr)
 
 

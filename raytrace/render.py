@@ -20,7 +20,8 @@ from .scene.model import SHADINGS
 from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
 from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
-from .renderer.progressive import BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, Accumulator, pass_size, row_chunks
+from .renderer.progressive import (BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, PASS_WORK, Accumulator,
+                                   first_half, pass_size, row_chunks)
 
 MAX_BAND_BYTES = 64 << 20     # the device output buffer: below the 128 MiB any full-profile device allows
 HEADROOM_BYTES = 512 << 20    # besides the sums and images: the runtime, the program, the band buffers
@@ -44,6 +45,7 @@ class RenderOptions:
     features: Features | None = None  # None: derived from the scene
     progress: bool | None = None      # None: a bar on stderr when the render takes over a second
     max_band_bytes: int = MAX_BAND_BYTES  # the device output buffer's size, at least one row
+    max_pass_work: int = PASS_WORK        # rays of a pass, roughly, at most (progressive.pass_size)
     scheduler: str | None = None  # a Dask scheduler's address, "local:N" or "tcp://host:port" (distributed.py)
     client: object = None         # or a dask.distributed.Client to use
 
@@ -184,7 +186,8 @@ def resolve_all(scene, options):
     """resolve(), and the passes: their sizes follow from the options alone, so every device agrees on them."""
     width, height, spp, n_light, pixel, light = resolve(scene, options)
     work = 1 + len(scene.lights) * n_light
-    per_pass = pass_size(spp, width * height * work)
+    stoppable = options.time_limit is not None or options.target_error is not None
+    per_pass = pass_size(spp, width * height * work, options.max_pass_work // (2 if stoppable else 1))
     passes = [(s, min(per_pass, spp - s)) for s in range(0, spp, per_pass)]
     return Resolved(width, height, spp, n_light, pixel, light, work, passes)
 
@@ -213,10 +216,10 @@ def render_progressive(scene, **kwargs):
     acc, rays, render_seconds, history = Accumulator((CHANNELS, r.height, r.width)), 0.0, 0.0, []
     progress, stopped_by = _Progress(r.spp, options.progress), "spp"
     start = time.perf_counter()
-    for k, (_, n) in enumerate(r.passes):
+    for k, (sample0, n) in enumerate(r.passes):
         pass_start = time.perf_counter()
         seconds, pass_rays = passes.run_pass(k, acc)
-        acc.end_pass(n)
+        acc.end_pass(n, first_half(sample0, n))
         render_seconds, rays = render_seconds + seconds, rays + pass_rays
         now = time.perf_counter()
         rmse, relative = acc.estimated_rmse()

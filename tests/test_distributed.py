@@ -21,11 +21,12 @@ from helpers import CORNELL, ROOT, run
 from raytrace import load_scene
 from raytrace.errors import InputError
 from raytrace.render import render_progressive
+from raytrace.renderer.device_render import OUTPUT_PLANES
 
 distributed = pytest.importorskip("dask.distributed")
 
 SMALL = dict(width=64, height=48, spp=16, light_samples=4, progress=False)
-ONE_ROW = dict(max_band_bytes=4 * 4 * 64)  # one row a band: 48 tasks a pass
+ONE_ROW = dict(max_band_bytes=OUTPUT_PLANES * 4 * 64)  # one row a band: 48 tasks a pass
 
 
 @pytest.fixture(scope="module")
@@ -51,10 +52,12 @@ def assert_same(local, remote):
 @pytest.mark.parametrize("scene_file", ["cornell.toml", "textured_cornell.toml", "mesh_cornell.toml"])
 def test_bit_identical_to_one_process(cluster, scene_file):
     """Scene 0, a textured scene (mip levels and texels scattered to the workers) and a mesh with a BVH; one
-    row a band, so that the two workers finish the 48 bands of a pass in no fixed order."""
+    row a band, so that the two workers finish the 48 bands of a pass in no fixed order; two passes of 8, the
+    first with its first half's sums (the error estimate's prefix) from the workers too."""
     scene = load_scene(ROOT / "scenes" / scene_file)
-    local = render_progressive(scene, **SMALL, **ONE_ROW)
-    remote = render_progressive(scene, **SMALL, **ONE_ROW, client=cluster[1])
+    options = dict(SMALL, max_pass_work=64 * 48 * 5 * 8, **ONE_ROW)
+    local = render_progressive(scene, **options)
+    remote = render_progressive(scene, **options, client=cluster[1])
     assert_same(local, remote)
     assert "(Dask, 2 workers)" in remote[2].device and remote[2].passes >= 2
 

@@ -7,7 +7,7 @@ import pytest
 
 import raytrace
 from raytrace.numerics import rmse
-from raytrace.renderer.progressive import Accumulator, pass_size
+from raytrace.renderer.progressive import Accumulator, first_half, pass_size
 from raytrace.render import render_progressive
 
 SMALL = dict(width=64, height=64, light_samples=4, progress=False)
@@ -50,8 +50,56 @@ def test_half_buffer_estimate_is_unbiased(passes, per_pass):
 
 
 def test_pass_size():
-    assert pass_size(1, 10) == 1 and pass_size(16, 10) == 8 and pass_size(65536, 1) == 32768
-    assert pass_size(1024, 1 << 24) == 4  # at most 2^26 rays per pass
+    assert pass_size(1, 10) == 1 and pass_size(16, 10) == 16 and pass_size(24, 10) == 16
+    assert pass_size(65536, 1) == 65536 and pass_size(1024, 1 << 24) == 8  # at most 2^27 rays per pass
+    assert [first_half(s, 16) for s in (0, 16, 32)] == [8, 0, 0] and first_half(0, 1) == 0
+
+
+def test_a_stopping_rule_halves_the_pass(cornell):
+    """A render that a time limit or a target error may stop takes passes of half the work units, so that it
+    stops nearer either: scene 0 at 64 x 64 with 4 light samples is 20480 work units a sample."""
+    budget = 20480 * 8
+    for rule, passes in ((dict(), 2), (dict(time_limit=60.0), 4), (dict(target_error=1e-9), 4)):
+        _, _, stats = render_progressive(cornell, spp=16, max_pass_work=budget, **rule, **SMALL)
+        assert stats.passes == passes, rule
+
+
+def test_first_pass_halves_give_the_two_pass_estimate():
+    """One pass of 16 samples with its first 8 summed apart gives the estimate of two passes of 8, exactly
+    (integer samples: every sum is exact), then again after a third pass. It fails if the first half is
+    ignored, or counted as a half of another size, or taken again at the next power of two."""
+    rng = np.random.default_rng(2)
+    x = rng.integers(0, 100, (24, 3, 4, 5)).astype(np.float32)
+    two, one = Accumulator((3, 4, 5)), Accumulator((3, 4, 5))
+    two.add(x[:8].sum(axis=0), 8)
+    two.add(x[8:16].sum(axis=0), 8)
+    one.add(x[:16].sum(axis=0), 16, first=x[:8].sum(axis=0), n_first=8)
+    assert one.n_prefix == 8 and one.passes == 1
+    np.testing.assert_array_equal(one.variance(), two.variance())
+    two.add(x[16:].sum(axis=0), 8)
+    one.add(x[16:].sum(axis=0), 8)
+    assert one.n_prefix == two.n_prefix == 16
+    np.testing.assert_array_equal(one.variance(), two.variance())
+
+
+def test_kernel_sums_the_first_half_apart(cornell, lanes):
+    """A render of 16 samples in one pass (16 of a pixel in a work-item's lanes at 16 lanes), against renders
+    of its first 8 samples (one pass, 8 of a pixel a work-item) and of all 16: the first pass's half-sums
+    (kernels/render.cl's n_first planes) must be the 8-sample render's, so its per-pixel estimate (A - B)/2
+    must be the one formed from the two images. The pixel samples are the same numbers in either launch; only
+    their compensated sums differ, each within 2 roundings of the exact sum of non-negative values
+    (render.cl's kahan_add), and the images' own float32 rounding adds one of each: with A + B as the scale,
+    4u (A + B) bounds the difference of (A - B)/2. The estimate's own size is about 5e-3 here: a first half
+    that summed all 16 samples, none, or the wrong planes would miss by orders more."""
+    options = dict(spp=16, sampler="random", lanes=lanes, seed=7, **SMALL)
+    image, variance, stats = render_progressive(cornell, **options)
+    first, _, _ = render_progressive(cornell, **{**options, "spp": 8})
+    assert stats.passes == 1
+    rest = 2.0 * image.astype(np.float64) - first  # the mean of samples 8..15
+    half_difference = np.abs(first - rest) / 2.0
+    scale = first + rest
+    assert np.max(half_difference) > 1e-3
+    np.testing.assert_array_less(np.abs(np.sqrt(variance) - half_difference), 4 * 2.0**-24 * scale + 1e-30)
 
 
 @pytest.mark.parametrize("sampler", ["random", "jittered", "halton", "sobol"])

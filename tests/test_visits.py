@@ -11,7 +11,7 @@ import pytest
 from raytrace.render import render
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Triangle
-from raytrace.renderer.device_render import VISIT_KINDS
+from raytrace.renderer.device_render import FIRST_HALF_PLANE, OUTPUT_PLANES, RAYS_PLANE, VISIT_KINDS
 from raytrace.renderer.progressive import pass_size
 from raytrace.structs import samples_at_once, tile_shape
 from raytrace.tools.visits import node_visits, pixels_with_half
@@ -193,14 +193,14 @@ def test_counting_build_renders_the_same_image(cornell, lanes):
 
 
 def test_banded_counts_add_up_within_the_budget(cornell, lanes):
-    """A budget of 8 rows of the counting build's eight planes cuts 21 rows into bands of 8, 8 and 5; 8 is a
+    """A budget of 8 rows of the counting build's eleven planes cuts 21 rows into bands of 8, 8 and 5; 8 is a
     multiple of every tile's height, so the work-items, and with them every pixel's count, are those of one
-    band. It fails if a band's visit planes land on the wrong rows of the map, if the budget ignores the two
-    planes more (the buffer would hold 8 rows of four planes: 16 rows), or if bands are counted twice."""
+    band. It fails if a band's visit planes land on the wrong rows of the map, if the budget ignores the four
+    planes more (the buffer would hold 8 rows of seven planes: 12 rows), or if bands are counted twice."""
     features = dataclasses.replace(Features.of(cornell, lanes), bvh=True)
     options = dict(SIZE, width=33, height=21)
     whole = node_visits(cornell, features, **options)
-    row_bytes = 8 * 4 * options["width"]
+    row_bytes = (OUTPUT_PLANES + len(VISIT_KINDS)) * 4 * options["width"]
     _, stats = render(cornell, features=dataclasses.replace(features, count_visits=True),
                       max_band_bytes=8 * row_bytes, **options)
     assert stats.extra["band_rows"] == 8 and stats.extra["device_output_bytes"] == 8 * row_bytes
@@ -209,9 +209,16 @@ def test_banded_counts_add_up_within_the_budget(cornell, lanes):
     np.testing.assert_array_equal(shadow, whole["shadow_map"])
 
 
+def test_output_planes_match_the_kernel(cl_env):
+    """The host's reading of the kernel's output (device_render's plane indices) against render.cl's."""
+    names = ["RAYS_PLANE", "FIRST_HALF_PLANE", "OUTPUT_PLANES"]
+    source = f'#include "render.cl"\n{values_kernel(names)}'
+    assert run_int_kernel(cl_env, source, 3, ["-DLANES=1"]) == [RAYS_PLANE, FIRST_HALF_PLANE, OUTPUT_PLANES]
+
+
 def test_visit_kinds_match_the_kernel(cl_env):
     """The host's names of the counting build's planes (device_render.VISIT_KINDS) against scene.h's VISITS_*
-    indices, in order: the host reads plane 4 + k as kind k."""
+    indices, in order: the host reads plane OUTPUT_PLANES + k as kind k."""
     names = ["VISIT_KINDS", "VISITS_CLOSEST_NODES", "VISITS_SHADOW_NODES", "VISITS_CLOSEST_PRIMITIVES",
              "VISITS_SHADOW_PRIMITIVES"]
     source = f'#include "scene.h"\n{values_kernel(names)}'

@@ -12,9 +12,11 @@ from .device import context_for, default_lanes, describe, select_device
 from .interface import KernelArguments
 from .packing import scene_tables, texture_tables
 from .program import Features, render_program
-from .progressive import CHANNELS
+from .progressive import CHANNELS, first_half
 
-OUTPUT_PLANES = CHANNELS + 1  # the kernel's output: R, G, B sums and the ray count, float32
+# The kernel's output planes, float32 (kernels/render.cl's): R, G, B sums, the ray count, R, G, B over the
+# launch's first n_first samples; a measuring build's counts after them
+RAYS_PLANE, FIRST_HALF_PLANE, OUTPUT_PLANES = CHANNELS, CHANNELS + 1, 2 * CHANNELS + 1
 # A COUNT_VISITS build's planes more: the nodes and primitives its traversals test (kernels/scene.h's VISITS_*)
 VISIT_KINDS = ("closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives")
 WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch, so that a launch stays short
@@ -49,9 +51,10 @@ class _Bands:
         self.host = np.empty(self.planes * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
 
-    def set_samples(self, n):
-        """The launches that follow hold n pixel samples: their tiles' shape."""
-        self.tile = tile_shape(self.lanes, n)
+    def set_samples(self, n, n_first):
+        """The launches that follow hold n pixel samples, the first n_first of them summed apart too: their
+        tiles' shape, and whether they store those sums."""
+        self.tile, self.n_first = tile_shape(self.lanes, n), n_first
 
     def starts(self):
         """The first row of every band, in the order a pass adds them."""
@@ -59,8 +62,8 @@ class _Bands:
 
     def run_band(self, queue, args, row0, rows=None):
         """Launch the band of `rows` (default: as many as fit, up to the image's end) from row0 with the
-        kernel's other `args` set: (its CHANNELS x rows x width float32 sums, a view of the host buffer; rays
-        traced; kernel seconds)."""
+        kernel's other `args` set: (its CHANNELS x rows x width float32 sums and those of the first n_first
+        samples or None, views of the host buffer; rays traced; kernel seconds)."""
         rows = min(self.rows, self.height - row0) if rows is None else rows
         args.set("out", self.host, self.device)
         args.set("row0", np.int32(row0))
@@ -71,14 +74,16 @@ class _Bands:
         out = self.host[:self.planes * rows * self.width].reshape(self.planes, rows, self.width)
         cl.enqueue_copy(queue, out, self.device)
         self.visits[:, row0:row0 + rows] += out[OUTPUT_PLANES:]
-        return out[:CHANNELS], out[CHANNELS].sum(dtype=np.float64), (event.profile.end - event.profile.start) * 1e-9
+        first = out[FIRST_HALF_PLANE:FIRST_HALF_PLANE + CHANNELS] if self.n_first else None
+        return (out[:CHANNELS], first, out[RAYS_PLANE].sum(dtype=np.float64),
+                (event.profile.end - event.profile.start) * 1e-9)
 
     def run_pass(self, queue, args, acc):
         """Every band, its sums added into `acc`; returns (kernel seconds, rays traced)."""
         seconds = rays = 0.0
         for row0 in self.starts():
-            sums, band_rays, band_seconds = self.run_band(queue, args, row0)
-            acc.add_rows(row0, sums)
+            sums, first, band_rays, band_seconds = self.run_band(queue, args, row0)
+            acc.add_rows(row0, sums, first)
             seconds, rays = seconds + band_seconds, rays + band_rays
         return seconds, rays
 
@@ -111,9 +116,13 @@ class DeviceRender:
                             self.features.lanes, planes)
 
     def set_samples(self, sample0, n):
+        """The launches that follow render the pixel samples [sample0, sample0 + n), the first pass's first
+        half summed apart too (progressive.first_half)."""
+        n_first = first_half(sample0, n)
         self.args.set("sample0", np.int32(sample0))
         self.args.set("n_samples", np.int32(n))
-        self.bands.set_samples(n)
+        self.args.set("n_first", np.int32(n_first))
+        self.bands.set_samples(n, n_first)
 
     def info(self):
         """What the statistics say of the device and its build."""

@@ -84,8 +84,8 @@ def pickled_render(scene, options):
 
 
 def render_band(payload, resolved, digest, sample0, n, row0, rows):
-    """On a worker: the float32 sums of pixel samples [sample0, sample0 + n) over `rows` rows from row0, the
-    rays traced, the kernel seconds, and what the statistics say of the worker's device. `payload` is
+    """On a worker: the float32 sums of pixel samples [sample0, sample0 + n) over `rows` rows from row0, those
+    of its first half where the pass is the first (progressive.first_half) or None, the rays traced, the kernel seconds, and what the statistics say of the worker's device. `payload` is
     pickled_render's, unpickled once per worker and render; `resolved` is the client's render.Resolved: the
     options checked once, against the client's scene file."""
     if digest not in _device_renders:
@@ -93,8 +93,8 @@ def render_band(payload, resolved, digest, sample0, n, row0, rows):
         _device_renders[digest] = DeviceRender(*pickle.loads(payload), resolved)
     d = _device_renders[digest]
     d.set_samples(sample0, n)
-    sums, rays, seconds = d.bands.run_band(d.queue, d.args, row0, rows)
-    return sums.copy(), rays, seconds, d.info()
+    sums, first, rays, seconds = d.bands.run_band(d.queue, d.args, row0, rows)
+    return sums.copy(), None if first is None else first.copy(), rays, seconds, d.info()
 
 
 class DaskPasses:
@@ -120,8 +120,8 @@ class DaskPasses:
                 self._submit(j)
         seconds = rays = 0.0
         for (row0, _), future in zip(self.bands, self.futures.pop(k)):
-            sums, band_rays, band_seconds, self.last_info = future.result()
-            acc.add_rows(row0, sums)
+            sums, first, band_rays, band_seconds, self.last_info = future.result()
+            acc.add_rows(row0, sums, first)
             seconds, rays = seconds + band_seconds, rays + band_rays
         return seconds, rays
 

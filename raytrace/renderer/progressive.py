@@ -12,9 +12,10 @@ net, each far worse than the whole, and the estimate would exceed the error many
 float64 sums keep 65536 passes exact to far below the float32 image they become; the prefix sum is kept
 in float32, which rounds it once, by 2^-24 relative, far below the sampling noise of A - B.
 
-Memory, for images of any size: passes arrive in bands of rows, added in place. The prefix of 2^k samples
-is copied from the total, band by band, only when a pass goes past 2^k: until then the first half is still
-the prefix of 2^(k-1), so one prefix buffer does instead of two. The images and the error estimate are
+The first pass's kernel also sums its first half apart (first_half), so that even a render of one pass
+has both halves. Memory, for images of any size: passes arrive in bands of rows, added in place. The prefix of
+2^k samples is copied from the total, band by band, only when a pass goes past 2^k: until then the first half
+is still the prefix of 2^(k-1), so one prefix buffer does instead of two. The images and the error estimate are
 computed in chunks of rows, with no full-size temporaries. The host keeps at most BYTES_PER_PIXEL a pixel."""
 import math
 
@@ -26,6 +27,7 @@ CHANNELS = 3
 # image, then the total with both float32 images (the prefix released before the mean image is made).
 BYTES_PER_PIXEL = CHANNELS * (8 + 4 + 4)
 CHUNK_BYTES = 16 << 20  # float64 temporaries of the chunked computations, per chunk
+PASS_WORK = 1 << 27     # work units (rays, roughly) of a pass, at most: pass_size
 
 
 def _is_power_of_two(n):
@@ -50,27 +52,36 @@ class Accumulator:
     def _chunks(self):
         return row_chunks(self.total.shape[1], self.total.shape[2] * self.total.shape[0] * 8)
 
-    def add_rows(self, row0, sums):
-        """Add the current pass's sums for the rows [row0, row0 + len); end_pass() counts the pass."""
+    def add_rows(self, row0, sums, first=None):
+        """Add the current pass's sums for the rows [row0, row0 + len); end_pass() counts the pass. `first`:
+        the sums over the first pass's first n_first samples (first_half), the first half of the estimate."""
         rows = slice(row0, row0 + sums.shape[1])
-        if self.n_total > 0 and _is_power_of_two(self.n_total):
+        if first is not None:
+            if self.prefix is None:
+                self.prefix = np.empty(self.total.shape, np.float32)
+            self.prefix[:, rows] = first
+        elif self.n_total > 0 and _is_power_of_two(self.n_total):
             # The count is about to pass a power of two: the first half of every later estimate.
             if self.prefix is None:
                 self.prefix = np.empty(self.total.shape, np.float32)
             self.prefix[:, rows] = self.total[:, rows]
         self.total[:, rows] += sums
 
-    def end_pass(self, n):
-        """The current pass, of n samples per pixel, has been added for every row."""
-        if self.n_total > 0 and _is_power_of_two(self.n_total):
+    def end_pass(self, n, n_first=0):
+        """The current pass, of n samples per pixel, has been added for every row, with the sums of its first
+        n_first samples where n_first > 0."""
+        if n_first > 0:
+            self.n_prefix = n_first
+        elif self.n_total > 0 and _is_power_of_two(self.n_total):
             self.n_prefix = self.n_total
         self.n_total += n
         self.passes += 1
 
-    def add(self, sums, n):
-        """Add one pass over the whole image: `sums` over its n samples per pixel."""
-        self.add_rows(0, sums)
-        self.end_pass(n)
+    def add(self, sums, n, first=None, n_first=0):
+        """Add one pass over the whole image: `sums` over its n samples per pixel (and `first` over its first
+        n_first)."""
+        self.add_rows(0, sums, first)
+        self.end_pass(n, n_first)
 
     def _half_difference(self, rows):
         """(A - B) sqrt(nA nB) / N for `rows` (float64, planar), whose square estimates the variance of
@@ -124,15 +135,27 @@ class Accumulator:
         return rmse, rmse / mean if mean > 0 else 0.0  # pixels are >= 0: a zero mean is a black image, exact
 
 
-def pass_size(spp, work_per_sample, budget=1 << 26):
-    """Samples per pass: a power of two, at most spp / 2 (so that there are two halves to compare) and
-    with at most `budget` work units (rays, roughly) per pass, so a pass takes a fraction of a second (scene 0
-    at 512 x 512: 8 samples a pass, 0.13 s on a 2-core AVX-512 Xeon). The kernel traces several samples of a
-    pixel at once where a pass holds them (kernels/tile.h): with passes of 8 samples instead of 1 (a budget of
-    2^22), mesh_cornell took 31% less kernel time and 41% less wall time, scene 0 9% and 32%, textured_cornell
-    2% and 22% (one process, 6 renders of each alternating; the wall time also saves the host's per-pass
-    accumulation)."""
+def pass_size(spp, work_per_sample, budget=PASS_WORK):
+    """Samples per pass: a power of two, at most spp and with at most `budget` work units (rays, roughly) per
+    pass, so a pass takes a fraction of a second (scene 0 at 512 x 512: its 16 samples in one pass, 0.27 s on
+    a 2-core AVX-512 Xeon; render.py halves the budget where a time limit or a target error may stop the
+    render after any pass, so that it stops nearer either). The kernel traces several samples of a pixel at once where a pass holds them
+    (kernels/tile.h), up to its lane width: with passes of 8 samples instead of 1 (a budget of 2^22),
+    mesh_cornell took 31% less kernel time and 41% less wall time, scene 0 9% and 32%, textured_cornell 2% and
+    22% (one process, 6 renders of each alternating; the wall time also saves the host's per-pass
+    accumulation). A pass used to hold at most spp / 2 samples, so that two passes gave the error estimate's
+    two halves; the first pass now stores its first half's sums apart (first_half), and with passes of 16
+    (16 samples of one pixel in a work-item's 16 lanes) instead of 8, mesh_cornell took 6-9% less kernel
+    time, the 10^6-triangle torus of `bench --scaling` (passes of 4 instead of 2) 20-25%, scene 0 the same
+    (one process, 7-9 renders each alternating)."""
     size = 1
-    while size * 2 <= spp // 2 and size * 2 * work_per_sample <= budget:
+    while size * 2 <= spp and size * 2 * work_per_sample <= budget:
         size *= 2
     return size
+
+
+def first_half(sample0, n):
+    """How many of the first samples of the pass [sample0, sample0 + n) the kernel sums apart as well: half
+    of the first pass, the first half of the first error estimate (Accumulator: the later estimates' halves
+    are whole passes); 0 for the other passes."""
+    return n // 2 if sample0 == 0 else 0
