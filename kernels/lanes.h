@@ -157,6 +157,22 @@ inline float max_lane(vfloat x)
 }
 #endif
 
+/* x with each lane l exchanged for lane l ^ w, for w = 1, 2, 4, 8 below LANES: a swizzle, one permute
+ * instruction (where OpenCL C's shuffle() would be an out-of-line call, as above). */
+#if LANES == 4
+#define PARTNERS_1(x) ((x).s1032)
+#define PARTNERS_2(x) ((x).s2301)
+#elif LANES == 8
+#define PARTNERS_1(x) ((x).s10325476)
+#define PARTNERS_2(x) ((x).s23016745)
+#define PARTNERS_4(x) ((x).s45670123)
+#elif LANES == 16
+#define PARTNERS_1(x) ((x).s1032547698badcfe)
+#define PARTNERS_2(x) ((x).s23016745ab89efcd)
+#define PARTNERS_4(x) ((x).s45670123cdef89ab)
+#define PARTNERS_8(x) ((x).s89abcdef01234567)
+#endif
+
 /* A mask as 0/1 floats, e.g. to count rays per lane. */
 #define MASK_TO_ONE(m) SELECT((vfloat)(0.0f), (vfloat)(1.0f), (m))
 

@@ -48,24 +48,42 @@ inline int count_lanes(vint mask)
 }
 #endif
 
-/* Each pixel's sums over its `group` lanes (tile.h), in its first lane: the lanes' compensated sums (sum -
- * carry, rounded once) added with compensation again, so that a pixel's sum stays within a few roundings of
- * its samples' for any number of them (kahan_add). */
+/* *s + b, where *s and b are two lanes' partial sums and *e and e_b the rounding errors they carry: the sum
+ * rounded, and its own rounding error, found exactly by Knuth's TwoSum, added to the errors. The same in
+ * both lanes of a pair: a + b rounds the same either way, and TwoSum's error is exact. */
+inline void add_partners(vfloat *s, vfloat *e, vfloat b, vfloat e_b)
+{
+    vfloat a = *s, t = a + b, b_part = t - a;
+    *e = (*e + e_b) + ((a - (t - b_part)) + (b - b_part));
+    *s = t;
+}
+
+/* Each pixel's sums over its `group` lanes (tile.h), in every lane of it: the lanes' compensated sums (sum -
+ * carry, rounded once) added pairwise, lane l with lane l ^ w at w = 1, 2, 4 ... below group (a butterfly),
+ * the additions' rounding errors kept exactly and added at the end (add_partners). That is Ogita, Rump and
+ * Oishi's Sum2 ("Accurate sum and dot product", SIAM J. Sci. Comput., 2005) in a pairwise order, and its
+ * bound holds for any order: within one rounding of the lanes' exact sum plus (group - 1) roundings of the
+ * error terms, which are each a rounding of a partial sum. Each step is a few vector instructions, where a
+ * running sum over the lanes waits on each addition in turn (7 such sums at the end of every work-item took
+ * 13% of scene 0's profile). */
 inline vfloat pixel_sums(vfloat sum, vfloat carry, int group)
 {
-    float s[LANES], c[LANES];
-    VSTORE(sum, s);
-    VSTORE(carry, c);
-    for (int first = 0; first < LANES; first += group) {
-        float total = s[first] - c[first], lost = 0.0f;
-        for (int l = first + 1; l < first + group; ++l) {
-            float y = (s[l] - c[l]) - lost, t = total + y;
-            lost = (t - total) - y;
-            total = t;
-        }
-        s[first] = total;
-    }
-    return VLOAD(s);
+    vfloat s = sum - carry, e = 0.0f;
+#if LANES >= 4
+    if (group >= 2)
+        add_partners(&s, &e, PARTNERS_1(s), PARTNERS_1(e));
+    if (group >= 4)
+        add_partners(&s, &e, PARTNERS_2(s), PARTNERS_2(e));
+#endif
+#if LANES >= 8
+    if (group >= 8)
+        add_partners(&s, &e, PARTNERS_4(s), PARTNERS_4(e));
+#endif
+#if LANES >= 16
+    if (group >= 16)
+        add_partners(&s, &e, PARTNERS_8(s), PARTNERS_8(e));
+#endif
+    return s + e;
 }
 
 /* plane[index] = value in the active lanes. */
