@@ -158,8 +158,9 @@ def cmd_render(args):
             print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)
     error = "" if stats.estimated_rmse is None else (
         f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)")
+    passes = f"{stats.passes} pass{'es' * (stats.passes != 1)}"
     print(f"{Path(args.output)}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}) x {stats.light_samples} "
-          f"light samples ({stats.light_sampler}) in {stats.passes} pass{'es' * (stats.passes != 1)}, {stats.render_seconds:.3f} s, "
+          f"light samples ({stats.light_sampler}) in {passes}, {stats.render_seconds:.3f} s, "
           f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by {stats.stopped_by}", file=sys.stderr)
 
 

@@ -139,15 +139,15 @@ def pass_size(spp, work_per_sample, budget=PASS_WORK):
     """Samples per pass: a power of two, at most spp and with at most `budget` work units (rays, roughly) per
     pass, so a pass takes a fraction of a second (scene 0 at 512 x 512: its 16 samples in one pass, 0.27 s on
     a 2-core AVX-512 Xeon; render.py halves the budget where a time limit or a target error may stop the
-    render after any pass, so that it stops nearer either). The kernel traces several samples of a pixel at once where a pass holds them
-    (kernels/tile.h), up to its lane width: with passes of 8 samples instead of 1 (a budget of 2^22),
-    mesh_cornell took 31% less kernel time and 41% less wall time, scene 0 9% and 32%, textured_cornell 2% and
-    22% (one process, 6 renders of each alternating; the wall time also saves the host's per-pass
-    accumulation). A pass used to hold at most spp / 2 samples, so that two passes gave the error estimate's
-    two halves; the first pass now stores its first half's sums apart (first_half), and with passes of 16
-    (16 samples of one pixel in a work-item's 16 lanes) instead of 8, mesh_cornell took 6-9% less kernel
+    render after any pass, so that it stops nearer either). The kernel traces several samples of a pixel at
+    once where a pass holds them (kernels/tile.h), up to its lane width: with passes of 8 samples instead of 1
+    (a budget of 2^22), mesh_cornell took 31% less kernel time and 41% less wall time, scene 0 9% and 32%,
+    textured_cornell 2% and 22% (one process, 6 renders of each alternating; the wall time also saves the
+    host's per-pass accumulation). A pass used to hold at most spp / 2 samples, so that two passes gave the
+    error estimate's two halves; the first pass now sums its first half apart (first_half), and with passes of
+    16 (16 samples of one pixel in a work-item's 16 lanes) instead of 8, mesh_cornell took 6-9% less kernel
     time, the 10^6-triangle torus of `bench --scaling` (passes of 4 instead of 2) 20-25%, scene 0 the same
-    (one process, 7-9 renders each alternating)."""
+    (one process, the same kernel, 7-9 renders each alternating)."""
     size = 1
     while size * 2 <= spp and size * 2 * work_per_sample <= budget:
         size *= 2
