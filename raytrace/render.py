@@ -179,7 +179,7 @@ class Resolved:
     pixel: samplers.Pattern
     light: samplers.Pattern
     work: int    # rays per pixel sample, at most
-    passes: list  # (first pixel sample, samples) of every pass
+    passes: list  # (first pixel sample, samples, samples summed apart: progressive.first_half) of every pass
 
 
 def resolve_all(scene, options):
@@ -188,7 +188,8 @@ def resolve_all(scene, options):
     work = 1 + len(scene.lights) * n_light
     stoppable = options.time_limit is not None or options.target_error is not None
     per_pass = pass_size(spp, width * height * work, options.max_pass_work // (2 if stoppable else 1))
-    passes = [(s, min(per_pass, spp - s)) for s in range(0, spp, per_pass)]
+    sizes = [(s, min(per_pass, spp - s)) for s in range(0, spp, per_pass)]
+    passes = [(s, n, first_half(s, n)) for s, n in sizes]
     return Resolved(width, height, spp, n_light, pixel, light, work, passes)
 
 
@@ -216,10 +217,10 @@ def render_progressive(scene, **kwargs):
     acc, rays, render_seconds, history = Accumulator((CHANNELS, r.height, r.width)), 0.0, 0.0, []
     progress, stopped_by = _Progress(r.spp, options.progress), "spp"
     start = time.perf_counter()
-    for k, (sample0, n) in enumerate(r.passes):
+    for k, (_, n, n_first) in enumerate(r.passes):
         pass_start = time.perf_counter()
         seconds, pass_rays = passes.run_pass(k, acc)
-        acc.end_pass(n, first_half(sample0, n))
+        acc.end_pass(n, n_first)
         render_seconds, rays = render_seconds + seconds, rays + pass_rays
         now = time.perf_counter()
         rmse, relative = acc.estimated_rmse()

@@ -12,7 +12,7 @@ from .device import context_for, default_lanes, describe, select_device
 from .interface import KernelArguments
 from .packing import scene_tables, texture_tables
 from .program import Features, render_program
-from .progressive import CHANNELS, first_half
+from .progressive import CHANNELS
 
 # The kernel's output planes, float32 (kernels/render.cl's): R, G, B sums, the ray count, R, G, B over the
 # launch's first n_first samples; a measuring build's counts after them
@@ -115,10 +115,9 @@ class DeviceRender:
         self.bands = _Bands(context, r.width, r.height, band_rows(r, options.max_band_bytes, planes),
                             self.features.lanes, planes)
 
-    def set_samples(self, sample0, n):
-        """The launches that follow render the pixel samples [sample0, sample0 + n), the first pass's first
-        half summed apart too (progressive.first_half)."""
-        n_first = first_half(sample0, n)
+    def set_samples(self, sample0, n, n_first):
+        """The launches that follow render the pixel samples [sample0, sample0 + n), the first n_first of them
+        summed apart too (a pass of render.Resolved)."""
         self.args.set("sample0", np.int32(sample0))
         self.args.set("n_samples", np.int32(n))
         self.args.set("n_first", np.int32(n_first))

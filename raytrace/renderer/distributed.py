@@ -83,9 +83,9 @@ def pickled_render(scene, options):
     return payload, hashlib.sha256(payload).hexdigest()
 
 
-def render_band(payload, resolved, digest, sample0, n, row0, rows):
+def render_band(payload, resolved, digest, sample0, n, n_first, row0, rows):
     """On a worker: the float32 sums of pixel samples [sample0, sample0 + n) over `rows` rows from row0, those
-    of its first half where the pass is the first (progressive.first_half) or None, the rays traced, the kernel
+    of the first n_first of them or None (n_first 0), the rays traced, the kernel
     seconds, and what the statistics say of the worker's device. `payload` is pickled_render's, unpickled once
     per worker and render; `resolved` is the client's render.Resolved: the options checked once, against the
     client's scene file."""
@@ -93,7 +93,7 @@ def render_band(payload, resolved, digest, sample0, n, row0, rows):
         _device_renders.clear()  # one scene at a time: device memory is the worker's to keep small
         _device_renders[digest] = DeviceRender(*pickle.loads(payload), resolved)
     d = _device_renders[digest]
-    d.set_samples(sample0, n)
+    d.set_samples(sample0, n, n_first)
     sums, first, rays, seconds = d.bands.run_band(d.queue, d.args, row0, rows)
     return sums.copy(), None if first is None else first.copy(), rays, seconds, d.info()
 
@@ -110,9 +110,8 @@ class DaskPasses:
         self.futures, self.last_info = {}, None
 
     def _submit(self, k):
-        sample0, n = self.passes[k]
         self.futures[k] = [self.client.submit(render_band, self.payload, self.resolved, self.digest,
-                                              sample0, n, row0, rows, pure=False) for row0, rows in self.bands]
+                                              *self.passes[k], row0, rows, pure=False) for row0, rows in self.bands]
 
     def run_pass(self, k, acc):
         """Pass k's bands added into `acc` in band order; returns (kernel seconds, rays traced)."""

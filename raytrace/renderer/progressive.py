@@ -56,15 +56,13 @@ class Accumulator:
         """Add the current pass's sums for the rows [row0, row0 + len); end_pass() counts the pass. `first`:
         the sums over the first pass's first n_first samples (first_half), the first half of the estimate."""
         rows = slice(row0, row0 + sums.shape[1])
+        if first is None and self.n_total > 0 and _is_power_of_two(self.n_total):
+            # The count is about to pass a power of two: the first half of every later estimate.
+            first = self.total[:, rows]
         if first is not None:
             if self.prefix is None:
                 self.prefix = np.empty(self.total.shape, np.float32)
             self.prefix[:, rows] = first
-        elif self.n_total > 0 and _is_power_of_two(self.n_total):
-            # The count is about to pass a power of two: the first half of every later estimate.
-            if self.prefix is None:
-                self.prefix = np.empty(self.total.shape, np.float32)
-            self.prefix[:, rows] = self.total[:, rows]
         self.total[:, rows] += sums
 
     def end_pass(self, n, n_first=0):

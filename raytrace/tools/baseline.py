@@ -3,9 +3,9 @@
 DIR is another kernels/ directory: another commit's, checked out beside this one (`git worktree add
 /tmp/base COMMIT`, then `--baseline /tmp/base/kernels`), or a copy with one change tried out. Both kernels
 are built for the same features from the same scene tables, packed by this checkout's host, and rendered in
-turns in one process (ours then the baseline's, then the baseline's then ours, and so on), so that a shared machine's drift falls
-on both: a kernel change is then measured to a few per cent where two processes minutes apart differ by
-10-30%. The host packs this checkout's structs, so the baseline's kernels/types.h must be the same file; a
+turns in one process (ours then the baseline's, then the baseline's then ours, and so on), so that a shared
+machine's drift falls on both: a kernel change is then measured to a few per cent where two processes
+minutes apart differ by 10-30%. The host packs this checkout's structs, so the baseline's kernels/types.h must be the same file; a
 change to the host (packing, the BVH's build) needs two processes instead.
 
 Per scene it prints both kernels' fastest render and two ratios, ours over the baseline's (below 1: ours
@@ -16,11 +16,8 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from ..render import RenderOptions, check_memory, resolve
-from ..renderer.device import select_device
 from ..renderer.program import kernel_dir
-from ..scene import load_scene
-from .bench import _features, in_turns
+from .bench import _features, checked_scenes, in_turns
 
 
 def baseline_kernels(directory):
@@ -43,10 +40,7 @@ def against_baseline(scene_paths, baseline, repeat=3, out=sys.stdout, **kwargs):
     """Each scene rendered `repeat` times by this checkout's kernel and by the baseline's (a kernels/
     directory checked by baseline_kernels), in turns; prints a line a scene and returns the rows."""
     baseline = baseline_kernels(baseline)
-    scenes = [(path, load_scene(path)) for path in scene_paths]
-    for _, scene in scenes:
-        check_memory(*resolve(scene, RenderOptions(**kwargs))[:2])
-    select_device(kwargs.get("device"))
+    scenes = checked_scenes(scene_paths, kwargs)
     rows = []
     for path, scene in scenes:
         print(f"bench: {path}: this kernel and the baseline's, in turns, {repeat} each", file=sys.stderr, flush=True)

@@ -213,17 +213,23 @@ def run_peer(command, field="mrays_per_s"):
     return result
 
 
-def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, outputs=None, **kwargs):
-    """Measure every scene (all loaded and their options checked first, so that bad input costs no
-    minutes of measuring: `outputs`, a raytrace.outputs.Outputs, learns the files they read); prints the
-    table and the machine line, returns everything as one dict, which `save` is given at the end."""
+def checked_scenes(scene_paths, kwargs, outputs=None):
+    """(path, Scene) of every scene, all loaded, their options and memory checked and the device selected
+    before any measuring, so that bad input costs no minutes of it; `outputs`, a raytrace.outputs.Outputs,
+    learns the files they read."""
     scenes = [(path, load_scene(path)) for path in scene_paths]
     for _, scene in scenes:
         if outputs is not None:
             outputs.add_inputs(scene_inputs(scene))
-        width, height = resolve(scene, RenderOptions(**kwargs))[:2]
-        check_memory(width, height)
+        check_memory(*resolve(scene, RenderOptions(**kwargs))[:2])
     select_device(kwargs.get("device"))
+    return scenes
+
+
+def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, outputs=None, **kwargs):
+    """Measure every scene (checked_scenes first); prints the table and the machine line, returns everything
+    as one dict, which `save` is given at the end."""
+    scenes = checked_scenes(scene_paths, kwargs, outputs)
     print(f"bench: every scene's render, best of {repeat}, in turns", file=sys.stderr, flush=True)
     best, seconds = in_turns([scene for _, scene in scenes], repeat, kwargs)
     rows = [measure(path, scene, repeat, kwargs, stats) for (path, scene), stats in zip(scenes, best)]
