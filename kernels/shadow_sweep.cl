@@ -20,6 +20,12 @@
  * and mesh_cornell the same; 6 leaves cost mesh_cornell 7-9%. */
 #define SWEEP_LEAVES 8
 
+/* Nor may a sweep open more interior nodes than this: one that must (a packet whose segments start among a
+ * fine mesh's leaves) mostly ends with too many leaves anyway, and gives up sooner. Against no limit (one
+ * process, renders alternating, 11 each): the tori of `bench --scaling` 4-7% less time at 10^3, 10^5 and 10^6
+ * triangles, scene 0, textured_cornell and mesh_cornell within the noise; 6, 16 and 24 measured no better. */
+#define SWEEP_OPENED 12
+
 /* The box (1 - t) O + t L: on each axis its low side moves from O's low to L's, its high side from O's high to
  * L's. A node's box [b0, b1] overlaps it where lo(t) <= b1 and hi(t) >= b0: each a bound on t, above or below
  * by the sign of the side's motion. */
@@ -103,7 +109,7 @@ inline int sweep_meets(const Scene *s, const Sweep *w, int j)
 }
 
 /* The leaves a sweep meets, far first from the light's side as shadow traversals go (bvh.cl); n = -1 when
- * there are more than SWEEP_LEAVES. */
+ * there are more than SWEEP_LEAVES, or it would open more than SWEEP_OPENED interior nodes to find them. */
 typedef struct { int n, leaf[SWEEP_LEAVES]; } SweptLeaves;
 
 inline int sweep_enters(const Scene *s, const Sweep *w, int j, uint skip)
@@ -114,12 +120,16 @@ inline int sweep_enters(const Scene *s, const Sweep *w, int j, uint skip)
 inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
 {
     SweptLeaves out = {0};
-    int stack[BVH_STACK], top = 0, i = 0;
+    int stack[BVH_STACK], top = 0, i = 0, opened = 0;
     if (!sweep_enters(s, w, 0, skip))
         return out;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];
         if (node->count <= 0) {
+            if (opened++ == SWEEP_OPENED) {
+                out.n = -1;
+                return out;
+            }
             int first, second = order_children(s->nodes, i, w->negative, 1, &first);
             int in_first = sweep_enters(s, w, first, skip), in_second = sweep_enters(s, w, second, skip);
             stack[top] = second;
