@@ -69,27 +69,32 @@ def test_banding_changes_nothing(cluster, scene0):
 
 
 def test_a_killed_worker_changes_nothing(cluster, scene0):
-    """SIGKILL to one worker once its first tasks are done: the scheduler runs its tasks again elsewhere (the
-    nanny starts a new worker) and the image is still the single-process one."""
-    options = dict(SMALL, spp=64, **ONE_ROW)
+    """SIGKILL to one worker while a render of 64 passes of one sample is under way: the scheduler runs its
+    tasks again elsewhere (the nanny starts a new worker) and the image is still the single-process one. The
+    kill must land before the render ends, or the test proves nothing: it asserts that too (a render of one
+    pass ended before it on a fast machine)."""
+    options = dict(SMALL, spp=64, max_pass_work=64 * 48 * 5, **ONE_ROW)
     local = render_progressive(scene0, **options)
     client = cluster[1]
-    pids = client.run(os.getpid)
-    victim = sorted(pids.values())[0]
+    victim = sorted(client.run(os.getpid).values())[0]
+    done, killed_before_done = threading.Event(), []
 
     def kill_when_busy():
         deadline = time.time() + 30
         while time.time() < deadline and not any(client.processing().values()):
             time.sleep(0.01)
         time.sleep(0.2)
+        killed_before_done.append(not done.is_set())
         os.kill(victim, signal.SIGKILL)
     killer = threading.Thread(target=kill_when_busy)
     killer.start()
     remote = render_progressive(scene0, **options, client=client)
+    done.set()
     killer.join()
+    assert killed_before_done == [True], "the render ended before the kill: the test proved nothing"
     assert_same(local, remote)
+    assert local[2].passes == 64
     client.wait_for_workers(2, timeout=60)
-    assert victim not in client.run(os.getpid).values(), "the worker was not killed: the test proved nothing"
 
 
 @pytest.mark.parametrize("stop", [dict(time_limit=0.3), dict(target_error=0.2)])
