@@ -63,7 +63,7 @@ inline vint meets_box(__global const BVHNode *node, Ray r, BoxRay b, vfloat tmax
     slab(node->lo[1], node->hi[1], r.o.y, b.inv_d.y, b.any_zero, &ny, &fy);
     slab(node->lo[2], node->hi[2], r.o.z, b.inv_d.z, b.any_zero, &nz, &fz);
     vfloat near = vmax(vmax(nx, ny), vmax(nz, 0.0f)), far = vmin(vmin(fx, fy), vmin(fz, tmax));
-    return near <= far * (1.0f + 2.0f * GAMMA(8));
+    return near <= WIDENED(far, 8);
 }
 
 /* The children of interior node `i` in the order to visit them: *first, then the returned second. Near first
@@ -74,6 +74,21 @@ inline int order_children(__global const BVHNode *nodes, int i, const int *negat
     int right = nodes[i].offset, right_first = negative[-nodes[i].count] != far_first;
     *first = right_first ? right : i + 1;
     return right_first ? i + 1 : right;
+}
+
+/* The nodes a traversal has yet to visit: second children of nodes whose two children it entered. */
+typedef struct { int node[BVH_STACK], top; } NodeStack;
+
+/* After testing an opened node's two children: whether either is entered, and *i, the one to visit next, the
+ * first if it is entered, else the second; the second is pushed when both are (stored always, counted only
+ * then: no branch to mispredict). Every traversal here, shadow_sweep.cl's too, steps this way. Written as one
+ * node index or -1, or with popping likewise, the traversals measured 9-23% slower. */
+inline int enter_children(NodeStack *todo, int *i, int first, int second, int in_first, int in_second)
+{
+    todo->node[todo->top] = second;
+    todo->top += in_first & in_second;
+    *i = in_first ? first : second;
+    return in_first | in_second;
 }
 
 /* Whether a closest-hit packet meets node j's box within [0, t]. */
@@ -93,7 +108,8 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
 {
     BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
-    int stack[BVH_STACK], top = 0, i = 0;
+    NodeStack todo = {.top = 0};
+    int i = 0;
     if (!meets_node(s, 0, r, b, vmin(tmax, hit->t)))
         return;
     for (;;) {
@@ -102,20 +118,16 @@ inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
             int first, second = order_children(s->nodes, i, b.negative, 0, &first);
             vfloat t = vmin(tmax, hit->t);
             int in_first = meets_node(s, first, r, b, t), in_second = meets_node(s, second, r, b, t);
-            stack[top] = second;
-            top += in_first & in_second;
-            if (in_first | in_second) {
-                i = in_first ? first : second;
+            if (enter_children(&todo, &i, first, second, in_first, in_second))
                 continue;
-            }
         } else {
             for (int k = node->offset; k < node->offset + node->count; ++k)
                 hit_primitive(s, hit, &p, s->prims[k] & 3, s->prims[k] >> 2, tmax);
         }
         do { /* a node pushed before a closer hit was found is tested again */
-            if (top == 0)
+            if (todo.top == 0)
                 return;
-            i = stack[--top];
+            i = todo.node[--todo.top];
         } while (!meets_node(s, i, r, b, vmin(tmax, hit->t)));
     }
 }
@@ -165,7 +177,8 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
     BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
     vint settled = !active;
-    int stack[BVH_STACK], top = 0, i = 0;
+    NodeStack todo = {.top = 0};
+    int i = 0;
     if (!enters(s, 0, r, b, skip, settled))
         return settled & active;
     for (;;) {
@@ -173,20 +186,16 @@ inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
         if (node->count <= 0) {
             int first, second = order_children(s->nodes, i, b.negative, 1, &first);
             int in_first = enters(s, first, r, b, skip, settled), in_second = enters(s, second, r, b, skip, settled);
-            stack[top] = second; /* kept only when both are entered: no branch to mispredict */
-            top += in_first & in_second;
-            if (in_first | in_second) {
-                i = in_first ? first : second;
+            if (enter_children(&todo, &i, first, second, in_first, in_second))
                 continue;
-            }
         } else {
             settled |= leaf_blocks(s, &p, node, skip);
             if (ALL(settled))
                 break;
         }
-        if (top == 0)
+        if (todo.top == 0)
             break;
-        i = stack[--top];
+        i = todo.node[--todo.top];
     }
     return settled & active;
 }

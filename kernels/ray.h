@@ -19,6 +19,12 @@ typedef struct { vec3 o, d; } Ray;
  * count as 5 and 4 roundings below. MAD() may round once or twice: it counts as two. */
 #define GAMMA(n) ((float)(n) * 0x1p-24f / (1.0f - (float)(n) * 0x1p-24f))
 
+/* The far end of a parameter interval [near, far] whose two ends are each within gamma(n - 1) of their exact
+ * values, widened for both errors and for the product's own rounding: near <= WIDENED(far, n) holds whenever
+ * the exact interval is not empty, so a box test that uses it never misses (pbrt-v4 section 6.8.2 widens by
+ * 2 gamma(3) this way). */
+#define WIDENED(far, n) ((far) * (1.0f + 2.0f * GAMMA(n)))
+
 inline vec3 v3_abs(vec3 a) { return v3(vabs(a.x), vabs(a.y), vabs(a.z)); }
 
 /* The next float beyond x in the direction of `towards` where `away` is set (nextafter, written on the bits:

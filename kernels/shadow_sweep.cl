@@ -105,7 +105,7 @@ inline int sweep_meets(const Scene *s, const Sweep *w, int j)
     float3 down_lo = w->lo_rises ? -inf : t_lo, down_hi = w->hi_rises ? t_hi : -inf;
     float upper = min_bound(1.0f, LANE_MIN(up_lo, up_hi));
     float lower = max_bound(0.0f, LANE_MAX(down_lo, down_hi));
-    return lower <= upper * (1.0f + 2.0f * GAMMA(9));
+    return lower <= WIDENED(upper, 9);
 }
 
 /* The leaves a sweep meets, far first from the light's side as shadow traversals go (bvh.cl); n = -1 when
@@ -120,7 +120,8 @@ inline int sweep_enters(const Scene *s, const Sweep *w, int j, uint skip)
 inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
 {
     SweptLeaves out = {0};
-    int stack[BVH_STACK], top = 0, i = 0, opened = 0;
+    NodeStack todo = {.top = 0};
+    int i = 0, opened = 0;
     if (!sweep_enters(s, w, 0, skip))
         return out;
     for (;;) {
@@ -132,12 +133,8 @@ inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
             }
             int first, second = order_children(s->nodes, i, w->negative, 1, &first);
             int in_first = sweep_enters(s, w, first, skip), in_second = sweep_enters(s, w, second, skip);
-            stack[top] = second;
-            top += in_first & in_second;
-            if (in_first | in_second) {
-                i = in_first ? first : second;
+            if (enter_children(&todo, &i, first, second, in_first, in_second))
                 continue;
-            }
         } else {
             if (out.n == SWEEP_LEAVES) {
                 out.n = -1;
@@ -145,9 +142,9 @@ inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
             }
             out.leaf[out.n++] = i;
         }
-        if (top == 0)
+        if (todo.top == 0)
             return out;
-        i = stack[--top];
+        i = todo.node[--todo.top];
     }
 }
 
