@@ -85,10 +85,10 @@ def pickled_render(scene, options):
 
 def render_band(payload, resolved, digest, sample0, n, n_first, row0, rows):
     """On a worker: the float32 sums of pixel samples [sample0, sample0 + n) over `rows` rows from row0, those
-    of the first n_first of them or None (n_first 0), the rays traced, the kernel
-    seconds, and what the statistics say of the worker's device. `payload` is pickled_render's, unpickled once
-    per worker and render; `resolved` is the client's render.Resolved: the options checked once, against the
-    client's scene file."""
+    of the first n_first of them or None (n_first 0), the rays traced, the kernel seconds, and what the
+    statistics say of the worker's device. `payload` is pickled_render's, unpickled once per worker and
+    render; `resolved` is the client's render.Resolved: the options checked once, against the client's scene
+    file."""
     if digest not in _device_renders:
         _device_renders.clear()  # one scene at a time: device memory is the worker's to keep small
         _device_renders[digest] = DeviceRender(*pickle.loads(payload), resolved)
