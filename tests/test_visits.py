@@ -53,6 +53,19 @@ def floor_scene(cornell, far_triangle):
                                triangles=[floor, far] if far_triangle else [floor])
 
 
+
+@pytest.mark.parametrize("light_samples", [1, 2, 3, 5, 6, 7, 9])
+def test_every_light_sample_casts_one_shadow_ray(cornell, lanes, light_samples):
+    """lights_sum (kernels/light_sampling.cl) forms light samples in groups of four before tracing them: over
+    the floor, where every lane casts every shadow ray, a render traces exactly light_samples shadow rays per
+    pixel sample, whether or not the count fills its last group. It fails if a group's samples past the last
+    are traced or the last ones dropped."""
+    scene = floor_scene(cornell, False)
+    size = dict(SIZE, light_samples=light_samples)
+    _, stats = render(scene, features=Features.of(scene, lanes), light_sampler="random", **size)
+    camera_rays = size["width"] * size["height"] * size["spp"]
+    assert stats.rays == camera_rays * (1 + light_samples)
+
 @pytest.mark.parametrize("far_triangle,bvh,boxes,swept,primitives", [(False, True, 1, 1, 1), (True, True, 3, 3, 1),
                                                                        (True, False, 0, 0, 2)])
 def test_visits_are_the_boxes_and_primitives_tested(cornell, lanes, far_triangle, bvh, boxes, swept, primitives):
