@@ -10,17 +10,17 @@
 #include "lights.cl"
 #include "material.cl"
 
+/* How many light samples lights_sum forms at once: their points, directions and masks (sample_counts) are
+ * independent work that the CPU overlaps, before their shadow rays are traced and their weights added in
+ * order. In one process against one sample at a time (15 renders each, alternating; 16 lanes, the newer AVX-512
+ * Xeon): scene 0 3-4% less time, mesh_cornell 2-3%, textured_cornell 3%, grid_floor 7%, the bench --scaling
+ * tori unchanged (4 light samples, most of their time in traversal); scene 0 with 4 light samples 1% less, with
+ * 1 sample 2% more. The same bits. A group of 2 measured 2-3% slower than 4. */
+#define LIGHT_SAMPLE_GROUP 4
+
 /* sum over lights of colour (light_scale / N) sum_j V_j sample_weight_j, for the lanes of `surface`, seen
  * along -v; *rays counts the shadow rays traced per lane. The models see each sample as w = q - p and its unit
  * direction l, formed once here. */
-/* How many light samples lights_sum forms before it traces their shadow rays: their points, directions and
- * weights (Phong's power is a log2 and an exp2) are independent work that the CPU overlaps. In one process
- * against one sample at a time (15 renders each, alternating; 16 lanes, the newer AVX-512 Xeon): scene 0 3-4%
- * less time, mesh_cornell 2-3%, textured_cornell 3%, grid_floor 7%, the bench --scaling tori unchanged (4 light
- * samples, most time in traversal); scene 0 with 4 light samples 1% less, with 1 sample 2% more. The same
- * bits. A group of 2 measured 2-3% slower than 4. */
-#define LIGHT_SAMPLE_GROUP 4
-
 inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __global const uint2 *light_samples,
                        vuint key, vfloat *rays)
 {
