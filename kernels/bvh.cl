@@ -164,22 +164,22 @@ inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settle
     return !skipped_subtree(s, j, skip) && unsettled_meets(s, j, r, b, settled);
 }
 
-/* intersect.cl's occluded() over the hierarchy: the `skip`ped rectangles are not tested, nor the subtrees
- * that hold nothing else (a room's walls). Lanes outside `active` count as settled from the start, so they
- * open no node: a packet's traversal is the union of its active rays' only. An opened node's two children
- * are tested together, and only those the packet enters are visited (the second pushed, without the lanes
- * that met it: a shadow ray needs no distance to cull by): the two box tests are independent, so they
- * overlap in the CPU's pipeline, and a missed child costs no trip through the stack. In one process against
- * testing each child when it is popped (renders alternating, 9-11 each, both orders): mesh_cornell 2-7%
- * less time, the 10^6-triangle torus of `bench --scaling` 7%, scene 0 within the noise. */
-inline vint bvh_occluded(const Scene *s, Ray r, uint skip, vint active)
+/* intersect.cl's occluded() over the subtree of node i (the root, or where a sweep says every blocker must lie:
+ * shadow_sweep.cl): the `skip`ped rectangles are not tested, nor the subtrees that hold nothing else (a room's
+ * walls). Lanes outside `active` count as settled from the start, so they open no node: a packet's traversal is the
+ * union of its active rays' only. An opened node's two children are tested together, and only those the packet
+ * enters are visited (the second pushed, without the lanes that met it: a shadow ray needs no distance to cull by):
+ * the two box tests are independent, so they overlap in the CPU's pipeline, and a missed child costs no trip
+ * through the stack. In one process against testing each child when it is popped (renders alternating, 9-11 each,
+ * both orders): mesh_cornell 2-7% less time, the 10^6-triangle torus of `bench --scaling` 7%, scene 0 within the
+ * noise. */
+inline vint bvh_occluded(const Scene *s, int i, Ray r, uint skip, vint active)
 {
     BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
     vint settled = !active;
     NodeStack todo = {.top = 0};
-    int i = 0;
-    if (!enters(s, 0, r, b, skip, settled))
+    if (!enters(s, i, r, b, skip, settled))
         return settled & active;
     for (;;) {
         __global const BVHNode *node = &s->nodes[i];

@@ -81,7 +81,7 @@ inline uint rectangles_out_of_reach(const Scene *s, __global const Light *light,
 inline vint occluded(const Scene *s, Ray r, uint skip, vint active)
 {
 #if HAS_BVH
-    return bvh_occluded(s, r, skip, active);
+    return bvh_occluded(s, 0, r, skip, active);
 #else
     PrimitiveRay p = primitive_ray(r);
     vint settled = !active;

@@ -109,8 +109,14 @@ inline int sweep_meets(const Scene *s, const Sweep *w, int j)
 }
 
 /* The leaves a sweep meets, far first from the light's side as shadow traversals go (bvh.cl); n = -1 when
- * there are more than SWEEP_LEAVES, or it would open more than SWEEP_OPENED interior nodes to find them. */
-typedef struct { int n, leaf[SWEEP_LEAVES]; } SweptLeaves;
+ * there are more than SWEEP_LEAVES, or it would open more than SWEEP_OPENED interior nodes to find them. Then
+ * each sample traverses the tree from `start`, the deepest node the sweep reached whose subtree holds every
+ * node it met (it met no other leaf and had none pushed): the nodes above it and their other children lie
+ * outside the sweep, so no segment meets them. A packet on a mesh skips the levels above the mesh's subtree.
+ * In one process against traversals from the root (11 renders each, alternating; newer AVX-512 Xeon): the
+ * bench --scaling tori 7% less time at 10^3 triangles (shadow boxes 0.68 -> 0.55 a ray), 4% at 10^5, 1% at
+ * 10^6 (3.11 -> 2.96), mesh_cornell 1.5% (0.272 -> 0.259), scene 0 1% (its sweeps seldom give up). */
+typedef struct { int n, start, leaf[SWEEP_LEAVES]; } SweptLeaves;
 
 inline int sweep_enters(const Scene *s, const Sweep *w, int j, uint skip)
 {
@@ -125,6 +131,8 @@ inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
     if (!sweep_enters(s, w, 0, skip))
         return out;
     for (;;) {
+        if (todo.top == 0 && out.n == 0)
+            out.start = i;
         __global const BVHNode *node = &s->nodes[i];
         if (node->count <= 0) {
             if (opened++ == SWEEP_OPENED) {
@@ -153,7 +161,7 @@ inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
 inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uint skip, vint active)
 {
     if (leaves->n < 0)
-        return bvh_occluded(s, r, skip, active);
+        return bvh_occluded(s, leaves->start, r, skip, active);
     BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);
     vint settled = !active;

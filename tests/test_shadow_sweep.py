@@ -44,14 +44,16 @@ __kernel void meets(int n, __global const Light *lights, __global const BVHNode 
 }
 
 /* How many leaves swept_leaves lists for the sweep from each work-item's origins to its light over the tree
- * `nodes` (-1: too many, or too deep to reach). */
+ * `nodes` (-1: too many, or too deep to reach), and the node it says every blocker lies under. */
 __kernel void swept(int n, __global const Light *lights, __global const BVHNode *nodes, __global const float *o,
-                    __global float *leaves)
+                    __global float *leaves, __global float *start)
 {
     Scene s = {.nodes = nodes};
     __global const Light *light = &lights[get_global_id(0)];
     Sweep w = shadow_sweep(light, light_point_error(light), IN3(o), (vfloat)(0.0f) == 0.0f);
-    OUT(leaves, (vfloat)(swept_leaves(&s, &w, 0u).n));
+    SweptLeaves met = swept_leaves(&s, &w, 0u);
+    OUT(leaves, (vfloat)(met.n));
+    OUT(start, (vfloat)(met.start));
 }
 
 /* A sample's blocked lanes as lights_sum finds them for one of `samples` light samples (among the sweep's
@@ -190,6 +192,13 @@ def test_sweep_misses_what_lies_outside(harness, lanes):
     assert not met[outside].any(), f"{np.count_nonzero(met[outside])} boxes outside the sweep met"
 
 
+def above_the_origins():
+    """Origins of 4 packets of up to 16 lanes around the origin, and 4 copies of a light above them at z = 2."""
+    rng = np.random.default_rng(5)
+    return rng.uniform(-0.05, 0.05, (64, 3)), light_structs(
+        [Light(center=[0.0, 0.0, 2.0], size=[0.4, 0.4], normal=[0.0, 0.0, -1.0], tangent=[1.0, 0.0, 0.0])] * 4)
+
+
 def chain(depth):
     """A tree whose sweep (below) must open `depth` interior nodes to reach its one leaf on the way: interior
     node 2k holds everything, its first child 2k + 1 is a leaf far off the sweep, its second 2k + 2 the next
@@ -207,17 +216,39 @@ def chain(depth):
 def test_a_sweep_gives_up_past_its_opened_nodes(harness, lanes, cl_env):
     """A sweep that must open more than SWEEP_OPENED interior nodes to find its leaves (a packet starting among
     a fine mesh's) gives up (-1: each sample traverses the tree, which tests the same leaves), one that opens
-    SWEEP_OPENED lists its leaf. Packets around the origin, the light above them at z = 2. It fails if the
-    limit is off by one or missing."""
+    SWEEP_OPENED lists its leaf. It fails if the limit is off by one or missing."""
     limit = run_int_kernel(cl_env, '#include "shadow_sweep.cl"\n' + values_kernel(["SWEEP_OPENED"]), 1)[0]
-    rng = np.random.default_rng(5)
-    o = rng.uniform(-0.05, 0.05, (4 * lanes, 3))
-    lights = light_structs([Light(center=[0.0, 0.0, 2.0], size=[0.4, 0.4], normal=[0.0, 0.0, -1.0],
-                                  tangent=[1.0, 0.0, 0.0])] * 4)
+    o, lights = above_the_origins()
+    o = o[:4 * lanes]
     for depth, expected in ((limit, 1), (limit + 1, -1)):
-        leaves = harness.run(SOURCE, "swept", len(o), [lights, chain(depth), planar(o)], {"leaves": 1},
+        leaves = harness.run(SOURCE, "swept", len(o), [lights, chain(depth), planar(o)], {"leaves": 1, "start": 1},
                              HAS_BVH=1)["leaves"]
         np.testing.assert_array_equal(leaves, expected, err_msg=f"{depth} interior nodes deep")
+
+
+def test_a_sweep_that_gives_up_says_where_blockers_lie(harness, lanes, cl_env):
+    """Where a sweep gives up, each sample traverses from `start`, the deepest node whose subtree holds every
+    node the sweep met. Down a chain of nodes that each enter one child, it is the node where the sweep gave
+    up (2 SWEEP_OPENED: the nodes above it and their other children lie off the sweep); with a leaf met
+    beside the chain, under a root split along z that lists that leaf first (far first, from the light), it
+    stays the root. It fails if start moves past a listed leaf or is not set."""
+    limit = run_int_kernel(cl_env, '#include "shadow_sweep.cl"\n' + values_kernel(["SWEEP_OPENED"]), 1)[0]
+    o, lights = above_the_origins()
+    o = o[:4 * lanes]
+    out = harness.run(SOURCE, "swept", len(o), [lights, chain(limit + 1), planar(o)], {"leaves": 1, "start": 1},
+                      HAS_BVH=1)
+    np.testing.assert_array_equal(out["leaves"], -1)
+    np.testing.assert_array_equal(out["start"], 2 * limit)
+    beside = np.zeros(1, structs.BVH_NODE)
+    beside["lo"], beside["hi"], beside["count"] = [-0.1, -0.1, 1.5], [0.1, 0.1, 1.6], 1
+    inner = chain(limit + 1)
+    inner["offset"][inner["count"] <= 0] += 1  # one node further down: the root comes first
+    root = np.zeros(1, structs.BVH_NODE)
+    root["lo"], root["hi"], root["count"], root["offset"] = -10.0, 10.0, -2, 1 + len(inner)
+    tree = np.concatenate([root, inner, beside])
+    out = harness.run(SOURCE, "swept", len(o), [lights, tree, planar(o)], {"leaves": 1, "start": 1}, HAS_BVH=1)
+    np.testing.assert_array_equal(out["leaves"], -1)
+    np.testing.assert_array_equal(out["start"], 0)
 
 
 @pytest.fixture(scope="module")
