@@ -40,7 +40,8 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
             vec3 q[LIGHT_SAMPLE_GROUP], w[LIGHT_SAMPLE_GROUP], l[LIGHT_SAMPLE_GROUP];
             vint lit[LIGHT_SAMPLE_GROUP] = {0}, any_lit = (vint)(0); /* samples past the last count nowhere */
             for (int g = 0; g < LIGHT_SAMPLE_GROUP && j0 + g < n_samples; ++g) {
-                q[g] = light_point(light, sample_2d(light_samples, (vint)(j0 + g), s->params->light_sampler, light_key));
+                vec2 u = sample_2d(light_samples, (vint)(j0 + g), s->params->light_sampler, light_key);
+                q[g] = light_point(light, u);
                 w[g] = v3_sub(q[g], sp.p); /* towards the sample, and its unit direction */
                 l[g] = v3_direction(w[g]);
                 lit[g] = surface & sample_counts(sp, l[g], light_normal);
