@@ -107,7 +107,7 @@ inline SweptLeaves shadow_candidates(const Scene *s, __global const Light *light
         return swept_leaves(s, &w, skip);
     }
 #endif
-    SweptLeaves every = {-1};
+    SweptLeaves every = {-1}; /* every shape; with a tree, each sample traverses it from the root (start 0) */
     return every;
 }
 
