@@ -3,6 +3,7 @@ same device at two lane widths is within the bound, and an image moved beyond it
 import json
 
 import numpy as np
+import pytest
 
 from raytrace.tools import same_images
 
@@ -25,3 +26,18 @@ def test_devices_beyond_the_bound_fail(tmp_path, monkeypatch):
     monkeypatch.setattr(same_images, "render", brighter_second)
     assert same_images.main(["devices", str(tmp_path), "--device", "cpu", "--lanes", "1"]) == 1
     assert not json.loads((tmp_path / "devices.json").read_text())["passed"]
+
+
+def test_devices_against_a_saved_cpu_image(tmp_path):
+    """--cpu-image (a GPU machine without PoCL): the saved array stands in for PoCL's render; the same array
+    moved by 0.2 fails, and one of another size is refused."""
+    assert same_images.main(["devices", str(tmp_path / "a"), "--device", "cpu", "--lanes", "1"]) == 0
+    saved = tmp_path / "a" / "cpu.npy"
+    assert same_images.main(["devices", str(tmp_path / "b"), "--device", "cpu", "--cpu-image", str(saved)]) == 0
+    assert json.loads((tmp_path / "b" / "devices.json").read_text())["cpu"].startswith(str(saved))
+    np.save(tmp_path / "brighter.npy", np.load(saved) + 0.2)
+    assert same_images.main(["devices", str(tmp_path / "c"), "--device", "cpu",
+                             "--cpu-image", str(tmp_path / "brighter.npy")]) == 1
+    np.save(tmp_path / "small.npy", np.load(saved)[:8])
+    with pytest.raises(SystemExit, match="shape"):
+        same_images.main(["devices", str(tmp_path / "d"), "--device", "cpu", "--cpu-image", str(tmp_path / "small.npy")])

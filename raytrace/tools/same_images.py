@@ -7,7 +7,9 @@ after. Exit status 1 when an image differs.
 `python -m raytrace.tools.same_images devices DIR --device SPEC`: scene 0 rendered on PoCL's CPU device and
 on another device (a GPU), compared within the bound the tests argue rather than bit for bit (devices round
 differently: FMA contraction, their own division and square root); both arrays and the figures
-(devices.json) are left in DIR. Exit status 1 when the images differ by more than that bound."""
+(devices.json) are left in DIR. Exit status 1 when the images differ by more than that bound. With
+`--cpu-image FILE`, PoCL's render is that array, made on another machine (DIR/cpu.npy of a devices run there,
+e.g. with `--device cpu`), for a GPU machine without PoCL."""
 import argparse
 import json
 import sys
@@ -47,19 +49,26 @@ FLIP = 2 / (DEVICE_SIZE["spp"] * DEVICE_SIZE["light_samples"])  # k L (n.l + 1) 
 DEVICE_BOUNDS = {"share_over_1e-4": 2 * 0.01, "rmse": 2 * 3.1e-3, "max": 2 * (2 * FLIP + 1e-4)}
 
 
-def compare_devices(directory, device, lanes=None):
-    """Scene 0 on PoCL's CPU device and on `device` (at `lanes`, default the device's own), saved as
-    cpu.npy and device.npy in `directory`; the figures, with `passed` against DEVICE_BOUNDS."""
+def compare_devices(directory, device, lanes=None, cpu_image=None):
+    """Scene 0 on PoCL's CPU device (or the array saved in `cpu_image`) and on `device` (at `lanes`, default
+    the device's own), saved as cpu.npy and device.npy in `directory`; the figures, with `passed` against
+    DEVICE_BOUNDS."""
     scene = load_scene(SCENES / "cornell.toml")
-    cpu, cpu_stats = render(scene, **DEVICE_SIZE, device="cpu")
+    if cpu_image is None:
+        cpu, cpu_stats = render(scene, **DEVICE_SIZE, device="cpu")
+        cpu_side = {"cpu": cpu_stats.device, "cpu_build_options": cpu_stats.build_options}
+    else:
+        cpu = np.load(cpu_image)
+        cpu_side = {"cpu": f"{cpu_image} (rendered elsewhere)", "cpu_build_options": ["saved"]}
     other, other_stats = render(scene, **DEVICE_SIZE, device=device, lanes=lanes)
+    if cpu.shape != other.shape:
+        raise SystemExit(f"same_images: {cpu_image}: shape {cpu.shape}, not this render's {other.shape}")
     np.save(directory / "cpu.npy", cpu)
     np.save(directory / "device.npy", other)
     err = np.abs(other.astype(np.float64) - cpu).max(axis=-1)
     figures = {"share_over_1e-4": float(np.mean(err > 1e-4)), "rmse": rmse(other, cpu), "max": float(err.max())}
     finite = bool(np.all(np.isfinite(other)))
-    return {"cpu": cpu_stats.device, "cpu_build_options": cpu_stats.build_options,
-            "device": other_stats.device, "device_build_options": other_stats.build_options,
+    return {**cpu_side, "device": other_stats.device, "device_build_options": other_stats.build_options,
             "render": {k: v for k, v in DEVICE_SIZE.items() if k != "progress"}, "finite": finite,
             "figures": figures, "bounds": DEVICE_BOUNDS,
             "passed": finite and all(figures[k] <= bound for k, bound in DEVICE_BOUNDS.items())}
@@ -71,12 +80,13 @@ def main(argv=None):
     parser.add_argument("dir", type=Path)
     parser.add_argument("--device", help="devices: the device to compare with PoCL's CPU (render's --device)")
     parser.add_argument("--lanes", type=int, help="devices: that device's lane width (default: its own)")
+    parser.add_argument("--cpu-image", type=Path, help="devices: PoCL's render saved before (a devices run's cpu.npy)")
     args = parser.parse_args(argv)
     args.dir.mkdir(parents=True, exist_ok=True)
     if args.mode == "devices":
         if not args.device:
             parser.error("devices needs --device")
-        result = compare_devices(args.dir, args.device, args.lanes)
+        result = compare_devices(args.dir, args.device, args.lanes, args.cpu_image)
         (args.dir / "devices.json").write_text(json.dumps(result, indent=1) + "\n")
         figures, bounds = result["figures"], result["bounds"]
         print(f"{result['device']} ({result['device_build_options'][0]}) against {result['cpu']} "
