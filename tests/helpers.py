@@ -1,7 +1,6 @@
 """Helpers the test modules share: the checkout's paths, the command line run as a user runs it, the
 planar layout of the test kernels' arrays, kernels that report the device's constants, and texture lookups in the kernel, in OpenImageIO and as the
 device stores the levels. Fixtures are in conftest.py."""
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +13,7 @@ from raytrace import structs
 from raytrace.renderer import packing
 from raytrace.renderer.program import build
 from raytrace.scene import mipmap
+from raytrace.tools import child_env
 from raytrace.tools.probe import planar  # noqa: F401 (for the tests)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -24,7 +24,7 @@ def run(*args, env=None, **kwargs):
     """`python -m raytrace ARGS`, its output captured, in `env` (default: this process's environment); kwargs
     go to subprocess.run (cwd, preexec_fn)."""
     return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
-                          env={**(os.environ if env is None else env), "PYTHONPATH": str(ROOT)}, **kwargs)
+                          env=child_env(env), **kwargs)
 
 
 LOOKUP = """

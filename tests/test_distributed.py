@@ -12,7 +12,6 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -147,12 +146,12 @@ def test_dask_worker_processes_over_tcp(tmp_path):
     writes holds the single-process render's values bit for bit."""
     port = free_port()
     address = f"tcp://127.0.0.1:{port}"
-    dask = str(Path(sys.executable).parent / "dask")  # the dask command of this environment
+    dask = [sys.executable, "-m", "dask"]  # the dask command of this environment
     env = {**os.environ, "POCL_MAX_PTHREAD_COUNT": "1"}
-    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--dashboard-address",
+    procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--dashboard-address",
                                ":0"], env=env, stderr=subprocess.DEVNULL)]
     try:
-        procs += [subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--no-dashboard"], env=env,
+        procs += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1", "--no-dashboard"], env=env,
                                    stderr=subprocess.DEVNULL) for _ in range(2)]
         with distributed.Client(address, timeout=30) as client:
             client.wait_for_workers(2, timeout=60)

@@ -54,7 +54,6 @@ contract checked); here, the tests and the inputs of the failures the suite has 
 import copy
 import dataclasses
 import math
-import os
 import subprocess
 import sys
 import tempfile
@@ -65,6 +64,7 @@ from hypothesis import assume, example, given, note
 from hypothesis import strategies as st
 
 from raytrace import cli
+from raytrace.tools import child_env
 from raytrace.tools.fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, outside, \
     run_cli, write_example
 from raytrace.tools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, command_lines, environments, parsed_int
@@ -72,7 +72,6 @@ from raytrace.tools.fuzz.files import TextFile
 from raytrace.tools.fuzz.scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
     scenes_with_hostile_files, texture_filters, valid_scenes
 from raytrace.tools.fuzz.toml_writer import same_tables, to_toml
-from helpers import ROOT
 
 
 # --- the failures the suite has found, kept as explicit examples -------------------------------------
@@ -205,7 +204,7 @@ def test_hostile_environment_in_a_child(env):
         (directory / "scene.toml").write_text(to_toml(SMALL_SCENE))
         argv = ["render", "scene.toml", "-o", "out.png", "--no-progress"]
         r = subprocess.run([sys.executable, "-m", "raytrace", *argv], cwd=directory, capture_output=True,
-                           env={**os.environ, "PYTHONPATH": str(ROOT), **env}, timeout=EXAMPLE_SECONDS)
+                           env=child_env(**env), timeout=EXAMPLE_SECONDS)
         new = files_in(directory) - {"scene.toml"}
         outcome = Outcome(argv, r.returncode, r.stderr.decode("utf-8", "backslashreplace"), None, new)
         check(outside(directory, outcome, env), directory, "out.png", (4, 3), ["environment"])

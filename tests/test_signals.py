@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from helpers import CORNELL, ROOT
+from helpers import CORNELL, child_env
 
 BIG = ["--width", 4096, "--height", 4096, "--spp", 1, "--light-samples", 1, "--no-progress"]
 
@@ -20,7 +20,7 @@ def start(out_dir, output, size=BIG, preexec_fn=None):
     argv = [sys.executable, "-m", "raytrace", "render", CORNELL, "-o", out_dir / output,
             "--stats-json", out_dir / "stats.json", *size]
     return subprocess.Popen(list(map(str, argv)), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONPATH": str(ROOT)}, preexec_fn=preexec_fn)
+                            env=child_env(), preexec_fn=preexec_fn)
 
 
 def wait_for_temporary(child, out_dir, suffix, written):

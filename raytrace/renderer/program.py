@@ -1,5 +1,7 @@
 """Finding, specialising and building the OpenCL program."""
+import os
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -66,7 +68,12 @@ def build(context, source, options=(), kernels=""):
     argument names and types for the host to bind by (interface.py); returns (program, seconds)."""
     start = time.perf_counter()
     include = str(kernels or kernel_dir())
-    program = cl.Program(context, source).build(options=[*options, "-cl-kernel-arg-info", "-I", include])
+    with warnings.catch_warnings():
+        if not os.environ.get("PYOPENCL_COMPILER_OUTPUT"):
+            # NVIDIA's compiler logs even a clean build; pyopencl makes any log a warning on stderr, which would
+            # break the one-line contract of every command. The log stays pyopencl's to show on request.
+            warnings.simplefilter("ignore", cl.CompilerWarning)
+        program = cl.Program(context, source).build(options=[*options, "-cl-kernel-arg-info", "-I", include])
     return program, time.perf_counter() - start
 
 

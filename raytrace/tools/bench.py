@@ -28,6 +28,7 @@ from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 from ..render import RenderOptions, check_memory, render, resolve
 from ..scene import load_scene
+from . import child_env
 from .visits import PER_RAY, node_visits
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -99,8 +100,7 @@ def run_child(scene_path, kwargs, cache_dir, work_dir):
     argv = [sys.executable, "-m", "raytrace", "render", str(scene_path), "-o", str(work_dir / "out.png"),
             "--no-progress", "--stats-json", str(stats_path), *_render_argv(kwargs)]
     # The child runs this checkout's package; CUDA_CACHE_PATH makes "cold" mean the same on NVIDIA's driver.
-    env = {**os.environ, "POCL_CACHE_DIR": str(cache_dir), "CUDA_CACHE_PATH": str(cache_dir),
-           "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    env = child_env(POCL_CACHE_DIR=str(cache_dir), CUDA_CACHE_PATH=str(cache_dir))
     with open(log, "w") as err:
         start = time.perf_counter()
         child = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, env=env)

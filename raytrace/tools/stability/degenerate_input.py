@@ -1,7 +1,6 @@
 """Case 11, degenerate_input: degenerate shapes in a scene file, refused at load and on the command line, and
 nearly degenerate ones, rendered."""
 import dataclasses
-import os
 import subprocess
 import sys
 import tempfile
@@ -12,7 +11,8 @@ import numpy as np
 from ...errors import InputError
 from ...scene import Triangle, load_scene
 from ...scene.ranges import brightest
-from .common import SCENE0, SCENES, Row, nonfinite, outside
+from .. import child_env
+from .common import SCENE0, Row, nonfinite, outside
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -42,7 +42,7 @@ def rejected(path, key, value):
     out = path.parent / "out" / "x.png"
     out.parent.mkdir()
     cli = subprocess.run([sys.executable, "-m", "raytrace", "render", str(path), "-o", str(out)], capture_output=True,
-                         text=True, env={**os.environ, "PYTHONPATH": str(SCENES.parent)})
+                         text=True, env=child_env())
     failed += (cli.returncode != 2) + (cli.stderr.count("\n") != 1) + (f"{path}: {key} = {value}" not in cli.stderr)
     return failed + ("Traceback" in cli.stderr) + bool(list(out.parent.iterdir()))
 
