@@ -8,9 +8,11 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 import pyopencl as cl
+import pytest
 
 from raytrace import structs
 from raytrace.renderer import packing
+from raytrace.renderer.device import describe, list_devices, select_device
 from raytrace.renderer.program import build
 from raytrace.scene import mipmap
 from raytrace.tools import child_env
@@ -18,6 +20,13 @@ from raytrace.tools.probe import planar  # noqa: F401 (for the tests)
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = str(ROOT / "scenes" / "cornell.toml")
+
+# The session's device (RAYTRACE_DEVICE moves it: .ci/gpu runs the suite on a GPU, where PoCL may be absent).
+SESSION_DEVICE = describe(select_device(None))
+on_pocl = pytest.mark.skipif(not SESSION_DEVICE.startswith("Portable Computing Language"),
+                             reason=f"about PoCL's CPU device; this session's is {SESSION_DEVICE}")
+needs_a_cpu_device = pytest.mark.skipif(not any(d.type & cl.device_type.CPU for _, d in list_devices()),
+                                        reason="needs an OpenCL CPU device (PoCL); this machine has none")
 
 
 def run(*args, env=None, **kwargs):

@@ -16,7 +16,7 @@ import time
 import numpy as np
 import pytest
 
-from helpers import CORNELL, ROOT, run
+from helpers import CORNELL, ROOT, on_pocl, run
 from raytrace import load_scene
 from raytrace.errors import InputError
 from raytrace.render import render_progressive
@@ -106,6 +106,7 @@ def test_time_limit_and_target_error_stop_it(cluster, scene0, stop):
     assert stats.spp <= 8 * 512 and stats.passes >= (1 if "time_limit" in stop else 4)
 
 
+@on_pocl
 def test_a_worker_without_a_device_is_one_line(scene0):
     """PoCL with its devices hidden on the workers: the worker's error reaches the client whole."""
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",

@@ -5,7 +5,10 @@ import json
 import numpy as np
 import pytest
 
+from helpers import needs_a_cpu_device
 from raytrace.tools import same_images
+
+pytestmark = needs_a_cpu_device  # PoCL's render is one side of every comparison
 
 
 def test_devices_within_the_bound(tmp_path):
