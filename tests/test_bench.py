@@ -119,6 +119,10 @@ def test_peer_ratio_and_bad_peer(tmp_path):
     assert data["peer"]["variant"] == "fake"
     assert data["ratio_to_peer"] == pytest.approx(data["beside_peer_nominal_mrays_per_s"] / 0.5)
     assert data["beside_peer_nominal_mrays_per_s"] > 0
+    # the whole render (launches, read-back, sums: what a peer's own timer holds) is slower than its kernels
+    assert data["ratio_to_peer_wall"] == pytest.approx(data["beside_peer_wall_mrays_per_s"] / 0.5)
+    assert 0 < data["beside_peer_wall_mrays_per_s"] < data["beside_peer_nominal_mrays_per_s"]
+    assert data["scenes"][0]["wall_seconds"] > data["scenes"][0]["render_seconds"]
     assert r.stdout.strip().splitlines()[-1].startswith("peer: 0.50 nominal Mrays/s (its median), 0.50 at its best;")
     for bad in ["echo no json", "echo '{\"mrays_per_s\": 0}'", "echo '[1]'", "echo '{\"mrays_per_s\": \"nan\"}'"]:
         out.unlink(missing_ok=True)
