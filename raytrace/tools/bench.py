@@ -30,10 +30,9 @@ from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 from ..render import RenderOptions, check_memory, render, resolve
 from ..scene import load_scene
-from . import child_env
+from . import ROOT, child_env
 from .visits import PER_RAY, node_visits
 
-ROOT = Path(__file__).resolve().parents[2]
 # Scene 0, textures, texture filtering under strong minification, and the largest mesh scene that renders
 # in seconds (10^5 triangles; mesh_million's BVH build alone takes longer than the rest of the suite).
 SUITE = ["cornell.toml", "textured_cornell.toml", "grid_floor.toml", "mesh_cornell.toml"]
