@@ -12,6 +12,7 @@ import pytest
 
 from raytrace import structs
 from raytrace.renderer import packing
+from raytrace.renderer.cpu_target import is_pocl_cpu
 from raytrace.renderer.device import describe, list_devices, select_device
 from raytrace.renderer.program import build
 from raytrace.scene import mipmap
@@ -22,9 +23,10 @@ ROOT = Path(__file__).resolve().parent.parent
 CORNELL = str(ROOT / "scenes" / "cornell.toml")
 
 # The session's device (RAYTRACE_DEVICE moves it: .ci/gpu runs the suite on a GPU, where PoCL may be absent).
-SESSION_DEVICE = describe(select_device(None))
-on_pocl = pytest.mark.skipif(not SESSION_DEVICE.startswith("Portable Computing Language"),
-                             reason=f"about PoCL's CPU device; this session's is {SESSION_DEVICE}")
+_session = select_device(None)
+SESSION_DEVICE, SESSION_KIND = describe(_session), "cpu" if _session.type & cl.device_type.CPU else "gpu"
+on_pocl = pytest.mark.skipif(not is_pocl_cpu(_session), reason=f"about PoCL's CPU device; this session's is "
+                                                                 f"{SESSION_DEVICE}")
 needs_a_cpu_device = pytest.mark.skipif(not any(d.type & cl.device_type.CPU for _, d in list_devices()),
                                         reason="needs an OpenCL CPU device (PoCL); this machine has none")
 
