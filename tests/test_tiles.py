@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from raytrace.render import render_progressive
+from raytrace.renderer import device_render
 from raytrace.renderer.device_render import OUTPUT_PLANES
 from helpers import CORNELL, run
 
@@ -30,6 +31,23 @@ def test_many_bands_give_the_one_band_image_bit_for_bit(cornell, lanes):
     np.testing.assert_array_equal(banded_image, image)
     np.testing.assert_array_equal(banded_variance, variance)
     assert banded.rays == stats.rays and banded.estimated_rmse == stats.estimated_rmse
+
+
+@pytest.mark.parametrize("shape", [(16, 8), (8, 4), (3, 5)])
+def test_work_groups_of_any_shape_give_the_same_image(cornell, lanes, monkeypatch, shape):
+    """Work-groups of `shape` (a GPU's 16 x 8, and shapes that divide neither 97 columns nor bands of 5 rows)
+    on the session's device give the image of the device's own choice, bit for bit, over bands of 5 rows.
+    The launch's grid is rounded up to whole groups (renderer/device_render.py: launch_grid), so groups reach
+    past the band and the image. It fails if the grid is rounded down (pixels never rendered), not rounded at
+    all (OpenCL 1.2 refuses the launch), or if the kernel stores what lies past its band or the image's width
+    (the next band's rows or the next row's pixels overwritten)."""
+    options = dict(spp=4, light_samples=4, lanes=lanes, max_band_bytes=5 * ROW_BYTES, **SIZE)
+    image, _, stats = render_progressive(cornell, **options)
+    monkeypatch.setattr(device_render, "work_group_shape", lambda device, kernel, lanes: shape)
+    shaped, _, shaped_stats = render_progressive(cornell, **options)
+    assert shaped_stats.extra["work_group"] == shape != stats.extra["work_group"]
+    assert shaped_stats.extra["band_rows"] == 5
+    np.testing.assert_array_equal(shaped, image)
 
 
 @pytest.mark.parametrize("budget,rows", [(ROW_BYTES - 1, 1), (ROW_BYTES, 1), (3 * ROW_BYTES + 5, 3),
