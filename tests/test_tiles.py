@@ -9,7 +9,7 @@ import pytest
 from raytrace.render import render_progressive
 from raytrace.renderer import device_render
 from raytrace.renderer.device_render import OUTPUT_PLANES
-from helpers import CORNELL, run
+from helpers import CORNELL, SESSION_KIND, run
 
 SIZE = dict(width=97, height=61, progress=False)  # odd sizes: 97 columns leave one pixel in the last lane group at every width
 ROW_BYTES = OUTPUT_PLANES * 4 * SIZE["width"]     # one row of the kernel's output, float32 planes
@@ -31,6 +31,16 @@ def test_many_bands_give_the_one_band_image_bit_for_bit(cornell, lanes):
     np.testing.assert_array_equal(banded_image, image)
     np.testing.assert_array_equal(banded_variance, variance)
     assert banded.rays == stats.rays and banded.estimated_rmse == stats.estimated_rmse
+
+
+def test_a_launch_holds_bounded_work_on_a_cpu_and_a_whole_pass_on_a_gpu(cornell):
+    """512 x 128 pixels at 16 x 16 samples, in one pass of 139,264 work units a row (512 x 16 x 17 rays): on a CPU
+    device a launch holds at most WORK_PER_LAUNCH = 2^23 of them, bands of 60 rows, so that each stays short; on
+    a GPU the whole pass is one launch (work_per_launch: bands of 60 rows left most of an H100 idle). It fails if
+    either kind of device gets the other's plan, or if the bound is not what the docstrings measured."""
+    _, _, stats = render_progressive(cornell, width=512, height=128, spp=16, light_samples=16, progress=False)
+    assert stats.passes == 1
+    assert stats.extra["band_rows"] == {"cpu": 60, "gpu": 128}[SESSION_KIND]
 
 
 @pytest.mark.parametrize("shape", [(16, 8), (8, 4), (3, 5)])
