@@ -2,6 +2,7 @@
 scene.py), packed for the kernel (raytrace/structs.py) and rendered through the BVH; bad mesh input through
 the command line."""
 import dataclasses
+import gc
 
 import numpy as np
 import pytest
@@ -195,3 +196,24 @@ def test_transform_out_of_float32_range(tmp_path, scale):
     r = run("render", path, "-o", tmp_path / "x.png", "--width", 8, "--height", 8)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "scale" in lines[0], r.stderr
+
+
+def test_every_live_scene_keeps_its_packed_geometry():
+    """Two scenes packed in turns (bench renders its scenes in turns, bench --scaling pairs two meshes) are
+    packed once each: the second time, each gets the very arrays of its first, and another variant of a scene
+    (here every table but the BVH: features None) is packed anew. A scene's tables go with it. It fails if the
+    cache holds one scene only (the first scene's tables would be packed again after the second's), if one
+    variant's tables were handed to another, or if a dead scene's stayed."""
+    from raytrace.renderer import packing
+    from raytrace.tools.scaling import mesh_room
+    a, b = (mesh_room(load_scene(ROOT / "scenes" / "cornell.toml"), n) for n in (100, 1000))
+    tables = lambda scene: packing.scene_tables(scene, features=Features.of(scene, 1))  # noqa: E731
+    first = [tables(a), tables(b)]
+    again = [tables(a), tables(b)]
+    for t0, t1 in zip(first, again):
+        assert all(t1[name] is t0[name] for name in ("triangles", "triangle_normals", "nodes", "prims"))
+    assert packing.scene_tables(a)["triangles"] is not first[0]["triangles"]
+    entries, gone = len(packing._GEOMETRY), id(b)
+    del b, first, again
+    gc.collect()
+    assert len(packing._GEOMETRY) == entries - 1 and gone not in packing._GEOMETRY
