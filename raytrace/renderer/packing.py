@@ -262,10 +262,10 @@ def in_leaf_order(soup, prims):
 
 # Each live Scene object's packed triangles and BVH, by id(scene): repeated renders of one Scene object (bench's
 # scenes in turns, converge, bench --scaling's two meshes alternating, a progressive render's callers) pack its
-# triangles and build its BVH once (bench's four scenes, 3 turns: 11.3 s against 15.0 when only the last scene's
-# were kept and mesh_cornell's BVH was built again every turn, Zen 3). An entry goes with its scene (weakref.finalize), so an id is never met again
-# while its entry stands. Keyed by the object itself, so a scene changed in place must be a new object
-# (dataclasses.replace), as everywhere in this package.
+# triangles and build its BVH once (bench's four scenes, 3 turns: 11.3 s against 15.0 when only the last
+# scene's were kept and mesh_cornell's BVH was built again every turn, Zen 3). An entry goes with its scene
+# (weakref.finalize), so an id is never met again while its entry stands. Keyed by the object itself, so a
+# scene changed in place must be a new object (dataclasses.replace), as everywhere in this package.
 _GEOMETRY = {}
 
 
