@@ -79,6 +79,7 @@ def _renders(scene, options):
 
 
 def per_ray_seconds(scene, options):
+    """One render's kernel seconds per traced ray."""
     stats = render(scene, **options)[1]
     return stats.render_seconds / stats.rays
 
