@@ -24,7 +24,7 @@ WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch on a CP
 
 def work_per_launch(device):
     """Work units (rays, roughly) of one launch at most: WORK_PER_LAUNCH on a CPU (scene 0's 512 x 512 in 9
-    launches of 60 rows, 50-60 ms each on a Zen 3); on a GPU a whole pass (progressive.PASS_WORK), so that a
+    launches of 60 rows, about 46 ms each on a Zen 3); on a GPU a whole pass (progressive.PASS_WORK), so that a
     launch holds enough work-items to keep every core busy to its end. The H100 holds 270,336 resident
     work-items (132 multiprocessors of 2048): a band of 60 rows is 30,720, and scene 0's kernels took 4.9 ms
     in bands against 3.4 ms in one launch, mesh_cornell's 58 ms against 30 ms (best of 7)."""
