@@ -11,7 +11,6 @@ each row also has Embree's ns per ray on the same geometry and kinds of rays (em
 beside ours, its growth is the anchor."""
 import csv
 import dataclasses
-import statistics
 import time
 from pathlib import Path
 
@@ -23,6 +22,7 @@ from ..render import render
 from ..scene import Material, MeshShape, load_scene
 from ..renderer.packing import primitive_boxes, triangle_soup
 from . import embree_anchor
+from .bench import in_turns, paired_ratios
 from .visits import PER_RAY, node_visits, plot_maps
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
@@ -78,30 +78,18 @@ def _renders(scene, options):
     return runs
 
 
-def per_ray_seconds(scene, options):
-    """One render's kernel seconds per traced ray."""
-    stats = render(scene, **options)[1]
-    return stats.render_seconds / stats.rays
-
-
 def paired_growth(low, high, scheduler=None, turns=PAIRED_TURNS):
     """The per-ray cost of the scene `high` against `low` as the median over turns of one render of each, taken
-    seconds apart, in alternating order (low first, then high first), so that a slow spell of the machine
-    falls on both; the rows' growth divides two fastest renders that may come from different minutes. Neither
-    is steady on a shared machine: on a 2-core Zen 3, three runs in one hour gave 4.47x, 4.03x and 4.91x by the
-    rows and 4.92x, 4.53x and 4.00x paired (an hour before, the rows gave 3.58x and 3.60x), as a neighbour's
-    load slows the 10^6 mesh's memory-bound renders more than 10^3's. Both scenes' tables stay packed
-    (renderer/packing.py keeps every live scene's), so a turn costs two renders."""
-    options = dict(OPTIONS, scheduler=scheduler)
-    ratios = []
-    for turn in range(turns):
-        if turn % 2 == 0:
-            first = per_ray_seconds(low, options)
-            ratios.append(per_ray_seconds(high, options) / first)
-        else:
-            first = per_ray_seconds(high, options)
-            ratios.append(first / per_ray_seconds(low, options))
-    return statistics.median(ratios)
+    seconds apart, in alternating order (bench's in_turns and paired_ratios; a scene's ray count is the same in
+    every render), so that a slow spell of the machine falls on both; the rows' growth divides two fastest
+    renders that may come from different minutes. Neither is steady on a shared machine: on a 2-core Zen 3,
+    three runs in one hour gave 4.47x, 4.03x and 4.91x by the rows and 4.92x, 4.53x and 4.00x paired (an hour
+    before, the rows gave 3.58x and 3.60x), as a neighbour's load slows the 10^6 mesh's memory-bound renders
+    more than 10^3's. Both scenes' tables stay packed (renderer/packing.py keeps every live scene's), so a turn
+    costs two renders."""
+    options = {key: value for key, value in OPTIONS.items() if key != "progress"}  # in_turns sets it
+    best, seconds = in_turns([low, high], turns, dict(options, scheduler=scheduler), alternate=True)
+    return paired_ratios(seconds)[1] * best[0].rays / best[1].rays
 
 
 def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, scheduler=None):
