@@ -88,6 +88,30 @@ def test_fractions_are_plausible(room, torus):
     assert m["threads"] == 1 and 0 < m["ns_per_ray_all_cores"] <= m["ns_per_ray"] < 1e6
 
 
+def test_no_ray_meets_the_unmet_scene_and_one_aimed_at_it_does(room, traced):
+    """The scene that times the binding's own cost (embree_anchor.unmet_scene) must cost every traced ray its
+    root box and nothing more: no camera ray hits it and no shadow segment is blocked by it; and it is a real
+    triangle, not an empty scene that every query would miss whatever it held: a ray aimed at its centroid hits
+    it."""
+    _, o, d, _, (so, sd, tfar) = traced
+    unmet = embree_anchor.unmet_scene(room)
+    assert (embree_anchor.closest_hits(unmet, o, d)["primID"] == -1).all()
+    assert (unmet.run(so, sd, tfar, query="OCCLUDED") == -1).all()
+    forward, right, up = room.camera.basis()
+    aim = (-3e3 * forward + right + up).astype(np.float32)[None]  # its centroid: 10^3 sizes back, a third up and right
+    hit = embree_anchor.closest_hits(unmet, o[:1], aim)
+    assert hit["primID"][0] == 0
+
+
+def test_binding_cost_is_a_part_of_the_measured_cost(room):
+    """The binding's ns a ray is positive and below the whole query's: the rays against the room do the unmet
+    scene's work and a traversal besides; the net figure is the difference."""
+    pytest.importorskip("embreex")
+    m = embree_anchor.measure(room, width=32, height=32, repeat=3)
+    assert 0 < m["binding_ns_per_ray"] < m["ns_per_ray"]
+    assert m["net_ns_per_ray"] == pytest.approx(m["ns_per_ray"] - m["binding_ns_per_ray"])
+
+
 def test_missing_embreex_is_one_line_input_error(room, monkeypatch):
     monkeypatch.setitem(sys.modules, "embreex", None)
     with pytest.raises(InputError, match="needs the embreex package: pip install embreex") as error:
@@ -103,7 +127,7 @@ def test_scaling_command_line_with_embree(tmp_path):
     r = run("bench", "--scaling", tmp_path / "out", "--max-triangles", 100, "--embree")
     assert r.returncode == 0, r.stderr
     header, row = (l.split(",") for l in (tmp_path / "out" / "scaling.csv").read_text().splitlines())
-    assert header[-1] == "embree_ns_per_ray" and float(row[-1]) > 0
+    assert header[-2:] == ["embree_ns_per_ray", "embree_net_ns_per_ray"] and 0 < float(row[-1]) < float(row[-2])
     values = dict(zip(header, row))
     assert float(values["visits_per_camera_ray"]) > 0 and float(values["visits_per_shadow_ray"]) > 0
     assert "Embree" in r.stdout and (tmp_path / "out" / "scaling.png").stat().st_size > 0

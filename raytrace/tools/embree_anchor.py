@@ -114,6 +114,24 @@ def shadow_rays(scene, soup, o, d, hits, light_samples, rng):
     return o, d, np.full(len(o), SHADOW_END, np.float32)
 
 
+def unmet_scene(scene):
+    """An Embree scene of one small triangle that no ray of `measure` meets: 10^3 times the room's size behind
+    the camera, beyond every camera ray (they all point ahead of it) and every shadow segment (they end at a
+    light). Tracing the same rays against it times what a query costs besides Embree's traversal: the binding's
+    loop over the rays, each ray's setup and a missed root box. The README puts it at 31.5-38 ns a ray; it is
+    measured in the same run, so that Embree's growth can be stated net of it."""
+    from embreex import mesh_construction, rtcore_scene
+    points = np.concatenate([triangle_soup(scene).v.reshape(-1, 3), [scene.camera.position],
+                             [light.center for light in scene.lights]])
+    size = float(np.ptp(points, axis=0).max())
+    forward, right, up = scene.camera.basis()
+    corner = scene.camera.position - 1e3 * size * forward
+    triangle = np.array([corner, corner + size * right, corner + size * up])
+    embree = rtcore_scene.EmbreeScene()
+    mesh_construction.TriangleMesh(embree, triangle[None].astype(np.float32))
+    return embree
+
+
 def best_seconds(query, repeat):
     """The shortest of `repeat` runs of query(): the least disturbed by whatever else the machine does."""
     seconds = []
@@ -125,7 +143,8 @@ def best_seconds(query, repeat):
 
 
 def measure(scene, width=256, height=256, spp=4, light_samples=4, repeat=3, seed=0):
-    """Embree's ns per ray on one core: primary (closest hit), shadow (any hit) and all rays together, with
+    """Embree's ns per ray on one core: primary (closest hit), shadow (any hit) and all rays together; the binding's
+    own ns a ray (the same rays against unmet_scene) and all rays' net of it; with
     the ray counts, the fraction of primary rays that hit and of shadow rays blocked (a check that the rays
     are the scene's), and ns_per_ray_all_cores, the all-rays figure divided by this machine's cores (linear
     scaling, an upper bound on what Embree's threads would do), to set beside our absolute figure."""
@@ -137,9 +156,13 @@ def measure(scene, width=256, height=256, spp=4, light_samples=4, repeat=3, seed
     so, sd, tfar = shadow_rays(scene, soup, o, d, hits, light_samples, rng)
     blocked = embree.run(so, sd, tfar, query="OCCLUDED") >= 0
     shadow = best_seconds(lambda: embree.run(so, sd, tfar, query="OCCLUDED"), repeat)
+    unmet = unmet_scene(scene)
+    binding = (best_seconds(lambda: closest_hits(unmet, o, d), repeat)
+               + best_seconds(lambda: unmet.run(so, sd, tfar, query="OCCLUDED"), repeat))
     rays = len(o) + len(so)
-    ns_per_ray = (primary + shadow) / rays * 1e9
+    ns_per_ray, binding_ns = (primary + shadow) / rays * 1e9, binding / rays * 1e9
     return {"primary_rays": len(o), "shadow_rays": len(so), "rays": rays, "threads": 1,
             "primary_ns_per_ray": primary / len(o) * 1e9, "shadow_ns_per_ray": shadow / max(len(so), 1) * 1e9,
-            "ns_per_ray": ns_per_ray, "cores": os.cpu_count(), "ns_per_ray_all_cores": ns_per_ray / os.cpu_count(),
+            "ns_per_ray": ns_per_ray, "binding_ns_per_ray": binding_ns, "net_ns_per_ray": ns_per_ray - binding_ns,
+            "cores": os.cpu_count(), "ns_per_ray_all_cores": ns_per_ray / os.cpu_count(),
             "hit_fraction": float(np.mean(hits["primID"] >= 0)), "blocked_fraction": float(np.mean(blocked))}
