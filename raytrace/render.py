@@ -223,7 +223,7 @@ def render_progressive(scene, **kwargs):
         acc.end_pass(n, n_first)
         render_seconds, rays = render_seconds + seconds, rays + pass_rays
         now = time.perf_counter()
-        rmse, relative = acc.estimated_rmse()
+        rmse, relative = acc.estimated_rmse(keep_variance=acc.n_total >= r.spp)  # the last pass: images() reuses it
         history.append({"pass": acc.passes, "samples": acc.n_total, "seconds": now - start,
                         "pass_seconds": now - pass_start,
                         "kernel_seconds": render_seconds, "estimated_rmse": rmse,

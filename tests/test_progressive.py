@@ -49,6 +49,38 @@ def test_half_buffer_estimate_is_unbiased(passes, per_pass):
     assert acc.estimated_rmse()[0] == pytest.approx(np.sqrt(np.mean(acc.variance())))
 
 
+def test_the_last_pass_differences_the_sums_once():
+    """After the last pass, estimated_rmse(keep_variance=True) keeps the variance image it averages, and images()
+    returns that very array, equal to one computed afresh, with the same estimate within float32's rounding of
+    the squares. A pass added after keeping drops the kept image: images() then holds the new sums' variance."""
+    rng = np.random.default_rng(3)
+    acc, fresh = Accumulator((3, 32, 48)), Accumulator((3, 32, 48))
+    for a in (acc, fresh):
+        a.add(rng.random((3, 32, 48)) * 16, 16, first=rng.random((3, 32, 48)).astype(np.float32) * 8, n_first=8)
+    fresh.total[...], fresh.prefix[...] = acc.total, acc.prefix
+    assert acc.estimated_rmse(keep_variance=True) == pytest.approx(fresh.estimated_rmse(), rel=1e-6)
+    kept = acc.kept_variance
+    image, variance = acc.images()
+    assert variance is kept
+    np.testing.assert_array_equal(variance, fresh.variance())
+    np.testing.assert_array_equal(image, fresh.mean())
+    stale = Accumulator((3, 32, 48))
+    stale.add(rng.random((3, 32, 48)) * 16, 16, first=rng.random((3, 32, 48)).astype(np.float32) * 8, n_first=8)
+    stale.estimated_rmse(keep_variance=True)
+    stale.add(rng.random((3, 32, 48)) * 16, 16)
+    expected = stale.variance()
+    np.testing.assert_array_equal(stale.images()[1], expected)
+
+
+def test_a_render_of_one_pass_differences_its_sums_once(cornell, monkeypatch):
+    """render_progressive's last pass keeps the variance image its estimate averages (one chunk of rows here)."""
+    calls = []
+    difference = Accumulator._half_difference
+    monkeypatch.setattr(Accumulator, "_half_difference", lambda self, rows: calls.append(rows) or difference(self, rows))
+    _, variance, stats = render_progressive(cornell, spp=4, **SMALL)
+    assert stats.passes == 1 and variance is not None and len(calls) == 1
+
+
 def test_pass_size():
     assert pass_size(1, 10) == 1 and pass_size(16, 10) == 16 and pass_size(24, 10) == 16
     assert pass_size(65536, 1) == 65536 and pass_size(1024, 1 << 24) == 8  # at most 2^27 rays per pass
