@@ -74,9 +74,8 @@ def test_the_last_pass_differences_the_sums_once():
 
 def test_a_render_of_one_pass_differences_its_sums_once(cornell, monkeypatch):
     """render_progressive's last pass keeps the variance image its estimate averages (one chunk of rows here)."""
-    calls = []
-    difference = Accumulator._half_difference
-    monkeypatch.setattr(Accumulator, "_half_difference", lambda self, rows: calls.append(rows) or difference(self, rows))
+    calls, difference = [], Accumulator._half_difference
+    monkeypatch.setattr(Accumulator, "_half_difference", lambda acc, rows: calls.append(rows) or difference(acc, rows))
     _, variance, stats = render_progressive(cornell, spp=4, **SMALL)
     assert stats.passes == 1 and variance is not None and len(calls) == 1
 

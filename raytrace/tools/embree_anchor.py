@@ -118,7 +118,7 @@ def unmet_scene(scene):
     """An Embree scene of one small triangle that no ray of `measure` meets: 10^3 times the room's size behind
     the camera, beyond every camera ray (they all point ahead of it) and every shadow segment (they end at a
     light). Tracing the same rays against it times what a query costs besides Embree's traversal: the binding's
-    loop over the rays, each ray's setup and a missed root box. The README puts it at 31.5-38 ns a ray; it is
+    loop over the rays, each ray's setup and a missed root box (31.5-54 ns a ray on this project's machines),
     measured in the same run, so that Embree's growth can be stated net of it."""
     from embreex import mesh_construction, rtcore_scene
     points = np.concatenate([triangle_soup(scene).v.reshape(-1, 3), [scene.camera.position],
