@@ -94,7 +94,7 @@ def test_no_ray_meets_the_unmet_scene_and_one_aimed_at_it_does(room, traced):
     triangle, not an empty scene that every query would miss whatever it held: a ray aimed at its centroid hits
     it."""
     _, o, d, _, (so, sd, tfar) = traced
-    unmet = embree_anchor.unmet_scene(room)
+    unmet = embree_anchor.unmet_scene(room, embree_anchor.embree_scene(room)[1])
     assert (embree_anchor.closest_hits(unmet, o, d)["primID"] == -1).all()
     assert (unmet.run(so, sd, tfar, query="OCCLUDED") == -1).all()
     forward, right, up = room.camera.basis()

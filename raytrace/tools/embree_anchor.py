@@ -114,14 +114,15 @@ def shadow_rays(scene, soup, o, d, hits, light_samples, rng):
     return o, d, np.full(len(o), SHADOW_END, np.float32)
 
 
-def unmet_scene(scene):
-    """An Embree scene of one small triangle that no ray of `measure` meets: 10^3 times the room's size behind
+def unmet_scene(scene, soup):
+    """An Embree scene of one small triangle that no ray of `measure` meets (`soup`: embree_scene's, the room's
+    triangles with the rectangles', whose extent sets the distance): 10^3 times the room's size behind
     the camera, beyond every camera ray (they all point ahead of it) and every shadow segment (they end at a
     light). Tracing the same rays against it times what a query costs besides Embree's traversal: the binding's
     loop over the rays, each ray's setup and a missed root box (31.5-54 ns a ray on this project's machines),
     measured in the same run, so that Embree's growth can be stated net of it."""
     from embreex import mesh_construction, rtcore_scene
-    points = np.concatenate([triangle_soup(scene).v.reshape(-1, 3), [scene.camera.position],
+    points = np.concatenate([soup.v.reshape(-1, 3), [scene.camera.position],
                              [light.center for light in scene.lights]])
     size = float(np.ptp(points, axis=0).max())
     forward, right, up = scene.camera.basis()
@@ -156,7 +157,7 @@ def measure(scene, width=256, height=256, spp=4, light_samples=4, repeat=3, seed
     so, sd, tfar = shadow_rays(scene, soup, o, d, hits, light_samples, rng)
     blocked = embree.run(so, sd, tfar, query="OCCLUDED") >= 0
     shadow = best_seconds(lambda: embree.run(so, sd, tfar, query="OCCLUDED"), repeat)
-    unmet = unmet_scene(scene)
+    unmet = unmet_scene(scene, soup)
     binding = (best_seconds(lambda: closest_hits(unmet, o, d), repeat)
                + best_seconds(lambda: unmet.run(so, sd, tfar, query="OCCLUDED"), repeat))
     rays = len(o) + len(so)
