@@ -7,7 +7,7 @@
  * closest hit found early culls the far subtrees. Shadow rays visit them far first, from the light's end of
  * the segment: a segment starts on a surface, and the subtrees around its origin (a mesh's neighbouring
  * triangles, which it leaves) rarely block it, so a blocker is found sooner and a packet whose lanes are all
- * blocked stops before it opens them. Measured with the counting build (tools/visits.py, 512 x 512, 16 x 16
+ * blocked stops before it opens them. Measured with the counting build (raytrace/commands/visits.py, 512 x 512, 16 x 16
  * samples, 16 lanes): mesh_cornell's shadow rays open 18% fewer nodes and test 33% fewer primitives, scene
  * 0's 3% more nodes; an unblocked ray visits the same nodes in either order. Both kinds test an opened node's
  * two children together and push the second only when both are met (each function says how). With LANES=1

@@ -36,7 +36,7 @@ typedef struct {
 
 /* A measuring build (COUNT_VISITS) counts what a work-item's traversals test: BVH nodes (their boxes, bvh.cl)
  * and primitives (primitive.cl), of closest-hit and of shadow traversals, once per test of all its lanes.
- * render.cl stores the counts as planes of its output, raytrace/tools/visits.py reads them. */
+ * render.cl stores the counts as planes of its output, raytrace/commands/visits.py reads them. */
 #define VISITS_CLOSEST_NODES 0
 #define VISITS_SHADOW_NODES 1
 #define VISITS_CLOSEST_PRIMITIVES 2

@@ -4,7 +4,7 @@
  * LANES / group pixels at once, lane l sample l % group of pixel l / group: group is the largest power of two
  * that divides the launch's sample count, at most LANES. The more of a packet's rays start inside one pixel,
  * the closer together they stay, and the fewer BVH nodes the packet opens where a mesh's triangles are finer
- * than its spread of rays (bvh.cl). Counted by the kernel (tools/visits.py, 16 lanes): mesh_cornell's shadow
+ * than its spread of rays (bvh.cl). Counted by the kernel (raytrace/commands/visits.py, 16 lanes): mesh_cornell's shadow
  * rays open 0.321 nodes a ray with 8 samples of 2 pixels against 0.504 with one sample of 16, its camera rays
  * 0.934 against 1.211; the 10^6-triangle torus of `bench --scaling` (its passes of 2 samples: 2 samples of 8
  * pixels against one of 16) 4.24 against 4.82 and 2.17 against 2.40; scene 0's counts change by 2% at most.

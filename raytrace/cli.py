@@ -18,8 +18,8 @@ from . import samplers, structs
 from .errors import InputError
 from .scene.model import SHADINGS
 from .outputs import Interrupted, Outputs, committed, handle_signals, scene_inputs, write_json
-from .renderer.image import FORMATS, write_image_file
-from .tools.converge_peer import PEER_SAMPLERS
+from .image_file import FORMATS, write_image_file
+from .commands.converge_peer import PEER_SAMPLERS
 
 EXIT_BAD_INPUT = 2
 
@@ -78,13 +78,9 @@ def parser():
     b.add_argument("--peer", metavar="COMMAND", help="also run another renderer's benchmark (a shell command "
                    "whose last output line is JSON with its nominal mrays_per_s), measure the first scene again beside it "
                    "and report the ratio, best against best")
-    b.add_argument("--baseline", metavar="DIR", help="instead: this kernel against the kernels/ directory DIR "
-                   "(another commit's, from git worktree add) with the same types.h, rendered in turns in one process")
     b.add_argument("--scaling", metavar="DIR", help="instead: seconds per ray and BVH build seconds against "
                    "the triangle count of a procedural mesh in the scene's room; scaling.csv and .png in DIR")
     b.add_argument("--max-triangles", type=int, default=10**6, help="--scaling's largest mesh (default 10^6)")
-    b.add_argument("--embree", action="store_true", help="with --scaling: also Embree's ns per ray on the same "
-                   "triangles and kinds of rays, on one core, as an anchor for the growth (needs pip install embreex)")
     a = sub.add_parser("assets", help="generate the procedural textures the scenes use")
     a.add_argument("--out", default="assets/textures", help="output directory (default: assets/textures)")
     a.add_argument("--seed", type=int, default=0, help="seed of the textures' random patterns")
@@ -164,41 +160,25 @@ def cmd_render(args):
           f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by {stats.stopped_by}", file=sys.stderr)
 
 
-def _bench_baseline(args):
-    from .tools.baseline import against_baseline
-    from .tools.bench import suite_scenes
-
-    for name in ("peer", "json"):
-        if getattr(args, name):
-            raise InputError("command line", f"--{name}", getattr(args, name), "not with --baseline")
-    against_baseline(args.scene or suite_scenes(), args.baseline, repeat=args.repeat, **_render_kwargs(args))
-
-
 def cmd_bench(args):
     """Exit status 1 when a child render fails."""
-    from .tools.bench import BenchError, benchmark, suite_scenes
-    from .tools.scaling import scaling
+    from .commands.bench import BenchError, benchmark, suite_scenes
+    from .commands.scaling import scaling
 
     if args.scaling:
-        if args.baseline is not None:
-            raise InputError("command line", "--baseline", args.baseline, "not with --scaling")
         if len(args.scene) > 1:
             raise InputError("command line", "scene", " ".join(args.scene), "--scaling takes one scene")
         if not 100 <= args.max_triangles <= 10**7:
             raise InputError("command line", "--max-triangles", args.max_triangles, "must be in [100, 10^7]")
         if not Path(args.scaling).parent.is_dir():
             raise InputError("command line", "--scaling", args.scaling, "its parent directory does not exist")
-        scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout, embree=args.embree,
+        scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout,
                 scheduler=args.scheduler)
         return
-    if args.embree:
-        raise InputError("command line", "--embree", None, "only with --scaling")
     if args.scheduler:  # the suite times kernels in child processes, against this machine's own scalar kernel
         raise InputError("command line", "--scheduler", args.scheduler, "bench takes it only with --scaling")
     if args.repeat < 1:
         raise InputError("command line", "--repeat", args.repeat, "must be at least 1")
-    if args.baseline is not None:
-        return _bench_baseline(args)
     scenes = args.scene or suite_scenes()
     with Outputs(inputs=scenes) as outputs:
         json_file = args.json and outputs.reserve("--json", args.json)
@@ -216,7 +196,7 @@ def cmd_bench(args):
 
 
 def cmd_assets(args):
-    from .tools.assets import generate
+    from .commands.assets import generate
 
     if not 0 <= args.seed < 2**32:
         raise InputError("command line", "--seed", args.seed, "must be in [0, 2^32)")
@@ -225,7 +205,7 @@ def cmd_assets(args):
 
 
 def cmd_converge(args):
-    from .tools.converge import converge, parse_crop
+    from .commands.converge import converge, parse_crop
 
     converge(args.scene, [name.strip() for name in args.samplers.split(",")], args.max_spp, args.out,
              reference=args.reference, width=args.width, height=args.height, light_samples=args.light_samples,
@@ -237,7 +217,7 @@ def cmd_converge(args):
 
 def cmd_compile(args):
     """Exit status 1 when the compiler rejects the kernel."""
-    from .tools.compile import compile_scene
+    from .commands.compile import compile_scene
     from .scene import load_scene
 
     scene = load_scene(args.scene)
@@ -252,7 +232,7 @@ def cmd_compile(args):
 def cmd_stability(args):
     """Exit status 1 when a row of the table fails."""
     from .renderer.device import default_lanes, select_device
-    from .tools.stability import report
+    from .commands.stability import report
 
     with Outputs() as outputs:
         json_file = args.json and outputs.reserve("--json", args.json)

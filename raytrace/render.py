@@ -1,5 +1,5 @@
 """Rendering a Scene: options, progressive passes, statistics. A pass runs on this process's device
-(renderer/device_render.py: the specialised program, the scene's tables packed by renderer/packing.py and
+(renderer/device_render.py: the specialised program, the scene's tables gathered by renderer/scene_tables.py and
 bound by name by renderer/interface.py, banded launches) or on Dask workers (renderer/distributed.py);
 passes accumulate in renderer/progressive.py.
 

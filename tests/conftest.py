@@ -8,7 +8,7 @@ from raytrace.renderer.cpu_target import apply_target
 from raytrace.renderer.device import context_for, select_device
 from raytrace.structs import LANE_WIDTHS
 from raytrace.scene import load_scene
-from raytrace.tools.probe import Probe
+from raytrace.commands.stability.probe import Probe
 
 
 @pytest.fixture(scope="session")

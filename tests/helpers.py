@@ -16,8 +16,8 @@ from raytrace.renderer.cpu_target import is_pocl_cpu
 from raytrace.renderer.device import describe, list_devices, select_device
 from raytrace.renderer.program import build
 from raytrace.scene import mipmap
-from raytrace.tools import child_env
-from raytrace.tools.probe import planar  # noqa: F401 (for the tests)
+from raytrace.commands import child_env
+from raytrace.commands.stability.probe import planar  # noqa: F401 (for the tests)
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = str(ROOT / "scenes" / "cornell.toml")
@@ -31,10 +31,10 @@ needs_a_cpu_device = pytest.mark.skipif(not any(d.type & cl.device_type.CPU for 
                                         reason="needs an OpenCL CPU device (PoCL); this machine has none")
 
 
-def run(*args, env=None, **kwargs):
-    """`python -m raytrace ARGS`, its output captured, in `env` (default: this process's environment); kwargs
-    go to subprocess.run (cwd, preexec_fn)."""
-    return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
+def run(*args, env=None, module="raytrace", **kwargs):
+    """`python -m raytrace ARGS` (or another `module`: a rig of benchmarks/), its output captured, in `env`
+    (default: this process's environment); kwargs go to subprocess.run (cwd, preexec_fn)."""
+    return subprocess.run([sys.executable, "-m", module, *map(str, args)], capture_output=True, text=True,
                           env=child_env(env), **kwargs)
 
 

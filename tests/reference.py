@@ -3,11 +3,11 @@
 Plain and vectorised over N rays; loops only over shapes, lights and light samples. It takes the
 raytrace.scene objects as input but imports nothing of the renderer, so a bug in the renderer's own
 host code cannot hide in both the kernel and this file; the float64 camera model is the one the stability
-suite shares (raytrace/tools/reference_camera.py).
+suite shares (raytrace/commands/stability/reference_camera.py).
 """
 import numpy as np
 
-from raytrace.tools.reference_camera import camera_directions
+from raytrace.commands.stability.reference_camera import camera_directions
 
 
 def _dot(a, b):

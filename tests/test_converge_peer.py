@@ -1,4 +1,4 @@
-"""converge --peer (raytrace/tools/converge_peer.py): another renderer's patterns in the same study, against
+"""converge --peer (raytrace/commands/converge_peer.py): another renderer's patterns in the same study, against
 the same reference, here a stand-in peer script that writes a known image; and the race table's
 interpolation of the time to reach an error."""
 import io
@@ -9,8 +9,8 @@ import pytest
 
 from helpers import CORNELL
 from raytrace.errors import InputError
-from raytrace.tools.converge import clamped_rmse, converge, rmse
-from raytrace.tools.converge_peer import race, time_to_reach
+from raytrace.commands.converge import clamped_rmse, converge, rmse
+from raytrace.commands.converge_peer import race, time_to_reach
 
 FAKE_PEER = """
 import json, sys

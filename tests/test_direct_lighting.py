@@ -19,7 +19,7 @@ from raytrace import samplers
 from raytrace.errors import InputError
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Light, Material, Scene, parse_scene
-from raytrace.tools.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, planar, scene_args
+from raytrace.commands.stability.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, planar, scene_args
 
 RADIANCE = """
 #include "direct_lighting.cl"

@@ -1,4 +1,4 @@
-"""The Embree anchor of `bench --scaling --embree` (raytrace/tools/embree_anchor.py): its rays are the scene's
+"""The Embree anchor of `bench --scaling`, `python -m benchmarks.embree_anchor` (benchmarks/embree_anchor.py): its rays are the scene's
 (primary hits at the float64 reference's distances, shadow segments blocked where the reference blocks them,
 plausible fractions), and without embreex it fails in one line. embreex (PyPI) is a measuring tool, not a
 dependency of the renderer: the `test` extra installs it, so these run in CI; elsewhere the tests that trace
@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 import reference
-from helpers import CORNELL, run
+from helpers import CORNELL, ROOT, run
 from raytrace.errors import InputError
 from raytrace.scene import Triangle, load_scene
-from raytrace.tools import embree_anchor
-from raytrace.tools.scaling import mesh_room
+from benchmarks import embree_anchor
+from raytrace.commands.scaling import mesh_room
 
 RECTANGLE_TRIANGLES = 10  # scene 0's five walls, two triangles each, come first in the anchor's soup
 
@@ -116,15 +116,15 @@ def test_missing_embreex_is_one_line_input_error(room, monkeypatch):
     monkeypatch.setitem(sys.modules, "embreex", None)
     with pytest.raises(InputError, match="needs the embreex package: pip install embreex") as error:
         embree_anchor.measure(room, width=8, height=8, repeat=1)
-    assert "\n" not in str(error.value) and error.value.key == "--embree"
+    assert "\n" not in str(error.value) and error.value.key == "embreex"
 
 
 def test_scaling_command_line_with_embree(tmp_path):
     """The smallest --scaling run with --embree: the column in the CSV, the figure in the printed line; and
-    the BVH node visits per ray (tools/visits.py), positive: the room and the torus are in one BVH, and
+    the BVH node visits per ray (raytrace/commands/visits.py), positive: the room and the torus are in one BVH, and
     their map."""
     pytest.importorskip("embreex")
-    r = run("bench", "--scaling", tmp_path / "out", "--max-triangles", 100, "--embree")
+    r = run(tmp_path / "out", "--max-triangles", 100, module="benchmarks.embree_anchor", cwd=ROOT)
     assert r.returncode == 0, r.stderr
     header, row = (l.split(",") for l in (tmp_path / "out" / "scaling.csv").read_text().splitlines())
     assert header[-2:] == ["embree_ns_per_ray", "embree_net_ns_per_ray"] and 0 < float(row[-1]) < float(row[-2])
@@ -134,7 +134,8 @@ def test_scaling_command_line_with_embree(tmp_path):
     assert (tmp_path / "out" / "visits.png").stat().st_size > 0
 
 
-def test_embree_without_scaling_is_refused():
-    r = run("bench", CORNELL, "--embree")
-    assert r.returncode == 2 and r.stdout == ""
-    assert r.stderr.strip() == "raytrace: error: command line: --embree: only with --scaling"
+def test_a_bad_value_is_one_line(tmp_path):
+    r = run(tmp_path / "out", "--max-triangles", 10, module="benchmarks.embree_anchor", cwd=ROOT)
+    assert r.returncode == 2 and r.stdout == "" and not (tmp_path / "out").exists()
+    assert r.stderr.strip() == ("benchmarks.embree_anchor: error: command line: --max-triangles = 10: "
+                                "must be in [100, 10^7]")

@@ -12,7 +12,8 @@ from helpers import ROOT
 from raytrace.renderer.program import Features
 from raytrace.scene import parse_scene
 from raytrace.numerics import U
-from raytrace.renderer.packing import scene_tables, texture_tables
+from raytrace.renderer.packing import texture_tables
+from raytrace.renderer.scene_tables import scene_tables
 from helpers import stored_levels
 
 SOURCE = """
@@ -219,7 +220,7 @@ def test_lanes_with_different_materials_match_one_lane(cl_env, maps, filter_name
     widths run the same float32 operations; only where the compiler
     fuses a multiply-add can a rounding differ (~1e-7), which the bump's division by du (>= 1/2 texel of a
     64-texel map at uv_scale 3) and height_scale 0.05 amplify by < 0.05 * 384 = 20: bound 1e-5."""
-    from raytrace.tools.probe import Probe
+    from raytrace.commands.stability.probe import Probe
     table = {"camera": {"position": [0.0, -3.0, 1.0], "look_at": [0.0, 0.0, 1.0], "up": [0.0, 0.0, 1.0],
                         "fov": 60.0},
              "image": {"width": 48, "height": 40}, "ambient": [0.1, 0.1, 0.1],

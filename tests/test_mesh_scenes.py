@@ -13,7 +13,7 @@ from raytrace.scene import meshgen
 from raytrace.renderer.program import Features
 from raytrace.scene.meshes import Mesh
 from raytrace.scene import MeshShape, load_scene
-from raytrace.renderer.packing import triangle_soup
+from raytrace.renderer.geometry import triangle_soup
 from helpers import run
 
 HEADER = (ROOT / "scenes" / "cornell.toml").read_text().split("[[shapes]]")[0]
@@ -204,16 +204,16 @@ def test_every_live_scene_keeps_its_packed_geometry():
     (here every table but the BVH: features None) is packed anew. A scene's tables go with it. It fails if the
     cache holds one scene only (the first scene's tables would be packed again after the second's), if one
     variant's tables were handed to another, or if a dead scene's stayed."""
-    from raytrace.renderer import packing
-    from raytrace.tools.scaling import mesh_room
+    from raytrace.renderer import scene_tables as cache
+    from raytrace.commands.scaling import mesh_room
     a, b = (mesh_room(load_scene(ROOT / "scenes" / "cornell.toml"), n) for n in (100, 1000))
-    tables = lambda scene: packing.scene_tables(scene, features=Features.of(scene, 1))  # noqa: E731
+    tables = lambda scene: cache.scene_tables(scene, features=Features.of(scene, 1))  # noqa: E731
     first = [tables(a), tables(b)]
     again = [tables(a), tables(b)]
     for t0, t1 in zip(first, again):
         assert all(t1[name] is t0[name] for name in ("triangles", "triangle_normals", "nodes", "prims"))
-    assert packing.scene_tables(a)["triangles"] is not first[0]["triangles"]
-    entries, gone = len(packing._GEOMETRY), id(b)
+    assert cache.scene_tables(a)["triangles"] is not first[0]["triangles"]
+    entries, gone = len(cache._GEOMETRY), id(b)
     del b, first, again
     gc.collect()
-    assert len(packing._GEOMETRY) == entries - 1 and gone not in packing._GEOMETRY
+    assert len(cache._GEOMETRY) == entries - 1 and gone not in cache._GEOMETRY

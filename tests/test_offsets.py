@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from helpers import planar
-from raytrace.tools.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
+from raytrace.commands.stability.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, scene_args
 from raytrace.scene import Ellipsoid, Rectangle, Triangle
 from raytrace.renderer.packing import ellipsoid_structs, rectangle_structs, triangle_structs
 from raytrace.scene.transform import f32, transformed

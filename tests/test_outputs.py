@@ -18,7 +18,7 @@ import pytest
 from helpers import CORNELL, ROOT, run
 from raytrace.errors import InputError
 from raytrace.outputs import Outputs
-from raytrace.renderer.image import write_image_file
+from raytrace.image_file import write_image_file
 
 SMALL = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1, "--no-progress"]
 
@@ -125,7 +125,7 @@ def test_reserve_refuses(tmp_path):
 def test_write_image_file_reports_a_failed_write(tmp_path):
     """An image the writer cannot finish (a full disk, here a file-size limit in a child) raises OSError,
     never a silent success: OIIO's PNG writer says so only through has_error."""
-    code = ("import numpy as np, sys; from raytrace.renderer.image import write_image_file\n"
+    code = ("import numpy as np, sys; from raytrace.image_file import write_image_file\n"
             "try:\n    write_image_file(sys.argv[1], np.random.default_rng(1).random((256, 256, 3)))\n"
             "except OSError as e:\n    print('OSError', e.strerror)")
     r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "x.png")], capture_output=True, text=True,

@@ -1,4 +1,4 @@
-"""raytrace/tools/same_images.py's devices mode, which .ci/gpu runs to compare a GPU's render with PoCL's: the
+"""devtools/same_images.py's devices mode, which .ci/gpu runs to compare a GPU's render with PoCL's: the
 same device at two lane widths is within the bound, and an image moved beyond it is reported."""
 import json
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from helpers import needs_a_cpu_device
-from raytrace.tools import same_images
+from devtools import same_images
 
 pytestmark = needs_a_cpu_device  # PoCL's render is one side of every comparison
 

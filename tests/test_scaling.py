@@ -1,10 +1,10 @@
-"""bench --scaling (raytrace/tools/scaling.py): the paired growth's turns, on real renders."""
+"""bench --scaling (raytrace/commands/scaling.py): the paired growth's turns, on real renders."""
 import statistics
 
 import pytest
 
 from raytrace.scene import load_scene
-from raytrace.tools import bench, scaling
+from raytrace.commands import bench, scaling
 from helpers import CORNELL
 
 

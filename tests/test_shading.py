@@ -8,12 +8,14 @@ import reference
 from helpers import planar
 import raytrace
 from raytrace import samplers
-from raytrace.renderer import packing
+from raytrace.renderer import culling, packing
+from raytrace.renderer.scene_tables import scene_tables
 from raytrace.renderer.program import Features
 from raytrace.scene import Light, Rectangle
-from raytrace.renderer.packing import light_sides, light_structs, rectangle_structs
+from raytrace.renderer.culling import light_sides
+from raytrace.renderer.packing import light_structs, rectangle_structs
 from raytrace.scene.textures import make_texture
-from raytrace.tools.probe import scene_args
+from raytrace.commands.stability.probe import scene_args
 
 PHONG = """
 #include "shading.cl"
@@ -150,7 +152,7 @@ def test_scene_extent_counts_displaced_points(cornell):
     the largest |height| a lookup can return, 1 for an 8-bit map, any value for a float map (here -40 at
     one texel, which every coarser level averages down: level 0 decides)."""
     none = {k: np.zeros((0, 3), np.float32) for k in ("v0", "v1", "v2")}
-    base = packing.scene_extent(cornell, none)
+    base = culling.scene_extent(cornell, none)
     assert base == pytest.approx(2.0, rel=1e-6), "scene 0's coordinates reach 2 (ceiling, walls)"
     heights = np.zeros((4, 4, 1), np.float32)
     heights[1, 2] = -40.0
@@ -158,7 +160,7 @@ def test_scene_extent_counts_displaced_points(cornell):
         bumpy = dataclasses.replace(cornell.materials[0], height_map=0, height_scale=0.1)
         scene = dataclasses.replace(cornell, textures=[make_texture(pixels, kind, "height")],
                                     materials=[bumpy, *cornell.materials[1:]])
-        assert packing.scene_extent(scene, none) == pytest.approx(base + 0.1 * reach, rel=1e-6), kind
+        assert culling.scene_extent(scene, none) == pytest.approx(base + 0.1 * reach, rel=1e-6), kind
 
 
 REACH = """
@@ -190,7 +192,7 @@ def test_a_skipped_rectangle_never_blocks(harness, cornell):
     shelf = Rectangle(np.array([0.1, 0.5, 1.4]), np.array([0.8, 0.6]), normal, tangent, 1)
     scene = dataclasses.replace(cornell, rectangles=[*cornell.rectangles, shelf])
     index = len(cornell.rectangles)
-    lights = packing.scene_tables(scene)["lights"]
+    lights = scene_tables(scene)["lights"]
     assert lights[0]["planes_behind"] >> index & 1, "the light is behind the shelf's plane"
     rng = np.random.default_rng(23)
     n = 4096
@@ -232,7 +234,7 @@ def test_skipping_rectangles_out_of_reach_changes_nothing(cornell, lanes, bvh, v
     scene = dataclasses.replace(plain, rectangles=[*cornell.rectangles, *extras])
     of = Features.of.__func__
     monkeypatch.setattr(Features, "of", classmethod(lambda cls, *a: dataclasses.replace(of(cls, *a), bvh=bvh)))
-    lights = packing.scene_tables(scene)["lights"]
+    lights = scene_tables(scene)["lights"]
     assert lights[0]["planes_in_front"] == 0b111111, "the walls and the panel have the light in front"
     assert lights[0]["planes_behind"] == 0b11000000, "the fin and the shelf have the light behind"
     options = dict(width=64, height=64, spp=4, light_samples=4, lanes=lanes)

@@ -15,7 +15,7 @@ from raytrace import structs
 from raytrace.renderer.packing import light_structs
 from raytrace.renderer.program import Features
 from raytrace.scene import Light, Triangle, meshgen
-from raytrace.tools.probe import scene_args
+from raytrace.commands.stability.probe import scene_args
 
 SOURCE = """
 #include "intersect.cl"

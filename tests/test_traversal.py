@@ -15,9 +15,10 @@ from helpers import planar
 from raytrace.renderer import bvh
 from raytrace.scene import meshgen
 from raytrace.scene import Triangle
-from raytrace.renderer.packing import bvh_structs, scene_tables, triangle_soup
+from raytrace.renderer.geometry import bvh_structs, triangle_soup
+from raytrace.renderer.scene_tables import scene_tables
 from raytrace.renderer.program import Features
-from raytrace.tools.probe import scene_args
+from raytrace.commands.stability.probe import scene_args
 
 SOURCE = """
 #include "intersect.cl"
@@ -112,7 +113,7 @@ def test_flattened_tree_is_what_the_kernel_expects(mesh_scene):
 
 
 def test_triangles_are_packed_in_leaf_order(mesh_scene):
-    """The packed triangle table is in the order the leaves reference it (packing.in_leaf_order): read leaf
+    """The packed triangle table is in the order the leaves reference it (geometry.in_leaf_order): read leaf
     by leaf, the triangle references number the triangles 0, 1, 2, ..., and each packed triangle is the one
     the same reference named in the scene's order. Rectangles and ellipsoids keep their numbers. It fails if
     the table keeps the scene's order (the torus's faces are not in leaf order) or if the table and the

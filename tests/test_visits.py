@@ -1,4 +1,4 @@
-"""The traversal counters (raytrace/tools/visits.py; COUNT_VISITS in kernels/scene.h, bvh.cl, primitive.cl and
+"""The traversal counters (raytrace/commands/visits.py; COUNT_VISITS in kernels/scene.h, bvh.cl, primitive.cl and
 render.cl): a measuring build of the render kernel that counts the BVH boxes and the primitives its traversals
 test, per work-item, and the figures `bench` prints from them. The counts are checked exactly where the tree's shape fixes them, at every lane width
 this machine runs."""
@@ -14,9 +14,9 @@ from raytrace.scene import Camera, Triangle
 from raytrace.renderer.device_render import FIRST_HALF_PLANE, OUTPUT_PLANES, RAYS_PLANE, VISIT_KINDS
 from raytrace.renderer.progressive import pass_size
 from raytrace.structs import samples_at_once, tile_shape
-from raytrace.tools.visits import node_visits, pixels_with_half
+from raytrace.commands.visits import node_visits, pixels_with_half
 from helpers import planar, run_int_kernel, values_kernel
-from raytrace.tools.probe import scene_args
+from raytrace.commands.stability.probe import scene_args
 
 # 11 x 7 pixels: the tiles of 4 x 2, 2 x 2 and 2 x 1 pixels (kernels/tile.h, with 16, 8 and 4 lanes holding 2
 # samples of each pixel) reach past the image's edges, so a work-item's count is shared among fewer pixels

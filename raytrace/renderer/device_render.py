@@ -10,7 +10,8 @@ from ..structs import tile_shape
 from .cpu_target import apply_target, check_lanes, describe_target
 from .device import context_for, default_lanes, describe, select_device
 from .interface import KernelArguments
-from .packing import scene_tables, texture_tables
+from .packing import texture_tables
+from .scene_tables import scene_tables
 from .program import Features, render_program
 from .progressive import CHANNELS, PASS_WORK
 

@@ -2,7 +2,7 @@
 
 Programs are built with -cl-kernel-arg-info (program.py), so the device compiler reports each argument's
 name and type. The host never restates the render kernel's argument list: it hands over named values (the
-tables packing.py packs are named after the parameters of kernels/scene.h's SCENE_PARAMETERS and
+tables scene_tables.py gathers are named after the parameters of kernels/scene.h's SCENE_PARAMETERS and
 TEXTURE_PARAMETERS), and every value is checked against the declared type before it is set: a struct table
 against its dtype in raytrace/structs.py, a scalar or vector table against its element type, a scalar
 against its numpy type. A name the kernel does not declare, a value of another type, or an argument left

@@ -1,18 +1,16 @@
-"""Packing the scene into the structs of kernels/types.h (their numpy mirrors are in raytrace/structs.py):
-the one place where host values become what the kernel reads, as tables named after the kernel's
-parameters (kernels/scene.h)."""
+"""Packing the scene's values into the structs of kernels/types.h (their numpy mirrors are in
+raytrace/structs.py): the one place where host values become what the kernel reads. scene_tables.py gathers
+them into the tables named after the kernel's parameters (kernels/scene.h)."""
 import math
-import weakref
-from dataclasses import dataclass
 
 import numpy as np
 
-from . import bvh
 from .. import samplers, structs
 from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
-from .culling import culled_subtrees, light_sides, scene_extent
+from .culling import light_sides
+from .geometry import DEFAULT_UV
 
 
 def camera_struct(camera, width, height):
@@ -49,9 +47,6 @@ def triangle_records(v, material):
 
 def triangle_structs(tris):
     return triangle_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), [t.material for t in tris])
-
-
-DEFAULT_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # uv = (b1, b2)
 
 
 def _coordinate_system(n):
@@ -93,38 +88,6 @@ def triangle_uv_records(v, uv):
 def triangle_uv_structs(tris):
     uv = np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)
     return triangle_uv_records(np.array([t.vertices for t in tris]).reshape(-1, 3, 3), uv)
-
-
-@dataclass
-class TriangleSoup:
-    """Every triangle of a scene in the scene's order (the scene file's triangles, then each mesh's), as
-    arrays: corners v (F, 3, 3), per-corner uvs (F, 3, 2), per-corner shading normals (F, 3, 3; the face's
-    own normal where a mesh is not smooth), materials (F,). With a BVH the kernel gets them in its leaves'
-    order (in_leaf_order)."""
-    v: np.ndarray
-    uv: np.ndarray
-    normals: np.ndarray
-    material: np.ndarray
-
-
-def triangle_soup(scene):
-    tris = scene.triangles
-    v = [np.array([t.vertices for t in tris], np.float64).reshape(-1, 3, 3)]
-    uv = [np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)]
-    normals, material = [None], [np.array([t.material for t in tris], np.int32)]
-    for shape in scene.meshes:
-        m = shape.mesh
-        v.append(m.vertices[m.faces])
-        uv.append(m.uvs[m.faces] if m.uvs is not None else np.broadcast_to(DEFAULT_UV, (len(m.faces), 3, 2)))
-        normals.append(m.normals[m.faces] if shape.smooth else None)
-        material.append(np.full(len(m.faces), shape.material, np.int32))
-    v = np.concatenate(v)
-    face = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 1])
-    face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
-    flat = lambda part: np.repeat(face[part, None], 3, axis=1)  # noqa: E731
-    starts = np.cumsum([0] + [len(a) for a in material])
-    normals = [flat(slice(a, b)) if n is None else n for n, a, b in zip(normals, starts[:-1], starts[1:])]
-    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material))
 
 
 def triangle_normal_records(normals):
@@ -215,93 +178,3 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     return p
 
 
-def primitive_boxes(scene, soup):
-    """(lo, hi, refs): the axis-aligned box of every shape (float64, (N, 3) each) and its reference,
-    index * 4 + kind (kernels/types.h). An ellipsoid c + A x, |x| = 1, reaches c_j +- |row j of A|."""
-    rect_corners = [r.center + np.outer([-1, 1], r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent))
-                    for r in scene.rectangles]
-    boxes = [(c[0], c[1]) for c in rect_corners]
-    boxes += [(e.center - np.linalg.norm(e.matrix, axis=1), e.center + np.linalg.norm(e.matrix, axis=1))
-              for e in scene.ellipsoids]
-    kinds = [(structs.SHAPES["rectangle"], len(scene.rectangles)), (structs.SHAPES["triangle"], len(soup.v)),
-             (structs.SHAPES["ellipsoid"], len(scene.ellipsoids))]
-    refs = np.concatenate([np.arange(n, dtype=np.int32) * 4 + kind for kind, n in kinds])
-    lo, hi = (np.array([b[k] for b in boxes], np.float64).reshape(-1, 3) for k in (0, 1))
-    n_rect = len(scene.rectangles)
-    lo = np.concatenate([lo[:n_rect], soup.v.min(axis=1), lo[n_rect:]])
-    hi = np.concatenate([hi[:n_rect], soup.v.max(axis=1), hi[n_rect:]])
-    return lo, hi, refs
-
-
-def bvh_structs(scene, use_bvh, soup=None):
-    """(nodes, primitive references, culled subtrees) of the hierarchy over every shape, or one dummy of
-    each without it."""
-    if not use_bvh:
-        return np.zeros(1, structs.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32)
-    lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
-    try:
-        nodes, order = bvh.build(lo, hi)
-    except ValueError as e:  # a tree deeper than the kernel's stack
-        raise InputError(scene.path, "shapes", f"{len(refs)} shapes", str(e)) from None
-    return nodes, refs[order], culled_subtrees(nodes, refs[order])
-
-
-def in_leaf_order(soup, prims):
-    """The soup's triangles renumbered in the order the BVH's leaves reference them, and the references
-    renumbered to match. A leaf's triangles then lie side by side in memory, and those of the leaves around
-    it close by (the nodes are depth first), wherever the mesh file put them: traversal reads them with
-    fewer cache misses (a torus of 10^6 triangles, whose rows of faces lie apart in its own order: bvh.cl
-    spent a fifth of its time waiting on triangle loads before). Rectangles and ellipsoids keep their
-    numbers (lights and culling name rectangles by theirs)."""
-    triangle = (prims & 3) == structs.SHAPES["triangle"]
-    order = prims[triangle] >> 2
-    prims = prims.copy()
-    prims[triangle] = np.arange(len(order), dtype=prims.dtype) * 4 + structs.SHAPES["triangle"]
-    return TriangleSoup(soup.v[order], soup.uv[order], soup.normals[order], soup.material[order]), prims
-
-
-# Each live Scene object's packed triangles and BVH, by id(scene): repeated renders of one Scene object (bench's
-# scenes in turns, converge, bench --scaling's two meshes alternating, a progressive render's callers) pack its
-# triangles and build its BVH once (bench's four scenes, 3 turns: 11.3 s against 15.0 when only the last
-# scene's were kept and mesh_cornell's BVH was built again every turn, Zen 3). An entry goes with its scene
-# (weakref.finalize), so an id is never met again while its entry stands. Keyed by the object itself, so a
-# scene changed in place must be a new object (dataclasses.replace), as everywhere in this package.
-_GEOMETRY = {}
-
-
-def _geometry_tables(scene, uv, smooth, use_bvh):
-    """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference and culled-subtree tables."""
-    key, cached = (uv, smooth, use_bvh), _GEOMETRY.get(id(scene))
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    soup = triangle_soup(scene)
-    nodes, prims, culled = bvh_structs(scene, use_bvh, soup)
-    if use_bvh:
-        soup, prims = in_leaf_order(soup, prims)
-    unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
-    tables = [triangle_records(soup.v, soup.material),
-              triangle_uv_records(soup.v, soup.uv) if uv else unused(structs.TRIANGLE_UV),
-              triangle_normal_records(soup.normals) if smooth else unused(structs.TRIANGLE_NORMALS),
-              nodes, prims, culled]
-    if cached is None:
-        weakref.finalize(scene, _GEOMETRY.pop, id(scene), None)
-    _GEOMETRY[id(scene)] = key, tables
-    return tables
-
-
-def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filter="trilinear", pixel_pattern=None,
-                 light_pattern=None, seed=0, features=None):
-    """The scene's tables, named after kernels/scene.h's SCENE_PARAMETERS. Tables a variant does not read
-    (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one dummy entry:
-    features None packs them all but the BVH."""
-    triangles, uvs, normals, nodes, prims, culled = _geometry_tables(
-        scene, features is None or features.textures, features is None or features.smooth_normals,
-        features is not None and features.bvh)
-    return {"camera": camera_struct(scene.camera, width, height),
-            "params": params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern,
-                                    light_pattern, seed),
-            "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
-            "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
-            "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
-            "materials": material_structs(scene.materials), "nodes": nodes, "prims": prims,
-            "culled_subtrees": culled}

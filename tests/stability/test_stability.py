@@ -1,11 +1,11 @@
-"""The numerical stability suite (raytrace/tools/stability/), case by case at both lane widths: the very rows
+"""The numerical stability suite (raytrace/commands/stability/), case by case at both lane widths: the very rows
 `python -m raytrace stability` prints, each held to its verdict. A known limit passes only while its error
 stays within the stated limit, so it cannot silently get worse."""
 from functools import cache
 
 import pytest
 
-from raytrace.tools import stability
+from raytrace.commands import stability
 
 @cache
 def env(lanes):

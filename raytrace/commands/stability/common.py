@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, Probe, planar, scene_args
+from .probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, Probe, planar, scene_args
 from ...render import render
 from ...scene import load_scene
 

@@ -7,9 +7,9 @@ import os
 import numpy as np
 import OpenImageIO as oiio
 
-from ..errors import InputError
-from ..outputs import Outputs
-from .progressive import row_chunks
+from .errors import InputError
+from .outputs import Outputs
+from .renderer.progressive import row_chunks
 
 EIGHT_BIT = {".png", ".jpg", ".jpeg", ".bmp", ".tga"}
 FLOAT = {".exr", ".hdr"}

@@ -1,10 +1,10 @@
-"""`python -m raytrace.tools.same_images save|compare DIR`: every shipped scene rendered small, at both lane
+"""`python -m devtools.same_images save|compare DIR`: every shipped scene rendered small, at both lane
 widths, under every sample pattern (scene 0) and every texture filter (the textured scenes), saved as
 float32 arrays or compared bit for bit with arrays saved before. A change that must not change any image
 (a refactoring, a faster kernel that claims identical results) is checked with it: save before, compare
 after. Exit status 1 when an image differs.
 
-`python -m raytrace.tools.same_images devices DIR --device SPEC`: scene 0 rendered on PoCL's CPU device and
+`python -m devtools.same_images devices DIR --device SPEC`: scene 0 rendered on PoCL's CPU device and
 on another device (a GPU), compared within the bound the tests argue rather than bit for bit (devices round
 differently: FMA contraction, their own division and square root); both arrays and the figures
 (devices.json) are left in DIR. Exit status 1 when the images differ by more than that bound. With
@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import load_scene, render
-from ..numerics import rmse
+from raytrace import load_scene, render
+from raytrace.numerics import rmse
 
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 SIZE = dict(width=48, height=40, spp=4, light_samples=4, progress=False)
 PATTERNS = ("grid", "rotated-grid-cw", "rotated-grid-ccw", "random", "jittered", "halton", "sobol")
 FILTERS = ("nearest", "bilinear", "trilinear", "anisotropic")
@@ -75,7 +75,7 @@ def compare_devices(directory, device, lanes=None, cpu_image=None):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m raytrace.tools.same_images", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m devtools.same_images", description=__doc__.split("\n")[0])
     parser.add_argument("mode", choices=["save", "compare", "devices"])
     parser.add_argument("dir", type=Path)
     parser.add_argument("--device", help="devices: the device to compare with PoCL's CPU (render's --device)")

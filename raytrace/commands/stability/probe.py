@@ -6,10 +6,10 @@ n y's, then n z's. The macros below read and write them at either lane width."""
 import numpy as np
 import pyopencl as cl
 
-from ..renderer.device import context_for, select_device
-from ..renderer.program import build
-from ..renderer.interface import KernelArguments
-from ..renderer.packing import scene_tables
+from ...renderer.device import context_for, select_device
+from ...renderer.program import build
+from ...renderer.interface import KernelArguments
+from ...renderer.scene_tables import scene_tables
 
 PRELUDE = """
 #include "lanes.h"
@@ -121,6 +121,6 @@ CLOSEST_HIT_OUTPUTS = {"t": 1, "p": 3, "err": 1, "nrm": 3, "material": 1, "emitt
 
 
 def scene_args(scene, **options):
-    """The scene's tables (kernels/scene.h's SCENE_PARAMETERS) by name; `options` as packing.scene_tables
+    """The scene's tables (kernels/scene.h's SCENE_PARAMETERS) by name; `options` as scene_tables.scene_tables
     takes them. A kernel that also declares TEXTURE_PARAMETERS gets packing.texture_tables(scene) too."""
     return scene_tables(scene, **options)

@@ -1,14 +1,15 @@
 """How the renderer's cost grows with the triangle count: `python -m raytrace bench --scaling`.
 
-A procedural mesh (a displaced torus, raytrace/meshgen.py) of 10^2 ... 10^6 (10^7 with --max-triangles)
+A procedural mesh (a displaced torus, raytrace/scene/meshgen.py) of 10^2 ... 10^6 (10^7 with --max-triangles)
 triangles stands in scene 0's room instead of the tetrahedron and the ellipsoid; each is rendered at 256 x 256
 with 4 pixel samples x 4 light samples (fixed: the render options of `bench` do not apply). With a BVH the
 time per ray should grow like log N; a loop over every shape grows like N. Writes scaling.csv and scaling.png
 (log-log: seconds per ray and BVH build seconds against the number of triangles); each row also has the BVH
 nodes and primitives tested per camera and per shadow ray (visits.py, counted in this process), and
-visits.png maps the node visits pixel by pixel for the smallest and the largest mesh. With embree=True (--embree)
-each row also has Embree's ns per ray on the same geometry and kinds of rays (embree_anchor.py), on one core,
-as measured and net of what its Python binding costs a ray: beside ours, its growth is the anchor."""
+visits.png maps the node visits pixel by pixel for the smallest and the largest mesh. With an anchor
+(`python -m benchmarks.embree_anchor`, a developer's rig outside the package) each row also has Embree's ns per
+ray on the same geometry and kinds of rays, on one core, as measured and net of what its Python binding costs
+a ray: beside ours, its growth is the anchor."""
 import csv
 import dataclasses
 import time
@@ -20,8 +21,7 @@ from ..renderer import bvh
 from ..scene import meshgen
 from ..render import render
 from ..scene import Material, MeshShape, load_scene
-from ..renderer.packing import primitive_boxes, triangle_soup
-from . import embree_anchor
+from ..renderer.geometry import primitive_boxes, triangle_soup
 from .bench import in_turns, paired_ratios
 from .visits import PER_RAY, node_visits, plot_maps
 
@@ -85,16 +85,18 @@ def paired_growth(low, high, scheduler=None, turns=PAIRED_TURNS):
     renders that may come from different minutes. Neither is steady on a shared machine: on a 2-core Zen 3,
     three runs in one hour gave 4.47x, 4.03x and 4.91x by the rows and 4.92x, 4.53x and 4.00x paired (an hour
     before, the rows gave 3.58x and 3.60x), as a neighbour's load slows the 10^6 mesh's memory-bound renders
-    more than 10^3's. Both scenes' tables stay packed (renderer/packing.py keeps every live scene's), so a turn
+    more than 10^3's. Both scenes' tables stay packed (renderer/scene_tables.py keeps every live scene's), so a turn
     costs two renders."""
     options = {key: value for key, value in OPTIONS.items() if key != "progress"}  # in_turns sets it
     best, seconds = in_turns([low, high], turns, dict(options, scheduler=scheduler), alternate=True)
     return paired_ratios(seconds)[1] * best[0].rays / best[1].rays
 
 
-def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, scheduler=None):
-    """The table's rows; Embree is measured first in each row, so that a missing embreex stops the run before
-    any render."""
+def scaling(scene_path, out_dir, max_triangles=10**6, out=None, anchor=None, scheduler=None):
+    """The table's rows. `anchor`, when given, measures another tracer on each row's room (a function of the
+    room returning ns_per_ray and net_ns_per_ray, as benchmarks/embree_anchor.py's measure): it runs first in
+    each row, so that a missing dependency stops the run before any render."""
+    embree = anchor is not None
     scene = load_scene(scene_path)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -102,26 +104,26 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, embree=False, sc
     counts = [10**k for k in range(2, 8) if 10**k <= max_triangles]
     for n in counts:
         room = rooms[n] = mesh_room(scene, n)
-        anchor = embree_anchor.measure(room) if embree else None
+        measured = anchor(room) if embree else None
         visits, row = measure(room, scheduler)
         rows.append(row)
         if n not in (10**3, counts[-1]):
             del rooms[n]  # its packed tables go with it
         if n in (counts[0], counts[-1]):
             maps.append((f"{room.triangle_count:,} triangles", visits))
-        if anchor:
-            rows[-1]["embree_ns_per_ray"] = anchor["ns_per_ray"]
-            rows[-1]["embree_net_ns_per_ray"] = anchor["net_ns_per_ray"]
+        if measured:
+            rows[-1]["embree_ns_per_ray"] = measured["ns_per_ray"]
+            rows[-1]["embree_net_ns_per_ray"] = measured["net_ns_per_ray"]
         if out:
             r = rows[-1]
             print(f"{r['triangles']:>9d} triangles: BVH {r['build_seconds']:7.2f} s, render {r['render_seconds']:6.3f} s, "
                   f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s, BVH nodes and "
                   f"primitives per camera ray {r['visits_per_camera_ray']:.2f} and {r['primitives_per_camera_ray']:.2f}, "
                   f"per shadow ray {r['visits_per_shadow_ray']:.2f} and {r['primitives_per_shadow_ray']:.2f}"
-                  + (f"; Embree {anchor['ns_per_ray']:7.1f} ns per ray on 1 core "
-                     f"({anchor['ns_per_ray_all_cores']:.1f} ideal on {anchor['cores']}), "
-                     f"{anchor['net_ns_per_ray']:.1f} net of its binding's {anchor['binding_ns_per_ray']:.1f}"
-                     if anchor else ""),
+                  + (f"; Embree {measured['ns_per_ray']:7.1f} ns per ray on 1 core "
+                     f"({measured['ns_per_ray_all_cores']:.1f} ideal on {measured['cores']}), "
+                     f"{measured['net_ns_per_ray']:.1f} net of its binding's {measured['binding_ns_per_ray']:.1f}"
+                     if measured else ""),
                   file=out, flush=True)
     if out and 10**3 in counts[:-1]:
         print(growth(rows, counts, rooms, embree, scheduler), file=out, flush=True)

@@ -1,4 +1,4 @@
-"""Embree as an anchor for `python -m raytrace bench --scaling --embree`: the per-ray cost of Intel's Embree on
+"""Embree as an anchor for `bench --scaling`: `python -m benchmarks.embree_anchor DIR [SCENE]` gives the per-ray cost of Intel's Embree on
 the same triangles and the same kinds of rays, so that our cost's growth with the triangle count stands beside
 that of a production BVH.
 
@@ -12,16 +12,18 @@ shading normal, and no light hides it). Only the two queries are timed, each the
 This is a measuring tool, not a dependency: embreex (PyPI) is imported only where it is used. Its binding traces
 one ray at a time on one thread, so its figures are per core; ours use every core of the OpenCL device, so
 what compares fairly is how each grows with the triangle count, not the absolute ns per ray."""
+import argparse
+import sys
 import dataclasses
 import os
 import time
 
 import numpy as np
 
-from ..errors import InputError
-from ..renderer.packing import triangle_soup
-from ..scene import Triangle
-from .reference_camera import camera_directions
+from raytrace.errors import InputError
+from raytrace.renderer.geometry import triangle_soup
+from raytrace.scene import Triangle
+from raytrace.commands.stability.reference_camera import camera_directions
 
 SHADOW_END = 1 - 1e-4  # shadow segments stop short of the light: an occluder flush with it does not count
 OFFSET = 1e-5          # shadow origins leave their surface by this much times the point's largest coordinate
@@ -38,12 +40,12 @@ def rectangle_triangles(rect):
 
 def embree_scene(scene):
     """An Embree scene of every triangle of `scene` and its rectangles (not its lights), with the triangle
-    soup (packing.triangle_soup, the rectangles' triangles first) whose order Embree's primIDs index. The
+    soup (geometry.triangle_soup, the rectangles' triangles first) whose order Embree's primIDs index. The
     binding's default scene flag is Embree's robust (watertight) traversal: kept."""
     try:
         from embreex import mesh_construction, rtcore_scene
     except ImportError:
-        raise InputError("command line", "--embree", None, "needs the embreex package: pip install embreex") from None
+        raise InputError("environment", "embreex", None, "needs the embreex package: pip install embreex") from None
     if scene.ellipsoids:
         raise InputError(scene.path, "shapes", None, "the Embree anchor takes triangles and rectangles only")
     rects = [t for r in scene.rectangles for t in rectangle_triangles(r)]
@@ -167,3 +169,23 @@ def measure(scene, width=256, height=256, spp=4, light_samples=4, repeat=3, seed
             "ns_per_ray": ns_per_ray, "binding_ns_per_ray": binding_ns, "net_ns_per_ray": ns_per_ray - binding_ns,
             "cores": os.cpu_count(), "ns_per_ray_all_cores": ns_per_ray / os.cpu_count(),
             "hit_fraction": float(np.mean(hits["primID"] >= 0)), "blocked_fraction": float(np.mean(blocked))}
+
+
+def main(argv=None):
+    """`bench --scaling`'s table with Embree's columns beside ours."""
+    from raytrace.commands.bench import suite_scenes
+    from raytrace.commands.scaling import scaling
+
+    p = argparse.ArgumentParser(prog="python -m benchmarks.embree_anchor", description=__doc__.split("\n")[0])
+    p.add_argument("out", metavar="DIR", help="where scaling.csv, scaling.png and visits.png go")
+    p.add_argument("scene", nargs="?", help="the room and its lights (default: scenes/cornell.toml)")
+    p.add_argument("--max-triangles", type=int, default=10**6, help="the largest mesh (default 10^6)")
+    args = p.parse_args(argv)
+    if not 100 <= args.max_triangles <= 10**7:
+        raise InputError("command line", "--max-triangles", args.max_triangles, "must be in [100, 10^7]")
+    scaling(args.scene or suite_scenes()[0], args.out, args.max_triangles, out=sys.stdout, anchor=measure)
+
+
+if __name__ == "__main__":
+    from benchmarks import run_rig
+    sys.exit(run_rig("benchmarks.embree_anchor", main))

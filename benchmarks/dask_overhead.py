@@ -1,4 +1,4 @@
-"""What rendering on Dask costs on one machine: `python -m raytrace.tools.dask_overhead [SCENE ...]`.
+"""What rendering on Dask costs on one machine: `python -m benchmarks.dask_overhead [SCENE ...]`.
 
 For each scene, the wall time of a render in this process and on LocalClusters of 1 and 2 worker processes
 on the same cores (each cluster warmed by a first, untimed render: the workers' programs and scene buffers
@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from .. import load_scene
-from ..render import render_progressive
-from ..renderer.distributed import client_for, close_all
-from ..renderer.progressive import Accumulator
+from raytrace import load_scene
+from raytrace.render import render_progressive
+from raytrace.renderer.distributed import client_for, close_all
+from raytrace.renderer.progressive import Accumulator
 
 DEFAULT = dict(width=2048, height=2048, spp=64, progress=False)
 
@@ -73,7 +73,7 @@ def measure(scene_paths, options, out=sys.stdout):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m raytrace.tools.dask_overhead", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.dask_overhead", description=__doc__.split("\n")[0])
     parser.add_argument("scene", nargs="*", default=["scenes/cornell.toml", "scenes/mesh_cornell.toml"])
     parser.add_argument("--width", type=int, default=DEFAULT["width"])
     parser.add_argument("--height", type=int, default=DEFAULT["height"])

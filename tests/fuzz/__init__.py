@@ -4,4 +4,4 @@ lines and environments (commands.py), and the contract every run must keep, chec
 (contract.py)."""
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[3]  # the checkout: its assets/ hold the real files the generators damage
+ROOT = Path(__file__).resolve().parents[2]  # the checkout: its assets/ hold the real files the generators damage

@@ -1,5 +1,5 @@
 """Our render of a scene against another renderer's image of it:
-`python -m raytrace.tools.against_reference SCENE REFERENCE.exr --spp N --light-samples M --out DIR`.
+`python -m benchmarks.against_reference SCENE REFERENCE.exr --spp N --light-samples M --out DIR`.
 
 The comparison issue 19 asks for, with Mitsuba 3's `direct` integrator as the other renderer (a script of
 its own, not part of this project, renders the reference): the RMSE of ours against the reference on
@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import load_scene
-from ..numerics import rmse
-from ..render import render_progressive
-from ..renderer.image import write_image_file
-from .converge import clamped_rmse, read_reference
+from raytrace import load_scene
+from raytrace.numerics import rmse
+from raytrace.render import render_progressive
+from raytrace.image_file import write_image_file
+from raytrace.commands.converge import clamped_rmse, read_reference
 
 DIFFERENCE_GAIN = 10.0
 
@@ -35,7 +35,7 @@ def side_by_side(ours, reference):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m raytrace.tools.against_reference",
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.against_reference",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("scene")
     parser.add_argument("reference", help="the other renderer's image (EXR, linear), the scene's size")

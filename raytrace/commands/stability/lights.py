@@ -4,7 +4,7 @@ import dataclasses
 import numpy as np
 
 from ... import samplers
-from ..probe import planar, scene_args
+from .probe import planar, scene_args
 from ...scene import Light
 from ...numerics import f32
 from .common import Row, nonfinite, shapes, unit

@@ -6,7 +6,7 @@ for the patterns that need square counts; one render for center), each timed by 
 reference image of the same scene, size and light samples:
 - rmse: the root mean square difference over all pixels and channels of the linear images (with --clamp,
   of the images clamped to [0, 1]);
-- estimated_rmse: what the render itself estimates from its two halves of passes (raytrace/progressive.py),
+- estimated_rmse: what the render itself estimates from its two halves of passes (raytrace/renderer/progressive.py),
   always of linear values; the two columns side by side show how far the estimate is from the truth for
   each pattern. Clamping moves no two values further apart, so with --clamp it bounds the clamped error
   from above (it equals it where no value exceeds 1);
@@ -37,7 +37,7 @@ from .. import samplers
 from ..errors import InputError
 from ..numerics import rmse
 from ..outputs import Outputs, scene_inputs, write_json
-from ..renderer.image import encode_8bit, write_image_file
+from ..image_file import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
 from ..scene import load_scene
 from .converge_peer import PEER_SAMPLERS, check_template, peer_rows, race
@@ -239,7 +239,7 @@ def montage(names, rows, seconds):
 
 def draw_montage(panels, reference_crop, reference_facts, caption, path, cols=4, dpi=100):
     """The crops, enlarged by an integer factor with nearest-neighbour pixels, the reference first."""
-    from .figures import figure_panels, save_figure, show_image
+    from .panels import figure_panels, save_figure, show_image
     _pyplot()  # the Agg backend, before the helpers import pyplot
     h, w = reference_crop.shape[:2]
     zoom = max(1, 256 // max(h, w))

@@ -3,7 +3,7 @@ import dataclasses
 
 import numpy as np
 
-from ..reference_camera import camera_directions
+from .reference_camera import camera_directions
 from ...numerics import U, f32, rmse
 from ...renderer.packing import camera_struct
 from .common import Row, nonfinite

@@ -1,4 +1,4 @@
-"""The README's texture figures: `python -m raytrace.figures [--out assets/figures] [--quick]`.
+"""The README's texture figures: `python -m devtools.figures [--out assets/figures] [--quick]`.
 
 Needs matplotlib (an optional extra), imported inside the functions that draw.
 """
@@ -9,42 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import load_scene
-from .. import render
-from ..renderer.image import encode_8bit, write_image
+from raytrace import load_scene
+from raytrace import render
+from raytrace.commands.panels import figure_panels, save_figure, show_image
+from raytrace.image_file import write_image
 
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 TEXTURED = ("textured_cornell", "grid_floor", "normal_wall", "textured_shapes")
 FILTERS = ("nearest", "bilinear", "trilinear", "anisotropic")
-
-
-def figure_panels(cols, heights, width, dpi, title_px=36, gap=10, caption_px=0):
-    """A figure whose axes are exactly `width` x heights[i] pixels at `dpi`, so images show 1:1 (or at an
-    integer zoom) and no texel is dropped or smeared by resampling; returns (figure, rows of axes)."""
-    import matplotlib.pyplot as plt
-    fig_w, fig_h = cols * width + (cols + 1) * gap, sum(heights) + len(heights) * title_px + gap + caption_px
-    fig = plt.figure(figsize=(fig_w / dpi, fig_h / dpi), dpi=dpi)
-    rows, top = [], fig_h
-    for h in heights:
-        top -= title_px + h
-        rows.append([fig.add_axes(((gap + c * (width + gap)) / fig_w, top / fig_h, width / fig_w, h / fig_h))
-                     for c in range(cols)])
-    return fig, rows
-
-
-def show_image(ax, image, title):
-    """One panel: the image as the project's 8-bit PNGs encode it, pixels as squares, no ticks."""
-    ax.imshow(encode_8bit(image), interpolation="nearest", aspect="auto")
-    ax.set_title(title, fontsize=10)
-    ax.set_xticks([])
-    ax.set_yticks([])
-
-
-def save_figure(fig, path):
-    fig.savefig(path, dpi=fig.dpi, bbox_inches="tight", pad_inches=0.04)
-    import matplotlib.pyplot as plt
-    plt.close(fig)
-    return path
 
 
 def _metadata(scene_name, stats):
@@ -121,7 +93,7 @@ def rmse_markdown(table):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m raytrace.figures", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m devtools.figures", description=__doc__.split("\n")[0])
     parser.add_argument("--out", type=Path, default=Path("assets/figures"), help="output directory")
     parser.add_argument("--quick", action="store_true", help="tiny renders, for a smoke test")
     args = parser.parse_args(argv)

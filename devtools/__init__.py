@@ -1,0 +1,2 @@
+"""Developer scripts, run from a checkout and never installed: `python -m devtools.same_images` (a change that
+must not change any image, checked bit for bit) and `python -m devtools.figures` (the manual's figures)."""

@@ -1,0 +1,58 @@
+"""The tables a render passes to the kernel, named after kernels/scene.h's parameters: the structs of
+packing.py and the geometry of geometry.py, with each live scene's triangles and BVH kept between renders."""
+import weakref
+
+import numpy as np
+
+from .. import structs
+from .culling import scene_extent
+from .geometry import bvh_structs, in_leaf_order, triangle_soup
+from .packing import (camera_struct, ellipsoid_structs, light_structs, material_structs, params_struct,
+                      rectangle_structs, triangle_normal_records, triangle_records, triangle_uv_records)
+
+
+# Each live Scene object's packed triangles and BVH, by id(scene): repeated renders of one Scene object (bench's
+# scenes in turns, converge, bench --scaling's two meshes alternating, a progressive render's callers) pack its
+# triangles and build its BVH once (bench's four scenes, 3 turns: 11.3 s against 15.0 when only the last
+# scene's were kept and mesh_cornell's BVH was built again every turn, Zen 3). An entry goes with its scene
+# (weakref.finalize), so an id is never met again while its entry stands. Keyed by the object itself, so a
+# scene changed in place must be a new object (dataclasses.replace), as everywhere in this package.
+_GEOMETRY = {}
+
+
+def _geometry_tables(scene, uv, smooth, use_bvh):
+    """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference and culled-subtree tables."""
+    key, cached = (uv, smooth, use_bvh), _GEOMETRY.get(id(scene))
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    soup = triangle_soup(scene)
+    nodes, prims, culled = bvh_structs(scene, use_bvh, soup)
+    if use_bvh:
+        soup, prims = in_leaf_order(soup, prims)
+    unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
+    tables = [triangle_records(soup.v, soup.material),
+              triangle_uv_records(soup.v, soup.uv) if uv else unused(structs.TRIANGLE_UV),
+              triangle_normal_records(soup.normals) if smooth else unused(structs.TRIANGLE_NORMALS),
+              nodes, prims, culled]
+    if cached is None:
+        weakref.finalize(scene, _GEOMETRY.pop, id(scene), None)
+    _GEOMETRY[id(scene)] = key, tables
+    return tables
+
+
+def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filter="trilinear", pixel_pattern=None,
+                 light_pattern=None, seed=0, features=None):
+    """The scene's tables, named after kernels/scene.h's SCENE_PARAMETERS. Tables a variant does not read
+    (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one dummy entry:
+    features None packs them all but the BVH."""
+    triangles, uvs, normals, nodes, prims, culled = _geometry_tables(
+        scene, features is None or features.textures, features is None or features.smooth_normals,
+        features is not None and features.bvh)
+    return {"camera": camera_struct(scene.camera, width, height),
+            "params": params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern,
+                                    light_pattern, seed),
+            "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
+            "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
+            "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
+            "materials": material_structs(scene.materials), "nodes": nodes, "prims": prims,
+            "culled_subtrees": culled}
