@@ -11,21 +11,8 @@ row whose bound is a stated limit of float32 rather than a guarantee, held so th
 One module per group of cases, in the order of CASES: meshes, rectangles, ellipsoids, lights, phong, camera,
 limits (image sizes and sample counts), degenerate_input, textures; common.py holds what several of them share,
 table.py runs them and prints the table."""
+from .cases import CASES
 from .common import Env, Row
-from .meshes import mesh_edges
-from .rectangles import grazing_rectangles
-from .ellipsoids import extreme_ellipsoids, grazing_ellipsoids
-from .lights import lights_at_horizon
-from .phong import phong_power
-from .camera import extreme_fov, far_camera
-from .limits import deep_accumulation, image_sizes
-from .degenerate_input import degenerate_input
-from .textures import textured_grazing
-
-CASES = [mesh_edges, grazing_rectangles, grazing_ellipsoids, extreme_ellipsoids, lights_at_horizon, phong_power,
-         extreme_fov, far_camera, image_sizes, deep_accumulation, degenerate_input, textured_grazing]
-
-# table.py reads CASES from this package, so it is imported after CASES is defined.
-from .table import format_row, report, run_case  # noqa: E402
+from .table import format_row, report, run_case
 
 __all__ = ["CASES", "Env", "Row", "format_row", "report", "run_case"]

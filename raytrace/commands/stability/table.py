@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import CASES
+from .cases import CASES
 from .common import Env
 
 
