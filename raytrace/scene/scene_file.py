@@ -8,37 +8,43 @@ from pathlib import Path
 
 import numpy as np
 
-from . import mesh_file, meshes, meshgen, ranges
+from . import keys, mesh_file, meshes, meshgen, ranges
 from ..errors import InputError
 from .. import samplers
-from ..structs import WRAP_MODES
-from .model import (DEFAULT_SHININESS, SHADINGS, Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
+from .model import (Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
                     normalize)
 from .textures import TextureCache
 from .transform import mesh_matrix
 
-SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
 FLOAT32_TINY, FLOAT32_MAX = float(np.finfo(np.float32).tiny), float(np.finfo(np.float32).max)
 
 
 class _Reader:
-    """Typed access to one TOML table; every error names file, key path and value."""
+    """Typed access to one TOML table; every error names file, key path and value. Each key's type, default and
+    range come from keys.py's declaration of the table (`spec`), the one the manual's table is made from."""
 
-    def __init__(self, path, table, prefix=""):
-        self.path, self.table, self.prefix = path, table, prefix
+    def __init__(self, path, table, prefix="", spec=""):
+        self.path, self.table, self.prefix, self.spec = path, table, prefix, keys.table(spec)
         if not isinstance(table, dict):
             self.fail("", table, "must be a table")
 
     def fail(self, key, value, problem):
         raise InputError(self.path, self.prefix + key if key else self.prefix.rstrip("."), value, problem)
 
-    def check_keys(self, allowed):
+    def check_keys(self, allowed=None):
+        allowed = sorted(self.spec) if allowed is None else allowed
         for key in self.table:
             if key not in allowed:
                 self.fail(key, self.table[key], f"unknown key (expected one of: {', '.join(allowed)})")
 
     def has(self, key):
         return key in self.table
+
+    def key(self, name, *kinds):
+        """The declaration of key `name`, which must be of one of `kinds`."""
+        key = self.spec[name]
+        assert key.kind in kinds, (name, key.kind, kinds)
+        return key
 
     def raw(self, key, default=None):
         if key not in self.table:
@@ -47,59 +53,81 @@ class _Reader:
             return default
         return self.table[key]
 
-    def number(self, key, default=None, low=-math.inf, high=math.inf, open_low=False):
-        value = self.raw(key, default)
+    def _given(self, key):
+        """The key's value, or its declared default; a missing required key is an error."""
+        return self.raw(key.name, None if key.required else key.default)
+
+    def number(self, name):
+        key = self.key(name, "number", "number-or-vector")
+        value = self._given(key)
+        low, high, open_low = key.low, key.high, key.open_low
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(key, value, "must be a finite number")
+            self.fail(name, value, "must be a finite number")
         if ranges.float32_problem(value):
-            self.fail(key, value, ranges.float32_problem(value))
+            self.fail(name, value, ranges.float32_problem(value))
         if value < low or value > high or (open_low and value == low):
             bound = f"> {low}" if open_low else f">= {low}"
-            self.fail(key, value, f"must be {bound} and <= {high}")
+            self.fail(name, value, f"must be {bound} and <= {high}")
+        if key.open_high and value == high:
+            self.fail(name, value, f"must be < {high}")
         return float(value)
 
-    def integer(self, key, default=None, low=1, high=ranges.MAX_SAMPLES):
-        value = self.raw(key, default)
+    def integer(self, name):
+        key = self.key(name, "integer")
+        value, low, high = self._given(key), int(key.low), int(key.high)
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            self.fail(key, value, f"must be an integer in [{low}, {high}]")
+            self.fail(name, value, f"must be an integer in [{low}, {high}]")
         return value
 
-    def string(self, key, default=None, choices=None):
-        value = self.raw(key, default)
+    def string(self, name, choices=None):
+        key = self.key(name, "string", "path")
+        value, choices = self._given(key), key.choices if choices is None else choices
         if not isinstance(value, str) or (choices and value not in choices):
-            self.fail(key, value, f"must be one of: {', '.join(choices)}" if choices else "must be a string")
+            self.fail(name, value, f"must be one of: {', '.join(choices)}" if choices else "must be a string")
         return value
 
-    def vector(self, key, n, default=None, nonzero=False, low=-math.inf):
-        value = self.raw(key, default)
+    def boolean(self, name):
+        value = self._given(self.key(name, "boolean"))
+        if not isinstance(value, bool):
+            self.fail(name, value, "must be true or false")
+        return value
+
+    def vector(self, name):
+        key = self.key(name, "vector", "number-or-vector")
+        return self._vector(name, self._given(key), key.length, key.nonzero, key.low)
+
+    def _vector(self, name, value, n, nonzero=False, low=-math.inf):
         bound = f" >= {low}" if low > -math.inf else ""
         if not (isinstance(value, (list, tuple)) and len(value) == n
                 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)):
-            self.fail(key, value, f"must be a list of {n} finite numbers{bound}")
+            self.fail(name, value, f"must be a list of {n} finite numbers{bound}")
         for x in value:
             if ranges.float32_problem(x):
-                self.fail(key, value, ranges.float32_problem(x))
+                self.fail(name, value, ranges.float32_problem(x))
         if any(x < low for x in value):
-            self.fail(key, value, f"must be a list of {n} finite numbers{bound}")
+            self.fail(name, value, f"must be a list of {n} finite numbers{bound}")
         v = np.array(value, dtype=np.float64)
         if nonzero and not np.any(v):
-            self.fail(key, value, "must not be the zero vector")
+            self.fail(name, value, "must not be the zero vector")
         return v
 
-    def vectors(self, key, n, count=None):
-        value = self.raw(key)
+    def vectors(self, name):
+        key = self.key(name, "vectors")
+        value, count = self.raw(name), key.count
         if not isinstance(value, list) or (count is not None and len(value) != count) or not value:
-            self.fail(key, value, f"must be a list of {count or 'one or more'} vectors")
-        return np.array([_Reader(self.path, {key: v}, self.prefix).vector(key, n) for v in value])
+            self.fail(name, value, f"must be a list of {count or 'one or more'} vectors")
+        return np.array([self._vector(name, v, key.length) for v in value])
 
-    def sub(self, key):
-        return _Reader(self.path, self.raw(key), f"{self.prefix}{key}.")
+    def sub(self, name):
+        """The reader of the table under key `name`, declared in keys.TABLES under the same name."""
+        self.key(name, "table")
+        return _Reader(self.path, self.raw(name), f"{self.prefix}{name}.", name)
 
 
 def _frame(r, normal_key="normal", tangent_key="tangent"):
     """Unit normal and a tangent made orthogonal to it (Gram-Schmidt); refuses a tangent along the normal."""
-    n = normalize(r.vector(normal_key, 3, nonzero=True))
-    t_raw = r.vector(tangent_key, 3, nonzero=True)
+    n = normalize(r.vector(normal_key))
+    t_raw = r.vector(tangent_key)
     t = t_raw - np.dot(t_raw, n) * n
     if np.linalg.norm(t) < 1e-6 * np.linalg.norm(t_raw):
         r.fail(tangent_key, t_raw.tolist(), "must not be parallel to the normal")
@@ -110,16 +138,16 @@ def _emission(r, key):
     """A light's colour (Phong) or radiance (direct, emitted from the side its normal points to): three
     numbers >= 0, or for radiance one, the same in every channel."""
     if key == "radiance" and isinstance(r.raw(key), (int, float)) and not isinstance(r.raw(key), bool):
-        return np.full(3, r.number(key, low=0))
-    return r.vector(key, 3, low=0)
+        return np.full(3, r.number(key))
+    return r.vector(key)
 
 
 def _rectangle_fields(r):
-    size = r.vector("size", 2)
+    size = r.vector("size")
     if np.any(size <= 0):
         r.fail("size", size.tolist(), "both sides must be > 0")
     normal, tangent = _frame(r)
-    return dict(center=r.vector("center", 3), size=size, normal=normal, tangent=tangent)
+    return dict(center=r.vector("center"), size=size, normal=normal, tangent=tangent)
 
 
 def _check_triangle(r, key, vertices):
@@ -137,27 +165,26 @@ def _load_shape(scene, r, material_index):
 
 
 def _add_shape(scene, r, material_index):
-    kind = r.string("type", choices=SHAPE_KINDS)
-    common = {"type", "material"}
+    kind = r.string("type")
     name = r.string("material")
     if name not in material_index:
         r.fail("material", name, f"no such material (defined: {', '.join(material_index)})")
     m = material_index[name]
+    spec = {"mesh": 'shapes[] type = "mesh", from a file or generated'} if r.has("file") or r.has("generate") else {}
+    r = _Reader(r.path, r.table, r.prefix, spec.get(kind, f'shapes[] type = "{kind}"'))
+    r.spec = {**keys.table("shapes[]"), **r.spec}
+    r.check_keys()
     if kind == "rectangle":
-        r.check_keys(sorted(common | {"center", "size", "normal", "tangent"}))
         scene.rectangles.append(Rectangle(material=m, **_rectangle_fields(r)))
     elif kind == "triangle":
-        r.check_keys(sorted(common | {"vertices", "uv"}))
-        vertices = r.vectors("vertices", 3, count=3)
+        vertices = r.vectors("vertices")
         _check_triangle(r, "vertices", vertices)
-        uv = r.vectors("uv", 2, count=3) if r.has("uv") else None
+        uv = r.vectors("uv") if r.has("uv") else None
         scene.triangles.append(Triangle(vertices, m, uv))
-    elif kind == "mesh" and (r.has("file") or r.has("generate")):
-        r.check_keys(sorted(common | MESH_KEYS))
+    elif kind == "mesh" and spec:
         scene.meshes.append(_mesh_shape(r, m))
     elif kind == "mesh":
-        r.check_keys(sorted(common | {"vertices", "faces"}))
-        vertices = r.vectors("vertices", 3)
+        vertices = r.vectors("vertices")
         faces = r.raw("faces")
         if not isinstance(faces, list) or not faces:
             r.fail("faces", faces, "must be a list of index triples")
@@ -168,15 +195,13 @@ def _add_shape(scene, r, material_index):
             _check_triangle(r, f"faces[{i}]", vertices[face])
             scene.triangles.append(Triangle(vertices[face], m))
     else:
-        r.check_keys(sorted(common | {"center", "axes"}))
-        axes = r.vectors("axes", 3, count=3)
+        axes = r.vectors("axes")
         norms = np.prod(np.linalg.norm(axes, axis=1))
         if not abs(np.linalg.det(axes)) > 1e-6 * norms:
             r.fail("axes", axes.tolist(), "singular ellipsoid: the three axes must be linearly independent")
-        scene.ellipsoids.append(Ellipsoid(r.vector("center", 3), axes, m))
+        scene.ellipsoids.append(Ellipsoid(r.vector("center"), axes, m))
 
 
-MESH_KEYS = {"file", "generate", "scale", "rotate", "translate", "matrix", "smooth"}
 GENERATORS = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshgen.terrain}
 
 
@@ -189,8 +214,8 @@ def _mesh_source(r):
         path = Path(r.path).parent / r.string("file")
         return (*mesh_file.load_mesh(path), str(path))
     g = r.sub("generate")
-    g.check_keys(["shape", "triangles"])
-    shape, triangles = g.string("shape", choices=GENERATORS), g.integer("triangles", low=2, high=50_000_000)
+    g.check_keys()
+    shape, triangles = g.string("shape"), g.integer("triangles")
     try:
         return GENERATORS[shape](triangles), 0, f"generate {shape}"
     except MemoryError:
@@ -203,20 +228,20 @@ def _transform(r):
         for key in ("scale", "rotate", "translate"):
             if r.has(key):
                 r.fail(key, r.raw(key), "give either matrix or scale/rotate/translate")
-        m = r.vectors("matrix", 4, count=4)
+        m = r.vectors("matrix")
         if not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
             r.fail("matrix", m.tolist(), "must be affine (last row 0 0 0 1) and invertible")
         return m
     scale = r.raw("scale", 1.0)
-    scale = np.full(3, r.number("scale", 1.0)) if isinstance(scale, (int, float)) else r.vector("scale", 3)
+    scale = np.full(3, r.number("scale")) if isinstance(scale, (int, float)) else r.vector("scale")
     if np.any(scale == 0):
         r.fail("scale", scale.tolist(), "must not be 0")
     axis, degrees = np.array([0.0, 0.0, 1.0]), 0.0
     if r.has("rotate"):
         rot = r.sub("rotate")
-        rot.check_keys(["axis", "degrees"])
-        axis, degrees = rot.vector("axis", 3, nonzero=True), rot.number("degrees")
-    return mesh_matrix(scale, axis, degrees, r.vector("translate", 3, default=[0.0, 0.0, 0.0]))
+        rot.check_keys()
+        axis, degrees = rot.vector("axis"), rot.number("degrees")
+    return mesh_matrix(scale, axis, degrees, r.vector("translate"))
 
 
 def _transformed_faces(r, key, vertices, faces):
@@ -240,9 +265,7 @@ def _mesh_shape(r, material):
     faces, collapsed = _transformed_faces(r, key, vertices, mesh.faces)
     if np.linalg.det(m[:3, :3]) < 0:  # a mirror: keep the faces counter-clockwise seen from the front
         faces = faces[:, ::-1]
-    smooth = r.raw("smooth", False)
-    if not isinstance(smooth, bool):
-        r.fail("smooth", smooth, "must be true or false")
+    smooth = r.boolean("smooth")
     normals = None
     if smooth:  # normals transform by the inverse transpose
         normals = (mesh.normals @ np.linalg.inv(m[:3, :3]) if mesh.normals is not None
@@ -253,13 +276,9 @@ def _mesh_shape(r, material):
                      source)
 
 
-MATERIAL_KEYS = ["colour", "height_map", "height_scale", "normal_map", "shininess", "texture", "uv_offset",
-                 "uv_scale", "wrap"]
-
-
 def _material(r, name, textures):
     """A material table; texture paths are relative to the scene file and read here."""
-    r.check_keys(MATERIAL_KEYS)
+    r.check_keys()
     maps = {}
     for key, role in (("texture", "colour"), ("normal_map", "normal"), ("height_map", "height")):
         if r.has(key):
@@ -267,47 +286,44 @@ def _material(r, name, textures):
     if r.has("height_scale") != r.has("height_map"):
         given = "height_scale" if r.has("height_scale") else "height_map"
         r.fail(given, r.table[given], "height_map and height_scale go together")
-    uv_scale = r.vector("uv_scale", 2, default=[1.0, 1.0])
-    if not np.all((uv_scale >= FLOAT32_TINY) & (uv_scale <= FLOAT32_MAX)):
-        r.fail("uv_scale", uv_scale.tolist(), f"both scales must lie in [{FLOAT32_TINY:.6g}, {FLOAT32_MAX:.6g}] "
+    uv_scale, low, high = r.vector("uv_scale"), r.spec["uv_scale"].low, r.spec["uv_scale"].high
+    if not np.all((uv_scale >= low) & (uv_scale <= high)):
+        r.fail("uv_scale", uv_scale.tolist(), f"both scales must lie in [{low:.6g}, {high:.6g}] "
                "(> 0 and a normal float32)")
-    uv_offset = r.vector("uv_offset", 2, default=[0.0, 0.0])
+    uv_offset = r.vector("uv_offset")
     if not np.all(np.abs(uv_offset) <= FLOAT32_MAX):
         r.fail("uv_offset", uv_offset.tolist(), f"both offsets must lie within +-{FLOAT32_MAX:.6g} (float32)")
-    colour = r.vector("colour", 3, default=[1.0, 1.0, 1.0] if "texture" in maps else None, low=0)
-    return Material(name, colour, r.number("shininess", DEFAULT_SHININESS, low=0, open_low=True),
+    if "texture" not in maps and not r.has("colour"):
+        r.fail("colour", None, "missing")
+    return Material(name, r.vector("colour"), r.number("shininess"),
                     maps.get("texture", -1), maps.get("normal_map", -1), maps.get("height_map", -1),
-                    r.number("height_scale", 0.0, low=0) if "height_map" in maps else 0.0,
-                    tuple(uv_scale), tuple(uv_offset),
-                    r.string("wrap", "repeat", choices=WRAP_MODES))
+                    r.number("height_scale") if "height_map" in maps else 0.0,
+                    tuple(uv_scale), tuple(uv_offset), r.string("wrap"))
 
 
 def parse_scene(table, path="<scene>"):
     """Build a Scene from a parsed TOML table; raises InputError on the first bad key."""
     r = _Reader(path, table)
-    r.check_keys(["ambient", "camera", "image", "lights", "materials", "render", "shapes"])
+    r.check_keys()
 
     c = r.sub("camera")
-    c.check_keys(["focal_length", "fov", "look_at", "position", "up"])
-    position = c.vector("position", 3)
-    look_at = c.vector("look_at", 3)
-    ref_up = c.vector("up", 3, nonzero=True)
+    c.check_keys()
+    position = c.vector("position")
+    look_at = c.vector("look_at")
+    ref_up = c.vector("up")
     if np.linalg.norm(look_at - position) == 0:
         c.fail("look_at", look_at.tolist(), "must differ from camera.position")
     if np.linalg.norm(np.cross(normalize(look_at - position), normalize(ref_up))) < 1e-6:
         c.fail("up", ref_up.tolist(), "must not be parallel to the view direction")
-    camera = Camera(position, look_at, ref_up, c.number("fov", low=0, high=180, open_low=True),
-                    c.number("focal_length", 1.0, low=0, open_low=True))
-    if camera.fov_deg >= 180:
-        c.fail("fov", camera.fov_deg, "must be < 180")
+    camera = Camera(position, look_at, ref_up, c.number("fov"), c.number("focal_length"))
 
     img = r.sub("image")
-    img.check_keys(["height", "width"])
-    width, height = img.integer("width", high=ranges.MAX_IMAGE_SIDE), img.integer("height", high=ranges.MAX_IMAGE_SIDE)
+    img.check_keys()
+    width, height = img.integer("width"), img.integer("height")
 
-    render = r.sub("render") if r.has("render") else _Reader(path, {}, "render.")
-    render.check_keys(["light_sampler", "light_samples", "sampler", "shading", "spp"])
-    shading = render.string("shading", "phong", choices=SHADINGS)
+    render = r.sub("render") if r.has("render") else _Reader(path, {}, "render.", "render")
+    render.check_keys()
+    shading = render.string("shading")
     if shading == "direct" and r.has("ambient"):
         r.fail("ambient", r.raw("ambient"), 'is the Phong model\'s: shading = "direct" has no ambient term')
 
@@ -318,16 +334,16 @@ def parse_scene(table, path="<scene>"):
     materials, material_index, material_readers = [], {}, []
     for name in mats:
         material_index[name] = len(materials)
-        material_readers.append(r.sub("materials").sub(name))
+        material_readers.append(_Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
         materials.append(_material(material_readers[-1], name, textures))
 
-    spp, light_samples = render.integer("spp", 1), render.integer("light_samples", 1)
-    sampler, light_sampler = render.string("sampler", "grid"), render.string("light_sampler", "grid")
+    spp, light_samples = render.integer("spp"), render.integer("light_samples")
+    sampler, light_sampler = render.string("sampler", choices=()), render.string("light_sampler", choices=())
     for key, name, n in (("sampler", sampler, spp), ("light_sampler", light_sampler, light_samples)):
         problem = samplers.count_problem(name, n)
         if problem:
             render.fail(key, name, problem)
-    scene = Scene(path, camera, width, height, r.vector("ambient", 3, default=[0, 0, 0], low=0), [],
+    scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
                   textures=textures.textures, shading=shading)
 
@@ -336,18 +352,18 @@ def parse_scene(table, path="<scene>"):
         r.fail("lights", lights, "must be a non-empty array of [[lights]] tables")
     places, light_readers = [(c, camera)], []
     for i, light in enumerate(lights):
-        lr = _Reader(path, light, f"lights[{i}].")
+        lr = _Reader(path, light, f"lights[{i}].", "lights[] (direct)" if shading == "direct" else "lights[]")
         emission = "radiance" if shading == "direct" else "colour"  # what the light's one colour means
-        lr.check_keys(["center", emission, "normal", "size", "tangent"])
+        lr.check_keys()
         scene.lights.append(Light(colour=_emission(lr, emission), **_rectangle_fields(lr)))
         places.append((lr, scene.lights[-1]))
         light_readers.append(lr)
 
-    shapes = r.raw("shapes", [])
+    shapes = r.raw("shapes", [])  # keys.py declares its default: no shapes
     if not isinstance(shapes, list):
         r.fail("shapes", shapes, "must be an array of [[shapes]] tables")
     for i, shape in enumerate(shapes):
-        sr = _Reader(path, shape, f"shapes[{i}].")
+        sr = _Reader(path, shape, f"shapes[{i}].", "shapes[]")
         places.extend((sr, added) for added in _load_shape(scene, sr, material_index))
     ranges.check_scene(scene, places, material_readers, light_readers, r)
     return scene

@@ -1,0 +1,142 @@
+"""Every key of a scene file: its table, type, default and accepted range, declared once. scene_file.py's
+reader takes each key's bounds and default from here and from nowhere else, and the manual's scene-format
+table is generated from here (docs/_ext/raytrace_docs.py), so that what is checked and what is documented
+cannot drift apart. What holds between keys (extents, sizes, brightness) is ranges.py's; what a key must
+additionally satisfy (a tangent not along the normal, a triangle with an area) is in `also`.
+"""
+import math
+from dataclasses import dataclass
+
+from .. import samplers
+from ..numerics import FLOAT32_MAX, FLOAT32_TINY
+from ..structs import WRAP_MODES
+from .model import DEFAULT_SHININESS, SHADINGS
+from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
+
+REQUIRED = object()
+MAX_GENERATED_TRIANGLES = 50_000_000
+SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
+GENERATED_SHAPES = ("sphere", "torus", "terrain")
+
+
+@dataclass(frozen=True)
+class Key:
+    """One key of a table. `kind` is one of number, integer, string, boolean, vector (`length` numbers),
+    vectors (a list of `count` vectors of `length` numbers, any count when None), number-or-vector, path,
+    faces, table, tables (an array of tables) or named-tables (a table of tables). Numbers lie in
+    [low, high] (open at an end with open_low, open_high); vectors' components are at least `low`."""
+    name: str
+    kind: str
+    doc: str
+    default: object = REQUIRED
+    low: float = -math.inf
+    high: float = math.inf
+    open_low: bool = False
+    open_high: bool = False
+    length: int = 0
+    count: int | None = None
+    choices: tuple = ()
+    nonzero: bool = False
+    also: str = ""
+
+    @property
+    def required(self):
+        return self.default is REQUIRED
+
+
+def _rectangle(emission=None):
+    keys = [Key("center", "vector", "the centre", length=3),
+            Key("size", "vector", "the side lengths along tangent and along normal x tangent", length=2,
+                also="both > 0"),
+            Key("normal", "vector", "the normal (the front side)", length=3, nonzero=True),
+            Key("tangent", "vector", "the first side's direction, made orthogonal to the normal", length=3,
+                nonzero=True, also="not parallel to the normal")]
+    return keys + ([emission] if emission else [])
+
+
+_COLOUR = Key("colour", "vector", "Phong shading: the light's colour", length=3, low=0)
+_RADIANCE = Key("radiance", "number-or-vector", 'shading = "direct": the emitted radiance, from the side the '
+                "normal points to (one number: the same in every channel)", length=3, low=0)
+
+TABLES = {
+    "": [Key("ambient", "vector", "Phong shading's ambient light, added once and never shadowed", length=3, low=0,
+             default=(0.0, 0.0, 0.0), also='not with shading = "direct"'),
+         Key("camera", "table", "the camera"),
+         Key("image", "table", "the image size"),
+         Key("render", "table", "the render's defaults (the command line overrides them)", default={}),
+         Key("lights", "tables", "rectangular area lights, one or more"),
+         Key("materials", "named-tables", "materials by name, one or more"),
+         Key("shapes", "tables", "the shapes", default=())],
+    "camera": [Key("position", "vector", "the eye", length=3),
+               Key("look_at", "vector", "the point at the image's centre", length=3,
+                   also="differs from position"),
+               Key("up", "vector", "the reference up direction", length=3, nonzero=True,
+                   also="not parallel to the view direction"),
+               Key("fov", "number", "the vertical field of view, degrees", low=0, high=180, open_low=True,
+                   open_high=True),
+               Key("focal_length", "number", "the distance to the image plane; it cancels in the camera model",
+                   default=1.0, low=0, open_low=True)],
+    "image": [Key("width", "integer", "pixels", low=1, high=MAX_IMAGE_SIDE),
+              Key("height", "integer", "pixels", low=1, high=MAX_IMAGE_SIDE)],
+    "render": [Key("spp", "integer", "pixel samples", default=1, low=1, high=MAX_SAMPLES),
+               Key("light_samples", "integer", "samples per light per pixel sample", default=1, low=1,
+                   high=MAX_SAMPLES),
+               Key("sampler", "string", "the pixel sample pattern", default="grid", choices=samplers.SAMPLERS,
+                   also="center takes 1 sample, the grids a square number"),
+               Key("light_sampler", "string", "the light sample pattern", default="grid",
+                   choices=samplers.SAMPLERS, also="as sampler"),
+               Key("shading", "string", "the shading model: the course's Phong or radiometric direct lighting",
+                   default="phong", choices=SHADINGS)],
+    "lights[]": _rectangle(_COLOUR),
+    "lights[] (direct)": _rectangle(_RADIANCE),
+    "materials.NAME": [
+        Key("colour", "vector", "ka = kd = ks, the material's colour (with a texture: its tint)", length=3, low=0,
+            default=(1.0, 1.0, 1.0), also="required without texture"),
+        Key("shininess", "number", "the Phong exponent", default=DEFAULT_SHININESS, low=0, open_low=True),
+        Key("texture", "path", "colour map (from the scene file's folder)", default=None),
+        Key("normal_map", "path", "tangent-space normal map, rgb = (n + 1) / 2", default=None),
+        Key("height_map", "path", "relief >= 0 (first channel; 8-bit codes read as [0, 1])", default=None,
+            also="with height_scale"),
+        Key("height_scale", "number", "scene units of relief per unit of the height map", default=None, low=0,
+            also="with height_map"),
+        Key("uv_scale", "vector", "(u, v) -> uv_scale (u, v) + uv_offset", length=2, default=(1.0, 1.0),
+            low=FLOAT32_TINY, high=FLOAT32_MAX),
+        Key("uv_offset", "vector", "added after uv_scale", length=2, default=(0.0, 0.0)),
+        Key("wrap", "string", "how texture coordinates outside [0, 1] wrap", default="repeat",
+            choices=tuple(WRAP_MODES))],
+    "shapes[]": [Key("type", "string", "the kind of shape", choices=SHAPE_KINDS),
+                 Key("material", "string", "a material's name", also="a defined material")],
+    'shapes[] type = "rectangle"': _rectangle(),
+    'shapes[] type = "triangle"': [
+        Key("vertices", "vectors", "the corners, counter-clockwise seen from the front", length=3, count=3,
+            also="a non-zero area"),
+        Key("uv", "vectors", "per-vertex texture coordinates", length=2, count=3, default=None)],
+    'shapes[] type = "mesh"': [
+        Key("vertices", "vectors", "the vertices", length=3),
+        Key("faces", "faces", "triples of vertex indices", also="indices in range, faces with an area")],
+    'shapes[] type = "mesh", from a file or generated': [
+        Key("file", "path", "an OBJ or PLY file (ascii or binary), from the scene file's folder", default=None,
+            also="exactly one of file and generate"),
+        Key("generate", "table", "a procedural mesh", default=None),
+        Key("scale", "number-or-vector", "the first transform: a number or [sx, sy, sz]", length=3,
+            default=1.0, also="no component 0"),
+        Key("rotate", "table", "the second transform", default=None),
+        Key("translate", "vector", "the third transform", length=3, default=(0.0, 0.0, 0.0)),
+        Key("matrix", "vectors", "instead of the three: a 4 x 4 affine matrix, rows acting on columns", length=4,
+            count=4, default=None, also="last row 0 0 0 1, invertible; not with scale, rotate, translate"),
+        Key("smooth", "boolean", "interpolate vertex normals (the file's, else area-weighted)", default=False)],
+    "generate": [Key("shape", "string", "the procedural mesh", choices=GENERATED_SHAPES),
+                 Key("triangles", "integer", "about this many triangles", low=2, high=MAX_GENERATED_TRIANGLES,
+                     also="within the memory there is")],
+    "rotate": [Key("axis", "vector", "the rotation axis", length=3, nonzero=True),
+               Key("degrees", "number", "the angle, counter-clockwise about the axis")],
+    'shapes[] type = "ellipsoid"': [
+        Key("center", "vector", "the centre c", length=3),
+        Key("axes", "vectors", "a, b, c: the unit sphere's image is c + [a b c] x", length=3, count=3,
+            also="linearly independent")],
+}
+
+
+def table(name):
+    """{key name: Key} of the table `name` (a key of TABLES)."""
+    return {key.name: key for key in TABLES[name]}

@@ -1,0 +1,161 @@
+"""The declarations of raytrace/scene/keys.py are what the scene reader enforces, key by key: the manual's table
+of keys is generated from them (docs/_ext/raytrace_docs.py), so each declared bound, default and key list is
+checked here against the reader's real behaviour on a scene that has every table. A bound declared but not
+enforced, enforced but not declared, or a key accepted but not declared, fails one of these tests."""
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from helpers import ROOT
+from raytrace.errors import InputError
+from raytrace.scene import parse_scene
+from raytrace.scene.keys import REQUIRED, TABLES
+
+SCENE_PATH = str(ROOT / "scenes" / "every_table.toml")  # textures are read relative to it (it need not exist)
+RECTANGLE = {"center": [0.0, 0.0, 0.0], "size": [2.0, 2.0], "normal": [0.0, 0.0, 1.0], "tangent": [1.0, 0.0, 0.0]}
+
+
+def every_table():
+    """A valid scene holding every table of keys.TABLES, each key given a value (Phong shading)."""
+    return {
+        "ambient": [0.1, 0.1, 0.1],
+        "camera": {"position": [0.0, -3.0, 1.0], "look_at": [0.0, 0.0, 1.0], "up": [0.0, 0.0, 1.0], "fov": 45.0,
+                   "focal_length": 1.0},
+        "image": {"width": 8, "height": 8},
+        "render": {"spp": 4, "light_samples": 1, "sampler": "grid", "light_sampler": "random", "shading": "phong"},
+        "lights": [{"center": [0.0, 0.0, 1.9], "size": [0.5, 0.5], "normal": [0.0, 0.0, -1.0],
+                    "tangent": [1.0, 0.0, 0.0], "colour": [1.0, 1.0, 1.0]}],
+        "materials": {"m": {"colour": [0.5, 0.5, 0.5], "shininess": 16.0,
+                            "texture": "../assets/textures/bricks_colour.png",
+                            "normal_map": "../assets/textures/bricks_normal.png",
+                            "height_map": "../assets/textures/bricks_height.png", "height_scale": 0.01,
+                            "uv_scale": [2.0, 2.0], "uv_offset": [0.0, 0.0], "wrap": "repeat"}},
+        "shapes": [
+            {"type": "rectangle", "material": "m", **RECTANGLE},
+            {"type": "triangle", "material": "m", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+             "uv": [[0, 0], [1, 0], [0, 1]]},
+            {"type": "mesh", "material": "m", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]},
+            {"type": "mesh", "material": "m", "generate": {"shape": "sphere", "triangles": 20}, "scale": 0.5,
+             "rotate": {"axis": [0, 0, 1], "degrees": 30.0}, "translate": [0.0, 0.0, 0.5], "smooth": True},
+            {"type": "ellipsoid", "material": "m", "center": [0.0, 0.0, 0.5],
+             "axes": [[0.3, 0, 0], [0, 0.3, 0], [0, 0, 0.3]]}]}
+
+
+# Where each declared table sits in every_table(), and the prefix its errors carry.
+PLACES = {"": ((), ""), "camera": (("camera",), "camera."), "image": (("image",), "image."),
+          "render": (("render",), "render."), "lights[]": (("lights", 0), "lights[0]."),
+          "materials.NAME": (("materials", "m"), "materials.m."),
+          'shapes[] type = "rectangle"': (("shapes", 0), "shapes[0]."),
+          'shapes[] type = "triangle"': (("shapes", 1), "shapes[1]."),
+          'shapes[] type = "mesh"': (("shapes", 2), "shapes[2]."),
+          'shapes[] type = "mesh", from a file or generated': (("shapes", 3), "shapes[3]."),
+          "generate": (("shapes", 3, "generate"), "shapes[3].generate."),
+          "rotate": (("shapes", 3, "rotate"), "shapes[3].rotate."),
+          'shapes[] type = "ellipsoid"': (("shapes", 4), "shapes[4]."),
+          "shapes[]": (("shapes", 4), "shapes[4].")}
+DIRECT = "lights[] (direct)"
+SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] type = "mesh"',
+         'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"'}
+
+
+def scene_with(table_name):
+    """(the scene as a dict, the table `table_name` inside it, its error prefix)."""
+    scene = every_table()
+    if table_name == DIRECT:
+        del scene["ambient"]
+        scene["render"]["shading"] = "direct"
+        light = scene["lights"][0]
+        light["radiance"] = light.pop("colour")
+        return scene, light, "lights[0]."
+    where, prefix = PLACES[table_name]
+    node = scene
+    for step in where:
+        node = node[step]
+    return scene, node, prefix
+
+
+def declared_keys(table_name):
+    names = {key.name for key in TABLES[table_name]}
+    return sorted(names | ({"type", "material"} if table_name in SHAPE else set()))
+
+
+def test_every_declared_table_is_exercised():
+    assert set(TABLES) == set(PLACES) | {DIRECT}
+    parse_scene(every_table(), SCENE_PATH)
+    parse_scene(scene_with(DIRECT)[0], SCENE_PATH)
+
+
+@pytest.mark.parametrize("table_name", list(TABLES))
+def test_the_declared_keys_are_the_accepted_keys(table_name):
+    """An unknown key is refused with the declared list, in order: the list the manual prints."""
+    if table_name == "shapes[]":
+        pytest.skip("shared by every shape table, checked with each of them")
+    scene, table, prefix = scene_with(table_name)
+    table["no_such_key"] = 1
+    with pytest.raises(InputError) as error:
+        parse_scene(scene, SCENE_PATH)
+    assert error.value.key == prefix + "no_such_key"
+    assert error.value.problem == f"unknown key (expected one of: {', '.join(declared_keys(table_name))})"
+
+
+def cases():
+    """(table, key, value, accepted) at and beyond each declared bound of a number or integer key."""
+    for table_name, keys in TABLES.items():
+        for key in keys:
+            if key.kind not in ("number", "integer"):
+                continue
+            step = 1 if key.kind == "integer" else None
+            for bound, outward in ((key.low, -1), (key.high, 1)):
+                if math.isinf(bound):
+                    continue
+                beyond = bound + outward * (step or max(abs(bound) * 1e-6, 1e-6))
+                yield table_name, key, beyond, False
+                open_end = key.open_low if outward < 0 else key.open_high
+                yield table_name, key, int(bound) if step else float(bound), not open_end
+
+
+@pytest.mark.parametrize("table_name, key, value, accepted", list(cases()),
+                         ids=[f"{t}.{k.name}={v:g}" for t, k, v, _ in cases()])
+def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
+    """A value just beyond a declared bound is refused, naming the key and the value; the bound itself is
+    accepted where the declaration closes the interval (a scene may still refuse it for a reason between keys,
+    as a triangle count beyond the memory: those cases are skipped)."""
+    scene, table, prefix = scene_with(table_name)
+    if key.name == "triangles" and value > 1000:
+        pytest.skip("a mesh this large is refused by the memory there is, not by the bound")
+    table[key.name] = value
+    if accepted:
+        parse_scene(scene, SCENE_PATH)
+    else:
+        with pytest.raises(InputError) as error:
+            parse_scene(scene, SCENE_PATH)
+        assert error.value.key == prefix + key.name and error.value.value == value
+
+
+@pytest.mark.parametrize("table_name", list(TABLES))
+def test_each_declared_default_is_the_readers(table_name):
+    """A key left out takes its declared default (the parsed scene is the same as with the default written
+    out), and a required key left out is refused as missing."""
+    for key in TABLES[table_name]:
+        scene, table, prefix = scene_with(table_name)
+        if key.name not in table:
+            continue
+        del table[key.name]
+        if key.required:
+            with pytest.raises(InputError) as error:
+                parse_scene(scene, SCENE_PATH)
+            assert error.value.key in (prefix + key.name, prefix.rstrip(".")), key.name
+            continue
+        if key.default is None or key.kind in ("table", "tables"):
+            continue  # an optional feature left out (a texture, a transform): nothing to compare
+        without = parse_scene(copy.deepcopy(scene), SCENE_PATH)
+        table[key.name] = list(key.default) if isinstance(key.default, tuple) else key.default
+        with_default = parse_scene(scene, SCENE_PATH)
+        assert repr(without) == repr(with_default), key.name
+
+
+def test_the_default_table_declares_required_keys_as_required():
+    assert all((key.default is REQUIRED) == key.required for keys in TABLES.values() for key in keys)
+    assert np.isfinite([k.low for keys in TABLES.values() for k in keys if k.low > -math.inf]).all()
