@@ -4,9 +4,10 @@ DIR is another kernels/ directory: another commit's, checked out beside this one
 /tmp/base COMMIT`, then `python -m benchmarks.baseline /tmp/base/kernels`), or a copy with one change tried out. Both kernels
 are built for the same features from the same scene tables, packed by this checkout's host, and rendered in
 turns in one process (ours then the baseline's, then the baseline's then ours, and so on), so that a shared
-machine's drift falls on both: a kernel change is then measured to a few per cent where two processes
-minutes apart differ by 10-30%. The host packs this checkout's structs, so the baseline's kernels/types.h
-must be the same file; a change to the host (packing, the BVH's build) needs two processes instead.
+machine's drift falls on both: a kernel change is then measured far more finely than two processes minutes
+apart could tell it (measured in commit b07df41). The host packs this checkout's structs, so the baseline's
+kernels/types.h must be the same file; a change to the host (packing, the BVH's build) needs two processes
+instead.
 
 Per scene it prints both kernels' fastest render and two ratios, ours over the baseline's (below 1: ours
 is faster): of the two fastest renders, and "paired", the median over turns of one turn's two renders."""

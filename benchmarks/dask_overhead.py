@@ -2,7 +2,7 @@
 
 For each scene, the wall time of a render in this process and on LocalClusters of 1 and 2 worker processes
 on the same cores (each cluster warmed by a first, untimed render: the workers' programs and scene buffers
-are built once per worker, not per render); then the two rates the README's model of many machines is
+are built once per worker, not per render); then the two rates docs/dask.md's model of many machines is
 built from: how fast the client adds a band's float32 sums into its float64 image (MB/s), and what the
 scheduler spends on a task that does nothing (ms a task, submitted and gathered in one batch). Prints a
 table and writes JSON (--json)."""

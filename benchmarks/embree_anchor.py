@@ -121,8 +121,8 @@ def unmet_scene(scene, soup):
     triangles with the rectangles', whose extent sets the distance): 10^3 times the room's size behind
     the camera, beyond every camera ray (they all point ahead of it) and every shadow segment (they end at a
     light). Tracing the same rays against it times what a query costs besides Embree's traversal: the binding's
-    loop over the rays, each ray's setup and a missed root box (31.5-54 ns a ray on this project's machines),
-    measured in the same run, so that Embree's growth can be stated net of it."""
+    loop over the rays, each ray's setup and a missed root box (its range on this project's machines: measured
+    in commit bc8de19), measured in the same run, so that Embree's growth can be stated net of it."""
     from embreex import mesh_construction, rtcore_scene
     points = np.concatenate([soup.v.reshape(-1, 3), [scene.camera.position],
                              [light.center for light in scene.lights]])

@@ -1,4 +1,4 @@
-"""The README's texture figures: `python -m devtools.figures [--out assets/figures] [--quick]`.
+"""The manual's texture figures: `python -m devtools.figures [--out assets/figures] [--quick]`.
 
 Needs matplotlib (an optional extra), imported inside the functions that draw.
 """

@@ -82,7 +82,7 @@ typedef struct { int node[BVH_STACK], top; } NodeStack;
 /* After testing an opened node's two children: whether either is entered, and *i, the one to visit next, the
  * first if it is entered, else the second; the second is pushed when both are (stored always, counted only
  * then: no branch to mispredict). Every traversal here, shadow_sweep.cl's too, steps this way. Written as one
- * node index or -1, or with popping likewise, the traversals measured 9-23% slower. */
+ * node index or -1, or with popping likewise, the traversals ran slower (measured in commit ae18e79). */
 inline int enter_children(NodeStack *todo, int *i, int first, int second, int in_first, int in_second)
 {
     todo->node[todo->top] = second;
@@ -101,9 +101,9 @@ inline int meets_node(const Scene *s, int j, Ray r, BoxRay b, vfloat t)
 /* The closest hit along r within tmax over the hierarchy. As in shadow traversals (below), an opened node's
  * two children are tested together, near first, and the second is pushed only when both are met; it is tested
  * again when popped, against the closer hit found since (no entry distances are pushed: a stack of 16-lane
- * distances measured slower). In one process against testing each child when it is popped (renders
- * alternating, 9 each, both orders): the 10^6-triangle torus of `bench --scaling` 3-10% less time, the 10^5
- * torus, scene 0, textured_cornell and mesh_cornell within the noise. */
+ * distances measured slower). Against testing each child when it is popped, this saves time on the
+ * 10^6-triangle torus of `bench --scaling` and changes nothing beyond the noise on smaller scenes (measured in
+ * commit 2effa75). */
 inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
 {
     BoxRay b = box_ray(r);
@@ -170,9 +170,9 @@ inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settle
  * union of its active rays' only. An opened node's two children are tested together, and only those the packet
  * enters are visited (the second pushed, without the lanes that met it: a shadow ray needs no distance to cull by):
  * the two box tests are independent, so they overlap in the CPU's pipeline, and a missed child costs no trip
- * through the stack. In one process against testing each child when it is popped (renders alternating, 9-11 each,
- * both orders): mesh_cornell 2-7% less time, the 10^6-triangle torus of `bench --scaling` 7%, scene 0 within the
- * noise. */
+ * through the stack. Against testing each child when it is popped, this saves time on mesh_cornell and the
+ * 10^6-triangle torus of `bench --scaling`, and changes nothing beyond the noise on scene 0 (measured in commit
+ * 3377fc4). */
 inline vint bvh_occluded(const Scene *s, int i, Ray r, uint skip, vint active)
 {
     BoxRay b = box_ray(r);

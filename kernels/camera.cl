@@ -1,4 +1,4 @@
-/* Camera rays, the README's model, camera: pinhole at `position`, image plane at focal length f. */
+/* Camera rays, docs/model.md, camera: pinhole at `position`, image plane at focal length f. */
 #ifndef CAMERA_CL
 #define CAMERA_CL
 

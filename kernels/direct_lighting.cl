@@ -1,4 +1,4 @@
-/* Radiometric direct lighting, the second shading model (`shading = "direct"`; the README's "Direct
+/* Radiometric direct lighting, the second shading model (`shading = "direct"`; docs/model.md's "Direct
  * lighting"): Lambertian surfaces, f = albedo / pi, both sides reflecting (the hit's normals already face the
  * incoming ray, so a back-facing hit is shaded with its normal flipped, as Mitsuba's `twosided`), under
  * rectangular area lights of uniform radiance L_e that emit from their front face (the side the normal

@@ -1,4 +1,4 @@
-/* Ray-ellipsoid intersection, the README's model, shapes: solve against the unit sphere in the ellipsoid's own
+/* Ray-ellipsoid intersection, docs/model.md, shapes: solve against the unit sphere in the ellipsoid's own
  * space (p + [a b c] x), where t is the same because the direction is mapped but not renormalised. */
 #ifndef ELLIPSOID_CL
 #define ELLIPSOID_CL

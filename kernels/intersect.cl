@@ -96,8 +96,8 @@ inline vint occluded(const Scene *s, Ray r, uint skip, vint active)
  * q_err of its plane) may meet, for
  * occluded_among(): the leaves of their sweep (shadow_sweep.cl), none at all (n = 0) where it meets nothing
  * the samples could be blocked by, or everything (n = -1). A single sample's segments are all the sweep would
- * bound, and traversing them costs less than the sweep (scene 0 with one light sample: 7-11% more time with
- * it): everything, then. */
+ * bound, and traversing them costs less than the sweep (scene 0 with one light sample took more time with it,
+ * measured in commit 67aa6ba): everything, then. */
 inline SweptLeaves shadow_candidates(const Scene *s, __global const Light *light, float q_err, vec3 origin,
                                      vint lanes, uint skip, int samples)
 {

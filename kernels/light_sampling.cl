@@ -12,10 +12,9 @@
 
 /* How many light samples lights_sum forms at once: their points, directions and masks (sample_counts) are
  * independent work that the CPU overlaps, before their shadow rays are traced and their weights added in
- * order. In one process against one sample at a time (15 renders each, alternating; 16 lanes, the newer AVX-512
- * Xeon): scene 0 3-4% less time, mesh_cornell 2-3%, textured_cornell 3%, grid_floor 7%, the bench --scaling
- * tori unchanged (4 light samples, most of their time in traversal); scene 0 with 4 light samples 1% less, with
- * 1 sample 2% more. The same bits. A group of 2 measured 2-3% slower than 4. */
+ * order. Against one sample at a time, this saves time on scene 0, mesh_cornell, textured_cornell and
+ * grid_floor, leaves the bench --scaling tori unchanged (most of their time in traversal) and costs a little
+ * with 1 light sample; the same bits. A group of 2 was slower than 4 (measured in commit 9fec4db). */
 #define LIGHT_SAMPLE_GROUP 4
 
 /* sum over lights of colour (light_scale / N) sum_j V_j sample_weight_j, for the lanes of `surface`, seen

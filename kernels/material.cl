@@ -1,5 +1,5 @@
 /* The material at a hit: its colour (the material's, or its colour map's), shininess, and where and with
- * which normal it is shaded (normal map, bump map and displacement: the README's Textures section).
+ * which normal it is shaded (normal map, bump map and displacement: docs/textures.md).
  *
  * Without textures (HAS_TEXTURES 0) this is a gather of the material table. With them, each lane's hit
  * geometry (surface.cl) is found one lane at a time, then the lookups and what follows from them run

@@ -33,7 +33,7 @@ inline void footprint_lengths(TextureStore ts, int texture, Footprint dst, vfloa
     *ly = v2_length(dst.s_y * level.width, dst.t_y * level.height);
 }
 
-/* Trilinear: the level of the longer footprint axis, as the README's D = log2 L. Anisotropic: up to
+/* Trilinear: the level of the longer footprint axis, as docs/textures.md's D = log2 L. Anisotropic: up to
  * MAX_ANISOTROPY probes spread along the major axis of the footprint, each at the level of the minor axis
  * (the approach of GPU hardware and of Feline, McCormack et al. 1999); lanes take their own number of
  * probes. Nearest and bilinear read level 0. */

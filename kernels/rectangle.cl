@@ -1,4 +1,4 @@
-/* Ray-rectangle intersection, the README's model, shapes: the plane hit, then |(p-c).t| <= sx/2, |(p-c).b| <= sy/2. */
+/* Ray-rectangle intersection, docs/model.md, shapes: the plane hit, then |(p-c).t| <= sx/2, |(p-c).b| <= sy/2. */
 #ifndef RECTANGLE_CL
 #define RECTANGLE_CL
 

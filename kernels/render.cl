@@ -65,7 +65,8 @@ inline void add_partners(vfloat *s, vfloat *e, vfloat b, vfloat e_b)
  * bound holds for any order: within one rounding of the lanes' exact sum plus (group - 1) roundings of the
  * error terms, which are each a rounding of a partial sum. Each step is a few vector instructions, where a
  * running sum over the lanes waits on each addition in turn: with passes of 16, a work-item's seven running
- * sums took 9.7% of scene 0's profile; summed this way, about 4% of its time is saved (README, Speed). */
+ * sums took a visible share of scene 0's profile, and summing this way saves part of it (measured in commit
+ * c22b53c). */
 inline vfloat pixel_sums(vfloat sum, vfloat carry, int group)
 {
     vfloat s = sum - carry, e = 0.0f;

@@ -1,4 +1,4 @@
-/* The course's Phong model, the README's model, shading:
+/* The course's Phong model, docs/model.md, shading:
  *   colour = ambient k + sum over lights (1/N) sum_s V_s (k L max(0, n.l_s) + k L max(0, r_s.v)^shininess)
  * with ka = kd = ks = k. Samples below the surface (n.l_s <= 0) add nothing and cast no shadow ray: on a
  * closed object such a ray would be blocked by the object itself, so this is the course's value too. */

@@ -15,15 +15,15 @@
 #include "bvh.cl"
 #include "lights.cl"
 
-/* More leaves than this, and each sample traverses the tree. Against 16 (one process, renders alternating):
- * the 10^3-triangle torus of `bench --scaling` 4-6% less time (a sweep that overflows stops sooner), scene 0
- * and mesh_cornell the same; 6 leaves cost mesh_cornell 7-9%. */
+/* More leaves than this, and each sample traverses the tree. Against 16, the 10^3-triangle torus of
+ * `bench --scaling` takes less time (a sweep that overflows stops sooner), scene 0 and mesh_cornell the same;
+ * 6 leaves cost mesh_cornell time (measured in commit 2c05cce). */
 #define SWEEP_LEAVES 8
 
 /* Nor may a sweep open more interior nodes than this: one that must (a packet whose segments start among a
- * fine mesh's leaves) mostly ends with too many leaves anyway, and gives up sooner. Against no limit (one
- * process, renders alternating, 11 each): the tori of `bench --scaling` 4-7% less time at 10^3, 10^5 and 10^6
- * triangles, scene 0, textured_cornell and mesh_cornell within the noise; 6, 16 and 24 measured no better. */
+ * fine mesh's leaves) mostly ends with too many leaves anyway, and gives up sooner. Against no limit, the tori
+ * of `bench --scaling` take less time at 10^3, 10^5 and 10^6 triangles, scene 0, textured_cornell and
+ * mesh_cornell the same within the noise; 6, 16 and 24 were no better (measured in commit 4db479c). */
 #define SWEEP_OPENED 12
 
 /* The box (1 - t) O + t L: on each axis its low side moves from O's low to L's, its high side from O's high to
@@ -113,9 +113,9 @@ inline int sweep_meets(const Scene *s, const Sweep *w, int j)
  * each sample traverses the tree from `start`, the deepest node the sweep reached whose subtree holds every
  * node it met (it met no other leaf and had none pushed): the nodes above it and their other children lie
  * outside the sweep, so no segment meets them. A packet on a mesh skips the levels above the mesh's subtree.
- * In one process against traversals from the root (11 renders each, alternating; newer AVX-512 Xeon): the
- * bench --scaling tori 7% less time at 10^3 triangles (shadow boxes 0.68 -> 0.55 a ray), 4% at 10^5, 1% at
- * 10^6 (3.11 -> 2.96), mesh_cornell 1.5% (0.272 -> 0.259), scene 0 1% (its sweeps seldom give up). */
+ * Against traversals from the root, shadow boxes a ray fall on the bench --scaling tori (0.68 -> 0.55 at 10^3
+ * triangles, 3.11 -> 2.96 at 10^6) and on mesh_cornell (0.272 -> 0.259), and so does their time; scene 0's
+ * sweeps seldom give up (measured in commit 46cdd4c). */
 typedef struct { int n, start, leaf[SWEEP_LEAVES]; } SweptLeaves;
 
 inline int sweep_enters(const Scene *s, const Sweep *w, int j, uint skip)

@@ -29,7 +29,7 @@ inline float3 mat3_mul_transposed(const __global float *m, float3 v)
                     dot3((float3)(m[2], m[5], m[8]), v));
 }
 
-/* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (the README's model,
+/* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (docs/model.md,
  * texture coordinates). */
 inline SurfacePoint surface_rectangle(__global const Rectangle *r, float3 p)
 {
@@ -59,7 +59,7 @@ inline SurfacePoint surface_triangle(__global const Triangle *tri, __global cons
 }
 
 /* Spherical coordinates of the unit-sphere point q = M^-1 (p - c): u = theta / 2 pi + 1/2 with
- * theta = atan2(q.y, q.x) (the README's model, texture coordinates), v = 1 - phi / pi with phi the angle
+ * theta = atan2(q.y, q.x) (docs/model.md, texture coordinates), v = 1 - phi / pi with phi the angle
  * from the north pole, so v runs up the image as it does on the other shapes (pbrt-v4's sphere). q is
  * renormalised first: the hit point is off the surface by its rounding error. The angles come from atan2
  * alone, accurate at the poles where acos(q.z) is not; theta's wrap at the seam moves u by exactly 1,

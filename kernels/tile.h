@@ -9,12 +9,12 @@
  * 0.934 against 1.211; the 10^6-triangle torus of `bench --scaling` (its passes of 2 samples: 2 samples of 8
  * pixels against one of 16) 4.24 against 4.82 and 2.17 against 2.40; scene 0's counts change by 2% at most.
  * A pass may hold all of a render's samples (raytrace/renderer/progressive.py), so scene 0's 16 samples are
- * 16 of one pixel a work-item: the pass rule alone, mesh_cornell 8% less time than with passes of 8 (fastest
- * render; 19% by the paired median; one process, alternating).
+ * 16 of one pixel a work-item: the pass rule alone saves mesh_cornell time against passes of 8 (measured in
+ * commit c22b53c).
  *
  * The pixels form a tile as nearly square as their count allows (4 x 4, 4 x 2, 2 x 2, 2 x 1, 1 x 1), so that
- * its rays stay close together too: with 16 lanes, 16 pixels in 4 x 4 instead of 16 x 1 took 14-26% less time
- * on mesh_cornell and 2-12% on scene 0 (one process, renders alternating). The host sizes its launch grid by
+ * its rays stay close together too: with 16 lanes, 16 pixels in 4 x 4 instead of 16 x 1 took less time on
+ * mesh_cornell and on scene 0 (measured in commit ae03f8d). The host sizes its launch grid by
  * the same rules (raytrace/structs.py: samples_at_once and tile_shape). */
 #ifndef TILE_H
 #define TILE_H

@@ -1,5 +1,5 @@
 /* Every struct the kernel reads from the host. Mirrored once, field for field, by the numpy dtypes in
- * raytrace/types.py; tests/test_types.py checks sizes and offsets against this device's compiler.
+ * raytrace/structs.py; tests/test_types.py checks sizes and offsets against this device's compiler.
  * Only 4-byte scalars and arrays of them: no float3/float4 members, so no hidden padding anywhere. */
 #ifndef TYPES_H
 #define TYPES_H
@@ -9,7 +9,7 @@
 typedef struct { float x, y, z; } Vec3f;
 
 typedef struct {
-    Vec3f position, forward, right, up; /* orthonormal basis of the README's model, camera */
+    Vec3f position, forward, right, up; /* orthonormal basis of docs/model.md, camera */
     float scale_x;                      /* (W/H) * f * tan(fov/2) */
     float scale_y;                      /* f * tan(fov/2) */
     float focal_length;

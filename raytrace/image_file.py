@@ -19,7 +19,7 @@ BAND_BYTES = 16 << 20  # rows of the float image encoded and written at a time
 
 
 def encode_8bit(image):
-    """the README's model, image files: ceil(255 * clamp(x, 0, 1)^(1/2.2)); NaN reads as 0."""
+    """docs/model.md, image files: ceil(255 * clamp(x, 0, 1)^(1/2.2)); NaN reads as 0."""
     x = np.clip(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
     return np.ceil(255.0 * x ** (1.0 / 2.2) - 1e-9).astype(np.uint8)
 

@@ -40,6 +40,6 @@ def lanes(request):
 
 @pytest.fixture
 def harness(cl_env, lanes):
-    """Runs small test kernels (raytrace/probe.py) at this lane width on the session's context."""
+    """Runs small test kernels (raytrace/commands/stability/probe.py) at this lane width on the session's context."""
     return Probe(lanes, env=cl_env)
 

@@ -1,4 +1,4 @@
-"""Independent float64 numpy reference renderer (the README's model: camera, shapes, shading), for the kernel's tests.
+"""Independent float64 numpy reference renderer (docs/model.md: camera, shapes, shading), for the kernel's tests.
 
 Plain and vectorised over N rays; loops only over shapes, lights and light samples. It takes the
 raytrace.scene objects as input but imports nothing of the renderer, so a bug in the renderer's own
@@ -157,7 +157,7 @@ def occluded(scene, p, q):
 
 
 def shade(scene, p, n, d, material, light_uv):
-    """The course's Phong model (the README's model, shading): ambient*k plus, per light, the mean over the K light
+    """The course's Phong model (docs/model.md, shading): ambient*k plus, per light, the mean over the K light
     samples of V * [n.l > 0] * (k L (n.l) + k L max(0, r.v)^shininess). Shininess is the material's."""
     light_uv = np.asarray(light_uv, dtype=np.float64).reshape(-1, 2)
     k = np.array([m.colour for m in scene.materials])[material]

@@ -1,4 +1,4 @@
-"""Camera rays (kernels/camera.cl) against the float64 reference (the README's model, camera)."""
+"""Camera rays (kernels/camera.cl) against the float64 reference (docs/model.md, camera)."""
 import numpy as np
 import pytest
 

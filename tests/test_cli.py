@@ -48,7 +48,7 @@ def test_render_png_exr_and_stats(tmp_path, cornell):
 
 
 def test_8bit_encoding():
-    """ceil(255 x^(1/2.2)) of the README's model, image files, clamped."""
+    """ceil(255 x^(1/2.2)) of docs/model.md, image files, clamped."""
     x = np.array([-1.0, 0.0, 1e-7, 0.5, 1.0, 3.0])
     np.testing.assert_array_equal(encode_8bit(x), [0, 0, 1, 187, 255, 255])
 

@@ -4,7 +4,7 @@ The contract: every input to `raytrace render` ends in one of two ways.
 
 - Exit status 0, and an image file of the requested size that reads back (OpenImageIO) with only finite
   values; nothing else is left in the directory (but the `--stats-json` file asked for, whose
-  `extra.nonfinite_values` is 0, as the README promises).
+  `extra.nonfinite_values` is 0, as docs/cli.md promises).
 - Exit status 2, and exactly one line on stderr, `raytrace: error: SOURCE: KEY = VALUE: problem`, where
   SOURCE says where the bad value came from: the scene file's path, a mesh file it names, `command line`
   or `environment`; no file is left behind (no output, no `.raytrace-*` temporary file).

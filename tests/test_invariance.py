@@ -1,4 +1,4 @@
-"""A scene's image does not depend on where it sits or on its unit of length (raytrace/transform.py).
+"""A scene's image does not depend on where it sits or on its unit of length (raytrace/scene/transform.py).
 
 Scene 0 at 96 x 96, 4 Sobol pixel samples x 16 Sobol light samples (randomised patterns: no sample sits
 exactly on an edge, so no tie can flip either way by chance), rendered as it is and scaled by s, moved by up
@@ -27,7 +27,7 @@ must stay within 1e-3 (the fixed 2^-12 (1 + |p|) offset this replaced changed 55
 15 of these 18 cases fail).
 
 Where float32 cannot resolve the scene at all (s <= 0.1 at 1e4 units: the 2-unit room spans fewer than
-2^10 float spacings), the image is a known limit, listed in the README's "Numerical guarantees"."""
+2^10 float spacings), the image is a known limit, listed in docs/numerics.md."""
 import numpy as np
 import pytest
 

@@ -1,4 +1,4 @@
-"""MIP pyramids, the packed buffer and the MIP-mapped filters (raytrace/mipmap.py, kernels/mipmap.cl)
+"""MIP pyramids, the packed buffer and the MIP-mapped filters (raytrace/scene/mipmap.py, kernels/mipmap.cl)
 against the float64 reference (tests/reference_textures.py) and OpenImageIO (make_texture, TextureSystem)."""
 import numpy as np
 import OpenImageIO as oiio
@@ -142,7 +142,7 @@ def test_mipmapped_filters_match_reference(harness, filter_name, wrap):
 
 def test_trilinear_against_openimageio(harness, tmp_path):
     """OpenImageIO's TextureSystem, trilinear, isotropic footprints of w level-0 texels. It blends levels
-    l0 = floor(log2 w) and l0 + 1 with weight f' = w / 2^l0 - 1 where we use f = log2 w - l0 (the README's
+    l0 = floor(log2 w) and l0 + 1 with weight f' = w / 2^l0 - 1 where we use f = log2 w - l0 (docs/textures.md's
     D = log2 L); so per point |ours - theirs| <= |f - f'| |level l0 - level l0 + 1| (bilinear values at the
     point, from the reference), which is the bound checked, plus 2e-6 of float32 rounding. At w = 2^k both
     rules agree and so must the results (to 2e-6)."""
@@ -174,7 +174,7 @@ def test_mipmapping_removes_aliasing(grid_floor):
     The supersampled render uses bilinear (no MIP-mapping), so the reference does not favour MIP-maps.
     One light sample: shading is not what is compared. (The grid's lines sit on the pyramid's texel
     pairs; lines straddling them blur twice as wide at every level, and then trilinear gains only ~10%
-    here: raytrace/assets.py.)"""
+    here: raytrace/commands/assets.py.)"""
     size = dict(width=96, height=96, light_samples=1)
     truth, _ = raytrace.render(grid_floor, spp=256, sampler="grid", texture_filter="bilinear", **size)
     rmse = {f: np.sqrt(np.mean((raytrace.render(grid_floor, spp=1, sampler="center", texture_filter=f, **size)[0]

@@ -1,4 +1,4 @@
-"""Texture images and lookups inside one level (raytrace/textures.py, kernels/textures.cl): real files of
+"""Texture images and lookups inside one level (raytrace/scene/textures.py, kernels/textures.cl): real files of
 every kind written and read back, the decoding of stored texels, wrap modes, nearest and bilinear filtering
 against the float64 reference (tests/reference_textures.py) and against OpenImageIO's TextureSystem."""
 import numpy as np

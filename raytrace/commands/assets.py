@@ -8,7 +8,7 @@ no seams: every noise field is FFT-filtered white noise and every distance wraps
   starts on a cell boundary (texels 64 k and 64 k + 1), so copies of the tile join into the same grid. The
   lines are aligned to the texel pairs of the MIP pyramid: a line straddling a multiple of 64 (texels
   64 k - 1 and 64 k) would be split over two texels at every level of a box-filtered pyramid, which doubles
-  the blur of trilinear filtering (measured in the README's filter figure).
+  the blur of trilinear filtering (docs/textures.md's filter figure).
 - `bricks_height.png`, `stones_height.png` (16-bit, one channel, data in [0, 1]): the relief. Bricks: running
   bond, 6 courses of 2 bricks per tile (3 : 1 bricks, as real ones with their joints), alternate courses
   offset by half a brick; mortar joints low (about 0.1), faces high (0.8 to 0.9 per brick) with rounded

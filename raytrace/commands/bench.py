@@ -7,11 +7,11 @@ the ratio; then the whole `python -m raytrace render` in child processes, with a
 the BVH nodes and primitives tested per camera and per shadow ray, counted by a measuring build of the
 kernel (visits.py).
 The scenes' own renders are taken in turns (one of each, then again), so that each scene's time against
-the first's is measured in the same minutes: a shared machine's speed drifts by 10-20% over minutes. Two
-ratios: "x first's s" of the two fastest renders, and "paired", the median over turns of the ratio of one
-turn's two renders (taken seconds apart, so that a slow spell falls on both). Rates are of the kernels' own
-time (the device's profiling events); "wall s" is the whole render (launches, read-back, the host's sums),
-what a peer's own timer holds: on a GPU, whose kernels take milliseconds, the two differ."""
+the first's is measured in the same minutes: a shared machine's speed drifts over minutes (measured in
+commit afe4453). Two ratios: "x first's s" of the two fastest renders, and "paired", the median over turns
+of the ratio of one turn's two renders (taken seconds apart, so that a slow spell falls on both). Rates are
+of the kernels' own time (the device's profiling events); "wall s" is the whole render (launches, read-back,
+the host's sums), what a peer's own timer holds: on a GPU, whose kernels take milliseconds, the two differ."""
 import json
 import math
 import os
@@ -259,9 +259,9 @@ def benchmark(scene_paths, repeat=3, out=sys.stdout, peer=None, save=None, outpu
 
 
 def beside_peer(command, scene, first, repeat, kwargs):
-    """The peer, then the first scene again right after it: a shared machine's speed drifts by 10-20% over
-    minutes, so the ratio takes our fastest render of that window against the peer's fastest (the suite's
-    figure, minutes earlier, is kept beside it)."""
+    """The peer, then the first scene again right after it: a shared machine's speed drifts over minutes
+    (measured in commit afe4453), so the ratio takes our fastest render of that window against the peer's
+    fastest (the suite's figure, minutes earlier, is kept beside it)."""
     print(f"bench: --peer {command}", file=sys.stderr, flush=True)
     result = run_peer(command)
     print(f"bench: {first['scene']}: again, right after the peer, best of {repeat}", file=sys.stderr, flush=True)

@@ -31,8 +31,8 @@ COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_
 
 
 # Each row's renders are repeated for at least this many seconds (and at least 3 times), and the fastest is
-# kept: the smallest meshes render in about 10 ms, and the best of three of those moved by up to 40% between
-# runs (7.9 to 10.9 ns per ray at 10^3 triangles), which moved the growth from 10^3 to 10^6 between 5x and 7x.
+# kept: the smallest meshes render so quickly that the best of three of those moved a lot between runs, and
+# the growth from 10^3 to 10^6 with it (measured in commit f1bffac).
 TIMING_SECONDS = 1.0
 
 # Turns of bench --scaling's paired growth (paired_growth): one render of 10^3 and one of the largest mesh each.
@@ -82,11 +82,10 @@ def paired_growth(low, high, scheduler=None, turns=PAIRED_TURNS):
     """The per-ray cost of the scene `high` against `low` as the median over turns of one render of each, taken
     seconds apart, in alternating order (bench's in_turns and paired_ratios; a scene's ray count is the same in
     every render), so that a slow spell of the machine falls on both; the rows' growth divides two fastest
-    renders that may come from different minutes. Neither is steady on a shared machine: on a 2-core Zen 3,
-    three runs in one hour gave 4.47x, 4.03x and 4.91x by the rows and 4.92x, 4.53x and 4.00x paired (an hour
-    before, the rows gave 3.58x and 3.60x), as a neighbour's load slows the 10^6 mesh's memory-bound renders
-    more than 10^3's. Both scenes' tables stay packed (renderer/scene_tables.py keeps every live scene's), so a turn
-    costs two renders."""
+    renders that may come from different minutes. Neither is steady on a shared machine: runs an hour apart
+    gave growths far apart, by the rows and paired alike (measured in commit 8b112a1), as a neighbour's load
+    slows the 10^6 mesh's memory-bound renders more than 10^3's. Both scenes' tables stay packed
+    (renderer/scene_tables.py keeps every live scene's), so a turn costs two renders."""
     options = {key: value for key, value in OPTIONS.items() if key != "progress"}  # in_turns sets it
     best, seconds = in_turns([low, high], turns, dict(options, scheduler=scheduler), alternate=True)
     return paired_ratios(seconds)[1] * best[0].rays / best[1].rays

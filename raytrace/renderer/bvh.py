@@ -162,7 +162,7 @@ def _sweep(bin_count, bin_box, node_area, counts):
 
 def _scan(ufunc, a):
     """Inclusive scan along axis 0 as one whole-slice operation per step (ufunc.accumulate runs its inner
-    loop along the short axis here, and is eight times slower)."""
+    loop along the short axis here, and is several times slower: measured in commit cd6cb18)."""
     out = a.copy()
     for j in range(1, len(out)):
         ufunc(out[j - 1], out[j], out=out[j])

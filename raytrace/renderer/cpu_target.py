@@ -5,7 +5,7 @@ PoCL 3.0's LLVM 14 names its target after the CPU, and knows nothing newer than 
 AVX2-only "znver3" although it has AVX-512. So the vector width comes from the CPU's own features instead:
 the highest x86-64 micro-architecture level (the x86-64 psABI's v2, v3, v4) whose instructions /proc/cpuinfo
 lists. PoCL's own target is kept where it has that level's width (its scheduling model is the CPU's: the
-level's generic name measured 5% slower on a Zen 3), else the level is the target; the lane width is the
+level's generic name was slower, measured in commit defb116), else the level is the target; the lane width is the
 number of floats in one vector (16 with AVX-512, 8 with AVX2, 4 with SSE). PoCL 3.0 has no setting for its
 target, so the device's llvm_cpu field is pointed at the level's name (the pointer swap of _point_llvm_cpu).
 

@@ -25,10 +25,11 @@ WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch on a CP
 
 def work_per_launch(device):
     """Work units (rays, roughly) of one launch at most: WORK_PER_LAUNCH on a CPU (scene 0's 512 x 512 in 9
-    launches of 60 rows, about 46 ms each on a Zen 3); on a GPU a whole pass (progressive.PASS_WORK), so that a
-    launch holds enough work-items to keep every core busy to its end. The H100 holds 270,336 resident
-    work-items (132 multiprocessors of 2048): a band of 60 rows is 30,720, and scene 0's kernels took 4.9 ms
-    in bands against 3.4 ms in one launch, mesh_cornell's 58 ms against 30 ms (best of 7)."""
+    launches of 60 rows, each a short launch: measured in commit 18becbe); on a GPU a whole pass
+    (progressive.PASS_WORK), so that a launch holds enough work-items to keep every core busy to its end. The
+    H100 holds 270,336 resident work-items (132 multiprocessors of 2048): a band of 60 rows is 30,720, and
+    scene 0's and mesh_cornell's kernels took less time in one launch than in bands (measured in commit
+    77b202d)."""
     return WORK_PER_LAUNCH if device.type & cl.device_type.CPU else PASS_WORK
 
 
@@ -47,12 +48,13 @@ GPU_WORK_GROUP = (16, 8)  # work-items (tiles of pixels) of a work-group on a GP
 def work_group_shape(device, kernel, lanes):
     """The launch's local size, or None for the runtime's choice.
     - CPUs, the vector kernel: one work-item per work-group: PoCL then runs no work-item loop around it, and
-      the two cores share out the small groups evenly (measured 10% faster than the default on scene 0).
+      the two cores share out the small groups evenly (faster than the default on scene 0: measured in commit
+      df1c824).
     - GPUs: GPU_WORK_GROUP, a block of 16 x 8 neighbouring pixels, so that a group's rays meet the same BVH
-      nodes and texels in the multiprocessor's cache. On an H100 (whole-pass launches, best of 7), against
-      the runtime's choice: scene 0 2.39 ms against 3.42, textured_cornell 5.35 against 9.69, mesh_cornell 21.1
-      against 30.3; of the shapes of 64 and 128 tried (8 x 4 ... 64 x 2), none was more than 6% faster on any
-      of the three. Where the kernel cannot run groups that large (its registers), the runtime's choice.
+      nodes and texels in the multiprocessor's cache. On a GPU (whole-pass launches) this took less time than
+      the runtime's choice on scene 0, textured_cornell and mesh_cornell, and of the shapes of 64 and 128 tried
+      (8 x 4 ... 64 x 2) none was much faster on any of the three (measured in commit 77b202d). Where the
+      kernel cannot run groups that large (its registers), the runtime's choice.
     - The scalar kernel on CPUs: the runtime's choice."""
     if device.type & cl.device_type.CPU:
         return (1, 1) if lanes > 1 else None

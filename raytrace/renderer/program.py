@@ -17,11 +17,9 @@ def kernel_dir():
     return checkout if (checkout / "render.cl").is_file() else package / "kernels"
 
 
-# Shapes from which traversing the BVH is faster than testing every shape, per lane width. Measured on a
-# 2-core AMD EPYC (Zen 3), scene 0 and parts of it, 256 x 256, 16 x 16 samples, kernel seconds loop / BVH:
-# LANES=8: 1 shape 0.144 / 0.091, 5 shapes 0.90 / 0.86, 10 shapes (scene 0) 1.55 / 1.18: packets cull so
-# well that the BVH wins from one shape; LANES=1: 1 shape 0.166 / 0.162, 5 shapes 1.47 / 1.56, 10 shapes
-# 2.85 / 1.88: single rays gain only from about 8 shapes.
+# Shapes from which traversing the BVH is faster than testing every shape, per lane width, from kernel times
+# of the loop against the BVH on scene 0 and parts of it (measured in commit 75a3cc2): packets cull so well
+# that the BVH wins from one shape; single rays gain only from about 8 shapes.
 BVH_CROSSOVER = {1: 8, 4: 1, 8: 1, 16: 1}
 
 

@@ -88,8 +88,8 @@ class Accumulator:
         """(A - B) sqrt(nA nB) / N for `rows` (float64, planar), whose square estimates the variance of
         the mean: A the first n_prefix samples, B the rest. Only with a prefix. As one linear combination of
         the sums, A - B = prefix (1/nA + 1/nB) - total / nB: one temporary, where forming the rest's sum
-        first took two more (the estimate took 10-13 ms of a 512 x 512 render's host time on a Zen 3, 6 now;
-        on an H100 the kernels of scene 0 take 2.4 ms)."""
+        first took two more (the estimate's host time for a 512 x 512 render is not small beside a GPU's
+        kernel time for scene 0: measured in commit 77b202d)."""
         n_rest = self.n_total - self.n_prefix
         scale = math.sqrt(self.n_prefix * n_rest) / self.n_total
         d = self.total[:, rows] * (-scale / n_rest)
@@ -127,7 +127,8 @@ class Accumulator:
         """(estimated RMSE of the image over all pixels and channels, the same relative to the image's mean
         value), or (None, None) before the second pass. With keep_variance (after the last pass) it is the mean
         of the variance image, kept for images(): the sums are differenced once, not twice (a 512 x 512 image's
-        difference took 8 ms of host time on a Zen 3; scene 0's kernels take 2.4 ms on an H100)."""
+        difference takes more host time than scene 0's kernels take on a GPU: measured in commits a8eb2ae and
+        77b202d)."""
         if self.prefix is None:
             return None, None
         if keep_variance:
@@ -143,17 +144,16 @@ class Accumulator:
 
 def pass_size(spp, work_per_sample, budget=PASS_WORK):
     """Samples per pass: a power of two, at most spp and with at most `budget` work units (rays, roughly) per
-    pass, so a pass takes a fraction of a second (scene 0 at 512 x 512: its 16 samples in one pass, 0.27 s on
-    a 2-core AVX-512 Xeon; render.py halves the budget where a time limit or a target error may stop the
-    render after any pass, so that it stops nearer either). The kernel traces several samples of a pixel at
-    once where a pass holds them (kernels/tile.h), up to its lane width: with passes of 8 samples instead of 1
-    (a budget of 2^22), mesh_cornell took 31% less kernel time and 41% less wall time, scene 0 9% and 32%,
-    textured_cornell 2% and 22% (one process, 6 renders of each alternating; the wall time also saves the
-    host's per-pass accumulation). A pass used to hold at most spp / 2 samples, so that two passes gave the
-    error estimate's two halves; the first pass now sums its first half apart (first_half), and with passes of
-    16 (16 samples of one pixel in a work-item's 16 lanes) instead of 8, mesh_cornell took 6-9% less kernel
-    time, the 10^6-triangle torus of `bench --scaling` (passes of 4 instead of 2) 20-25%, scene 0 the same
-    (one process, the same kernel, 7-9 renders each alternating)."""
+    pass, so a pass takes a fraction of a second (scene 0 at 512 x 512: its 16 samples in one pass; render.py
+    halves the budget where a time limit or a target error may stop the render after any pass, so that it
+    stops nearer either). The kernel traces several samples of a pixel at once where a pass holds them
+    (kernels/tile.h), up to its lane width: passes of 8 samples instead of 1 (a budget of 2^22) saved kernel
+    time and more wall time, the wall time also saving the host's per-pass accumulation (measured in commit
+    3752c2c). A pass used to hold at most spp / 2 samples, so that two passes gave the error estimate's
+    two halves; the first pass now sums its first half apart (first_half), and passes of 16 (16 samples of one
+    pixel in a work-item's 16 lanes) instead of 8 took less kernel time on mesh_cornell and on the
+    10^6-triangle torus of `bench --scaling` (passes of 4 instead of 2), scene 0 the same (measured in commit
+    7a64eb6)."""
     size = 1
     while size * 2 <= spp and size * 2 * work_per_sample <= budget:
         size *= 2

@@ -13,8 +13,8 @@ from .packing import (camera_struct, ellipsoid_structs, light_structs, material_
 
 # Each live Scene object's packed triangles and BVH, by id(scene): repeated renders of one Scene object (bench's
 # scenes in turns, converge, bench --scaling's two meshes alternating, a progressive render's callers) pack its
-# triangles and build its BVH once (bench's four scenes, 3 turns: 11.3 s against 15.0 when only the last
-# scene's were kept and mesh_cornell's BVH was built again every turn, Zen 3). An entry goes with its scene
+# triangles and build its BVH once (bench's turns took less time than when only the last scene's were kept
+# and mesh_cornell's BVH was built again every turn: measured in commit 8b112a1). An entry goes with its scene
 # (weakref.finalize), so an id is never met again while its entry stands. Keyed by the object itself, so a
 # scene changed in place must be a new object (dataclasses.replace), as everywhere in this package.
 _GEOMETRY = {}

@@ -59,7 +59,7 @@ def vertex_normals(vertices, faces):
 
 def same_position(vertices):
     """For each vertex, an id shared by exactly the vertices at the same position (sort, compare
-    neighbours: 0.2 s for a million vertices, against 0.5 s for np.unique(axis=0))."""
+    neighbours: faster than np.unique(axis=0), measured in commit cd6cb18)."""
     order = np.lexsort(vertices.T[::-1])
     ordered = vertices[order]
     new = np.concatenate([[True], (ordered[1:] != ordered[:-1]).any(axis=1)])

@@ -17,7 +17,7 @@ def normalize(v):
 
 
 # The shading models: the course's Phong model, and radiometric direct lighting (Lambertian surfaces, area
-# lights of a given radiance): the README's "The model" and "Direct lighting".
+# lights of a given radiance): docs/model.md.
 SHADINGS = ("phong", "direct")
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class Camera:
     focal_length: float = 1.0
 
     def basis(self):
-        """forward, right, up as the README's model, camera defines them (float64)."""
+        """forward, right, up as docs/model.md, camera defines them (float64)."""
         forward = normalize(self.look_at - self.position)
         right = normalize(np.cross(forward, self.ref_up))
         return forward, right, np.cross(right, forward)

@@ -1,5 +1,5 @@
 """Texture images: read with OpenImageIO in any format it knows, checked, decoded, and given their MIP
-pyramid (raytrace/mipmap.py) in the form the kernel stores them (kernels/textures.cl).
+pyramid (raytrace/scene/mipmap.py) in the form the kernel stores them (kernels/textures.cl).
 
 What the values mean:
 - colour maps with 8 or 16 bits per channel are sRGB-encoded, float ones (EXR, HDR, float TIFF) linear;

@@ -279,7 +279,7 @@ def check_rendered(outcome, directory, output, size, stats, example_text):
         data = json.loads((directory / stats).read_text())
         if data.get("extra", {}).get("nonfinite_values", 0) != 0:
             broken(NonFiniteValuesCounted, outcome, f"the kernel produced {data['extra']['nonfinite_values']} NaN "
-                   f"or infinite values (zeroed before writing; the README says always 0)", example_text)
+                   f"or infinite values (zeroed before writing; docs/cli.md says always 0)", example_text)
 
 
 def check_refused(outcome, sources, example_text):

@@ -25,7 +25,7 @@ __kernel void rays(int n, __constant const Camera *cam, __global const float *x,
 def extreme_fov(env):
     """Camera rays of scene 0's camera with vertical fields of view of 1e-3 and 179.9 degrees, 64 x 48, at a
     127 x 95 grid of pixel positions from corner to corner plus the centre's row and column; against the
-    README's model in float64.
+    docs/model.md's camera in float64.
 
     d = f forward + sx right + sy up, sx = (2x/W - 1) scale_x: the screen coordinate carries at most 5u
     (1/W rounded, a product and a sum), so sx at most 5u scale_x + 2u |sx| (scale_x stored, the product);

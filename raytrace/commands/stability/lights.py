@@ -50,7 +50,7 @@ def shade(env, light, p, n, d):
 def lights_at_horizon(env):
     """shade() where every light sample lies on the shaded point's horizon or below it must return the
     ambient term exactly (k = 1: the ambient colour itself), with no NaN: samples at n.l <= 0 add nothing
-    (the README's model), and nothing here may round them above.
+    (docs/model.md), and nothing here may round them above.
 
     On the horizon: a light lying in the surface's own plane, for planes normal to each axis (either side):
     there q - p has an exact zero along the normal, so n.l is exactly 0; a quarter of the points sit on

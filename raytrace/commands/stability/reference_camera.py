@@ -1,4 +1,4 @@
-"""The README's camera model in float64: the reference that the camera's kernel tests (tests/reference.py)
+"""The camera model of docs/model.md in float64: the reference that the camera's kernel tests (tests/reference.py)
 and the stability suite (stability/camera.py) hold kernels/camera.cl to. It uses nothing of the renderer's
 host code, only the scene's Camera (its float64 basis)."""
 import numpy as np
