@@ -1,0 +1,135 @@
+"""The front page and the manual: the manual builds strictly (every warning an error: a broken link, a missing
+page or anchor, an unresolved reference), its generated pages hold what the code and the records say, the
+measurement records are well formed, and the README's commands and examples are the ones that work."""
+import importlib.util
+import json
+import os
+import re
+import subprocess
+import sys
+import tomllib
+
+import pytest
+
+from helpers import ROOT
+from raytrace.scene import parse_scene
+from raytrace.scene.keys import TABLES
+
+if os.environ.get("RAYTRACE_DEVICE") and importlib.util.find_spec("sphinx") is None:
+    # .ci/gpu's site for a GPU machine carries what the renderer's tests need, not the manual's tools; on
+    # every other run (CI included) a missing Sphinx is a failure, not a skip
+    pytest.skip("the manual is built by the CPU runs; this GPU site has no Sphinx", allow_module_level=True)
+
+README = (ROOT / "README.md").read_text()
+RECORDS = sorted((ROOT / "benchmarks" / "results").glob("*.json"))
+
+
+@pytest.fixture(scope="module")
+def manual(tmp_path_factory):
+    """The manual built as HTML with -W --keep-going -n: (exit status, warnings and errors, output folder)."""
+    out = tmp_path_factory.mktemp("html")
+    r = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-n", "-q", "-E", "-b", "html",
+                        str(ROOT / "docs"), str(out)], capture_output=True, text=True, cwd=ROOT)
+    return r.returncode, r.stderr, out
+
+
+def test_the_manual_builds_strictly(manual):
+    status, log, out = manual
+    assert status == 0 and log.strip() == "", log
+    pages = {p.stem for p in out.glob("*.html")}
+    assert {"index", "getting-started", "cli", "scene-format", "python-api", "model", "sampling", "numerics",
+            "meshes", "gpu", "dask", "design", "performance"} <= pages
+
+
+def test_a_broken_anchor_fails_the_build(tmp_path):
+    """The strict build is strict: a link to a missing anchor, copied into a small project, is an error."""
+    (tmp_path / "conf.py").write_text((ROOT / "docs" / "conf.py").read_text().replace(
+        'DOCS = Path(__file__).resolve().parent', f'DOCS = Path({str(ROOT / "docs")!r})'))
+    (tmp_path / "index.md").write_text("# Index\n\n## Here\n\n[there](#there) and [here](#here)\n")
+    r = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-n", "-q", "-b", "html", str(tmp_path),
+                        str(tmp_path / "out")], capture_output=True, text=True)
+    assert r.returncode != 0 and "there" in r.stderr
+
+
+def test_the_scene_format_page_lists_every_key(manual):
+    """The generated tables (docs/_ext/raytrace_docs.py from raytrace/scene/keys.py) name every table and key."""
+    html = (manual[2] / "scene-format.html").read_text()
+    for table, keys in TABLES.items():
+        for key in keys:
+            assert f"<code class=\"docutils literal notranslate\"><span class=\"pre\">{key.name}</span></code>" in html, \
+                (table, key.name)
+
+
+def test_the_command_line_page_lists_every_option(manual):
+    """The options come from the parser (sphinx-argparse): each option of each command is on the page."""
+    from raytrace.cli import parser
+    html = (manual[2] / "cli.html").read_text()
+    commands = next(a for a in parser()._actions if a.dest == "command").choices
+    for name, sub in commands.items():
+        for action in sub._actions:
+            for option in action.option_strings:
+                assert option in html or option in ("-h", "--help"), (name, option)
+
+
+@pytest.mark.parametrize("path", RECORDS, ids=[p.name for p in RECORDS])
+def test_every_measurement_record_is_well_formed(path):
+    """A record (docs/performance.md) says on which machine, at which commit, by which command its figures were
+    measured, and each figure is a number with a unit."""
+    record = json.loads(path.read_text())
+    assert set(record) == {"machine", "date", "commit", "command", "figures"}, path
+    assert re.fullmatch(r"\d{4}-\d{2}-\d{2}", record["date"]) and re.fullmatch(r"[0-9a-f]{7,40}", record["commit"])
+    assert record["command"].startswith(("python -m ", ".ci/")) and record["figures"]
+    for figure in record["figures"]:
+        assert set(figure) == {"what", "value", "unit"} and isinstance(figure["value"], (int, float)), figure
+
+
+def test_there_are_records_and_the_performance_page_shows_them(manual):
+    from raytrace_docs import current, records  # docs/_ext, on the path once conf.py ran; imported here too
+    assert RECORDS
+    html = (manual[2] / "performance.html").read_text()
+    for machine, recs in current(records()).items():
+        assert machine.split(" (")[0] in html
+        for record in recs:
+            assert record["commit"][:8] in html
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _docs_ext_on_path():
+    sys.path.insert(0, str(ROOT / "docs" / "_ext"))
+    yield
+    sys.path.remove(str(ROOT / "docs" / "_ext"))
+
+
+def blocks(language):
+    return re.findall(rf"```{language}\n(.*?)```", README, re.S)
+
+
+def test_the_readme_is_a_front_page():
+    """About 200 lines, the two commands in its first screen (its first 40 lines), links into the manual."""
+    lines = README.splitlines()
+    assert len(lines) <= 220
+    first_screen = "\n".join(lines[:40])
+    assert "pip install" in first_screen and "python -m pytest" in first_screen
+    assert len(re.findall(r"\]\(docs/[\w-]+\.md\)", README)) >= 10
+
+
+def test_ci_runs_the_readmes_test_command():
+    install, test = (b.strip() for b in blocks("sh")[:2])
+    assert install.startswith("python3 -m venv .venv") and "python -m raytrace render scenes/cornell.toml" in install
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert test.replace(". .venv/bin/activate && ", "") in ci.splitlines()
+    assert 'pip install -q -e ".[test]"' in ci
+
+
+def test_the_readmes_scene_loads():
+    (scene,) = blocks("toml")
+    parse_scene(tomllib.loads(scene), str(ROOT / "scenes" / "readme.toml"))
+
+
+def test_the_readmes_python_runs(tmp_path):
+    """The tour's Python, as a user runs it from a checkout (here at 32 x 32 pixels): it writes its PNG."""
+    (code,) = blocks("python")
+    code = code.replace('"scenes/', f'"{ROOT}/scenes/').replace("spp=16", "width=32, height=32, spp=16")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "cornell.png").stat().st_size > 0 and "Mrays/s on" in r.stdout
