@@ -2,7 +2,8 @@
 `python -m benchmarks.baseline` (this kernel against another commit's, in one process),
 `python -m benchmarks.embree_anchor` (bench --scaling beside Embree), `python -m benchmarks.dask_overhead`
 (what a Dask cluster costs) and `python -m benchmarks.against_reference` (our image against another
-renderer's). Their dated results live in benchmarks/results/, from which docs/performance.md is made."""
+renderer's), `python -m benchmarks.record` (a bench run as a measurement record). Their dated results live
+in benchmarks/results/, from which docs/performance.md is made."""
 import sys
 
 from raytrace.errors import InputError

@@ -1,0 +1,50 @@
+"""benchmarks/record.py: a real, tiny bench run of two scenes beside a stand-in peer, turned into a measurement
+record by the rig's command line. The record is one the performance page takes (test_docs.py's check), and its
+figures are the bench file's own values, scene by scene."""
+import json
+
+import pytest
+
+from helpers import CORNELL, ROOT, run
+from test_docs import test_every_measurement_record_is_well_formed as well_formed
+
+TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1, "--repeat", 1]
+COMMAND = "python -m raytrace bench scenes/cornell.toml scenes/grid_floor.toml --json bench.json"
+
+
+@pytest.fixture(scope="module")
+def bench_json(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench") / "bench.json"
+    peer = "echo '{\"mrays_per_s\": 0.5}'"
+    r = run("bench", CORNELL, ROOT / "scenes" / "grid_floor.toml", *TINY, "--json", out, "--peer", peer, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_a_record_of_a_bench_run(bench_json, tmp_path):
+    r = run(bench_json, "--command", COMMAND, "--out", tmp_path, module="benchmarks.record", cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    (path,) = tmp_path.iterdir()
+    assert r.stdout.strip() == str(path) and path.name.endswith("-bench.json")
+    well_formed(path)
+    record, bench = json.loads(path.read_text()), json.loads(bench_json.read_text())
+    assert record["command"] == COMMAND and bench["machine"]["cpu"] in record["machine"]
+    figures = {f["what"]: f["value"] for f in record["figures"]}
+    first, second = bench["scenes"]
+    assert figures["cornell nominal rate"] == round(first["nominal_mrays_per_s"], 1)
+    assert figures["grid_floor x the first scene's time"] == round(second["time_ratio_to_first"], 3)
+    assert figures["grid_floor rate against the scalar kernel"] == round(second["ratio_to_scalar"], 2)
+    assert figures["cornell against the peer, best against best"] == round(bench["ratio_to_peer"], 2)
+    assert "cornell x the first scene's time" not in figures  # the first scene is the unit
+
+
+@pytest.mark.parametrize("case", ["not json", "no command"])
+def test_bad_input_is_one_line(bench_json, tmp_path, case):
+    source = tmp_path / "x.json"
+    source.write_text("{" if case == "not json" else bench_json.read_text())
+    command = COMMAND if case == "not json" else "bench it"
+    r = run(source, "--command", command, "--out", tmp_path, module="benchmarks.record", cwd=ROOT)
+    assert r.returncode == 2 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1
+    named = f"{source}: file = '{source}'" if case == "not json" else "command line: --command = 'bench it'"
+    assert r.stderr.startswith(f"benchmarks.record: error: {named}: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.json"]
