@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from raytrace import load_scene
+from raytrace import load_file
 from raytrace.numerics import rmse
 from raytrace.render import render_progressive
 from raytrace.image_file import write_image_file
@@ -44,7 +44,7 @@ def main(argv=None):
     parser.add_argument("--sampler", default="sobol")
     parser.add_argument("--out", required=True, type=Path)
     args = parser.parse_args(argv)
-    scene = load_scene(args.scene)
+    scene = load_file(args.scene)
     reference, _ = read_reference(args.reference, scene.width, scene.height)
     ours, _, stats = render_progressive(scene, spp=args.spp, light_samples=args.light_samples, sampler=args.sampler,
                                         light_sampler=args.sampler)

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from raytrace import load_scene
+from raytrace import load_file
 from raytrace.render import render_progressive
 from raytrace.renderer.distributed import client_for, close_all
 from raytrace.renderer.progressive import Accumulator
@@ -52,7 +52,7 @@ def measure(scene_paths, options, out=sys.stdout):
     clients = {n: client_for(f"local:{n}") for n in (1, 2)}  # as --scheduler local:N starts them
     try:
         for path in scene_paths:
-            scene = load_scene(path)
+            scene = load_file(path)
             render_progressive(scene, **dict(options, spp=1))  # this process's build
             alone, stats = wall(scene, **options)
             row = {"scene": str(path), "single_process_s": alone, "passes": stats.passes, "rays": stats.rays}

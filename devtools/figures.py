@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from raytrace import load_scene
+from raytrace import load_file
 from raytrace import render
 from raytrace.commands.panels import figure_panels, save_figure, show_image
 from raytrace.image_file import write_image
@@ -29,7 +29,7 @@ def scenes_figure(out, size=384, single=512, spp=16, light_samples=16, dpi=100):
     fig, rows = figure_panels(2, [size, size], size, dpi)
     written = []
     for ax, name in zip([ax for row in rows for ax in row], TEXTURED):
-        scene = load_scene(SCENES / f"{name}.toml")
+        scene = load_file(SCENES / f"{name}.toml")
         options = dict(spp=spp, light_samples=light_samples, sampler="grid", texture_filter="trilinear",
                        progress=False)
         show_image(ax, render(scene, width=size, height=size, **options)[0], name)
@@ -47,7 +47,7 @@ def without_relief(scene):
 
 def normal_height_figure(out, size=512, spp=16, light_samples=16, dpi=100):
     """fig2_normal_height.png: textured_cornell with colour maps only, then with normal and height maps."""
-    scene = load_scene(SCENES / "textured_cornell.toml")
+    scene = load_file(SCENES / "textured_cornell.toml")
     fig, rows = figure_panels(2, [size], size, dpi)
     for ax, (s, title) in zip(rows[0], ((without_relief(scene), "colour maps only"),
                                         (scene, "colour + normal + height maps"))):
@@ -61,7 +61,7 @@ def filters_figure(out, size=256, reference_spp=1024, dpi=100):
     """fig3_filters.png: grid_floor at 1 spp with each filter beside a supersampled reference (bilinear,
     no MIP-mapping), RMSE against it; below, the far floor zoomed 4 x. Returns {filter: (rmse, seconds)}."""
     import matplotlib.pyplot as plt
-    scene = load_scene(SCENES / "grid_floor.toml")
+    scene = load_file(SCENES / "grid_floor.toml")
     common = dict(width=size, height=size, light_samples=1, progress=False)
     reference, stats = render(scene, spp=reference_spp, sampler="grid", texture_filter="bilinear", **common)
     panels = [(reference, f"reference: {reference_spp} spp,\nbilinear, no MIP-map")]

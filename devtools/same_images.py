@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from raytrace import load_scene, render
+from raytrace import load_file, render
 from raytrace.numerics import rmse
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
@@ -53,7 +53,7 @@ def compare_devices(directory, device, lanes=None, cpu_image=None):
     """Scene 0 on PoCL's CPU device (or the array saved in `cpu_image`) and on `device` (at `lanes`, default
     the device's own), saved as cpu.npy and device.npy in `directory`; the figures, with `passed` against
     DEVICE_BOUNDS."""
-    scene = load_scene(SCENES / "cornell.toml")
+    scene = load_file(SCENES / "cornell.toml")
     if cpu_image is None:
         cpu, cpu_stats = render(scene, **DEVICE_SIZE, device="cpu")
         cpu_side = {"cpu": cpu_stats.device, "cpu_build_options": cpu_stats.build_options}
@@ -98,7 +98,7 @@ def main(argv=None):
         return 0 if result["passed"] else 1
     loaded, different = {}, 0
     for name, path, options in cases():
-        scene = loaded.setdefault(path, load_scene(path))
+        scene = loaded.setdefault(path, load_file(path))
         image, _ = render(scene, **SIZE, **options)
         saved = args.dir / f"{name}.npy"
         if args.mode == "save":

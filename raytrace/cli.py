@@ -14,11 +14,12 @@ import signal
 import sys
 from pathlib import Path
 
-from . import samplers, structs
+from . import samplers
 from .errors import InputError
-from .scene.model import SHADINGS
 from .outputs import Interrupted, Outputs, committed, handle_signals, scene_inputs, write_json
+from .image import metadata
 from .image_file import FORMATS, write_image_file
+from .options import API, command_line_name, declared
 from .commands.converge_peer import PEER_SAMPLERS
 
 EXIT_BAD_INPUT = 2
@@ -38,26 +39,28 @@ def _add_render_options(p, scene_help=None):
         p.add_argument("scene", nargs="*", help=scene_help)
     else:
         p.add_argument("scene", help="scene file (TOML)")
-    p.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
-    p.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
-    p.add_argument("--spp", type=int, help="pixel samples (a square number for the grid sampler)")
-    p.add_argument("--light-samples", type=int, help="samples per light (square: the course's uniform grid)")
-    p.add_argument("--sampler", help=f"pixel sample pattern: {', '.join(samplers.SAMPLERS)} (default: the scene's)")
-    p.add_argument("--light-sampler", help="light sample pattern, the same choice (default: the scene's, else grid)")
-    p.add_argument("--texture-filter", default="trilinear", choices=list(structs.FILTERS),
-                   help="texture filter (default: trilinear)")
-    p.add_argument("--shading", choices=list(SHADINGS), help="the shading model: phong (the course's) or direct "
-                   "(radiometric direct lighting; a light's colour is then its radiance) (default: the scene's)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random sample patterns' randomisation")
-    p.add_argument("--time-limit", type=float, help="stop before a pass that would end after SECONDS")
-    p.add_argument("--target-error", type=float, help="stop at this estimated relative RMSE of the image")
-    p.add_argument("--device", help='OpenCL device: "P:D" indices or part of its name (default: a CPU)')
+    for name, default, doc, cli, choices, metavar in declared():
+        if cli and name != "scheduler":
+            _add_option(p, name, default, doc, choices, metavar)
     _add_scheduler(p)
 
 
+_TYPES = {"width": int, "height": int, "spp": int, "light_samples": int, "seed": int, "time_limit": float,
+          "target_error": float}  # the others are strings
+
+
+def _add_option(p, name, default, doc, choices=None, metavar=None):
+    """render()'s option `name` (raytrace/options.py) as --name on the command line."""
+    parser_checks = choices if name in ("texture_filter", "shading") else None  # render() checks the patterns
+    p.add_argument(command_line_name(name), dest=name, type=_TYPES.get(name, str), default=default,
+                   choices=list(parser_checks) if parser_checks else None, metavar=metavar,
+                   help=doc + (f": {', '.join(choices)}" if choices and not parser_checks else "")
+                   + (f" (default: {default})" if default is not None else ""))
+
+
 def _add_scheduler(p):
-    p.add_argument("--scheduler", metavar="ADDRESS", help="render on a Dask cluster: local:N (N worker processes "
-                   "here) or tcp://host:port (a running scheduler); needs the dist extra")
+    name, default, doc, _, choices, metavar = next(option for option in declared() if option[0] == "scheduler")
+    _add_option(p, name, default, doc, choices, metavar)
 
 
 def parser():
@@ -119,32 +122,25 @@ def parser():
 
 
 def _render_kwargs(args):
-    return dict(width=args.width, height=args.height, spp=args.spp, light_samples=args.light_samples,
-                sampler=args.sampler, light_sampler=args.light_sampler, texture_filter=args.texture_filter,
-                seed=args.seed, time_limit=args.time_limit, target_error=args.target_error, device=args.device,
-                scheduler=args.scheduler, shading=args.shading)
+    """render()'s keyword arguments from the command line's options."""
+    return {name: getattr(args, name) for name, _, _, cli, _, _ in declared() if cli}
 
 
 def cmd_render(args):
     from .render import render_progressive
-    from .scene import load_scene
+    from .scene import load_file
 
     if Path(args.output).suffix.lower() not in FORMATS:
         raise InputError("command line", "-o", args.output, f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
     with Outputs(inputs=[args.scene]) as outputs:
         image_file = outputs.reserve("-o", args.output)
         stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)
-        scene = load_scene(args.scene)
+        scene = load_file(args.scene)
         outputs.add_inputs(scene_inputs(scene))
         image, variance, stats = render_progressive(scene, **_render_kwargs(args),
                                                     progress=False if args.no_progress else None)
-        metadata = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
-                    "light_sampler": stats.light_sampler, "texture_filter": stats.texture_filter, "seed": stats.seed,
-                    "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(args.scene)}
-        if stats.estimated_rmse is not None:
-            metadata["estimated_rmse"] = float(stats.estimated_rmse)
         with outputs.writing(image_file):
-            write_image_file(image_file, image, metadata, variance)
+            write_image_file(image_file, image, metadata(stats, args.scene), variance)
         if stats_file:
             with outputs.writing(stats_file):
                 write_json(stats_file, dataclasses.asdict(stats))
@@ -218,9 +214,9 @@ def cmd_converge(args):
 def cmd_compile(args):
     """Exit status 1 when the compiler rejects the kernel."""
     from .commands.compile import compile_scene
-    from .scene import load_scene
+    from .scene import load_file
 
-    scene = load_scene(args.scene)
+    scene = load_file(args.scene)
     try:
         r = compile_scene(scene, args.target, args.lanes)
     except RuntimeError as e:
@@ -242,6 +238,14 @@ def cmd_stability(args):
     return 0 if passed else 1
 
 
+def _as_command_line(error):
+    """An error about a render() option, named as the command line spells it (--spp, --light-samples)."""
+    names = {option[0] for option in declared()}
+    if error.source != API or not set(str(error.key).split("/")) <= names:
+        return error
+    return InputError("command line", command_line_name(error.key), error.value, error.problem)
+
+
 @contextlib.contextmanager
 def _dask_closed():
     """The Dask clients and local clusters a command started are closed when it ends, however it ends."""
@@ -260,7 +264,7 @@ def main(argv=None):
             args = parser().parse_args(argv)
             return commands[args.command](args) or 0
         except InputError as e:
-            print(f"raytrace: error: {e}", file=sys.stderr)
+            print(f"raytrace: error: {_as_command_line(e)}", file=sys.stderr)
             return EXIT_BAD_INPUT
         except MemoryError:  # the up-front check (render.check_memory) cannot see every other limit
             print("raytrace: error: out of memory: try a smaller --width/--height", file=sys.stderr)

@@ -1,6 +1,9 @@
 """The one error type a user sees: bad input, reported as one line, exit status 2."""
 
 
+API = "render()"  # the source an error names for a keyword argument of render() (the command line renames it)
+
+
 class InputError(Exception):
     """Bad user input: a scene file, a texture, a command-line value.
 

@@ -103,12 +103,14 @@ def write_image_file(path, image, metadata=None, variance=None):
         raise OSError(errno.EIO, message.splitlines()[0].strip(), path)
 
 
-def write_image(path, image, metadata=None, variance=None, key="-o"):
-    """write_image_file(), atomically: a temporary file beside `path` renamed into place, so a failed write
-    leaves no partial file. Bad paths and failed writes raise InputError naming `key` and `path`."""
+def write_image(path, image, metadata=None, variance=None, key="path", source="write_image()"):
+    """Write H x W x 3 linear float `image` to `path` as the command line does (write_image_file: the format
+    from the extension, `metadata` as the file's attributes, an EXR with the `variance` channels), atomically:
+    a temporary file beside `path` renamed into place, so a failed write leaves no partial file. Bad paths and
+    failed writes raise InputError naming `source`, `key` and `path`."""
     if os.path.splitext(str(path))[1].lower() not in FORMATS:
-        raise InputError("command line", key, str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
-    with Outputs() as outputs:
+        raise InputError(source, key, str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
+    with Outputs(source=source) as outputs:
         tmp = outputs.reserve(key, path)
         with outputs.writing(tmp):
             write_image_file(tmp, image, metadata, variance)

@@ -22,36 +22,19 @@ from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
 from .renderer.progressive import (BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, PASS_WORK, Accumulator,
                                    first_half, pass_size, row_chunks)
+from .options import API, MAX_BAND_BYTES, RenderOptions  # noqa: F401 (MAX_BAND_BYTES: for the renderer's callers)
+from .image import Image
+from .scene.model_check import ensure_checked
 
-MAX_BAND_BYTES = 64 << 20     # the device output buffer: below the 128 MiB any full-profile device allows
 HEADROOM_BYTES = 512 << 20    # besides the sums and images: the runtime, the program, the band buffers
 
 
 @dataclass
-class RenderOptions:
-    width: int | None = None
-    height: int | None = None
-    spp: int | None = None
-    light_samples: int | None = None
-    sampler: str | None = None
-    light_sampler: str | None = None
-    texture_filter: str = "trilinear"
-    shading: str | None = None         # None: the scene's ("phong" or "direct")
-    seed: int = 0
-    time_limit: float | None = None    # seconds: no pass starts that would end after it
-    target_error: float | None = None  # stop when the estimated relative RMSE is at most this
-    device: str | None = None
-    lanes: int | None = None
-    features: Features | None = None  # None: derived from the scene
-    progress: bool | None = None      # None: a bar on stderr when the render takes over a second
-    max_band_bytes: int = MAX_BAND_BYTES  # the device output buffer's size, at least one row
-    max_pass_work: int = PASS_WORK        # rays of a pass, roughly, at most (progressive.pass_size)
-    scheduler: str | None = None  # a Dask scheduler's address, "local:N" or "tcp://host:port" (distributed.py)
-    client: object = None         # or a dask.distributed.Client to use
-
-
-@dataclass
 class RenderStats:
+    """What a render did, as `--stats-json` writes it (docs/cli.md): kernel, wall and build seconds, the rays
+    traced and their rate, the device and its build options, the image size, the samples taken and asked for,
+    the patterns, filter and seed, the passes, what stopped the render, the estimated error and its history
+    pass by pass, and `extra` (device memory, the code-generation target, NaN or Inf values zeroed: 0)."""
     render_seconds: float  # kernel time on the device
     wall_seconds: float    # the passes, accumulation included (not the build)
     build_seconds: float
@@ -77,6 +60,14 @@ class RenderStats:
     extra: dict = field(default_factory=dict)
 
 
+def _integer(value):
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _option(value, source, key, check, problem):
     if not check(value):
         raise InputError(source, key, value, problem)
@@ -84,9 +75,9 @@ def _option(value, source, key, check, problem):
 
 
 def _pick(scene, given, scene_key, option, low, high):
-    """A count from the command line (`option`) or else the scene's (`scene_key`), checked against one set of
+    """A count from the caller (`option`) or else the scene's (`scene_key`), checked against one set of
     limits and reported against where it came from."""
-    source, key, value = ("command line", option, given) if given is not None else (
+    source, key, value = (API, option, given) if given is not None else (
         scene.path, scene_key, getattr(scene, scene_key.split(".")[-1]))
     ok = isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
     return _option(value, source, key, lambda v: ok, f"must be an integer in [{low}, {high}]")
@@ -95,29 +86,28 @@ def _pick(scene, given, scene_key, option, low, high):
 def _pattern(name, n, key, count_key):
     problem = samplers.count_problem(name, n)
     if problem and name in samplers.SAMPLERS:
-        raise InputError("command line", count_key, n, f"{problem} (or choose another {key})")
+        raise InputError(API, count_key, n, f"{problem} (or choose another {key})")
     if problem:
-        raise InputError("command line", key, name, problem)
+        raise InputError(API, key, name, problem)
     return samplers.pattern(name, n)
 
 
 def resolve(scene, options):
     """Command-line overrides on top of the scene's own settings, validated: (width, height, spp,
     light samples, pixel pattern, light pattern)."""
-    cli = "command line"
     pick = lambda value, default: default if value is None else value  # noqa: E731
-    width = _pick(scene, options.width, "image.width", "--width", 1, MAX_IMAGE_SIDE)
-    height = _pick(scene, options.height, "image.height", "--height", 1, MAX_IMAGE_SIDE)
-    spp = _pick(scene, options.spp, "render.spp", "--spp", 1, MAX_SPP)
-    nl = _pick(scene, options.light_samples, "render.light_samples", "--light-samples", 1, MAX_SPP)
-    pixel = _pattern(pick(options.sampler, scene.sampler), spp, "--sampler", "--spp")
-    light = _pattern(pick(options.light_sampler, scene.light_sampler), nl, "--light-sampler", "--light-samples")
-    _option(options.texture_filter, cli, "--texture-filter", lambda v: v in structs.FILTERS,
+    width = _pick(scene, options.width, "image.width", "width", 1, MAX_IMAGE_SIDE)
+    height = _pick(scene, options.height, "image.height", "height", 1, MAX_IMAGE_SIDE)
+    spp = _pick(scene, options.spp, "render.spp", "spp", 1, MAX_SPP)
+    nl = _pick(scene, options.light_samples, "render.light_samples", "light_samples", 1, MAX_SPP)
+    pixel = _pattern(pick(options.sampler, scene.sampler), spp, "sampler", "spp")
+    light = _pattern(pick(options.light_sampler, scene.light_sampler), nl, "light_sampler", "light_samples")
+    _option(options.texture_filter, API, "texture_filter", lambda v: v in structs.FILTERS,
             f"unknown filter (have: {', '.join(structs.FILTERS)})")
-    _option(options.seed, cli, "--seed", lambda v: 0 <= v < 2**32, "must be in [0, 2^32)")
-    _option(options.time_limit, cli, "--time-limit", lambda v: v is None or 0 < v < float("inf"),
+    _option(options.seed, API, "seed", lambda v: _integer(v) and 0 <= v < 2**32, "must be an integer in [0, 2^32)")
+    _option(options.time_limit, API, "time_limit", lambda v: v is None or _number(v) and 0 < v < float("inf"),
             "must be a positive number of seconds")
-    _option(options.target_error, cli, "--target-error", lambda v: v is None or 0 < v < float("inf"),
+    _option(options.target_error, API, "target_error", lambda v: v is None or _number(v) and 0 < v < float("inf"),
             "must be a positive relative RMSE")
     return width, height, spp, nl, pixel, light
 
@@ -127,14 +117,58 @@ def check_memory(width, height):
     better one line now than a MemoryError, or the kernel's OOM killer, after minutes of rendering."""
     needed, available = width * height * BYTES_PER_PIXEL + HEADROOM_BYTES, available_memory()
     if needed > available:
-        raise InputError("command line", "--width/--height", f"{width}x{height}",
+        raise InputError(API, "width/height", f"{width}x{height}",
                          f"needs about {needed / 2**30:.1f} GiB of memory, {available / 2**30:.1f} GiB available")
 
 
-def render(scene, **kwargs):
-    """Render `scene`; returns (H x W x 3 float32 linear image, RenderStats)."""
-    image, _, stats = render_progressive(scene, **kwargs)
-    return image, stats
+def render(scene, *, width=None, height=None, spp=None, light_samples=None, sampler=None, light_sampler=None,
+           texture_filter="trilinear", shading=None, seed=0, time_limit=None, target_error=None, device=None,
+           scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
+           max_pass_work=PASS_WORK, client=None):
+    """Render `scene` (from load_file, load_dict or load_string); returns (image, stats).
+
+    image is a raytrace.Image: an H x W x 3 float32 numpy array of linear radiance (row 0 at the top) that
+    also holds the estimated variance of each pixel's mean (image.variance) and saves itself as the command
+    line does (image.write("out.exr")). stats is a RenderStats: the fields of --stats-json.
+
+    Every value is checked before any work, and the scene too if it changed since it was loaded (so that no
+    value reaches the kernel unchecked); a bad one raises InputError naming it, e.g. `render(): spp = 15`.
+
+    Args:
+        scene: the Scene to render.
+        width: the image width in pixels, in [1, 16384] (None: the scene's).
+        height: the image height in pixels, in [1, 16384] (None: the scene's).
+        spp: pixel samples, in [1, 65536]; a square number for the grid samplers (None: the scene's).
+        light_samples: samples per light per pixel sample, in [1, 65536] (None: the scene's).
+        sampler: the pixel sample pattern: center, grid, rotated-grid-cw, rotated-grid-ccw, random,
+            jittered, halton or sobol (docs/sampling.md; None: the scene's).
+        light_sampler: the light sample pattern, the same choice (None: the scene's).
+        texture_filter: nearest, bilinear, trilinear or anisotropic.
+        shading: "phong" (the course's model) or "direct" (radiometric direct lighting; a light's colour is
+            then its radiance; refused for a scene with an ambient term) (None: the scene's).
+        seed: the seed of the random patterns' per-pixel randomisation, in [0, 2^32).
+        time_limit: seconds; no pass starts that would end after it (the first always runs).
+        target_error: stop once the estimated relative RMSE of the image is at most this.
+        device: the OpenCL device: "cpu", "gpu", "P:D" indices or part of its name (None: the first CPU).
+        scheduler: render on a Dask cluster: "local:N" (N worker processes on this machine; a script must
+            then keep its code under ``if __name__ == "__main__":``) or "tcp://host:port".
+        lanes: pixels per work-item, 1, 4, 8 or 16 (None: the device's widest).
+        features: a raytrace.Features to force a kernel variant (None: what the scene needs).
+        progress: a progress bar on stderr: True, False, or None for one once the render takes a second.
+        max_band_bytes: the device output buffer's size in bytes, at least one row.
+        max_pass_work: rays of a pass, roughly, at most.
+        client: a dask.distributed.Client to render on, instead of scheduler.
+
+    Returns:
+        (Image, RenderStats)
+    """
+    image, variance, stats = render_progressive(
+        scene, width=width, height=height, spp=spp, light_samples=light_samples, sampler=sampler,
+        light_sampler=light_sampler, texture_filter=texture_filter, shading=shading, seed=seed,
+        time_limit=time_limit, target_error=target_error, device=device, scheduler=scheduler, lanes=lanes,
+        features=features, progress=progress, max_band_bytes=max_band_bytes, max_pass_work=max_pass_work,
+        client=client)
+    return Image.of(image, variance, stats, scene.path), stats
 
 
 class _Progress:
@@ -206,10 +240,18 @@ def _passes(scene, options, r):
 
 def render_progressive(scene, **kwargs):
     """Render `scene` in passes until its spp, time limit or target error; returns (H x W x 3 float32
-    linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats)."""
+    linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats). The
+    keyword arguments are render()'s (raytrace/options.py); the command line calls this."""
+    unknown = sorted(set(kwargs) - {f.name for f in dataclasses.fields(RenderOptions)})
+    if unknown:
+        raise TypeError(f"render() got an unexpected keyword argument {unknown[0]!r}")
     options = RenderOptions(**kwargs)
+    ensure_checked(scene, API)
     if options.shading is not None:
-        _option(options.shading, "command line", "--shading", lambda v: v in SHADINGS, f"must be one of {SHADINGS}")
+        _option(options.shading, API, "shading", lambda v: v in SHADINGS, f"must be one of: {', '.join(SHADINGS)}")
+        if options.shading == "direct" and np.any(scene.ambient):
+            raise InputError(API, "shading", options.shading, f"the scene's ambient {scene.ambient.tolist()} is the "
+                             "Phong model's, and direct lighting has none: remove it from the scene")
         scene = dataclasses.replace(scene, shading=options.shading)
     r = resolve_all(scene, options)
     check_memory(r.width, r.height)

@@ -7,7 +7,7 @@ from helpers import ROOT
 from raytrace.renderer.cpu_target import apply_target
 from raytrace.renderer.device import context_for, select_device
 from raytrace.structs import LANE_WIDTHS
-from raytrace.scene import load_scene
+from raytrace.scene import load_file
 from raytrace.commands.stability.probe import Probe
 
 
@@ -23,7 +23,7 @@ def cl_env(device):
 
 @pytest.fixture(scope="session")
 def cornell():
-    return load_scene(ROOT / "scenes" / "cornell.toml")
+    return load_file(ROOT / "scenes" / "cornell.toml")
 
 
 def runnable_lane_widths():

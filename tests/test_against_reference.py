@@ -6,7 +6,7 @@ import json
 import numpy as np
 
 from helpers import ROOT
-from raytrace import load_scene, render
+from raytrace import load_file, render
 from raytrace.image_file import write_image_file
 from benchmarks import against_reference
 
@@ -15,7 +15,7 @@ OPTIONS = ["--spp", "1", "--light-samples", "1"]
 
 
 def test_against_itself_and_moved(tmp_path):
-    ours, _ = render(load_scene(SCENE), spp=1, light_samples=1, sampler="sobol", light_sampler="sobol")
+    ours, _ = render(load_file(SCENE), spp=1, light_samples=1, sampler="sobol", light_sampler="sobol")
     write_image_file(tmp_path / "same.exr", ours)
     against_reference.main([str(SCENE), str(tmp_path / "same.exr"), *OPTIONS, "--out", str(tmp_path / "a")])
     figures = json.loads((tmp_path / "a" / "against_reference.json").read_text())

@@ -11,7 +11,7 @@ import pytest
 from helpers import CORNELL, ROOT, run
 from raytrace.render import render
 from raytrace.renderer.program import Features
-from raytrace.scene import load_scene
+from raytrace.scene import load_file
 from benchmarks import baseline
 from raytrace.commands import bench
 
@@ -27,7 +27,7 @@ def copy(tmp_path):
 def test_the_baselines_kernels_are_built(copy, lanes):
     """An identical copy renders scene 0 to the same bits as this checkout's kernels; a copy whose render.cl
     cannot compile fails to build. It fails if the include path still points at this checkout's kernels."""
-    scene = load_scene(CORNELL)
+    scene = load_file(CORNELL)
     ours = Features.of(scene, lanes)
     options = dict(width=12, height=10, spp=1, light_samples=4, progress=False)
     image = render(scene, features=ours, **options)[0]

@@ -10,7 +10,7 @@ from helpers import ROOT
 from raytrace.commands import bench
 from raytrace.renderer.program import Features
 from raytrace.render import render
-from raytrace.scene import load_scene
+from raytrace.scene import load_file
 from helpers import CORNELL, run
 
 TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1, "--repeat", 1]
@@ -59,7 +59,7 @@ def test_bad_input_one_line_before_measuring(args):
 
 @pytest.mark.parametrize("name", ["cornell.toml", "textured_cornell.toml"])
 def test_device_bytes_are_the_buffers_render_allocates(monkeypatch, name):
-    scene = load_scene(ROOT / "scenes" / name)
+    scene = load_file(ROOT / "scenes" / name)
     features = Features.of(scene, 8)
     allocated, buffer = [], cl.Buffer
 
@@ -75,7 +75,7 @@ def test_device_bytes_are_the_buffers_render_allocates(monkeypatch, name):
 def test_scenes_are_rendered_in_turns(monkeypatch):
     """in_turns renders each scene once untimed (the build), then every scene once per round, and keeps each
     one's fastest: scene k's best of the recorded times, in the order given."""
-    a, b = load_scene(CORNELL), load_scene(ROOT / "scenes" / "textured_cornell.toml")
+    a, b = load_file(CORNELL), load_file(ROOT / "scenes" / "textured_cornell.toml")
     order, seconds = [], iter([9, 9, 5, 7, 3, 8, 4, 6])
 
     class Stats:

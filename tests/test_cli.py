@@ -193,7 +193,7 @@ def test_device_by_type():
     try:
         assert select_device("GPU").type & cl.device_type.GPU
     except InputError as e:
-        assert "--device = 'GPU': no GPU device (have: " in str(e)
+        assert "render(): device = 'GPU': no GPU device (have: " in str(e)
 
 
 def test_the_largest_seed_is_written_into_the_exr(tmp_path):

@@ -17,14 +17,14 @@ from raytrace.commands.compile import (SPIRV_ENV, TARGETS, check_spirv, clang_co
 from raytrace.renderer.cpu_target import LEVELS
 from raytrace.renderer.program import Features
 from raytrace.structs import LANE_WIDTHS
-from raytrace.scene import load_scene
+from raytrace.scene import load_file
 
 SCENES = sorted(p.name for p in (ROOT / "scenes").glob("*.toml"))
 
 
 @pytest.fixture(scope="module", params=SCENES)
 def scene(request):
-    return load_scene(ROOT / "scenes" / request.param)
+    return load_file(ROOT / "scenes" / request.param)
 
 
 GPU_TARGETS = [t for t in TARGETS if t not in LEVELS]  # the CPU levels: test_every_lane_width_builds_...

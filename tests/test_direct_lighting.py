@@ -179,7 +179,7 @@ def test_a_lights_back_is_black(harness):
 def test_cornell_direct_renders(cornell):
     """scenes/cornell_direct.toml: scene 0's geometry and colours in the direct model; finite, the ceiling
     (behind the light's plane) black, the light's face at its radiance."""
-    scene = raytrace.load_scene(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
+    scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
     assert scene.shading == "direct" and np.all(scene.lights[0].colour == 60) and not np.any(scene.ambient)
     assert [m.colour.tolist() for m in scene.materials] == [m.colour.tolist() for m in cornell.materials]
     assert (len(scene.rectangles), len(scene.triangles), len(scene.ellipsoids)) == \
@@ -210,20 +210,31 @@ def test_radiance_as_three_numbers(cornell):
     assert scene.lights[0].colour.tolist() == [1.0, 2.0, 3.0]
 
 
+def without_ambient(path):
+    """The scene of `path` with its Phong ambient term removed (raytrace.parameters): direct lighting has none,
+    and render(shading="direct") refuses a scene that has one."""
+    scene = raytrace.load_file(path)
+    params = raytrace.parameters(scene)
+    del params["ambient"]
+    params.update()
+    return scene
+
+
 def test_shading_from_the_command_line(cornell):
     """--shading (render's shading=) overrides the scene's: scene 0's white light then is a radiance of 1."""
-    direct, stats = raytrace.render(cornell, width=16, height=16, spp=1, light_samples=4, shading="direct")
-    phong, _ = raytrace.render(cornell, width=16, height=16, spp=1, light_samples=4)
+    scene = without_ambient(cornell.path)
+    direct, stats = raytrace.render(scene, width=16, height=16, spp=1, light_samples=4, shading="direct")
+    phong, _ = raytrace.render(scene, width=16, height=16, spp=1, light_samples=4)
     assert "-DHAS_DIRECT_LIGHTING=1" in stats.build_options and not np.array_equal(direct, phong)
-    with pytest.raises(InputError, match="--shading = 'pbr'"):
-        raytrace.render(cornell, width=16, height=16, shading="pbr")
+    with pytest.raises(InputError, match="shading = 'pbr'"):
+        raytrace.render(scene, width=16, height=16, shading="pbr")
 
 
 def test_textures_in_the_direct_model(cornell):
     """textured_cornell.toml (colour, normal and height maps, a BVH) shaded by direct lighting: the maps
     are compiled in beside it, the image is finite, and its colour maps show (a textured scene differs from
     the same scene with every map removed)."""
-    scene = raytrace.load_scene(cornell.path.replace("cornell.toml", "textured_cornell.toml"))
+    scene = without_ambient(cornell.path.replace("cornell.toml", "textured_cornell.toml"))
     options = dict(width=48, height=48, spp=4, light_samples=4, shading="direct")
     image, stats = raytrace.render(scene, **options)
     assert {"-DHAS_DIRECT_LIGHTING=1", "-DHAS_COLOUR_MAPS=1", "-DHAS_NORMAL_MAPS=1", "-DHAS_HEIGHT_MAPS=1"} <= \

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from helpers import CORNELL, ROOT, on_pocl, run
-from raytrace import load_scene
+from raytrace import load_file
 from raytrace.errors import InputError
 from raytrace.render import render_progressive
 from raytrace.renderer.device_render import OUTPUT_PLANES
@@ -38,7 +38,7 @@ def cluster():
 
 @pytest.fixture(scope="module")
 def scene0():
-    return load_scene(CORNELL)
+    return load_file(CORNELL)
 
 
 def assert_same(local, remote):
@@ -53,7 +53,7 @@ def test_bit_identical_to_one_process(cluster, scene_file):
     """Scene 0, a textured scene (mip levels and texels scattered to the workers) and a mesh with a BVH; one
     row a band, so that the two workers finish the 48 bands of a pass in no fixed order; two passes of 8, the
     first with its first half's sums (the error estimate's prefix) from the workers too."""
-    scene = load_scene(ROOT / "scenes" / scene_file)
+    scene = load_file(ROOT / "scenes" / scene_file)
     options = dict(SMALL, max_pass_work=64 * 48 * 5 * 8, **ONE_ROW)
     local = render_progressive(scene, **options)
     remote = render_progressive(scene, **options, client=cluster[1])
@@ -120,7 +120,7 @@ def test_missing_dask_is_one_line(monkeypatch, scene0):
     from raytrace.renderer import distributed as ours
     monkeypatch.setitem(sys.modules, "dask.distributed", None)
     monkeypatch.setattr(ours, "_clients", {})
-    with pytest.raises(InputError, match="--scheduler = 'local:2': needs Dask"):
+    with pytest.raises(InputError, match=r"^render\(\): scheduler = 'local:2': needs Dask"):
         render_progressive(scene0, **SMALL, scheduler="local:2")
 
 

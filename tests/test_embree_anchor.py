@@ -12,7 +12,7 @@ import pytest
 import reference
 from helpers import CORNELL, ROOT, run
 from raytrace.errors import InputError
-from raytrace.scene import Triangle, load_scene
+from raytrace.scene import Triangle, load_file
 from benchmarks import embree_anchor
 from raytrace.commands.scaling import mesh_room
 
@@ -21,7 +21,7 @@ RECTANGLE_TRIANGLES = 10  # scene 0's five walls, two triangles each, come first
 
 @pytest.fixture(scope="module")
 def room():
-    return mesh_room(load_scene(CORNELL), 1000)
+    return mesh_room(load_file(CORNELL), 1000)
 
 
 @pytest.fixture(scope="module")

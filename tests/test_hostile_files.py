@@ -1,6 +1,6 @@
 """Hostile texture and mesh files (raytrace/scene/textures.py, raytrace/scene/meshes.py): random bytes,
 truncated and corrupted copies of valid files, empty files and absurd headers, in every format the readers
-take, read the way a scene reads them (load_scene of a scene that names the file). Each must end in a valid
+take, read the way a scene reads them (load_file of a scene that names the file). Each must end in a valid
 scene or in one InputError naming the file, with nothing else on file descriptor 2 (where libpng and other
 C libraries print), no Python warning a user would see, and no OpenImageIO error left pending (one left
 pending is printed when the process exits). The command line is run for the cases that used to print two
@@ -15,7 +15,7 @@ import pytest
 from helpers import ROOT, run
 from raytrace.errors import InputError
 from raytrace.memory import available_memory
-from raytrace.scene import load_scene, meshgen, textures
+from raytrace.scene import load_file, meshgen, textures
 
 HEADER = (ROOT / "scenes" / "cornell.toml").read_text().split("[[shapes]]")[0]
 # Black light and ambient, and a tiny height scale, so that however bright or high a valid texture's texels,
@@ -49,7 +49,7 @@ def outcome(capfd, scene, named):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            load_scene(scene)
+            load_file(scene)
             result = "ok"
         except InputError as e:
             result = str(e)

@@ -20,7 +20,8 @@ LAYERS = [["raytrace.errors", "raytrace.numerics", "raytrace.memory", "raytrace.
           ["raytrace.samplers"],
           ["raytrace.scene"],
           ["raytrace.renderer"],
-          ["raytrace.render", "raytrace.outputs", "raytrace.image_file"],
+          ["raytrace.render", "raytrace.outputs", "raytrace.image_file", "raytrace.options", "raytrace.image",
+           "raytrace.parameters"],
           ["raytrace.commands"],
           ["raytrace.cli", "raytrace.__main__", "raytrace"]]
 
@@ -129,7 +130,7 @@ def tracked_files():
 
 
 # Names of files that are not the repository's: PoCL's header, files tests and commands write for themselves.
-NOT_OURS = {"opencl-c.h", "render_entry.cl", "peer.py", "scene.py"}
+NOT_OURS = {"opencl-c.h", "render_entry.cl", "peer.py", "scene.py", "script.py"}
 REPO_PATH = re.compile(r"(?<![\w./-])((?:raytrace|kernels|tests|benchmarks|devtools|scenes|assets|docs|\.ci)"
                        r"/[\w./*-]*[\w*])")
 FILE_NAME = re.compile(r"(?<![\w./-])([\w/-]*[A-Za-z_]\w*\.(?:py|cl|h))\b")
@@ -178,7 +179,7 @@ def test_stale_names_are_found(tmp_path):
     """The path check fails on a moved file, a missing module and a bare stale file name, and passes the
     names that exist and the placeholders."""
     doc = tmp_path / "page.md"
-    doc.write_text("See raytrace/probe.py, `python -m raytrace.tools.same_images` and image.py; not\n"
+    doc.write_text("See raytrace/probe.py, `python -m raytrace.tools.same_images` and picture.py; not\n"
                    "raytrace/commands/stability/probe.py, `python -m devtools.same_images`, kernels/DIR/x.cl.\n")
     assert {name for _, name in stale_paths([doc])} == {
-        "raytrace/probe.py", "image.py", "python -m raytrace.tools.same_images"}
+        "raytrace/probe.py", "picture.py", "python -m raytrace.tools.same_images"}

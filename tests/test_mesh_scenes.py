@@ -12,7 +12,7 @@ from helpers import ROOT
 from raytrace.scene import meshgen
 from raytrace.renderer.program import Features
 from raytrace.scene.meshes import Mesh
-from raytrace.scene import MeshShape, load_scene
+from raytrace.scene import MeshShape, load_file
 from raytrace.renderer.geometry import triangle_soup
 from helpers import run
 
@@ -46,7 +46,7 @@ def test_file_and_transform(tmp_path):
     them perpendicular to the surface."""
     shape = ('type = "mesh"\nfile = "m.obj"\nscale = [2.0, 3.0, 1.0]\nrotate = { axis = [0.0, 0.0, 1.0], '
              'degrees = 90.0 }\ntranslate = [0.5, 0.0, 1.0]\nsmooth = true\nmaterial = "white"\n')
-    scene = load_scene(scene_with(tmp_path, shape))
+    scene = load_file(scene_with(tmp_path, shape))
     (mesh,) = scene.meshes
     assert len(mesh.mesh.faces) == 3 and scene.triangle_count == len(scene.triangles) + 3
     expect = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]]) * [2, 3, 1]
@@ -56,10 +56,10 @@ def test_file_and_transform(tmp_path):
     np.testing.assert_allclose(mesh.mesh.uvs[:4], [[0, 0], [1, 0], [1, 1], [0, 1]])
     matrix = np.array([[0, -3, 0, 0.5], [2, 0, 0, 0], [0, 0, 1, 1], [0, 0, 0, 1.0]])
     rows = ", ".join(f"[{', '.join(map(str, r))}]" for r in matrix)
-    same = load_scene(scene_with(tmp_path, f'type = "mesh"\nfile = "m.obj"\nmatrix = [{rows}]\nmaterial = "white"\n'))
+    same = load_file(scene_with(tmp_path, f'type = "mesh"\nfile = "m.obj"\nmatrix = [{rows}]\nmaterial = "white"\n'))
     np.testing.assert_allclose(same.meshes[0].mesh.vertices, expect, atol=1e-12)
     # a sheared mesh: normals stay perpendicular to the transformed faces
-    sheared = load_scene(scene_with(tmp_path, 'type = "mesh"\nfile = "m.obj"\nmatrix = [[1, 0, 0.7, 0], [0, 1, 0, 0], '
+    sheared = load_file(scene_with(tmp_path, 'type = "mesh"\nfile = "m.obj"\nmatrix = [[1, 0, 0.7, 0], [0, 1, 0, 0], '
                                               '[0.4, 0, 1, 0], [0, 0, 0, 1]]\nsmooth = true\nmaterial = "white"\n'))
     m = sheared.meshes[0].mesh
     edges = m.vertices[m.faces[:, 1]] - m.vertices[m.faces[:, 0]]
@@ -68,7 +68,7 @@ def test_file_and_transform(tmp_path):
 
 def test_generated_mesh_and_features(tmp_path):
     shape = 'type = "mesh"\ngenerate = { shape = "sphere", triangles = 500 }\nsmooth = true\nmaterial = "white"\n'
-    scene = load_scene(scene_with(tmp_path, shape))
+    scene = load_file(scene_with(tmp_path, shape))
     assert abs(scene.triangle_count - 500) <= 23
     features = Features.of(scene, 8)
     assert features.bvh and features.smooth_normals and features.triangles
@@ -134,10 +134,10 @@ def test_smooth_mesh_renders_like_the_ellipsoid(cornell):
 def test_mesh_cornell_renders(tmp_path):
     """The shipped mesh scene: its PLY file read, every value finite, the mesh visible where scene 0 has
     floor (the torus stands in front of the ellipsoid)."""
-    scene = load_scene(ROOT / "scenes" / "mesh_cornell.toml")
+    scene = load_file(ROOT / "scenes" / "mesh_cornell.toml")
     assert scene.meshes[0].mesh.faces.shape == (100_104, 3) and scene.meshes[0].smooth
     image, stats = raytrace.render(scene, width=48, height=48, spp=1, light_samples=4, progress=False)
-    plain, _ = raytrace.render(load_scene(ROOT / "scenes" / "cornell.toml"), width=48, height=48, spp=1,
+    plain, _ = raytrace.render(load_file(ROOT / "scenes" / "cornell.toml"), width=48, height=48, spp=1,
                                light_samples=4, progress=False)
     assert np.all(np.isfinite(image)) and stats.extra["nonfinite_values"] == 0
     changed = np.abs(image - plain).max(axis=-1) > 0.05
@@ -150,7 +150,7 @@ def test_degenerate_faces_are_left_out_and_counted(tmp_path):
     (tmp_path / "m.obj").write_text(OBJ + "f 1/1/1 1/1/1 2/2/1\nf 1/1/1 2/2/1 5/2/1\n")  # a repeated index; collinear
     path = tmp_path / "s.toml"
     path.write_text(HEADER + '[[shapes]]\ntype = "mesh"\nfile = "m.obj"\nmaterial = "white"\n')
-    (mesh,) = load_scene(path).meshes
+    (mesh,) = load_file(path).meshes
     assert len(mesh.mesh.faces) == 3 and mesh.dropped == 2 and mesh.source.endswith("m.obj")
     out = tmp_path / "x.png"
     r = run("render", path, "-o", out, "--width", 8, "--height", 8, "--spp", 1, "--light-samples", 1)
@@ -169,7 +169,7 @@ def test_mirrored_smooth_mesh_renders_as_the_mirror_image(tmp_path):
              'translate = [0.0, 0.2, 0.8]\nsmooth = true\nmaterial = "white"\n')
     images = []
     for s in ("0.4", "-0.4"):
-        scene = load_scene(scene_with(tmp_path, shape.replace("{s}", s)))
+        scene = load_file(scene_with(tmp_path, shape.replace("{s}", s)))
         images.append(raytrace.render(scene, width=48, height=48, spp=1, light_samples=4, progress=False)[0])
     # the scene is symmetric in x except the wall colours, which the sphere reflects only faintly
     assert np.abs(images[0] - images[1]).max() <= 0.05
@@ -206,7 +206,7 @@ def test_every_live_scene_keeps_its_packed_geometry():
     variant's tables were handed to another, or if a dead scene's stayed."""
     from raytrace.renderer import scene_tables as cache
     from raytrace.commands.scaling import mesh_room
-    a, b = (mesh_room(load_scene(ROOT / "scenes" / "cornell.toml"), n) for n in (100, 1000))
+    a, b = (mesh_room(load_file(ROOT / "scenes" / "cornell.toml"), n) for n in (100, 1000))
     tables = lambda scene: cache.scene_tables(scene, features=Features.of(scene, 1))  # noqa: E731
     first = [tables(a), tables(b)]
     again = [tables(a), tables(b)]

@@ -165,7 +165,7 @@ def test_trilinear_against_openimageio(harness, tmp_path):
 @pytest.fixture(scope="module")
 def grid_floor():
     from helpers import ROOT
-    return raytrace.load_scene(ROOT / "scenes" / "grid_floor.toml")
+    return raytrace.load_file(ROOT / "scenes" / "grid_floor.toml")
 
 
 def test_mipmapping_removes_aliasing(grid_floor):

@@ -89,7 +89,7 @@ def test_texture_features_follow_the_scene():
     from helpers import ROOT
     expect = {"cornell": (0, 0, 0), "grid_floor": (1, 0, 0), "normal_wall": (0, 1, 0), "textured_cornell": (1, 1, 1)}
     for name, flags in expect.items():
-        options = Features.of(raytrace.load_scene(ROOT / "scenes" / f"{name}.toml"), 8).options()
+        options = Features.of(raytrace.load_file(ROOT / "scenes" / f"{name}.toml"), 8).options()
         assert [o for o in options if "_MAPS=" in o] == \
             [f"-DHAS_{m}_MAPS={f}" for m, f in zip(("COLOUR", "NORMAL", "HEIGHT"), flags)]
 

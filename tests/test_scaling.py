@@ -3,7 +3,7 @@ import statistics
 
 import pytest
 
-from raytrace.scene import load_scene
+from raytrace.scene import load_file
 from raytrace.commands import bench, scaling
 from helpers import CORNELL
 
@@ -14,7 +14,7 @@ def test_paired_growth_alternates_and_takes_the_median(monkeypatch):
     seconds over the smaller's, here recomputed from the renders it made (recorded as they happen). It fails
     if the order does not alternate (the machine's drift within a turn would then fall on one side only), if
     a ratio is inverted, or if the mean is taken instead of the median."""
-    low, high = (scaling.mesh_room(load_scene(CORNELL), n) for n in (100, 1000))
+    low, high = (scaling.mesh_room(load_file(CORNELL), n) for n in (100, 1000))
     seen, real = [], bench.render
 
     def recording(scene, **kwargs):

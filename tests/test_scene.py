@@ -7,7 +7,7 @@ import pytest
 
 from helpers import ROOT
 from raytrace.errors import InputError
-from raytrace.scene import load_scene, parse_scene
+from raytrace.scene import load_file, parse_scene
 
 CORNELL = ROOT / "scenes" / "cornell.toml"
 
@@ -57,11 +57,11 @@ def test_bad_keys_are_named(edit, key, value):
 
 def test_missing_and_broken_files(tmp_path):
     with pytest.raises(InputError, match="nope.toml: file"):
-        load_scene(tmp_path / "nope.toml")
+        load_file(tmp_path / "nope.toml")
     bad = tmp_path / "bad.toml"
     bad.write_text("[camera\nposition = 1")
     with pytest.raises(InputError, match="bad.toml: toml"):
-        load_scene(bad)
+        load_file(bad)
 
 
 @pytest.mark.parametrize("entry, key, value", [
@@ -102,9 +102,9 @@ def test_texture_files_resolve_from_the_scene_and_missing_ones_are_named(tmp_pat
 def test_textured_scenes_load(tmp_path):
     """Every shipped scene loads; a texture used by several materials in one role is read once."""
     for path in sorted((ROOT / "scenes").glob("*.toml")):
-        scene = load_scene(path)
+        scene = load_file(path)
         assert len({(t.path, t.role) for t in scene.textures}) == len(scene.textures)
-    textured = load_scene(ROOT / "scenes" / "textured_cornell.toml")
+    textured = load_file(ROOT / "scenes" / "textured_cornell.toml")
     assert len(textured.textures) == 5  # bricks colour, normal, height; stones colour, height
 
 
@@ -123,7 +123,7 @@ def test_found_by_the_fuzz_suite(tmp_path):
     deep = tmp_path / "deep.toml"
     deep.write_text("x = " + "[" * 100000 + "]" * 100000 + "\n")
     with pytest.raises(InputError, match="nested too deeply"):
-        load_scene(deep)
+        load_file(deep)
     table = tomllib.loads(CORNELL.read_text())
     table["lights"][0]["normal"] = [0.0, 0.0, -1e-200]
     with warnings.catch_warnings():

@@ -29,7 +29,7 @@ from ..renderer.cpu_target import cpu_flags, cpu_level
 from ..renderer.device import default_lanes, select_device
 from ..renderer.program import Features
 from ..render import RenderOptions, check_memory, render, resolve
-from ..scene import load_scene
+from ..scene import load_file
 from . import ROOT, child_env
 from .visits import PER_RAY, node_visits
 
@@ -220,7 +220,7 @@ def checked_scenes(scene_paths, kwargs, outputs=None):
     """(path, Scene) of every scene, all loaded, their options and memory checked and the device selected
     before any measuring, so that bad input costs no minutes of it; `outputs`, a raytrace.outputs.Outputs,
     learns the files they read."""
-    scenes = [(path, load_scene(path)) for path in scene_paths]
+    scenes = [(path, load_file(path)) for path in scene_paths]
     for _, scene in scenes:
         if outputs is not None:
             outputs.add_inputs(scene_inputs(scene))

@@ -39,7 +39,7 @@ from ..numerics import rmse
 from ..outputs import Outputs, scene_inputs, write_json
 from ..image_file import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
-from ..scene import load_scene
+from ..scene import load_file
 from .converge_peer import PEER_SAMPLERS, check_template, peer_rows, race
 
 CLI = "command line"
@@ -302,7 +302,7 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     _check_range(reference_spp, "--reference-spp", 1, MAX_SPP)
     if montage_seconds is not None and not 0 < montage_seconds < math.inf:
         raise InputError(CLI, "--montage-seconds", montage_seconds, "must be a positive number of seconds")
-    scene = load_scene(scene_path)
+    scene = load_file(scene_path)
     width, height, _, light_samples, _, _ = resolve(scene, RenderOptions(
         width=width, height=height, spp=1, light_samples=light_samples, sampler="random", light_sampler="sobol",
         seed=seed))

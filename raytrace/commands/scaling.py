@@ -20,7 +20,7 @@ import numpy as np
 from ..renderer import bvh
 from ..scene import meshgen
 from ..render import render
-from ..scene import Material, MeshShape, load_scene
+from ..scene import Material, MeshShape, load_file
 from ..renderer.geometry import primitive_boxes, triangle_soup
 from .bench import in_turns, paired_ratios
 from .visits import PER_RAY, node_visits, plot_maps
@@ -96,7 +96,7 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, anchor=None, sch
     room returning ns_per_ray and net_ns_per_ray, as benchmarks/embree_anchor.py's measure): it runs first in
     each row, so that a missing dependency stops the run before any render."""
     embree = anchor is not None
-    scene = load_scene(scene_path)
+    scene = load_file(scene_path)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     rows, maps, rooms = [], [], {}

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pyopencl as cl
 
-from ..errors import InputError
+from ..errors import API, InputError
 from .cpu_target import apply_target, lanes_for
 
 
@@ -60,7 +60,7 @@ def select_device(spec=None):
     devices = list_devices()
     if not devices:
         raise _no_device()
-    source, key = "command line", "--device"
+    source, key = API, "device"
     if spec is None and os.environ.get("RAYTRACE_DEVICE") is not None:
         spec, source, key = os.environ["RAYTRACE_DEVICE"], "environment", "RAYTRACE_DEVICE"
     names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)

@@ -18,6 +18,7 @@ arguments and so the same sums.
 
 Addresses: `local:N` starts a LocalCluster of N worker processes of one thread each (PoCL's threads shared
 out among them); `tcp://host:port` is a running scheduler (`dask scheduler`, `dask worker ...`)."""
+import ast
 import dataclasses
 import hashlib
 import os
@@ -25,7 +26,7 @@ import pickle
 import re
 import sys
 
-from ..errors import InputError
+from ..errors import API, InputError
 from .device_render import DeviceRender
 
 PASSES_AHEAD = 2  # passes submitted beyond the one being merged: the workers never wait on the client
@@ -44,26 +45,66 @@ def client_for(address):
     return _clients[address][0]
 
 
+def _is_main_test(test):
+    """Whether an if statement's test is `__name__ == "__main__"` (either way round)."""
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1 and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    return (any(isinstance(x, ast.Name) and x.id == "__name__" for x in sides)
+            and any(isinstance(x, ast.Constant) and x.value == "__main__" for x in sides))
+
+
+def _unguarded_script_line():
+    """(the script, the line) where a script run as a file reaches this call from its top-level code outside
+    an `if __name__ == "__main__":` block, or None. Worker processes started by multiprocessing's spawn import
+    the script again, running its top-level code: unguarded, that code starts workers of its own, and Dask
+    answers with pages of "Nanny failed to start" tracebacks instead of one line."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    frame = sys._getframe()
+    while frame is not None and frame.f_globals is not getattr(main, "__dict__", None):
+        frame = frame.f_back
+    if not path or frame is None:  # an interpreter, python -c, a notebook: no file to run again
+        return None
+    while frame.f_back is not None and frame.f_back.f_globals is main.__dict__:
+        frame = frame.f_back
+    if frame.f_code.co_name != "<module>":
+        return None
+    try:
+        tree = ast.parse(open(path, encoding="utf-8").read())
+    except (OSError, SyntaxError, UnicodeDecodeError):
+        return None
+    line = frame.f_lineno
+    guarded = any(isinstance(node, ast.If) and _is_main_test(node.test) and node.lineno <= line <= node.end_lineno
+                  for node in tree.body)
+    return None if guarded else (path, line)
+
+
 def _connect(address):
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:
-        raise InputError("command line", "--scheduler", address, "needs Dask: pip install -e \".[dist]\"") from None
+        raise InputError(API, "scheduler", address, "needs Dask: pip install -e \".[dist]\"") from None
     local = re.fullmatch(r"local:([0-9]+)", address)
     if local:
         n = int(local.group(1))
         if not 1 <= n <= 256:
-            raise InputError("command line", "--scheduler", address, "local:N needs 1 <= N <= 256 workers")
+            raise InputError(API, "scheduler", address, "local:N needs 1 <= N <= 256 workers")
+        unguarded = _unguarded_script_line()
+        if unguarded:
+            raise InputError(API, "scheduler", address, f"starts worker processes that run {unguarded[0]} again from "
+                             f"the top, whose line {unguarded[1]} would start them again: put the script's code under "
+                             "if __name__ == \"__main__\":")
         threads = str(max(1, (os.cpu_count() or 1) // n))  # PoCL's pthread device would take every core each
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=40)
         return Client(cluster), cluster
     if not re.fullmatch(r"(tcp|tls)://[^\s/]+:[0-9]+", address):
-        raise InputError("command line", "--scheduler", address, "must be local:N or tcp://host:port")
+        raise InputError(API, "scheduler", address, "must be local:N or tcp://host:port")
     try:
         return Client(address, timeout=CONNECT_SECONDS), None
     except (OSError, TimeoutError) as e:
-        raise InputError("command line", "--scheduler", address,
+        raise InputError(API, "scheduler", address,
                          f"cannot reach the scheduler in {CONNECT_SECONDS} s ({type(e).__name__})") from None
 
 

@@ -15,14 +15,15 @@ from .packing import (camera_struct, ellipsoid_structs, light_structs, material_
 # scenes in turns, converge, bench --scaling's two meshes alternating, a progressive render's callers) pack its
 # triangles and build its BVH once (bench's turns took less time than when only the last scene's were kept
 # and mesh_cornell's BVH was built again every turn: measured in commit 8b112a1). An entry goes with its scene
-# (weakref.finalize), so an id is never met again while its entry stands. Keyed by the object itself, so a
-# scene changed in place must be a new object (dataclasses.replace), as everywhere in this package.
+# (weakref.finalize), so an id is never met again while its entry stands. An entry also holds the fingerprint
+# the scene was last checked with (Scene.checked, renewed by render() when the scene changed in place and by
+# raytrace.parameters' update()), so a changed scene is packed anew.
 _GEOMETRY = {}
 
 
 def _geometry_tables(scene, uv, smooth, use_bvh):
     """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference and culled-subtree tables."""
-    key, cached = (uv, smooth, use_bvh), _GEOMETRY.get(id(scene))
+    key, cached = (uv, smooth, use_bvh, scene.checked), _GEOMETRY.get(id(scene))
     if cached is not None and cached[0] == key:
         return cached[1]
     soup = triangle_soup(scene)

@@ -2,7 +2,7 @@
 values in ranges.py), meshes (meshes.py; mesh files in mesh_file.py, read by obj_file.py and ply_file.py;
 meshgen.py's procedural ones), textures (textures.py, with their MIP pyramids in mipmap.py)."""
 from .model import Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle
-from .scene_file import load_scene, parse_scene
+from .scene_file import load_dict, load_file, load_string, parse_scene
 
-__all__ = ["Camera", "Ellipsoid", "Light", "Material", "MeshShape", "Rectangle", "Scene", "Triangle", "load_scene",
-           "parse_scene"]
+__all__ = ["Camera", "Ellipsoid", "Light", "Material", "MeshShape", "Rectangle", "Scene", "Triangle", "load_dict",
+           "load_file", "load_string", "parse_scene"]

@@ -1,5 +1,6 @@
 """The host-side scene model, in float64: what a scene file (scene_file.py) or a Python caller describes,
 before raytrace/renderer/packing.py packs it into the structs the kernel reads."""
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -101,6 +102,11 @@ class MeshShape:
 
 @dataclass
 class Scene:
+    """A scene as load_file, load_dict or load_string read it, in float64: the camera, the image size, the
+    render defaults (spp, light_samples, sampler, light_sampler), the ambient term, lights, materials and
+    shapes (rectangles, triangles, ellipsoids, meshes), the textures the materials index, and the shading
+    model. `source` is the checked table it was read from (raytrace.parameters edits it); render() checks a
+    scene again if it changed since (`checked` holds the fingerprint of its last check)."""
     path: str
     camera: Camera
     width: int
@@ -118,7 +124,33 @@ class Scene:
     textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
     meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
     shading: str = "phong"  # one of SHADINGS
+    source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from
+    revision: int = field(default=0, compare=False, repr=False)  # counts its edits (raytrace.parameters)
+    checked: str | None = field(default=None, compare=False, repr=False)  # fingerprint() when last checked
 
     @property
     def triangle_count(self):
         return len(self.triangles) + sum(len(m.mesh.faces) for m in self.meshes)
+
+
+def fingerprint(scene):
+    """A digest of every value of the model the kernel reads: equal digests, the same values."""
+    digest = hashlib.blake2b(digest_size=16)
+
+    def add(x):
+        if isinstance(x, np.ndarray):
+            digest.update(str((x.dtype, x.shape)).encode())
+            digest.update(np.ascontiguousarray(x).tobytes())
+        elif isinstance(x, (list, tuple)):
+            digest.update(b"[%d" % len(x))
+            for y in x:
+                add(y)
+        elif hasattr(x, "__dataclass_fields__"):
+            digest.update(type(x).__name__.encode())
+            for name in x.__dataclass_fields__:
+                if name not in ("source", "revision", "checked", "path"):
+                    add(getattr(x, name))
+        else:
+            digest.update(repr(x).encode())
+    add(scene)
+    return digest.hexdigest()

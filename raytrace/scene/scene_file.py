@@ -2,6 +2,7 @@
 
 Every check names the file, the key and the value (InputError), so a user can fix a scene in one go.
 """
+import copy
 import math
 import tomllib
 from pathlib import Path
@@ -11,7 +12,7 @@ import numpy as np
 from . import keys, mesh_file, meshes, meshgen, ranges
 from ..errors import InputError
 from .. import samplers
-from .model import (Camera, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
+from .model import (Camera, fingerprint, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
                     normalize)
 from .textures import TextureCache
 from .transform import mesh_matrix
@@ -19,7 +20,7 @@ from .transform import mesh_matrix
 FLOAT32_TINY, FLOAT32_MAX = float(np.finfo(np.float32).tiny), float(np.finfo(np.float32).max)
 
 
-class _Reader:
+class Reader:
     """Typed access to one TOML table; every error names file, key path and value. Each key's type, default and
     range come from keys.py's declaration of the table (`spec`), the one the manual's table is made from."""
 
@@ -121,7 +122,7 @@ class _Reader:
     def sub(self, name):
         """The reader of the table under key `name`, declared in keys.TABLES under the same name."""
         self.key(name, "table")
-        return _Reader(self.path, self.raw(name), f"{self.prefix}{name}.", name)
+        return Reader(self.path, self.raw(name), f"{self.prefix}{name}.", name)
 
 
 def _frame(r, normal_key="normal", tangent_key="tangent"):
@@ -132,6 +133,11 @@ def _frame(r, normal_key="normal", tangent_key="tangent"):
     if np.linalg.norm(t) < 1e-6 * np.linalg.norm(t_raw):
         r.fail(tangent_key, t_raw.tolist(), "must not be parallel to the normal")
     return n, normalize(t)
+
+
+def check_frame(r):
+    """The checks of a rectangle's or light's normal and tangent (model_check.py's use of _frame)."""
+    _frame(r)
 
 
 def _emission(r, key):
@@ -150,7 +156,7 @@ def _rectangle_fields(r):
     return dict(center=r.vector("center"), size=size, normal=normal, tangent=tangent)
 
 
-def _check_triangle(r, key, vertices):
+def check_triangle(r, key, vertices):
     area2 = np.linalg.norm(np.cross(vertices[1] - vertices[0], vertices[2] - vertices[0]))
     scale = max(np.linalg.norm(vertices[1] - vertices[0]), np.linalg.norm(vertices[2] - vertices[0])) ** 2
     if not area2 > 1e-9 * scale:
@@ -171,14 +177,14 @@ def _add_shape(scene, r, material_index):
         r.fail("material", name, f"no such material (defined: {', '.join(material_index)})")
     m = material_index[name]
     spec = {"mesh": 'shapes[] type = "mesh", from a file or generated'} if r.has("file") or r.has("generate") else {}
-    r = _Reader(r.path, r.table, r.prefix, spec.get(kind, f'shapes[] type = "{kind}"'))
+    r = Reader(r.path, r.table, r.prefix, spec.get(kind, f'shapes[] type = "{kind}"'))
     r.spec = {**keys.table("shapes[]"), **r.spec}
     r.check_keys()
     if kind == "rectangle":
         scene.rectangles.append(Rectangle(material=m, **_rectangle_fields(r)))
     elif kind == "triangle":
         vertices = r.vectors("vertices")
-        _check_triangle(r, "vertices", vertices)
+        check_triangle(r, "vertices", vertices)
         uv = r.vectors("uv") if r.has("uv") else None
         scene.triangles.append(Triangle(vertices, m, uv))
     elif kind == "mesh" and spec:
@@ -192,7 +198,7 @@ def _add_shape(scene, r, material_index):
             if not (isinstance(face, list) and len(face) == 3 and all(
                     isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(vertices) for k in face)):
                 r.fail(f"faces[{i}]", face, f"must be 3 vertex indices in [0, {len(vertices) - 1}]")
-            _check_triangle(r, f"faces[{i}]", vertices[face])
+            check_triangle(r, f"faces[{i}]", vertices[face])
             scene.triangles.append(Triangle(vertices[face], m))
     else:
         axes = r.vectors("axes")
@@ -302,8 +308,10 @@ def _material(r, name, textures):
 
 
 def parse_scene(table, path="<scene>"):
-    """Build a Scene from a parsed TOML table; raises InputError on the first bad key."""
-    r = _Reader(path, table)
+    """Build a Scene from a parsed TOML table; raises InputError on the first bad key. The scene keeps a copy
+    of the table as its `source` (raytrace.parameters edits it)."""
+    source = copy.deepcopy(table)
+    r = Reader(path, table)
     r.check_keys()
 
     c = r.sub("camera")
@@ -321,7 +329,7 @@ def parse_scene(table, path="<scene>"):
     img.check_keys()
     width, height = img.integer("width"), img.integer("height")
 
-    render = r.sub("render") if r.has("render") else _Reader(path, {}, "render.", "render")
+    render = r.sub("render") if r.has("render") else Reader(path, {}, "render.", "render")
     render.check_keys()
     shading = render.string("shading")
     if shading == "direct" and r.has("ambient"):
@@ -334,7 +342,7 @@ def parse_scene(table, path="<scene>"):
     materials, material_index, material_readers = [], {}, []
     for name in mats:
         material_index[name] = len(materials)
-        material_readers.append(_Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
+        material_readers.append(Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
         materials.append(_material(material_readers[-1], name, textures))
 
     spp, light_samples = render.integer("spp"), render.integer("light_samples")
@@ -352,7 +360,7 @@ def parse_scene(table, path="<scene>"):
         r.fail("lights", lights, "must be a non-empty array of [[lights]] tables")
     places, light_readers = [(c, camera)], []
     for i, light in enumerate(lights):
-        lr = _Reader(path, light, f"lights[{i}].", "lights[] (direct)" if shading == "direct" else "lights[]")
+        lr = Reader(path, light, f"lights[{i}].", "lights[] (direct)" if shading == "direct" else "lights[]")
         emission = "radiance" if shading == "direct" else "colour"  # what the light's one colour means
         lr.check_keys()
         scene.lights.append(Light(colour=_emission(lr, emission), **_rectangle_fields(lr)))
@@ -363,14 +371,16 @@ def parse_scene(table, path="<scene>"):
     if not isinstance(shapes, list):
         r.fail("shapes", shapes, "must be an array of [[shapes]] tables")
     for i, shape in enumerate(shapes):
-        sr = _Reader(path, shape, f"shapes[{i}].", "shapes[]")
+        sr = Reader(path, shape, f"shapes[{i}].", "shapes[]")
         places.extend((sr, added) for added in _load_shape(scene, sr, material_index))
     ranges.check_scene(scene, places, material_readers, light_readers, r)
+    scene.source, scene.checked = source, fingerprint(scene)
     return scene
 
 
-def load_scene(path):
-    """Read and validate a TOML scene file."""
+def load_file(path):
+    """Read and check a TOML scene file (docs/scene-format.md); texture and mesh paths are relative to the
+    file's folder. Raises InputError naming the file, the key and the value of the first bad entry."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -378,10 +388,43 @@ def load_scene(path):
         raise InputError(path, "file", str(path), e.strerror or "cannot be read") from None
     except UnicodeDecodeError:
         raise InputError(path, "file", str(path), "is not UTF-8 text") from None
+    return _parse_toml(text, str(path))
+
+
+def load_string(text):
+    """A scene from the text of a TOML scene file, through the same checks as load_file; texture and mesh
+    paths are relative to the current directory, and errors name the source as load_string()."""
+    if not isinstance(text, str):
+        raise InputError("load_string()", "text", type(text).__name__, "must be a str holding TOML")
+    return _parse_toml(text, "load_string()")
+
+
+def load_dict(table):
+    """A scene from a dict laid out as a scene file's tables (docs/scene-format.md), through the same checks
+    as load_file. Values may be numpy arrays and scalars; paths are relative to the current directory; errors
+    name the source as load_dict() and the key by its path in the dict, e.g. shapes[3].center."""
+    return parse_scene(plain(table), "load_dict()")
+
+
+def plain(value):
+    """`value` with numpy arrays and scalars as Python lists and numbers, tuples as lists, dicts copied: what
+    TOML would have given."""
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _parse_toml(text, path):
     try:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(path, "toml", str(e).split("\n")[0], "is not valid TOML") from None
     except RecursionError:  # tomllib parses nested arrays and tables recursively
         raise InputError(path, "toml", None, "arrays or tables nested too deeply") from None
-    return parse_scene(table, str(path))
+    return parse_scene(table, path)

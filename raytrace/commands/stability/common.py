@@ -8,7 +8,7 @@ import numpy as np
 
 from .probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, Probe, planar, scene_args
 from ...render import render
-from ...scene import load_scene
+from ...scene import load_file
 
 SCENES = Path(__file__).resolve().parents[3] / "scenes"
 SCENE0 = SCENES / "cornell.toml"
@@ -42,7 +42,7 @@ class Env:
     def __init__(self, lanes, device=None):
         self.lanes, self.device = lanes, device
         self.probe = Probe(lanes, device)
-        self.cornell = load_scene(SCENE0)
+        self.cornell = load_file(SCENE0)
 
     def render(self, scene, **kwargs):
         """(image, its NaN and Inf values: render() zeroes them and counts them in its stats)."""

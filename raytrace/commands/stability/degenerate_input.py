@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
-from ...scene import Triangle, load_scene
+from ...scene import Triangle, load_file
 from ...scene.ranges import brightest
 from .. import child_env
 from .common import SCENE0, Row, nonfinite, outside
@@ -30,12 +30,12 @@ def with_triangle(text, vertices):
 
 
 def rejected(path, key, value):
-    """How many of 9 checks fail for a bad scene file: load_scene raises InputError with its file, key and
+    """How many of 9 checks fail for a bad scene file: load_file raises InputError with its file, key and
     value, in one line (4); `python -m raytrace render FILE -o OUT` exits with 2 and one line on stderr
     naming file, key and value, no traceback, and writes nothing (5)."""
     failed = 0
     try:
-        load_scene(path)
+        load_file(path)
         failed += 4
     except InputError as e:
         failed += (e.source != str(path)) + (e.key != key) + (e.value != value) + ("\n" in str(e))
@@ -52,9 +52,10 @@ def degenerate_input(env):
     plane of the other two): refused at load and on the command line (rejected(), bound 0). The nearly
     degenerate shapes the loader accepts, each just above its threshold: a triangle of area 2e-9 of its
     longest edge squared (2.4e-9 across; the loader refuses 1e-9, so 1e-12 cannot come from a file) and an
-    ellipsoid whose axes' determinant is 2.1e-6 of the product of their lengths (1e-6 thick); and, built
-    directly, a triangle of area 1e-12 of its edge squared, seen edge-on: rendered 48 x 48, no NaN or Inf,
-    every value in [0, brightest()]."""
+    ellipsoid whose axes' determinant is 2.1e-6 of the product of their lengths (1e-6 thick): rendered
+    48 x 48, no NaN or Inf, every value in [0, brightest()]. A triangle of area 1e-12 of its edge squared,
+    built directly in Python, is refused by render() as the loader refuses it (bound 0 checks failed of 3:
+    an InputError naming triangles[4].vertices, in one line, before any work)."""
     text, rows = SCENE0.read_text(), []
     with tempfile.TemporaryDirectory() as tmp:
         for name, edited, key, value in (("zero-area triangle", with_triangle(text, ZERO_AREA), "shapes[7].vertices",
@@ -68,14 +69,21 @@ def degenerate_input(env):
                             rejected(path, key, value), "checks", 0, "one line: file, key, value; exit 2"))
         path = Path(tmp) / "nearly.toml"
         path.write_text(with_triangle(text.replace(AXES0, str(FLAT)), SLIVER))
-        nearly = load_scene(path)
+        nearly = load_file(path)
     needle = Triangle(np.array([[0.0, 0.3, 0.2], [0.0, 0.3, 1.4], [1.2e-12, 0.3, 0.8]]))
+    built = dataclasses.replace(env.cornell, triangles=env.cornell.triangles + [needle])
+    try:
+        env.render(built, width=48, height=48, spp=1, sampler="center", light_samples=4)
+        failed = 3
+    except InputError as e:
+        failed = (e.source != "render()") + (e.key != f"triangles[{len(built.triangles) - 1}].vertices") + ("\n" in str(e))
+    rows.append(Row("a 1e-12 triangle built in Python: render()'s checks failed (of 3)", failed, "checks", 0,
+                    "the loader's check, on every path"))
     images, bad = [], 0
-    for scene in (nearly, dataclasses.replace(env.cornell, triangles=env.cornell.triangles + [needle])):
-        image, b = env.render(scene, width=48, height=48, spp=1, sampler="center", light_samples=4)
-        images.append(image)
-        bad += b + nonfinite(image)
+    image, b = env.render(nearly, width=48, height=48, spp=1, sampler="center", light_samples=4)
+    images.append(image)
+    bad += b + nonfinite(image)
     limit = brightest(nearly)
-    rows.append(Row(f"nearly degenerate triangle and ellipsoid, 1e-12 triangle: values outside [0, {limit:.3g}]",
+    rows.append(Row(f"nearly degenerate triangle and ellipsoid: values outside [0, {limit:.3g}]",
                     outside(images, limit), "values", 0, "max k (ambient + 2 sum L)", bad))
     return rows

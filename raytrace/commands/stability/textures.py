@@ -3,7 +3,7 @@ import dataclasses
 
 import numpy as np
 
-from ...scene import load_scene
+from ...scene import load_file
 from ...scene.ranges import brightest
 from .common import SCENES, Row, nonfinite, outside
 
@@ -16,7 +16,7 @@ def textured_grazing(env):
     in it, under each texture filter, and the textured shapes (their silhouettes are grazing), 64 x 64: the
     ray differentials divide by d.n, which vanishes there, so that a filter footprint grows without bound.
     No NaN or Inf may reach the image, and every value lies in [0, brightest()] (colour maps are at most 1)."""
-    floor, textured = load_scene(SCENES / "grid_floor.toml"), load_scene(SCENES / "textured_shapes.toml")
+    floor, textured = load_file(SCENES / "grid_floor.toml"), load_file(SCENES / "textured_shapes.toml")
     images, bad = [], 0
     for height in (1e-2, 1e-4, 1e-6, 0.0):
         camera = dataclasses.replace(floor.camera, position=np.array([0.0, -2.0, height]),

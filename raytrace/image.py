@@ -1,0 +1,58 @@
+"""What render() returns: the image as a numpy array that also knows how it was made, saves itself the way
+the command line saves it, and shows itself in Jupyter."""
+import os
+import tempfile
+
+import numpy as np
+
+from .image_file import write_image
+
+
+def metadata(stats, scene_path):
+    """The attributes an image file carries (docs/cli.md): the samples, patterns, filter, seed, seconds,
+    device and scene, and with two pixel samples or more the estimated RMSE."""
+    data = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
+            "light_sampler": stats.light_sampler, "texture_filter": stats.texture_filter, "seed": stats.seed,
+            "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(scene_path)}
+    if stats.estimated_rmse is not None:
+        data["estimated_rmse"] = float(stats.estimated_rmse)
+    return data
+
+
+class Image(np.ndarray):
+    """An H x W x 3 float32 array of linear radiance, row 0 at the top: a numpy array in every way (np.asarray
+    gives its data without a copy), with
+
+    - variance: the H x W x 3 estimated variance of each pixel's mean, or None (one pixel sample);
+    - stats: the RenderStats of the render that made it;
+    - metadata: the attributes its files carry;
+    - write(path): the file the command line would write (the format from the extension; .png, .jpg, .bmp,
+      .tga in the course's 8-bit encoding ceil(255 x^(1/2.2)), .tif 16-bit, .exr and .hdr linear floats, an
+      .exr with the variance channels);
+    - _repr_png_(): the 8-bit image, which Jupyter shows inline.
+
+    A slice or a computed array is an Image without them."""
+
+    @classmethod
+    def of(cls, pixels, variance=None, stats=None, scene_path=""):
+        image = np.asarray(pixels).view(cls)
+        image.variance, image.stats = variance, stats
+        image.metadata = metadata(stats, scene_path) if stats is not None else {}
+        return image
+
+    def __array_finalize__(self, obj):
+        self.variance, self.stats, self.metadata = None, None, {}
+
+    def write(self, path):
+        """Write the image to `path` atomically (a temporary file renamed into place); InputError names `path`
+        for an unknown extension or a failed write."""
+        write_image(path, np.asarray(self), self.metadata, self.variance, key="path", source="Image.write()")
+
+    def _repr_png_(self):
+        if self.ndim != 3 or self.shape[2] != 3:
+            return None
+        with tempfile.TemporaryDirectory() as folder:
+            path = os.path.join(folder, "image.png")
+            write_image(path, np.asarray(self), key="path", source="Image._repr_png_()")
+            with open(path, "rb") as f:
+                return f.read()

@@ -1,0 +1,66 @@
+"""A render's options, declared once: their names, types, defaults and help. raytrace.render() takes them as
+keyword arguments (tests/test_api.py holds its signature to this declaration), the command line's render,
+bench and converge offer those marked for it as --options (cli.py builds them from here), and the manual
+lists both from the same source.
+
+Errors about an option's value name it as the caller wrote it: `render(): spp = 15: ...` from Python, and
+`command line: --spp = 15: ...` once cli.py has translated the name (command_line_name).
+"""
+from dataclasses import MISSING, dataclass, field, fields
+
+from . import samplers, structs
+from .errors import API  # noqa: F401 (the source of an option's errors, here with the options)
+from .renderer.progressive import PASS_WORK
+from .scene.model import SHADINGS
+
+MAX_BAND_BYTES = 64 << 20  # the device output buffer: below the 128 MiB any full-profile device allows
+
+
+def option(default, doc, cli=True, choices=None, metavar=None):
+    """A field of RenderOptions: its default, one line of documentation, whether the command line offers it."""
+    return field(default=default, metadata={"doc": doc, "cli": cli, "choices": choices, "metavar": metavar})
+
+
+@dataclass
+class RenderOptions:
+    """What a render may be asked beside its scene; None takes the scene's own value where it has one."""
+    width: int | None = option(None, "image width in pixels (default: the scene's)")
+    height: int | None = option(None, "image height in pixels (default: the scene's)")
+    spp: int | None = option(None, "pixel samples (a square number for the grid samplers; default: the scene's)")
+    light_samples: int | None = option(None, "samples per light per pixel sample (default: the scene's)")
+    sampler: str | None = option(None, "the pixel sample pattern (default: the scene's)", choices=samplers.SAMPLERS)
+    light_sampler: str | None = option(None, "the light sample pattern (default: the scene's, else grid)",
+                                       choices=samplers.SAMPLERS)
+    texture_filter: str = option("trilinear", "how textures are filtered", choices=tuple(structs.FILTERS))
+    shading: str | None = option(None, "the shading model: phong (the course's) or direct (radiometric direct "
+                                 "lighting; a light's colour is then its radiance) (default: the scene's)",
+                                 choices=SHADINGS)
+    seed: int = option(0, "seed of the random sample patterns' randomisation, in [0, 2^32)")
+    time_limit: float | None = option(None, "stop before a pass that would end after this many seconds",
+                                      metavar="SECONDS")
+    target_error: float | None = option(None, "stop once the estimated relative RMSE of the image is at most this")
+    device: str | None = option(None, 'the OpenCL device: "cpu", "gpu", "P:D" indices or part of its name '
+                                "(default: the first CPU device)")
+    scheduler: str | None = option(None, "render on a Dask cluster: local:N (N worker processes here) or "
+                                   "tcp://host:port (a running scheduler); needs the dist extra", metavar="ADDRESS")
+    lanes: int | None = option(None, "pixels per work-item (default: the device's widest)", cli=False)
+    features: object = option(None, "a raytrace.Features to force a kernel variant (default: the scene's)",
+                              cli=False)
+    progress: bool | None = option(None, "a progress bar on stderr: True, False, or None for one once the render "
+                                   "takes over a second", cli=False)
+    max_band_bytes: int = option(MAX_BAND_BYTES, "the device output buffer's size in bytes, at least one row",
+                                 cli=False)
+    max_pass_work: int = option(PASS_WORK, "rays of a pass, roughly, at most", cli=False)
+    client: object = option(None, "a dask.distributed.Client to render on, instead of scheduler", cli=False)
+
+
+def declared():
+    """(name, default, doc, cli, choices, metavar) of every option, in the order of the declaration."""
+    return [(f.name, None if f.default is MISSING else f.default, f.metadata["doc"], f.metadata["cli"],
+             f.metadata["choices"], f.metadata["metavar"]) for f in fields(RenderOptions)]
+
+
+def command_line_name(name):
+    """An option's name on the command line: spp -> --spp, light_samples -> --light-samples; a pair written
+    width/height names both."""
+    return "/".join("--" + part.replace("_", "-") for part in str(name).split("/"))

@@ -1,0 +1,334 @@
+"""The Python API (docs/python-api.md) as a script uses it: the three ways to load a scene, editing it by name,
+rendering with an explicit signature, and the Image it returns.
+
+The scene file's checks are one table (BAD_VALUES, each a value at a named place and the key and value the
+error must name), replayed on every path into the kernel: a scene file, load_dict, a parameter edit and, where
+the value has a place in the scene model, a scene changed in Python behind the checks' back (render() checks
+it again). A new row covers all four."""
+import dataclasses
+import inspect
+import json
+import subprocess
+import sys
+import tomllib
+import warnings
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+import raytrace
+from helpers import ROOT, run
+from raytrace.cli import parser
+from raytrace.options import RenderOptions, declared
+from raytrace.parameters import FeaturesChanged
+from fuzz.toml_writer import to_toml
+
+CORNELL = ROOT / "scenes" / "cornell.toml"
+SMALL = dict(width=16, height=16, spp=4, light_samples=4, progress=False)
+NAN = float("nan")
+
+# (the value's name, the bad value, the key the error names, the value it names)
+BAD_VALUES = [
+    ("camera.positon", [0, 0, 0], "camera.positon", [0, 0, 0]),
+    ("camera.position", [0, 0], "camera.position", [0, 0]),
+    ("camera.position", [0, -1e39, 1], "camera.position", [0, -1e39, 1]),
+    ("camera.position", [0, -2e18, 1], "camera.position", [0, -2e18, 1]),
+    ("camera.fov", 180.0, "camera.fov", 180.0),
+    ("camera.focal_length", 0.0, "camera.focal_length", 0.0),
+    ("shapes[6].axes", [[1, 0, 0], [0, 1, 0], [1, 1, 0]], "shapes[6].axes", [[1, 0, 0], [0, 1, 0], [1, 1, 0]]),
+    ("shapes[0].size", [0, 2], "shapes[0].size", [0, 2]),
+    ("shapes[1].material", "gold", "shapes[1].material", "gold"),
+    ("shapes[2].type", "sphere", "shapes[2].type", "sphere"),
+    ("shapes[5].faces", [[0, 1, 7]], "shapes[5].faces[0]", [0, 1, 7]),
+    ("shapes[5].vertices", [[-1e39, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], "shapes[5].vertices",
+     [-1e39, 0, 0]),
+    ("image.width", 0, "image.width", 0),
+    ("render.spp", 15, "render.sampler", "grid"),
+    ("materials.red.colour", [1, "x", 0], "materials.red.colour", [1, "x", 0]),
+    ("materials.red.shininess", -1.0, "materials.red.shininess", -1.0),
+    ("materials.red.wrap", "tile", "materials.red.wrap", "tile"),
+    ("shapes[3].tangent", [-1, 0, 0], "shapes[3].tangent", [-1, 0, 0]),
+    ("lights[0].colour", [1, 1, -1], "lights[0].colour", [1, 1, -1]),
+    ("lights[0].colour", [NAN, -1, 1], "lights[0].colour", [NAN, -1, 1]),
+    ("lights[0].colour", [1e20, 1, 1], "lights[0].colour", [1e20, 1, 1]),
+    ("lights[0].size", [1e39, 1], "lights[0].size", [1e39, 1]),
+    ("ambient", [-0.1, 0, 0], "ambient", [-0.1, 0, 0]),
+    ("fog", 1, "fog", 1),
+]
+IDS = [f"{name}={value}" for name, value, _, _ in BAD_VALUES]
+
+
+def same(a, b):
+    """Values equal as the error gives them (a NaN equal to a NaN)."""
+    return json.dumps(a, allow_nan=True) == json.dumps(b, allow_nan=True) or np.array_equal(
+        np.asarray(a, dtype=object), np.asarray(b, dtype=object))
+
+
+def cornell_table():
+    return tomllib.loads(CORNELL.read_text())
+
+
+def edited_table(name, value):
+    """Scene 0's table with `value` at `name` (a name raytrace.parameters takes)."""
+    raytrace.parameters(raytrace.load_file(CORNELL))[name] = value  # KeyError if it names no place
+    table = cornell_table()
+    steps = [int(s) if s.isdigit() else s for s in name.replace("[", ".").replace("]", "").split(".")]
+    node = table
+    for step in steps[:-1]:
+        node = node[step]
+    node[steps[-1]] = value
+    return table
+
+
+def check_error(error, source, key, value):
+    assert (error.source, error.key) == (source, key), str(error)
+    assert same(error.value, value) or (isinstance(value, list) and key.endswith("vertices")), str(error)
+    assert "\n" not in str(error)
+
+
+@pytest.mark.parametrize("name, value, key, shown", BAD_VALUES, ids=IDS)
+def test_a_bad_value_in_a_file(tmp_path, name, value, key, shown):
+    """A real file (scene 0 names no texture or mesh file, so it may lie anywhere), written and read back."""
+    path = tmp_path / "s.toml"
+    path.write_text(to_toml(edited_table(name, value)))
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.load_file(path)
+    check_error(error.value, str(path), key, shown)
+
+
+@pytest.mark.parametrize("name, value, key, shown", BAD_VALUES, ids=IDS)
+def test_a_bad_value_in_a_dict(name, value, key, shown):
+    table = edited_table(name, value)
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.load_dict(table)
+    check_error(error.value, "load_dict()", key, shown)
+
+
+@pytest.mark.parametrize("name, value, key, shown", BAD_VALUES, ids=IDS)
+def test_a_bad_value_as_a_parameter_edit(name, value, key, shown):
+    """The edit is refused by update(), naming the value, and the scene is left as it was."""
+    scene = raytrace.load_file(CORNELL)
+    before = raytrace.scene.model.fingerprint(scene)
+    params = raytrace.parameters(scene)
+    params[name] = value
+    with pytest.raises(raytrace.InputError) as error:
+        params.update()
+    check_error(error.value, f"parameters({CORNELL})", key, shown)
+    assert raytrace.scene.model.fingerprint(scene) == before and scene.revision == 0
+
+
+# Where a value of BAD_VALUES lives in the scene model: (the model's name, a function setting it on a scene).
+MODEL = {
+    "camera.position": ("camera.position", lambda s, v: setattr(s, "camera", dataclasses.replace(
+        s.camera, position=np.array(v, float)))),
+    "camera.fov": ("camera.fov", lambda s, v: setattr(s, "camera", dataclasses.replace(s.camera, fov_deg=v))),
+    "camera.focal_length": ("camera.focal_length", lambda s, v: setattr(s, "camera", dataclasses.replace(
+        s.camera, focal_length=v))),
+    "materials.red.shininess": ("materials[1].shininess", lambda s, v: s.materials.__setitem__(
+        1, dataclasses.replace(s.materials[1], shininess=v))),
+    "materials.red.wrap": ("materials[1].wrap", lambda s, v: s.materials.__setitem__(
+        1, dataclasses.replace(s.materials[1], wrap=v))),
+    "lights[0].colour": ("lights[0].colour", lambda s, v: s.lights.__setitem__(
+        0, dataclasses.replace(s.lights[0], colour=np.array(v, float)))),
+    "lights[0].size": ("lights[0].size", lambda s, v: s.lights.__setitem__(
+        0, dataclasses.replace(s.lights[0], size=np.array(v, float)))),
+    "ambient": ("ambient", lambda s, v: setattr(s, "ambient", np.array(v, float))),
+    "shapes[6].axes": ("ellipsoids[0].axes", lambda s, v: s.ellipsoids.__setitem__(
+        0, dataclasses.replace(s.ellipsoids[0], axes=np.array(v, float)))),
+    "shapes[0].size": ("rectangles[0].size", lambda s, v: s.rectangles.__setitem__(
+        0, dataclasses.replace(s.rectangles[0], size=np.array(v, float)))),
+}
+
+
+@pytest.mark.parametrize("name, value, key, shown", [c for c in BAD_VALUES if c[0] in MODEL],
+                         ids=[i for c, i in zip(BAD_VALUES, IDS) if c[0] in MODEL])
+def test_a_bad_value_set_behind_the_checks_is_refused_by_render(name, value, key, shown):
+    """A scene changed in Python (dataclasses.replace, an assignment) is checked again by render(), with the
+    file's checks, before any work: the NaN light colour of the issue renders no negative pixel."""
+    scene = raytrace.load_file(CORNELL)
+    model_name, set_value = MODEL[name]
+    set_value(scene, value)
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.render(scene, **SMALL)
+    assert (error.value.source, error.value.key) == ("render()", model_name), str(error.value)
+
+
+def test_every_model_place_is_exercised():
+    assert set(MODEL) <= {name for name, _, _, _ in BAD_VALUES}
+
+
+def test_the_three_loaders_give_the_same_scene():
+    from raytrace.scene.model import fingerprint
+    text = CORNELL.read_text()
+    by_file = raytrace.load_file(CORNELL)
+    by_dict = raytrace.load_dict(tomllib.loads(text))
+    by_string = raytrace.load_string(text)
+    assert fingerprint(by_file) == fingerprint(by_dict) == fingerprint(by_string)
+    assert (by_dict.path, by_string.path) == ("load_dict()", "load_string()")
+    with pytest.raises(raytrace.InputError, match=r"^load_string\(\): toml"):
+        raytrace.load_string("[camera")
+
+
+def test_load_dict_takes_numpy_values():
+    table = cornell_table()
+    table["shapes"][6]["center"] = np.array([0.5, 0.4, 0.4])
+    table["camera"]["fov"] = np.float32(45.0)
+    table["image"]["width"] = np.int64(512)
+    scene = raytrace.load_dict(table)
+    assert scene.camera.fov_deg == 45.0 and scene.width == 512
+
+
+def test_parameters_edit_and_render_again():
+    """An edit is seen by the next render (the scene's packed tables are made anew), and a second render with
+    no edit in between rebuilds nothing."""
+    scene = raytrace.load_file(CORNELL)
+    first = np.asarray(raytrace.render(scene, **SMALL)[0]).copy()
+    params = raytrace.parameters(scene)
+    assert params["lights[0].colour"] == [1.0, 1.0, 1.0] and "materials.red.colour" in params
+    params["lights[0].colour"] = np.array([0.5, 0.5, 0.5])
+    assert params["lights[0].colour"] == [0.5, 0.5, 0.5]  # staged
+    assert scene.lights[0].colour.tolist() == [1.0, 1.0, 1.0]
+    assert params.update() == {"lights[0].colour"} and scene.revision == 1
+    second, stats = raytrace.render(scene, **SMALL)
+    assert np.asarray(second).mean() < first.mean() and stats.build_seconds < 0.5
+    assert raytrace.render(scene, **SMALL)[1].build_seconds == 0  # the program is kept
+    with pytest.raises(KeyError):
+        params["lights[3].colour"] = [1, 1, 1]  # no such light
+    with pytest.raises(KeyError):
+        params["camera..fov"]
+
+
+def test_an_edit_that_changes_the_kernel_says_so():
+    scene = raytrace.load_file(CORNELL)
+    params = raytrace.parameters(scene)
+    params["materials.white.texture"] = "../assets/textures/bricks_colour.png"
+    with pytest.warns(FeaturesChanged, match="colour_maps on"):
+        params.update()
+    params["materials.white.shininess"] = 20.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        params.update()  # no feature changed: no warning
+
+
+def test_a_scene_built_without_a_source_has_no_parameters():
+    scene = raytrace.load_file(CORNELL)
+    scene.source = None
+    with pytest.raises(raytrace.InputError, match="was not read by load_file"):
+        raytrace.parameters(scene)
+
+
+def test_render_takes_the_declared_options_explicitly():
+    """render()'s keyword arguments are raytrace/options.py's declarations, name for name and default for
+    default, in order, each documented in its docstring; no **kwargs hides one."""
+    signature = inspect.signature(raytrace.render)
+    params = list(signature.parameters.values())[1:]
+    assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params)
+    assert [(p.name, p.default) for p in params] == [(name, default) for name, default, *_ in declared()]
+    for name, *_ in declared():
+        assert f"\n        {name}: " in raytrace.render.__doc__, name
+
+
+def test_the_command_line_offers_the_declared_options():
+    """render, bench and converge take the options marked for the command line, with their defaults."""
+    commands = next(a for a in parser()._actions if a.dest == "command").choices
+    cli = {name: default for name, default, _, on_cli, _, _ in declared() if on_cli}
+    for command in ("render", "bench"):
+        options = {a.dest: a.default for a in commands[command]._actions if a.option_strings}
+        for name, default in cli.items():
+            assert name in options, (command, name)
+            if command == "render":
+                assert options[name] == default, (command, name)
+
+
+@pytest.mark.parametrize("keyword, value, problem", [
+    ("spp", 15, "square number"), ("width", 0, "[1, 16384]"), ("seed", -1, "[0, 2^32)"),
+    ("texture_filter", "cubic", "unknown filter"), ("shading", "toon", "phong, direct"),
+    ("time_limit", "soon", "positive number"), ("scheduler", "nowhere", "local:N or tcp://host:port")])
+def test_errors_from_python_name_the_keyword(keyword, value, problem):
+    scene = raytrace.load_file(CORNELL)
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.render(scene, **{**SMALL, keyword: value})
+    assert str(error.value).startswith(f"render(): {keyword} = {value!r}: ") and problem in str(error.value)
+
+
+def test_direct_shading_of_a_scene_with_ambient_is_one_line_from_python_and_the_command_line(tmp_path):
+    scene = raytrace.load_file(CORNELL)
+    with pytest.raises(raytrace.InputError, match=r"^render\(\): shading = 'direct': the scene's ambient"):
+        raytrace.render(scene, shading="direct", **SMALL)
+    r = run("render", CORNELL, "-o", tmp_path / "x.png", "--shading", "direct", "--width", 8, "--height", 8)
+    assert r.returncode == 2 and list(tmp_path.iterdir()) == []
+    assert r.stderr.strip().startswith("raytrace: error: command line: --shading = 'direct': the scene's ambient")
+    assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_the_image_is_an_array_that_writes_itself(tmp_path):
+    """image.write gives the command line's files: an EXR with the variance channels and the metadata, a PNG
+    in the course's 8-bit encoding; np.asarray shares its memory; Jupyter gets a PNG."""
+    scene = raytrace.load_file(CORNELL)
+    image, stats = raytrace.render(scene, **SMALL)
+    assert isinstance(image, np.ndarray) and image.shape == (16, 16, 3) and image.dtype == np.float32
+    assert np.shares_memory(np.asarray(image), image) and image.stats is stats
+    image.write(tmp_path / "x.exr")
+    exr = oiio.ImageInput.open(str(tmp_path / "x.exr"))
+    spec, pixels = exr.spec(), exr.read_image("float")
+    exr.close()
+    assert spec.channelnames == ("R", "G", "B", "variance.R", "variance.G", "variance.B")
+    np.testing.assert_array_equal(pixels[..., :3], image)
+    np.testing.assert_array_equal(pixels[..., 3:], image.variance)
+    assert spec.getattribute("raytrace:spp") == 4 and spec.getattribute("raytrace:scene") == str(CORNELL)
+    image.write(tmp_path / "x.png")
+    png = oiio.ImageInput.open(str(tmp_path / "x.png"))
+    codes = png.read_image("uint8")
+    png.close()
+    expected = np.ceil(255 * np.clip(np.asarray(image), 0, 1) ** (1 / 2.2) - 1e-9)
+    np.testing.assert_array_equal(codes, expected)
+    assert image._repr_png_().startswith(b"\x89PNG")
+    with pytest.raises(raytrace.InputError, match=r"^Image.write\(\): path = .*unsupported extension"):
+        image.write(tmp_path / "x.gif")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.exr", "x.png"]
+
+
+UNGUARDED = """
+import raytrace
+scene = raytrace.load_file({scene!r})
+raytrace.render(scene, width=8, height=8, spp=1, light_samples=1, scheduler="local:1")
+"""
+
+
+def test_a_script_without_the_main_guard_gets_one_line(tmp_path):
+    """Dask's local workers run the script again from the top: unguarded, it would start workers of its own.
+    The script ends with one line saying so, naming the line, and no traceback from the workers."""
+    script = tmp_path / "script.py"
+    script.write_text(UNGUARDED.format(scene=str(CORNELL)))
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert r.returncode != 0
+    last = r.stderr.strip().splitlines()[-1]
+    assert last.startswith("raytrace.errors.InputError: render(): scheduler = 'local:1': starts worker processes")
+    assert f"{script} again from the top, whose line 4" in last and "Nanny" not in r.stderr
+
+
+def test_a_guarded_script_renders_on_local_workers(tmp_path):
+    script = tmp_path / "script.py"
+    body = UNGUARDED.format(scene=str(CORNELL)).strip().splitlines()
+    script.write_text("\n".join([body[0], 'if __name__ == "__main__":', *("    " + line for line in body[1:]),
+                                 '    print("rendered")']) + "\n")
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert r.returncode == 0 and r.stdout.strip() == "rendered", r.stderr[-2000:]
+
+
+def test_every_public_name_is_documented():
+    for name in raytrace.__all__:
+        obj = getattr(raytrace, name)
+        assert inspect.getdoc(obj) and len(inspect.getdoc(obj)) > 40, name
+
+
+def test_the_manuals_example_session_runs(tmp_path):
+    """docs/example.py, shown on the API page, as a user runs it from the checkout."""
+    r = subprocess.run([sys.executable, str(ROOT / "docs" / "example.py"), str(tmp_path)], capture_output=True,
+                       text=True, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[2] == "changed: ['lights[0].colour', 'materials.yellow.shininess']"
+    assert lines[3].startswith("refused: parameters(scenes/cornell.toml): lights[0].colour = [nan, -1.0, 1.0]")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["after.exr", "before.png"]
