@@ -8,7 +8,7 @@ sys.path[:0] = [str(DOCS / "_ext"), str(DOCS.parent)]  # the local extension; th
 
 project = "raytrace"
 author = "the raytrace developers"
-extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.mathjax", "sphinxarg.ext", "raytrace_docs"]
+extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ext.mathjax", "sphinxarg.ext", "raytrace_docs"]
 myst_enable_extensions = ["dollarmath", "amsmath", "deflist"]
 myst_heading_anchors = 3
 source_suffix = {".md": "markdown"}
