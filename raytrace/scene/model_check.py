@@ -104,7 +104,6 @@ def check_model(scene, source="render()"):
     for i, light in enumerate(scene.lights):
         _typed(source, f"lights[{i}].", light, Light)
         r = _reader(source, f"lights[{i}].", spec, light, RECTANGLE + [("colour", emission)])
-        r.table["colour"] = r.table[emission]  # what ranges.py names in its errors
         _read(r, RECTANGLE + [("colour", emission)])
         check_frame(r)
         places.append((r, light))

@@ -138,7 +138,7 @@ def _check_brightness(scene, material_readers, light_readers, scene_reader):
     brightest_material = int(np.argmax(albedos))
     material_key = "texture" if scene.materials[brightest_material].colour_map >= 0 else "colour"
     terms = {(scene_reader, "ambient"): float(scene.ambient.max()),
-             (light_readers[int(np.argmax(lights))], "colour"): max(lights),
+             (light_readers[int(np.argmax(lights))], "radiance" if scene.shading == "direct" else "colour"): max(lights),
              (material_readers[brightest_material], material_key): max(albedos)}
     reader, key = max(terms, key=terms.get)
     reader.fail(key, reader.raw(key), f"makes a pixel as bright as {value:.4g}, beyond the "
