@@ -8,6 +8,7 @@ line a JSON object whose `median_s` is the render's own time (without loading th
 ldsampler rounds 1 up to 4: that render then counts once). Mitsuba 3's script beside this project's peers
 does that with --sampler, --spp and --out. The peer's patterns are measured at 1, 4, 16, ... samples
 (squares and powers of two, which every Mitsuba sampler takes)."""
+import re
 import shlex
 import tempfile
 from pathlib import Path
@@ -26,10 +27,16 @@ def check_template(template):
             raise InputError("command line", "--peer", template, f"needs the placeholder {field}")
 
 
+def fill(template, sampler, spp, out):
+    """The template's command for one render: its placeholders {sampler}, {spp} and {out} filled in (quoted
+    for the shell), every other brace left as it is (an awk program, a shell's ${VAR})."""
+    values = {"{sampler}": shlex.quote(sampler), "{spp}": str(spp), "{out}": shlex.quote(str(out))}
+    return re.sub(r"\{sampler\}|\{spp\}|\{out\}", lambda m: values[m.group(0)], template)
+
+
 def run_peer(template, sampler, spp, out):
     """The peer's render: (seconds, its JSON); InputError naming --peer when it fails (bench.run_peer)."""
-    facts = bench.run_peer(template.format(sampler=shlex.quote(sampler), spp=spp, out=shlex.quote(str(out))),
-                           "median_s")
+    facts = bench.run_peer(fill(template, sampler, spp, out), "median_s")
     return float(facts["median_s"]), facts
 
 
