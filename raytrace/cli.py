@@ -161,13 +161,15 @@ def cmd_bench(args):
     from .commands.bench import BenchError, benchmark, suite_scenes
     from .commands.scaling import scaling
 
-    if args.scaling:
+    if args.scaling is not None:
         if len(args.scene) > 1:
             raise InputError("command line", "scene", " ".join(args.scene), "--scaling takes one scene")
         if not 100 <= args.max_triangles <= 10**7:
             raise InputError("command line", "--max-triangles", args.max_triangles, "must be in [100, 10^7]")
         if not Path(args.scaling).parent.is_dir():
             raise InputError("command line", "--scaling", args.scaling, "its parent directory does not exist")
+        if Path(args.scaling).exists() and not Path(args.scaling).is_dir():
+            raise InputError("command line", "--scaling", args.scaling, "is a file, not a directory")
         scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout,
                 scheduler=args.scheduler)
         return
@@ -238,6 +240,22 @@ def cmd_stability(args):
     return 0 if passed else 1
 
 
+def _refuse_empty(args):
+    """An option or argument given as the empty string names no file, command or address: refused, rather
+    than taken as absent (bench --scaling '' ran the whole bench) or as the working directory."""
+    for action in parser_actions(args.command):
+        value = getattr(args, action.dest, None)
+        if value == "" or (isinstance(value, list) and "" in value):
+            raise InputError("command line", action.option_strings[0] if action.option_strings else action.dest,
+                             "", "must not be empty")
+
+
+def parser_actions(command):
+    """The arguments and options of a command, in the parser's order (-o before --output)."""
+    sub = next(a for a in parser()._actions if a.dest == "command").choices[command]
+    return [a for a in sub._actions if a.dest != "help"]
+
+
 def _as_command_line(error):
     """An error about a render() option, named as the command line spells it (--spp, --light-samples)."""
     names = {option[0] for option in declared()}
@@ -262,6 +280,7 @@ def main(argv=None):
     with handle_signals(), _dask_closed():
         try:
             args = parser().parse_args(argv)
+            _refuse_empty(args)
             return commands[args.command](args) or 0
         except InputError as e:
             print(f"raytrace: error: {_as_command_line(e)}", file=sys.stderr)

@@ -63,6 +63,8 @@ def select_device(spec=None):
     source, key = API, "device"
     if spec is None and os.environ.get("RAYTRACE_DEVICE") is not None:
         spec, source, key = os.environ["RAYTRACE_DEVICE"], "environment", "RAYTRACE_DEVICE"
+    if spec is not None and not spec.strip():
+        raise InputError(source, key, spec, "must name a device: cpu, gpu, P:D indices or part of a name")
     names = "; ".join(f"{p.name}: {d.name}" for p, d in devices)
     if spec is None:
         cpus = [d for _, d in devices if d.type & cl.device_type.CPU]

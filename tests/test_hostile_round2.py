@@ -1,0 +1,77 @@
+"""The second hostile round (issue 43): each broken promise it found, reproduced as the user met it, through
+the command line in a child process where the user used one. The promise: bad input ends in one line naming
+the file or option, the key and the value, exit status 2, and nothing left behind."""
+import os
+
+import pytest
+
+from helpers import CORNELL, ROOT, run
+from raytrace.errors import InputError
+from raytrace.scene import load_file
+
+DIRECT = ROOT / "scenes" / "cornell_direct.toml"
+TINY = ["--width", 8, "--height", 8, "--spp", 1, "--light-samples", 1]
+
+
+def one_line(r, starts):
+    """Exit status 2, one line on stderr that starts with `starts`, nothing on stdout."""
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr[-3000:]
+    assert lines[0].startswith(starts), lines[0]
+    assert r.stdout == ""
+
+
+def test_7_a_direct_lights_radiance_beyond_the_brightness_limit_is_named_as_radiance(tmp_path):
+    """Found: `lights[0].colour: missing` for a direct-mode light, which has no colour but a radiance."""
+    text = DIRECT.read_text()
+    assert "\nradiance = 60.0\n" in text
+    for value in ("1e19", "3.4e38", "10000000000000000000000"):
+        path = tmp_path / f"{value}.toml"
+        lines = text.splitlines()
+        path.write_text("\n".join(f"radiance = {value}" if line.startswith("radiance") else line
+                                  for line in lines) + "\n")
+        with pytest.raises(InputError) as error:
+            load_file(path)
+        assert error.value.key == "lights[0].radiance" and "2^62" in error.value.problem, str(error.value)
+
+
+def test_3_a_peer_template_may_hold_other_braces(tmp_path):
+    """Found: `... | awk '{print}'` in a --peer template ended in KeyError: 'print'. Only {sampler}, {spp} and
+    {out} are placeholders; any other brace is the shell's."""
+    from raytrace.commands.converge_peer import fill
+    command = fill("peer --sampler {sampler} --spp {spp} --out {out} | awk '{print}' {x}", "sobol", 4, "a b.exr")
+    assert command == "peer --sampler sobol --spp 4 --out 'a b.exr' | awk '{print}' {x}"
+
+
+def test_10_bench_scaling_into_an_existing_file_is_named(tmp_path):
+    """Found: `bench --scaling FILE` ended in `FILE: File exists`, naming no option."""
+    file = tmp_path / "results"
+    file.write_text("mine")
+    r = run("bench", "--scaling", file, "--max-triangles", 100)
+    one_line(r, f"raytrace: error: command line: --scaling = '{file}': is a file, not a directory")
+    assert file.read_text() == "mine"
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["bench", "--scaling", ""], "--scaling"),
+    (["bench", str(CORNELL), *TINY, "--json", ""], "--json"),
+    (["bench", str(CORNELL), *TINY, "--peer", ""], "--peer"),
+    (["render", str(CORNELL), "-o", "x.png", *TINY, "--stats-json", ""], "--stats-json"),
+    (["render", str(CORNELL), "-o", "", *TINY], "-o"),
+    (["stability", "--json", ""], "--json"),
+    (["converge", str(CORNELL), "--samplers", "grid", "--max-spp", 1, "--out", ""], "--out"),
+    (["render", "", "-o", "x.png"], "scene"),
+])
+def test_15_an_empty_value_is_refused(tmp_path, argv, option):
+    """Found: empty paths and commands were taken silently: `bench --scaling ''` ran the whole bench,
+    `converge --out ''` wrote into the working directory, `--json ''` and `--peer ''` were ignored."""
+    r = run(*argv, cwd=tmp_path)
+    one_line(r, f"raytrace: error: command line: {option} = '': must not be empty")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_15_an_empty_raytrace_device_is_refused(tmp_path):
+    """Found: RAYTRACE_DEVICE='' picked the first device."""
+    r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, env={**os.environ, "RAYTRACE_DEVICE": ""})
+    one_line(r, "raytrace: error: environment: RAYTRACE_DEVICE = '': must name a device")
+    assert list(tmp_path.iterdir()) == []
