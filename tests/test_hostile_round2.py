@@ -2,6 +2,7 @@
 the command line in a child process where the user used one. The promise: bad input ends in one line naming
 the file or option, the key and the value, exit status 2, and nothing left behind."""
 import os
+from pathlib import Path
 
 import pytest
 
@@ -75,3 +76,18 @@ def test_15_an_empty_raytrace_device_is_refused(tmp_path):
     r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, env={**os.environ, "RAYTRACE_DEVICE": ""})
     one_line(r, "raytrace: error: environment: RAYTRACE_DEVICE = '': must name a device")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_1_an_obj_with_one_component_uvs_renders(tmp_path):
+    """Found: `vt u` lines (legal OBJ; trimesh opens the file) ended in a ValueError packing the triangles.
+    v is then 0, as the format has it; the image is finite and the uvs are those of the file."""
+    obj = tmp_path / "one.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5\nvt 0.25\nvt 0.75\nf 1/1 2/2 3/3\n")
+    scene_file = tmp_path / "s.toml"
+    scene_file.write_text(Path(CORNELL).read_text().replace('[[shapes]]', f'[[shapes]]\ntype = "mesh"\nfile = "{obj}"\n'
+                                                 'material = "white"\n\n[[shapes]]', 1))
+    scene = load_file(scene_file)
+    assert scene.meshes[0].mesh.uvs.tolist() == [[0.5, 0.0], [0.25, 0.0], [0.75, 0.0]]
+    out = tmp_path / "x.exr"
+    r = run("render", scene_file, "-o", out, *TINY)
+    assert r.returncode == 0, r.stderr

@@ -35,7 +35,7 @@ def read_obj(path, data):
     parts = [p for p in parts.values() if len(p.get("faces", ()))]
     if not parts:
         raise InputError(path, "f", None, "the file has no faces")
-    uvs = [getattr(p.get("visual"), "uv", None) for p in parts]
+    uvs = [_uv_pairs(getattr(p.get("visual"), "uv", None)) for p in parts]
     normals = [p.get("vertex_normals") for p in parts]
     for key, refs, got, what in (("vt", r"\d/-?\d", uvs, "texture coordinates"),
                                  ("vn", r"\d/-?\d*/-?\d", normals, "normals")):
@@ -47,6 +47,15 @@ def read_obj(path, data):
             np.concatenate([fan(np.asarray(p["faces"])) + o for p, o in zip(parts, offsets)]),
             None if any(n is None for n in normals) else np.concatenate(normals),
             None if any(uv is None for uv in uvs) else np.concatenate(uvs))
+
+
+def _uv_pairs(uv):
+    """(u, v) per vertex from the file's `vt` lines: `vt u` alone is legal OBJ, v then 0 (the format's
+    default), and a third component (w) is not a texture coordinate here."""
+    if uv is None:
+        return None
+    uv = np.asarray(uv, dtype=np.float64).reshape(len(uv), -1)
+    return np.hstack([uv, np.zeros((len(uv), 1))]) if uv.shape[1] == 1 else uv[:, :2]
 
 
 # Where an OBJ value beyond the limits may be: "nan", "inf", 11 digits in a row, an exponent of 10 or more
