@@ -91,3 +91,62 @@ def test_1_an_obj_with_one_component_uvs_renders(tmp_path):
     out = tmp_path / "x.exr"
     r = run("render", scene_file, "-o", out, *TINY)
     assert r.returncode == 0, r.stderr
+
+
+class _Server:
+    """A TCP server on 127.0.0.1 that accepts connections and then does `behaviour` with each: 'silent' (reads
+    and never answers), 'junk' (answers bytes that are no Dask handshake) or 'http' (answers like a web server,
+    after a request that never comes: silent too)."""
+
+    def __init__(self, behaviour):
+        import socket
+        import threading
+        self.socket = socket.socket()
+        self.socket.bind(("127.0.0.1", 0))
+        self.socket.listen()
+        self.port, self.behaviour, self.connections = self.socket.getsockname()[1], behaviour, []
+        threading.Thread(target=self.serve, daemon=True).start()
+
+    def serve(self):
+        while True:
+            try:
+                connection, _ = self.socket.accept()
+            except OSError:
+                return
+            self.connections.append(connection)
+            if self.behaviour == "junk":
+                connection.sendall(b"\xff" * 64)
+
+    def close(self):
+        for c in self.connections:
+            c.close()
+        self.socket.close()
+
+
+@pytest.mark.parametrize("behaviour, problem", [("silent", "no Dask scheduler answered in 1 s"),
+                                                ("junk", "answered 64 bytes that are no Dask handshake")])
+def test_6_8_a_scheduler_address_that_does_not_answer_as_dask_is_one_line_in_time(monkeypatch, behaviour, problem):
+    """Found: a port that accepts and never answers hung past 400 s, though the message promises 10 s; one
+    that answers junk ended in 'out of memory: try a smaller --width/--height'. Here with the promise made
+    1 s (the same code path as its 10 s)."""
+    import time
+    from raytrace.renderer import distributed
+    monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
+    server = _Server(behaviour)
+    address = f"tcp://127.0.0.1:{server.port}"
+    start = time.monotonic()
+    try:
+        with pytest.raises(InputError) as error:
+            distributed.client_for(address)
+    finally:
+        server.close()
+    assert time.monotonic() - start < 3
+    assert (error.value.source, error.value.key, error.value.value) == ("render()", "scheduler", address)
+    assert problem in error.value.problem
+
+
+def test_2_a_tls_scheduler_is_one_line(tmp_path):
+    """Found: --scheduler tls://127.0.0.1:1 ended in `TypeError: TLS expects a ssl_context`."""
+    r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, "--scheduler", "tls://127.0.0.1:1")
+    one_line(r, "raytrace: error: command line: --scheduler = 'tls://127.0.0.1:1': TLS needs the cluster's")
+    assert list(tmp_path.iterdir()) == []

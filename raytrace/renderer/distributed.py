@@ -24,7 +24,9 @@ import hashlib
 import os
 import pickle
 import re
+import socket
 import sys
+import time
 
 from ..errors import API, InputError
 from .device_render import DeviceRender
@@ -80,6 +82,32 @@ def _unguarded_script_line():
     return None if guarded else (path, line)
 
 
+def _probe(address, host, port):
+    """Whether a Dask scheduler answers at host:port within CONNECT_SECONDS, before Dask's client is let near
+    it: a scheduler sends its handshake as soon as a connection opens (a frame count, then msgpack frames),
+    while a server that accepts and stays silent would keep the client waiting past any timeout, and one
+    that answers something else (a dashboard's HTTP, junk) would have the client decode its bytes as frame
+    lengths (a MemoryError). InputError names the address and what it did."""
+    deadline = time.monotonic() + CONNECT_SECONDS
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_SECONDS) as connection:
+            data = b""
+            while len(data) < 25 and time.monotonic() < deadline:
+                connection.settimeout(max(0.01, deadline - time.monotonic()))
+                chunk = connection.recv(64)
+                if not chunk:
+                    break
+                data += chunk
+    except socket.timeout:
+        raise InputError(API, "scheduler", address, f"no Dask scheduler answered in {CONNECT_SECONDS} s") from None
+    except OSError as e:
+        raise InputError(API, "scheduler", address, f"cannot reach the scheduler: {e.strerror or e}") from None
+    frames = int.from_bytes(data[8:16], "little") if len(data) >= 16 else 0
+    if len(data) < 25 or not 1 <= frames <= 64 or not (0x80 <= data[24] <= 0x8F or data[24] in (0xDE, 0xDF)):
+        said = "nothing" if not data else f"{len(data)} bytes that are no Dask handshake"
+        raise InputError(API, "scheduler", address, f"answered {said} in {CONNECT_SECONDS} s: not a Dask scheduler")
+
+
 def _connect(address):
     try:
         from dask.distributed import Client, LocalCluster
@@ -99,8 +127,13 @@ def _connect(address):
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=40)
         return Client(cluster), cluster
-    if not re.fullmatch(r"(tcp|tls)://[^\s/]+:[0-9]+", address):
+    if address.startswith("tls://"):
+        raise InputError(API, "scheduler", address, "TLS needs the cluster's certificates: pass a "
+                         "dask.distributed.Client made with its security settings as render(client=...)")
+    match = re.fullmatch(r"tcp://([^\s/]+):([0-9]+)", address)
+    if not match:
         raise InputError(API, "scheduler", address, "must be local:N or tcp://host:port")
+    _probe(address, match.group(1).strip("[]"), int(match.group(2)))
     try:
         return Client(address, timeout=CONNECT_SECONDS), None
     except (OSError, TimeoutError) as e:
