@@ -2,6 +2,7 @@
 the command line in a child process where the user used one. The promise: bad input ends in one line naming
 the file or option, the key and the value, exit status 2, and nothing left behind."""
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -14,12 +15,13 @@ DIRECT = ROOT / "scenes" / "cornell_direct.toml"
 TINY = ["--width", 8, "--height", 8, "--spp", 1, "--light-samples", 1]
 
 
-def one_line(r, starts):
-    """Exit status 2, one line on stderr that starts with `starts`, nothing on stdout."""
+def one_line(r, starts, progress=False):
+    """Exit status 2, one line on stderr that starts with `starts`, nothing on stdout (with `progress`, the
+    lines a command printed before it met the bad value may stand there)."""
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr[-3000:]
     assert lines[0].startswith(starts), lines[0]
-    assert r.stdout == ""
+    assert progress or r.stdout == ""
 
 
 def test_7_a_direct_lights_radiance_beyond_the_brightness_limit_is_named_as_radiance(tmp_path):
@@ -150,3 +152,46 @@ def test_2_a_tls_scheduler_is_one_line(tmp_path):
     r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, "--scheduler", "tls://127.0.0.1:1")
     one_line(r, "raytrace: error: command line: --scheduler = 'tls://127.0.0.1:1': TLS needs the cluster's")
     assert list(tmp_path.iterdir()) == []
+
+
+BAD_PEER = """
+import json, sys
+import numpy as np
+import OpenImageIO as oiio
+sampler, spp, out, what = sys.argv[1:5]
+if what == "empty":
+    open(out, "wb").close()
+elif what == "size":
+    oiio.ImageBuf(np.zeros((3, 5, 3), np.float32)).write(out)
+elif what == "nan":
+    oiio.ImageBuf(np.full((8, 8, 3), np.nan, np.float32)).write(out)
+print(json.dumps({"median_s": 0.01}))
+"""
+
+
+@pytest.mark.parametrize("what, problem", [("missing", "cannot read"), ("empty", "cannot read"),
+                                           ("size", "is 5 x 3"), ("nan", "holds NaN or Inf")])
+def test_9_a_peers_bad_image_names_the_peer(tmp_path, what, problem):
+    """Found: a converge --peer whose EXR is missing, empty, the wrong size or holds NaN was reported as
+    `--reference = '<a temporary file>'`, naming an option the user did not give."""
+    script = tmp_path / "peer.py"
+    script.write_text(BAD_PEER)
+    template = f"{sys.executable} {script} {{sampler}} {{spp}} {{out}} {what}"
+    out = tmp_path / "out"
+    r = run("converge", CORNELL, "--samplers", "random", "--max-spp", 1, "--width", 8, "--height", 8,
+            "--light-samples", 1, "--reference-spp", 4, "--peer", template, "--peer-samplers", "independent",
+            "--out", out)
+    one_line(r, f"raytrace: error: command line: --peer = {template!r}: the image of its independent render at 1 "
+                f"spp: {problem}", progress=True)
+    assert not out.exists()
+
+
+def test_a_gamma_encoded_reference_is_refused(tmp_path):
+    """Decided (issue 43, also seen): a PNG given as converge --reference was compared as if its 8-bit codes
+    were linear radiance. Only linear float files (EXR, HDR) are references."""
+    png = tmp_path / "ref.png"
+    oiio_buf = __import__("OpenImageIO").ImageBuf(__import__("numpy").zeros((8, 8, 3), "float32"))
+    assert oiio_buf.write(str(png))
+    r = run("converge", CORNELL, "--samplers", "random", "--max-spp", 1, "--width", 8, "--height", 8,
+            "--reference", png, "--out", tmp_path / "out")
+    one_line(r, f"raytrace: error: command line: --reference = '{png}': must be a linear float image")

@@ -114,8 +114,12 @@ def light_pattern(name, light_samples):
 
 
 def read_reference(path, width, height):
-    """The first three channels of an image file, which must be width x height; and its facts: the file,
+    """The first three channels of a linear float image file (EXR, HDR), which must be width x height; and its
+    facts: the file,
     and the sample count and estimated RMSE a render writes into it (None where absent)."""
+    if Path(path).suffix.lower() not in (".exr", ".hdr"):
+        raise InputError(CLI, "--reference", str(path), "must be a linear float image (.exr or .hdr): an 8-bit "
+                         "or 16-bit file holds gamma-encoded values, which are no radiance to compare against")
     buf = oiio.ImageBuf(str(path))
     if not buf.read(0, 0, True, oiio.FLOAT) or buf.has_error:
         raise InputError(CLI, "--reference", str(path), f"cannot read: {buf.geterror().splitlines()[0]}")

@@ -53,7 +53,11 @@ def peer_rows(template, names, max_spp, reference, box, error, flip, read_image)
                 took, spp = facts.get("spp", spp), spp * 4
                 if rows and rows[-1]["sampler"] == f"peer:{name}" and rows[-1]["spp"] == took:
                     continue  # rounded up to the count measured before (Mitsuba's ldsampler: 1 to 4)
-                image = read_image(out)
+                try:
+                    image = read_image(out)
+                except InputError as e:  # about the peer's file, not the user's --reference
+                    raise InputError("command line", "--peer", template, f"the image of its {name} render at "
+                                     f"{took} spp: {e.problem}") from None
                 rows.append({"sampler": f"peer:{name}", "spp": took, "seconds": seconds,
                              "rmse": error(image, reference),
                              "estimated_rmse": None, "flip": flip(image, reference), "crop": image[box],
