@@ -195,3 +195,30 @@ def test_a_gamma_encoded_reference_is_refused(tmp_path):
     r = run("converge", CORNELL, "--samplers", "random", "--max-spp", 1, "--width", 8, "--height", 8,
             "--reference", png, "--out", tmp_path / "out")
     one_line(r, f"raytrace: error: command line: --reference = '{png}': must be a linear float image")
+
+
+def test_12_bench_scaling_on_a_full_disk_leaves_nothing(tmp_path):
+    """Found: on a full disk, `bench --scaling DIR` exited 2 but left scaling.csv, scaling.png and a truncated
+    visits.png. A full disk here is a 40 KiB tmpfs (root only: skipped where mount is not permitted; not a file
+    size limit, under which PoCL's LLVM aborts): the CSV and scaling.png fit, visits.png does not."""
+    import subprocess
+    from test_outputs import mount
+    disk = tmp_path / "full"
+    disk.mkdir()
+    mount("-t", "tmpfs", "-o", "size=40k", "tmpfs", disk)
+    try:
+        out = disk / "out"
+        r = run("bench", "--scaling", out, "--max-triangles", 100)
+        one_line(r, f"raytrace: error: command line: --scaling = '{out}': {out / 'visits.png'}: cannot write: No "
+                    "space left on device", progress=True)
+        assert list(disk.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
+def test_13_bench_scaling_with_an_unusable_scheduler_leaves_no_directory(tmp_path):
+    """Found: `bench --scaling DIR --scheduler tcp://127.0.0.1:1` exited 2 and left the empty DIR."""
+    out = tmp_path / "out"
+    r = run("bench", "--scaling", out, "--max-triangles", 100, "--scheduler", "tcp://127.0.0.1:1")
+    one_line(r, "raytrace: error: command line: --scheduler = 'tcp://127.0.0.1:1': cannot reach the scheduler")
+    assert list(tmp_path.iterdir()) == []

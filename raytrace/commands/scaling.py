@@ -20,6 +20,7 @@ import numpy as np
 from ..renderer import bvh
 from ..scene import meshgen
 from ..render import render
+from ..outputs import Outputs, scene_inputs
 from ..scene import Material, MeshShape, load_file
 from ..renderer.geometry import primitive_boxes, triangle_soup
 from .bench import in_turns, paired_ratios
@@ -91,14 +92,26 @@ def paired_growth(low, high, scheduler=None, turns=PAIRED_TURNS):
     return paired_ratios(seconds)[1] * best[0].rays / best[1].rays
 
 
+FILES = ("scaling.csv", "scaling.png", "visits.png")
+
+
 def scaling(scene_path, out_dir, max_triangles=10**6, out=None, anchor=None, scheduler=None):
-    """The table's rows. `anchor`, when given, measures another tracer on each row's room (a function of the
-    room returning ns_per_ray and net_ns_per_ray, as benchmarks/embree_anchor.py's measure): it runs first in
-    each row, so that a missing dependency stops the run before any render."""
-    embree = anchor is not None
+    """The table's rows; scaling.csv, scaling.png and visits.png in `out_dir`, written all or none (through
+    raytrace.outputs.Outputs: the directory made if need be, removed again with its files when the run fails,
+    errors naming --scaling). `anchor`, when given, measures another tracer on each row's room (a function of
+    the room returning ns_per_ray and net_ns_per_ray, as benchmarks/embree_anchor.py's measure): it runs first
+    in each row, so that a missing dependency stops the run before any render."""
     scene = load_file(scene_path)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    with Outputs(inputs=scene_inputs(scene)) as outputs:
+        outputs.make_directory("--scaling", out_dir)
+        files = {name: outputs.reserve("--scaling", Path(out_dir) / name, given=out_dir) for name in FILES}
+        rows = _measure_rows(scene, files, outputs, max_triangles, out, anchor, scheduler)
+        outputs.commit()
+    return rows
+
+
+def _measure_rows(scene, files, outputs, max_triangles, out, anchor, scheduler):
+    embree = anchor is not None
     rows, maps, rooms = [], [], {}
     counts = [10**k for k in range(2, 8) if 10**k <= max_triangles]
     for n in counts:
@@ -126,12 +139,14 @@ def scaling(scene_path, out_dir, max_triangles=10**6, out=None, anchor=None, sch
                   file=out, flush=True)
     if out and 10**3 in counts[:-1]:
         print(growth(rows, counts, rooms, embree, scheduler), file=out, flush=True)
-    with open(out_dir / "scaling.csv", "w", newline="") as f:
+    with outputs.writing(files["scaling.csv"]) as path, open(path, "w", newline="") as f:
         writer = csv.DictWriter(f, COLUMNS + ["embree_ns_per_ray", "embree_net_ns_per_ray"] * embree)
         writer.writeheader()
         writer.writerows(rows)
-    plot(rows, out_dir / "scaling.png")
-    plot_maps(maps, out_dir / "visits.png", OPTIONS["spp"])
+    with outputs.writing(files["scaling.png"]) as path:
+        plot(rows, path)
+    with outputs.writing(files["visits.png"]) as path:
+        plot_maps(maps, path, OPTIONS["spp"])
     return rows
 
 
