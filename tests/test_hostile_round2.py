@@ -222,3 +222,14 @@ def test_13_bench_scaling_with_an_unusable_scheduler_leaves_no_directory(tmp_pat
     r = run("bench", "--scaling", out, "--max-triangles", 100, "--scheduler", "tcp://127.0.0.1:1")
     one_line(r, "raytrace: error: command line: --scheduler = 'tcp://127.0.0.1:1': cannot reach the scheduler")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_14_a_local_cluster_leaves_nothing_in_the_temporary_directory(tmp_path):
+    """Found: every `--scheduler local:N` left dask-scratch-space/{global,purge}.lock in the temporary
+    directory."""
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, "--scheduler", "local:1", "--no-progress",
+            env={**os.environ, "TMPDIR": str(temporary)})
+    assert r.returncode == 0, r.stderr
+    assert list(temporary.iterdir()) == []

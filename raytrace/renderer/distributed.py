@@ -24,8 +24,10 @@ import hashlib
 import os
 import pickle
 import re
+import shutil
 import socket
 import sys
+import tempfile
 import time
 
 from ..errors import API, InputError
@@ -35,6 +37,7 @@ PASSES_AHEAD = 2  # passes submitted beyond the one being merged: the workers ne
 CONNECT_SECONDS = 10
 
 _clients = {}  # address -> (client, cluster or None), for the life of the process
+_scratch = {}  # address -> the scratch folder of the local cluster started for it
 _device_renders = {}  # on a worker: digest -> DeviceRender
 
 
@@ -124,8 +127,13 @@ def _connect(address):
                              f"the top, whose line {unguarded[1]} would start them again: put the script's code under "
                              "if __name__ == \"__main__\":")
         threads = str(max(1, (os.cpu_count() or 1) // n))  # PoCL's pthread device would take every core each
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=40)
+        # the workers' scratch space (Dask's locks and spill files) in a folder of this run's, removed by
+        # close_all, rather than a dask-scratch-space left in the temporary directory
+        scratch = _scratch.setdefault(address, tempfile.mkdtemp(prefix="raytrace-dask-"))
+        import dask
+        with dask.config.set({"temporary-directory": scratch}):  # the scheduler's and the nannies' too
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                   env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=40, local_directory=scratch)
         return Client(cluster), cluster
     if address.startswith("tls://"):
         raise InputError(API, "scheduler", address, "TLS needs the cluster's certificates: pass a "
@@ -142,12 +150,14 @@ def _connect(address):
 
 
 def close_all():
-    """Close every client and the clusters this process started."""
+    """Close every client and the clusters this process started, and remove their scratch folders."""
     while _clients:
         client, cluster = _clients.popitem()[1]
         client.close()
         if cluster is not None:
             cluster.close()
+    while _scratch:
+        shutil.rmtree(_scratch.popitem()[1], ignore_errors=True)
 
 
 def pickled_render(scene, options):
