@@ -18,6 +18,7 @@ from .errors import InputError
 from .memory import available_memory
 from .scene.model import SHADINGS
 from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
+from .renderer.cpu_target import lanes_for
 from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
 from .renderer.progressive import (BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, PASS_WORK, Accumulator,
@@ -232,6 +233,7 @@ def _passes(scene, options, r):
     if options.scheduler is None and options.client is None:
         return LocalPasses(scene, options, r)
     from .renderer.distributed import DaskPasses, client_for
+    lanes_for(None, None)  # the environment's lane width, checked here before the workers meet it
     client = options.client or client_for(options.scheduler)
     rows = band_rows(r, options.max_band_bytes)
     return DaskPasses(client, scene, options, r, [(row0, min(rows, r.height - row0))

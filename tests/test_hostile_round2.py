@@ -233,3 +233,11 @@ def test_14_a_local_cluster_leaves_nothing_in_the_temporary_directory(tmp_path):
             env={**os.environ, "TMPDIR": str(temporary)})
     assert r.returncode == 0, r.stderr
     assert list(temporary.iterdir()) == []
+
+
+def test_11_a_bad_raytrace_lanes_with_a_local_cluster_is_one_line(tmp_path):
+    """Found: RAYTRACE_LANES=3 with --scheduler local:1 exited 2 with 8 lines (Dask's "Compute Failed" log)."""
+    r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, "--scheduler", "local:1",
+            env={**os.environ, "RAYTRACE_LANES": "3"})
+    one_line(r, "raytrace: error: environment: RAYTRACE_LANES = '3': must be one of 1, 4, 8, 16")
+    assert list(tmp_path.iterdir()) == []

@@ -127,13 +127,15 @@ def _connect(address):
                              f"the top, whose line {unguarded[1]} would start them again: put the script's code under "
                              "if __name__ == \"__main__\":")
         threads = str(max(1, (os.cpu_count() or 1) // n))  # PoCL's pthread device would take every core each
-        # the workers' scratch space (Dask's locks and spill files) in a folder of this run's, removed by
+        # silence_logs: CRITICAL only, as a task's failure reaches the client as its one-line error (a
+        # worker's InputError pickles whole) and Dask's own "Compute Failed" log would add lines to it.
+        # The workers' scratch space (Dask's locks and spill files) in a folder of this run's, removed by
         # close_all, rather than a dask-scratch-space left in the temporary directory
         scratch = _scratch.setdefault(address, tempfile.mkdtemp(prefix="raytrace-dask-"))
         import dask
         with dask.config.set({"temporary-directory": scratch}):  # the scheduler's and the nannies' too
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                   env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=40, local_directory=scratch)
+                                   env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=50, local_directory=scratch)
         return Client(cluster), cluster
     if address.startswith("tls://"):
         raise InputError(API, "scheduler", address, "TLS needs the cluster's certificates: pass a "
