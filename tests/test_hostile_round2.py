@@ -241,3 +241,16 @@ def test_11_a_bad_raytrace_lanes_with_a_local_cluster_is_one_line(tmp_path):
             env={**os.environ, "RAYTRACE_LANES": "3"})
     one_line(r, "raytrace: error: environment: RAYTRACE_LANES = '3': must be one of 1, 4, 8, 16")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_17_spirv_prefers_the_clang_that_has_its_backend(tmp_path):
+    """Found: with Debian's clang 14 on the PATH, `compile --target spirv` failed: "unknown argument:
+    '-fintegrated-objemitter'" (the flag is newer). Here a stand-in clang on the PATH refuses that flag as
+    clang 14 does; SPIR-V is built by PyPI's clang all the same (the test extra's ziglang)."""
+    pytest.importorskip("ziglang")
+    fake = tmp_path / "bin" / "clang"
+    fake.parent.mkdir()
+    fake.write_text("#!/bin/sh\necho \"clang: error: unknown argument: '-fintegrated-objemitter'\" >&2\nexit 1\n")
+    fake.chmod(0o755)
+    r = run("compile", CORNELL, "--target", "spirv", env={**os.environ, "PATH": f"{fake.parent}:{os.environ['PATH']}"})
+    assert r.returncode == 0 and ": spirv: ok," in r.stdout, r.stderr

@@ -42,11 +42,14 @@ SPIRV_ENV = "opencl2.1"  # spirv-val's rules for the first OpenCL that takes SPI
 
 
 def _clang(target):
-    """(command, options that declare OpenCL C's builtins) of the clang that builds for `target`."""
+    """(command, options that declare OpenCL C's builtins) of the clang that builds for `target`: a
+    distribution's clang on the PATH, else PyPI's; for SPIR-V PyPI's first, as its clang (22) has the SPIR-V
+    backend and -fintegrated-objemitter, which older distributions' clangs (Debian's 14) lack."""
     clang = shutil.which("clang")
-    if clang is not None:  # a distribution's clang has its own OpenCL C header
+    zig = importlib.util.find_spec("ziglang") is not None
+    if clang is not None and not (target == "spirv" and zig):  # a distribution's clang has its own OpenCL header
         return [clang], ["-Xclang", "-finclude-default-header"]
-    if importlib.util.find_spec("ziglang") is not None:
+    if zig:
         # zig's clang has no opencl-c.h: include PoCL's copy, the one PoCL builds the kernel with
         # (-cl-no-stdinc: the driver would otherwise look for its own and stop when it does not find it)
         pocl = Path(importlib.util.find_spec("pocl_binary_distribution").origin).parent
