@@ -13,12 +13,32 @@ returns), parameters.py (editing a loaded scene), image_file.py (writing images)
 its readers and checks), renderer/ (the host side of the kernel in kernels/), commands/ (the commands that
 measure and verify the renderer: bench, converge, stability, compile, assets), cli.py.
 """
-from .errors import InputError
-from .image import Image
-from .parameters import SceneParameters, parameters
-from .render import RenderStats, render
-from .renderer.program import Features
-from .scene import Scene, load_dict, load_file, load_string
+import os
+import signal
+import sys
+
+
+def _interrupted_while_loading(signum, frame):
+    os.write(2, f"raytrace: interrupted by {signal.Signals(signum).name}; nothing written\n".encode())
+    os._exit(128 + signum)
+
+
+# `python -m raytrace` imports this package, and with it numpy, pyopencl and OpenImageIO (a fraction of a second),
+# before __main__.py runs: a signal meanwhile ends the process with the command line's one line and status
+# 128 + its number, as one during a command does (nothing is written yet); cli.main then takes the signals over.
+# Only that process: importing raytrace anywhere else (a script, a notebook, pytest) changes no signal handler.
+_argv = getattr(sys, "orig_argv", [])
+if "-m" in _argv[:-1] and _argv[_argv.index("-m") + 1] == "raytrace":
+    for _signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(_signum) is not signal.SIG_IGN:  # nohup's ignored signals stay ignored
+            signal.signal(_signum, _interrupted_while_loading)
+
+from .errors import InputError  # noqa: E402 (after the signals: these imports are what takes the time)
+from .image import Image  # noqa: E402
+from .parameters import SceneParameters, parameters  # noqa: E402
+from .render import RenderStats, render  # noqa: E402
+from .renderer.program import Features  # noqa: E402
+from .scene import Scene, load_dict, load_file, load_string  # noqa: E402
 
 __all__ = ["Features", "Image", "InputError", "RenderStats", "Scene", "SceneParameters", "load_dict", "load_file",
            "load_string", "parameters", "render"]

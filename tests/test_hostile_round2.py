@@ -254,3 +254,49 @@ def test_17_spirv_prefers_the_clang_that_has_its_backend(tmp_path):
     fake.chmod(0o755)
     r = run("compile", CORNELL, "--target", "spirv", env={**os.environ, "PATH": f"{fake.parent}:{os.environ['PATH']}"})
     assert r.returncode == 0 and ": spirv: ok," in r.stdout, r.stderr
+
+
+@pytest.mark.parametrize("delay", [0.08, 0.15, 0.25])
+def test_5_ctrl_c_while_the_modules_load_is_one_line(tmp_path, delay):
+    """Found: Ctrl-C in the first ~0.35 s of `python -m raytrace` (numpy, pyopencl and OpenImageIO loading)
+    gave a KeyboardInterrupt traceback. Sent at moments within that span (on a faster machine a later one may
+    fall into the command itself: the same line). The interpreter's own start, before the package's first
+    line runs (tens of milliseconds), is not covered."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    from helpers import child_env
+    child = subprocess.Popen([sys.executable, "-m", "raytrace", "render", str(CORNELL), "-o", str(tmp_path / "x.png")],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=child_env())
+    time.sleep(delay)
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=120)
+    assert (child.returncode, stderr) == (130, "raytrace: interrupted by SIGINT; nothing written\n"), stderr[-2000:]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_4_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
+    """Found: Ctrl-C during a --scheduler local:2 render printed 68 lines, four workers' KeyboardInterrupt
+    tracebacks. A terminal's Ctrl-C reaches the whole process group: sent so here, once the cluster is up."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    from helpers import child_env
+    argv = [sys.executable, "-m", "raytrace", "render", str(CORNELL), "-o", str(tmp_path / "x.png"), "--width", 1024,
+            "--height", 1024, "--spp", 64, "--scheduler", "local:2", "--no-progress"]
+    child = subprocess.Popen(list(map(str, argv)), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env=child_env(), start_new_session=True)
+    try:
+        first = child.stderr.readline()
+        assert first.startswith("dask: local:2: dashboard at "), first
+        time.sleep(1.0)
+        os.killpg(child.pid, signal.SIGINT)
+        stdout, stderr = child.communicate(timeout=120)
+    finally:
+        if child.poll() is None:
+            os.killpg(child.pid, signal.SIGKILL)
+            child.wait()
+    assert (child.returncode, stderr) == (130, "raytrace: interrupted by SIGINT; nothing written\n"), stderr[-2000:]
+    assert list(tmp_path.iterdir()) == []

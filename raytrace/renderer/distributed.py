@@ -19,15 +19,18 @@ arguments and so the same sums.
 Addresses: `local:N` starts a LocalCluster of N worker processes of one thread each (PoCL's threads shared
 out among them); `tcp://host:port` is a running scheduler (`dask scheduler`, `dask worker ...`)."""
 import ast
+import contextlib
 import dataclasses
 import hashlib
 import os
 import pickle
 import re
 import shutil
+import signal
 import socket
 import sys
 import tempfile
+import threading
 import time
 
 from ..errors import API, InputError
@@ -133,7 +136,7 @@ def _connect(address):
         # close_all, rather than a dask-scratch-space left in the temporary directory
         scratch = _scratch.setdefault(address, tempfile.mkdtemp(prefix="raytrace-dask-"))
         import dask
-        with dask.config.set({"temporary-directory": scratch}):  # the scheduler's and the nannies' too
+        with dask.config.set({"temporary-directory": scratch}), _terminal_signals_ignored():
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                    env={"POCL_MAX_PTHREAD_COUNT": threads}, silence_logs=50, local_directory=scratch)
         return Client(cluster), cluster
@@ -149,6 +152,23 @@ def _connect(address):
     except (OSError, TimeoutError) as e:
         raise InputError(API, "scheduler", address,
                          f"cannot reach the scheduler in {CONNECT_SECONDS} s ({type(e).__name__})") from None
+
+
+@contextlib.contextmanager
+def _terminal_signals_ignored():
+    """SIGINT and SIGHUP ignored while a local cluster starts its processes, which inherit that (an ignored
+    signal stays ignored across fork and exec, and Python keeps it so): Ctrl-C at a terminal reaches the
+    whole process group, and the workers would each print a KeyboardInterrupt traceback. This process
+    handles the signal and closes the cluster (cli.py's _dask_closed)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)
 
 
 def close_all():
