@@ -245,7 +245,7 @@ PRECISE = {  # file: (content, what the one line must say)
     "list_beyond_end.ply": (PLY_BINARY.replace(b"uchar int", b"uint int") + TRIANGLE[:36] +
                             struct.pack("<I3i", 4_000_000_000, 0, 1, 2), ("truncated", "element face")),
     "property_typo.ply": (PLY_ASCII.replace("property float y", "pr0perty float y") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-                          ("line 5", "'pr0perty float y'", "not a PLY header line")),
+                          ("vertex", "line 5 'pr0perty float y' was taken as a comment")),
     "unknown_format.ply": (PLY_ASCII.replace("ascii", "binary_middle_endian"), ("line 2", "must be 'format")),
 }
 

@@ -21,7 +21,7 @@ def read_obj(path, data):
     """The file's (vertices, polygons, normals, uvs), from all its `usemtl` groups."""
     if b"\0" in data:
         raise InputError(path, "file", None, "is binary data, not OBJ text")
-    text = data.decode("latin-1")  # only ASCII matters; names and comments in other encodings pass
+    text = _plain_lines(data.decode("latin-1"))  # only ASCII matters; other encodings' names pass
     _check_obj_indices(path, text)
     _check_obj_values(path, text)
     # here, not at the top: importing trimesh is slow (measured in commit 6b64997)
@@ -39,14 +39,23 @@ def read_obj(path, data):
     normals = [p.get("vertex_normals") for p in parts]
     for key, refs, got, what in (("vt", r"\d/-?\d", uvs, "texture coordinates"),
                                  ("vn", r"\d/-?\d*/-?\d", normals, "normals")):
-        if re.search(r"^f[ \t][^\n]*?" + refs, text, re.M) and any(g is None for g in got):
-            raise InputError(path, key, None, f"faces refer to {what} that do not exist, or only some faces "
-                                              f"have them")
+        if re.search(r"^f[ \t][^\n]*?" + refs, text, re.M) and not re.search(rf"^{key}[ \t]", text, re.M):
+            raise InputError(path, key, None, f"faces refer to {what}, and the file has none")
+    if any(uv is not None for uv in uvs):  # groups of faces with uvs and without: (0, 0) where none is given
+        uvs = [np.zeros((len(p["vertices"]), 2)) if uv is None else uv for p, uv in zip(parts, uvs)]
     offsets = np.cumsum([0] + [len(p["vertices"]) for p in parts])
     return (np.concatenate([p["vertices"] for p in parts]),
             np.concatenate([fan(np.asarray(p["faces"])) + o for p, o in zip(parts, offsets)]),
             None if any(n is None for n in normals) else np.concatenate(normals),
             None if any(uv is None for uv in uvs) else np.concatenate(uvs))
+
+
+def _plain_lines(text):
+    """The OBJ text as trimesh's reader takes it: tabs as spaces, no indentation, no comment after a
+    statement (`f 1 2 3 # face 0`); all legal OBJ, which it would misread or skip."""
+    text = text.replace("\t", " ")
+    text = re.sub(r"^ +", "", text, flags=re.M)
+    return re.sub(r"(?<=\S) +#[^\n]*", "", text)
 
 
 def _uv_pairs(uv):
@@ -145,3 +154,17 @@ def _check_obj_indices(path, text):
     if relative and max(text.rfind(f"\n{k} ") for k in ("v", "vt", "vn")) > relative.start():
         raise InputError(path, "f", relative.group(0).strip(),
                          "relative (negative) indices are supported only when all vertices come first")
+    _check_obj_references(path, text)
+
+
+def _check_obj_references(path, text):
+    """Texture coordinate and normal indices within the file's vt and vn lines (trimesh drops the uvs or
+    normals of a face that names one beyond them, silently); vertex indices are checked on the mesh."""
+    counts = {key: len(re.findall(rf"^{key}[ \t]", text, re.M)) for key in ("vt", "vn")}
+    for line in re.finditer(r"^f[ \t][^\n]*", text, re.M):
+        for corner in line.group(0).split()[1:]:
+            parts = corner.split("/")
+            for key, index in zip(("vt", "vn"), parts[1:3]):
+                if index and index.lstrip("-").isdigit() and abs(int(index)) > counts[key]:
+                    raise InputError(path, key, line.group(0).strip(), f"a face refers to {key} {index}, and the "
+                                     f"file has {counts[key]}")

@@ -27,7 +27,8 @@ def read_ply(path, data):
     from trimesh.exchange.ply import load_ply
     try:
         with quiet():
-            read = load_ply(io.BytesIO(data), fix_texture=False, skip_materials=True)
+            read = load_ply(io.BytesIO(_canonical_header(endian, elements) + body), fix_texture=False,
+                            skip_materials=True)
     except Exception as e:  # trimesh raises whatever its parsing hits on malformed data
         if endian:  # e.g. faces of mixed sizes, which trimesh's binary reader cannot take: ours can
             return _read_binary_ply(path, endian, elements, body)
@@ -54,7 +55,8 @@ def _ply_header(path, data):
     """(byte order, "" for ascii; [(element, count, [property words])]; the body) of a PLY file whose header
     is complete and well formed: the PLY magic, an end_header line, a known format, elements with counts,
     properties of known types, a vertex element with x, y and z and a face element with index lists."""
-    if not re.match(rb"ply\r?\n", data):
+    data = data[3:] if data.startswith(b"\xef\xbb\xbf") else data  # a UTF-8 byte-order mark
+    if not re.match(rb"ply[ \t]*\r?\n", data):
         raise InputError(path, "file", None, "is not a PLY file: it does not start with the line 'ply'")
     end = re.search(rb"^end_header[ \t]*(?:\r?\n|\Z)", data, re.M)
     if end is None:
@@ -64,15 +66,23 @@ def _ply_header(path, data):
     except UnicodeDecodeError as e:
         raise InputError(path, "file", None, f"its PLY header is not text (byte {e.start})") from None
     form = lines[0].split() if lines else []
-    if len(form) != 3 or form[0] != "format" or form[1] not in PLY_FORMATS or form[2] != "1.0":
+    if len(form) != 3 or form[0] != "format" or form[1] not in PLY_FORMATS or form[2] not in ("1", "1.0"):
         raise InputError(path, "line 2", (lines or [""])[0][:80], "must be 'format ascii 1.0', 'format "
                          "binary_little_endian 1.0' or 'format binary_big_endian 1.0'")
-    elements = []
+    elements, taken_as_comments = [], []
     for n, line in enumerate(lines[1:], 3):
         problem = _ply_header_line(line.split(), elements)
         if problem:
             raise InputError(path, f"line {n}", line[:80], problem)
-    _check_ply_elements(path, elements)
+        if line.split()[:1] not in ([], ["comment"], ["obj_info"], ["element"], ["property"]):
+            taken_as_comments.append(f"line {n} {line[:80]!r}")
+    try:
+        _check_ply_elements(path, elements)
+    except InputError as e:  # a misspelt keyword is read as a comment: say so beside what it left missing
+        if taken_as_comments:
+            raise InputError(e.source, e.key, e.value, f"{e.problem} ({taken_as_comments[0]} was taken as a "
+                             "comment)") from None
+        raise
     return PLY_FORMATS[form[1]], elements, data[end.end():]
 
 
@@ -96,8 +106,9 @@ def _ply_header_line(words, elements):
         if words[-1] in (p[-1] for p in elements[-1][2]):
             return f"property {words[-1]} is declared twice in element {elements[-1][0]}"
         elements[-1][2].append(words[1:])
-    else:
-        return "is not a PLY header line (format, element, property, comment, obj_info, end_header)"
+    elif words[:1] == ["format"]:
+        return "a second format line"
+    # any other line is taken as a comment: Blender 2.4x wrote "Created by Blender3D ..." without the keyword
     return None
 
 
@@ -108,14 +119,23 @@ def _check_ply_elements(path, elements):
     if empty:
         raise InputError(path, empty, None, "the header declares no property for this element")
     scalars = {p[1] for p in table.get("vertex", []) if len(p) == 2}
-    if not {"x", "y", "z"} <= scalars or len(scalars) < len(table["vertex"]):
-        raise InputError(path, "vertex", None, "the header declares no vertex element with x, y and z properties "
-                         "(and no lists)")
+    if not {"x", "y", "z"} <= scalars:
+        raise InputError(path, "vertex", None, "the header declares no vertex element with x, y and z properties")
     counts = {name: count for name, count, _ in elements}
     if not counts.get("face"):
         raise InputError(path, "face", None, "the file has no faces")
     if not any(p[0] == "list" and p[3] in PLY_INDEX_NAMES for p in table["face"]):
         raise InputError(path, "face", None, "the face element has no vertex_indices list")
+
+
+def _canonical_header(endian, elements):
+    """The header as trimesh's reader expects it, from what _ply_header read: no byte-order mark, 'ply' and
+    'format ... 1.0' exactly, no comments."""
+    form = next(name for name, order in PLY_FORMATS.items() if order == endian)
+    lines = ["ply", f"format {form} 1.0"]
+    for name, count, properties in elements:
+        lines += [f"element {name} {count}"] + [f"property {' '.join(p)}" for p in properties]
+    return ("\n".join(lines + ["end_header"]) + "\n").encode()
 
 
 def _check_ply_size(path, endian, elements, body):
@@ -141,7 +161,7 @@ def _read_binary_ply(path, endian, elements, body):
     quad meshes with a few triangles (or n-gons) do not. Vertices read by numpy, faces record by record
     (slow in Python on large meshes: measured in commit cd6cb18), then fanned by size."""
     tables = _ply_elements(path, endian, elements, body)
-    vertex, polygons = tables["vertex"], tables["face"]
+    vertex, polygons = tables["vertex"], tables["face"][1]
     columns = vertex.dtype.names
     normals = np.stack([vertex[k] for k in ("nx", "ny", "nz")], 1) if {"nx", "ny", "nz"} <= set(columns) else None
     uv = next(((u, v) for u, v in PLY_UV_NAMES if u in columns and v in columns), None)
@@ -152,12 +172,14 @@ def _read_binary_ply(path, endian, elements, body):
 
 
 def _ply_elements(path, endian, elements, body):
-    """{element name: structured array, or for elements with list properties, their index lists}."""
+    """{element name: structured array of its scalar properties, or for elements with list properties, (that
+    array, their vertex index lists)}; the vertex element is always the array."""
     offset, tables = 0, {}
     try:
         for name, count, properties in elements:
             if any(p[0] == "list" for p in properties):
-                tables[name], offset = _ply_lists(body, offset, count, properties, endian)
+                scalars, lists, offset = _ply_lists(body, offset, count, properties, endian)
+                tables[name] = scalars if name == "vertex" else (scalars, lists)
             else:
                 dtype = np.dtype([(p[1], endian + PLY_TYPES[p[0]]) for p in properties])
                 tables[name] = np.frombuffer(body, dtype, count, offset)
@@ -169,9 +191,12 @@ def _ply_elements(path, endian, elements, body):
 
 
 def _ply_lists(body, offset, count, properties, endian):
-    """The vertex index lists of `count` records that have list properties, and the offset after them."""
-    polygons = []
+    """Of `count` records that have list properties: (a structured array of their scalar properties, their
+    vertex index lists, the offset after them). Record by record: each list's length is in its record."""
+    polygons, rows = [], []
+    scalar_properties = [p for p in properties if p[0] != "list"]
     for _ in range(count):
+        row = []
         for p in properties:
             if p[0] == "list":
                 n = struct.unpack_from(endian + PLY_TYPES[p[1]], body, offset)[0]
@@ -181,5 +206,8 @@ def _ply_lists(body, offset, count, properties, endian):
                 if p[3] in PLY_INDEX_NAMES:
                     polygons.append(values)
             else:
+                row.append(struct.unpack_from(endian + PLY_TYPES[p[0]], body, offset)[0])
                 offset += struct.calcsize(endian + PLY_TYPES[p[0]])
-    return polygons, offset
+        rows.append(tuple(row))
+    dtype = np.dtype([(p[1], PLY_TYPES[p[0]]) for p in scalar_properties])
+    return np.array(rows, dtype), polygons, offset
