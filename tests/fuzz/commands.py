@@ -18,7 +18,13 @@ HOSTILE_WORDS = ("", " ", "grid", "center", "sobol", "halton", "random", "rotate
                  "0:1", "1:0", "0:0:0", "0:0:", ":", "0:", ":0", "-1:0", "00:00", "٠:٠", "99999999999999999999:0",
                  "pthread", "Portable", "accelerator", "custom", "all")
 NUMERIC_OPTIONS = ("--width", "--height", "--spp", "--light-samples", "--seed", "--time-limit", "--target-error")
-TEXT_OPTIONS = ("--sampler", "--light-sampler", "--texture-filter", "--device")
+TEXT_OPTIONS = ("--sampler", "--light-sampler", "--texture-filter", "--device", "--scheduler")
+# Scheduler addresses that must each be one line, and none of which starts a cluster (that takes seconds):
+# bad forms, TLS, ports nothing listens on (the probe's refusal; servers that misbehave are
+# tests/test_hostile_round2.py's).
+HOSTILE_SCHEDULERS = ("", " ", "local:0", "local:257", "local:", "local:x", "local:-1", "local:１", "tls://127.0.0.1:1",
+                      "tcp://127.0.0.1:1", "tcp://127.0.0.1:", "tcp://:1", "tcp://[::1]:1", "udp://x:1", "tcp://a b:1",
+                      "inproc://x", "local:99999999999999999999")
 VALID_OPTION_VALUES = {
     "--width": st.integers(1, 16).map(str), "--height": st.integers(1, 16).map(str),
     "--spp": st.sampled_from(["1", "4", "9"]), "--light-samples": st.sampled_from(["1", "4"]),
@@ -27,6 +33,7 @@ VALID_OPTION_VALUES = {
     "--seed": st.integers(0, 2**32 - 1).map(str), "--time-limit": st.sampled_from(["0.001", "1", "60", "1e9"]),
     "--target-error": st.sampled_from(["1e-9", "0.01", "1", "1e30"]),
     "--device": st.sampled_from(["cpu", "CPU", "0:0", "Portable", "pthread"]),
+    "--scheduler": st.sampled_from(["tcp://127.0.0.1:1"]),  # no valid address without a cluster: refused too
 }
 OUTPUT_EXTENSIONS = (".png", ".exr", ".jpg", ".jpeg", ".bmp", ".tga", ".tif", ".tiff", ".hdr", ".PNG", ".Exr",
                      ".gif", ".webp", ".ppm", ".toml", "", ".", ".png.", ".exr.tmp")
@@ -43,8 +50,11 @@ def device_specs():
 
 def hostile_option_values(option):
     text = st.text(st.characters(blacklist_categories=["Cs"], blacklist_characters="\x00"), max_size=8)
-    words = HOSTILE_NUMBERS if option in NUMERIC_OPTIONS else HOSTILE_WORDS
+    words = HOSTILE_NUMBERS if option in NUMERIC_OPTIONS else HOSTILE_SCHEDULERS if option == "--scheduler" \
+        else HOSTILE_WORDS
     shaped = device_specs() if option == "--device" else st.sampled_from(words)
+    if option == "--scheduler":  # random text could name a reachable cluster or start a local one
+        return st.one_of(st.sampled_from(words), st.sampled_from(HOSTILE_WORDS))
     return st.one_of(st.sampled_from(words), shaped, st.sampled_from(HOSTILE_NUMBERS + HOSTILE_WORDS), text,
                      st.integers().map(str), st.floats().map(repr))
 

@@ -178,14 +178,39 @@ def ply_bytes(vertices, faces, binary=True, normals=None):
     return ("\n".join(header) + "\n").encode() + data
 
 
+# Ways real programs write the same mesh (issue 43's dialects; tests/meshes/ holds one file of each): each a
+# function of the file's text or bytes, applied to a valid file, which must still render.
+OBJ_DIALECTS = {
+    "crlf": lambda t: t.replace("\n", "\r\n"),
+    "indented": lambda t: "".join(("\t" if k % 2 else "  ") + line for k, line in enumerate(t.splitlines(True))),
+    "tabs": lambda t: t.replace(" ", "\t"),
+    "trailing comments": lambda t: t.replace("\nf ", "\nf ").replace("\n", " # note\n").replace("\n # note", "\n"),
+    "header": lambda t: "# exported\nmtllib scene.mtl\no mesh\ng part\nusemtl gold\ns 1\n" + t,
+}
+PLY_DIALECTS = {
+    "byte-order mark": lambda b: b"\xef\xbb\xbf" + b,
+    "ply with a space": lambda b: b.replace(b"ply\n", b"ply \n", 1),
+    "format 1": lambda b: b.replace(b" 1.0\n", b" 1\n", 1),
+    "keywordless comment": lambda b: b.replace(b" 1.0\n", b" 1.0\nCreated by Blender3D 247\nobj_info scan\n", 1),
+    "crlf header": lambda b: b[:b.index(b"end_header")].replace(b"\n", b"\r\n") + b[b.index(b"end_header"):],
+}
+
+
 @st.composite
 def valid_mesh_files(draw, name):
+    """A valid mesh file, perhaps in one or two of the dialects real programs write."""
     if draw(st.booleans()):
-        return TextFile(name + ".obj", draw(valid_obj_texts()))
+        text = draw(valid_obj_texts())
+        for dialect in draw(st.lists(st.sampled_from(sorted(OBJ_DIALECTS)), max_size=2, unique=True)):
+            text = OBJ_DIALECTS[dialect](text)
+        return TextFile(name + ".obj", text)
     jitter = draw(vectors(12, -0.05, 0.05))
     vertices = [[c + jitter[3 * i + k] for k, c in enumerate(v)] for i, v in enumerate(TETRAHEDRON)]
     normals = [[0.0, 0.0, 1.0]] * 4 if draw(st.booleans()) else None
-    return BytesFile(name + ".ply", ply_bytes(vertices, TETRAHEDRON_FACES, draw(st.booleans()), normals))
+    data = ply_bytes(vertices, TETRAHEDRON_FACES, draw(st.booleans()), normals)
+    for dialect in draw(st.lists(st.sampled_from(sorted(PLY_DIALECTS)), max_size=2, unique=True)):
+        data = PLY_DIALECTS[dialect](data)
+    return BytesFile(name + ".ply", data)
 
 
 # --- hostile texture and mesh files --------------------------------------------------------------------
