@@ -125,7 +125,8 @@ def test_missing_dask_is_one_line(monkeypatch, scene0):
 
 
 @pytest.mark.parametrize("address, problem", [
-    ("local:0", "local:N needs 1 <= N <= 256 workers"),
+    ("local:0", f"local:N needs 1 <= N <= {os.cpu_count()} workers, the cores this machine has"),
+    ("local:257", "local:N needs 1 <= N <= "),
     ("udp://x:1", "must be local:N or tcp://host:port"),
     ("tcp://127.0.0.1:9", "cannot reach the scheduler"),
 ])

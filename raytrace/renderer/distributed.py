@@ -122,8 +122,10 @@ def _connect(address):
     local = re.fullmatch(r"local:([0-9]+)", address)
     if local:
         n = int(local.group(1))
-        if not 1 <= n <= 256:
-            raise InputError(API, "scheduler", address, "local:N needs 1 <= N <= 256 workers")
+        cores = os.cpu_count() or 1
+        if not 1 <= n <= cores:  # more worker processes than cores only share the cores, at a cost each
+            raise InputError(API, "scheduler", address, f"local:N needs 1 <= N <= {cores} workers, the cores "
+                             "this machine has")
         unguarded = _unguarded_script_line()
         if unguarded:
             raise InputError(API, "scheduler", address, f"starts worker processes that run {unguarded[0]} again from "
