@@ -300,3 +300,25 @@ def test_4_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
             child.wait()
     assert (child.returncode, stderr) == (130, "raytrace: interrupted by SIGINT; nothing written\n"), stderr[-2000:]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_binary_ply_face_claiming_more_indices_than_it_holds_is_refused(tmp_path):
+    """Also seen in the round: a binary PLY face claiming 255 indices but holding 3 was read silently (trimesh's
+    binary reader takes every face to have the first face's count). Decided: the faces are read record by
+    record when their counts differ, and bytes left after the last element, beyond a closing newline, mean a
+    count that does not match its data: refused, naming the file."""
+    import struct
+    from raytrace.scene.mesh_file import load_mesh
+    header = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+              b"property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n")
+    vertices = b"".join(struct.pack("<fff", *p) for p in [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])
+    faces = struct.pack("<B3i", 3, 0, 1, 2) + struct.pack("<B3i", 255, 0, 2, 3)
+    path = tmp_path / "claims.ply"
+    path.write_bytes(header + vertices + faces + bytes(2000))
+    with pytest.raises(InputError) as error:
+        load_mesh(path)
+    assert (error.value.source, error.value.key) == (str(path), "file") and "bytes after its last element" in \
+        error.value.problem
+    faces = struct.pack("<B3i", 3, 0, 1, 2) + struct.pack("<B3i", 3, 0, 2, 3)
+    path.write_bytes(header + vertices + faces + b"\n")  # a writer's closing newline: read
+    assert load_mesh(path)[0].faces.tolist() == [[0, 1, 2], [0, 2, 3]]

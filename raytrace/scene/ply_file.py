@@ -35,11 +35,48 @@ def read_ply(path, data):
         if isinstance(e, IndexError):  # trimesh gathers per-vertex uvs by the face indices
             raise InputError(path, "face", None, "a face refers to a vertex that does not exist") from None
         raise InputError(path, "file", None, f"cannot be read as PLY ({why(e)})") from None
+    if endian and not _uniform_face_lists(endian, elements, body):  # trimesh took every face as the first's
+        return _read_binary_ply(path, endian, elements, body)
     faces = read.get("faces")
     if faces is None or not len(faces):
         raise InputError(path, "face", None, "the file has no faces")
     return read["vertices"], fan(np.asarray(faces)), read.get("vertex_normals"), \
         getattr(read.get("visual"), "uv", None)
+
+
+def _uniform_face_lists(endian, elements, body):
+    """Whether every record of a binary file's face element holds as many indices as the first: trimesh's
+    binary reader reads the first record's count and takes every face to have it, so a later face claiming
+    another (255 indices where 3 follow) would be read from the wrong bytes without a word. Elements before
+    the faces with lists of their own: False (not checked here; the record-by-record reader reads them)."""
+    offset = 0
+    for name, count, properties in elements:
+        if name == "face":
+            break
+        if any(p[0] == "list" for p in properties):
+            return False
+        offset += count * sum(struct.calcsize(PLY_TYPES[p[0]]) for p in properties)
+    else:
+        return True
+    if not count:
+        return True
+    first, fields = None, []
+    position = offset
+    for p in properties:
+        if p[0] == "list":
+            n = struct.unpack_from(endian + PLY_TYPES[p[1]], body, position)[0]
+            first = n if p[3] in PLY_INDEX_NAMES else first
+            fields += [(f"n{len(fields)}", endian + PLY_TYPES[p[1]]),
+                       (f"v{len(fields)}", endian + PLY_TYPES[p[2]], (n,))]
+            position += struct.calcsize(endian + PLY_TYPES[p[1]]) + n * struct.calcsize(endian + PLY_TYPES[p[2]])
+        else:
+            fields.append((f"s{len(fields)}", endian + PLY_TYPES[p[0]]))
+            position += struct.calcsize(endian + PLY_TYPES[p[0]])
+    record = np.dtype([(f[0], *f[1:]) for f in fields])
+    if offset + count * record.itemsize > len(body):
+        return False
+    records = np.frombuffer(body, record, count, offset)
+    return all((records[f[0]] == records[f[0]][0]).all() for f in fields if f[0].startswith("n"))
 
 
 # PLY scalar types as struct codes, which numpy reads too (np.dtype("<i") is int32).
@@ -187,6 +224,9 @@ def _ply_elements(path, endian, elements, body):
     except (struct.error, ValueError):  # a list longer than the bytes left, a table beyond the end
         raise InputError(path, "file", None, f"is truncated: element {name} ends beyond the end of the file "
                          f"({len(body)} bytes after the header)") from None
+    if body[offset:].strip(b" \t\r\n"):  # a writer's closing newline is no data; other bytes are
+        raise InputError(path, "file", None, f"holds {len(body) - offset} bytes after its last element: a list's "
+                         "count does not match the indices it holds, or the header's counts are short")
     return tables
 
 
