@@ -322,3 +322,30 @@ def test_a_binary_ply_face_claiming_more_indices_than_it_holds_is_refused(tmp_pa
     faces = struct.pack("<B3i", 3, 0, 1, 2) + struct.pack("<B3i", 3, 0, 2, 3)
     path.write_bytes(header + vertices + faces + b"\n")  # a writer's closing newline: read
     assert load_mesh(path)[0].faces.tolist() == [[0, 1, 2], [0, 2, 3]]
+
+
+SIGNAL_DURING_BUILD = """
+import os, signal, sys, threading
+import pyopencl as cl
+build = cl.Program.build
+def signalled_build(self, *args, **kwargs):  # SIGINT to this process SIGNAL_AFTER seconds into the build
+    threading.Timer(float(os.environ["SIGNAL_AFTER"]), os.kill, (os.getpid(), signal.SIGINT)).start()
+    return build(self, *args, **kwargs)
+cl.Program.build = signalled_build
+from raytrace.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("after", [0.005, 0.01, 0.015, 0.02, 0.03])
+def test_5_ctrl_c_during_the_kernels_first_build_is_one_line(tmp_path, after):
+    """Found with item 5: a signal early in PoCL's build of the kernel (an empty kernel cache) made its clang
+    print "1 error generated." before the command's line (here reproduced 10-20 ms into the build, which
+    the child times itself: the command line's own main, a timer started as the build starts)."""
+    import subprocess
+    from helpers import child_env
+    env = child_env(POCL_CACHE_DIR=str(tmp_path / "cache"), SIGNAL_AFTER=str(after))
+    r = subprocess.run([sys.executable, "-c", SIGNAL_DURING_BUILD, "render", str(CORNELL), "-o", str(tmp_path / "x.png"),
+                        *map(str, TINY)], capture_output=True, text=True, env=env, timeout=120)
+    assert (r.returncode, r.stderr) == (130, "raytrace: interrupted by SIGINT; nothing written\n"), r.stderr
+    assert not (tmp_path / "x.png").exists()

@@ -1,5 +1,7 @@
 """Finding, specialising and building the OpenCL program."""
+import contextlib
 import os
+import tempfile
 import time
 import warnings
 from dataclasses import dataclass
@@ -61,6 +63,41 @@ class Features:
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 
 
+@contextlib.contextmanager
+def _compiler_stderr_held():
+    """What the OpenCL compiler writes to this process's stderr itself (PoCL's clang prints its diagnostics
+    there), held during a build and written out after it, unless a signal cut the build short: a clang
+    interrupted mid-read reports an error of its own ("1 error generated.") before the command's one line.
+    A signal that arrived during the build is handled (time.sleep(0) lets Python run its handler, which
+    raises) before anything held is written."""
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield
+        return
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+
+        def restore(replay):
+            os.dup2(saved, 2)
+            os.close(saved)
+            if replay:
+                time.sleep(0)  # a signal that came during the build raises here, and nothing is written
+                held.seek(0)
+                text = held.read()
+                if text:
+                    os.write(2, text)
+        try:
+            yield
+        except Exception:
+            restore(replay=True)
+            raise
+        except BaseException:  # a signal (outputs.Interrupted, KeyboardInterrupt): the compiler's complaint
+            restore(replay=False)  # about being cut short is not the user's business
+            raise
+        restore(replay=True)
+
+
 def build(context, source, options=(), kernels=""):
     """Build `source` with kernels/ (or the directory `kernels`) on the include path, keeping each kernel's
     argument names and types for the host to bind by (interface.py); returns (program, seconds)."""
@@ -71,7 +108,8 @@ def build(context, source, options=(), kernels=""):
             # NVIDIA's compiler logs even a clean build; pyopencl makes any log a warning on stderr, which would
             # break the one-line contract of every command. The log stays pyopencl's to show on request.
             warnings.simplefilter("ignore", cl.CompilerWarning)
-        program = cl.Program(context, source).build(options=[*options, "-cl-kernel-arg-info", "-I", include])
+        with _compiler_stderr_held():
+            program = cl.Program(context, source).build(options=[*options, "-cl-kernel-arg-info", "-I", include])
     return program, time.perf_counter() - start
 
 
