@@ -51,9 +51,9 @@ def read_obj(path, data):
 
 
 def _plain_lines(text):
-    """The OBJ text as trimesh's reader takes it: tabs as spaces, no indentation, no comment after a
-    statement (`f 1 2 3 # face 0`); all legal OBJ, which it would misread or skip."""
-    text = text.replace("\t", " ")
+    """The OBJ text as trimesh's reader takes it: LF line ends, tabs as spaces, no indentation, no comment
+    after a statement (`f 1 2 3 # face 0`); all legal OBJ, which it would misread or skip."""
+    text = text.replace("\r\n", "\n").replace("\t", " ")
     text = re.sub(r"^ +", "", text, flags=re.M)
     return re.sub(r"(?<=\S) +#[^\n]*", "", text)
 

@@ -4,6 +4,7 @@ valid scenes, and hostile ones: damaged, truncated or odd images, lying OBJ and 
 import dataclasses
 import math
 import os
+import re
 import struct
 import tempfile
 from pathlib import Path
@@ -184,14 +185,15 @@ OBJ_DIALECTS = {
     "crlf": lambda t: t.replace("\n", "\r\n"),
     "indented": lambda t: "".join(("\t" if k % 2 else "  ") + line for k, line in enumerate(t.splitlines(True))),
     "tabs": lambda t: t.replace(" ", "\t"),
-    "trailing comments": lambda t: t.replace("\nf ", "\nf ").replace("\n", " # note\n").replace("\n # note", "\n"),
+    "trailing comments": lambda t: re.sub(r"(?<=\S)(\r?\n)", r" # note\1", t),
     "header": lambda t: "# exported\nmtllib scene.mtl\no mesh\ng part\nusemtl gold\ns 1\n" + t,
 }
 PLY_DIALECTS = {
     "byte-order mark": lambda b: b"\xef\xbb\xbf" + b,
     "ply with a space": lambda b: b.replace(b"ply\n", b"ply \n", 1),
-    "format 1": lambda b: b.replace(b" 1.0\n", b" 1\n", 1),
-    "keywordless comment": lambda b: b.replace(b" 1.0\n", b" 1.0\nCreated by Blender3D 247\nobj_info scan\n", 1),
+    "format 1": lambda b: re.sub(rb"(format \w+) 1\.0", rb"\1 1", b, count=1),
+    "keywordless comment": lambda b: re.sub(rb"(format [^\r\n]*\r?\n)", rb"\1Created by Blender3D 247\nobj_info scan\n",
+                                            b, count=1),
     "crlf header": lambda b: b[:b.index(b"end_header")].replace(b"\n", b"\r\n") + b[b.index(b"end_header"):],
 }
 
