@@ -1,2 +1,3 @@
 """Developer scripts, run from a checkout and never installed: `python -m devtools.same_images` (a change that
-must not change any image, checked bit for bit) and `python -m devtools.figures` (the manual's figures)."""
+must not change any image, checked bit for bit) and `python -m devtools.figures` (the manual's figures); fuzz/, the
+fuzz suite's generators and contract (tests/test_fuzz.py runs them; Hypothesis is in the test extra)."""

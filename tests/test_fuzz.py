@@ -47,7 +47,7 @@ Running it:
 
 A failing example is printed with its scene file's text, its other files and its command line.
 
-The parts are in tests/fuzz/ (like the stability suite, a tool that verifies the renderer): toml_writer.py,
+The parts are in devtools/fuzz/ (like the stability suite, a tool that verifies the renderer): toml_writer.py,
 scenes.py, files.py, commands.py and contract.py (the budget, the command line run in this process and the
 contract checked); here, the tests and the inputs of the failures the suite has found, kept as @example.
 """
@@ -65,13 +65,13 @@ from hypothesis import strategies as st
 
 from raytrace import cli
 from raytrace.commands import child_env
-from fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, outside, \
+from devtools.fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, outside, \
     run_cli, write_example
-from fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, command_lines, environments, parsed_int
-from fuzz.files import TextFile
-from fuzz.scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
+from devtools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, command_lines, environments, parsed_int
+from devtools.fuzz.files import TextFile
+from devtools.fuzz.scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
     scenes_with_hostile_files, texture_filters, valid_scenes
-from fuzz.toml_writer import same_tables, to_toml
+from devtools.fuzz.toml_writer import same_tables, to_toml
 
 
 # --- the failures the suite has found, kept as explicit examples -------------------------------------
