@@ -19,7 +19,8 @@ import sys
 
 
 def _interrupted_while_loading(signum, frame):
-    os.write(2, f"raytrace: interrupted by {signal.Signals(signum).name}; nothing written\n".encode())
+    from .outputs import interrupted_line  # the standard library and errors.py only: nothing slow
+    os.write(2, (interrupted_line(signum) + "\n").encode())
     os._exit(128 + signum)
 
 

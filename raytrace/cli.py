@@ -16,10 +16,10 @@ from pathlib import Path
 
 from . import samplers
 from .errors import InputError
-from .outputs import Interrupted, Outputs, committed, handle_signals, scene_inputs, write_json
+from .outputs import Interrupted, Outputs, committed, handle_signals, interrupted_line, scene_inputs, write_json
 from .image import metadata
 from .image_file import FORMATS, write_image_file
-from .options import API, command_line_name, declared
+from .options import API, command_line_name, declared, option_type
 from .commands.converge_peer import PEER_SAMPLERS
 
 EXIT_BAD_INPUT = 2
@@ -45,14 +45,10 @@ def _add_render_options(p, scene_help=None):
     _add_scheduler(p)
 
 
-_TYPES = {"width": int, "height": int, "spp": int, "light_samples": int, "seed": int, "time_limit": float,
-          "target_error": float}  # the others are strings
-
-
 def _add_option(p, name, default, doc, choices=None, metavar=None):
-    """render()'s option `name` (raytrace/options.py) as --name on the command line."""
+    """render()'s option `name` (raytrace/options.py) as --name on the command line, of its declared type."""
     parser_checks = choices if name in ("texture_filter", "shading") else None  # render() checks the patterns
-    p.add_argument(command_line_name(name), dest=name, type=_TYPES.get(name, str), default=default,
+    p.add_argument(command_line_name(name), dest=name, type=option_type(name), default=default,
                    choices=list(parser_checks) if parser_checks else None, metavar=metavar,
                    help=doc + (f": {', '.join(choices)}" if choices and not parser_checks else "")
                    + (f" (default: {default})" if default is not None else ""))
@@ -293,7 +289,6 @@ def main(argv=None):
             return EXIT_BAD_INPUT
         except (Interrupted, KeyboardInterrupt) as e:
             signum = getattr(e, "signum", signal.SIGINT)
-            done = "its outputs were written" if committed() else "nothing written"
             with contextlib.suppress(OSError):  # after SIGHUP, the terminal may be gone
-                print(f"raytrace: interrupted by {signal.Signals(signum).name}; {done}", file=sys.stderr)
+                print(interrupted_line(signum, committed()), file=sys.stderr)
             return 128 + signum

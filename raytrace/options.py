@@ -6,6 +6,7 @@ lists both from the same source.
 Errors about an option's value name it as the caller wrote it: `render(): spp = 15: ...` from Python, and
 `command line: --spp = 15: ...` once cli.py has translated the name (command_line_name).
 """
+import typing
 from dataclasses import MISSING, dataclass, field, fields
 
 from . import samplers, structs
@@ -58,6 +59,13 @@ def declared():
     """(name, default, doc, cli, choices, metavar) of every option, in the order of the declaration."""
     return [(f.name, None if f.default is MISSING else f.default, f.metadata["doc"], f.metadata["cli"],
              f.metadata["choices"], f.metadata["metavar"]) for f in fields(RenderOptions)]
+
+
+def option_type(name):
+    """The type an option's value has when given (int for `int | None`): what the command line parses to."""
+    declared_type = next(f.type for f in fields(RenderOptions) if f.name == name)
+    given = [t for t in typing.get_args(declared_type) if t is not type(None)] or [declared_type]
+    return given[0]
 
 
 def command_line_name(name):

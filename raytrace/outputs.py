@@ -30,6 +30,12 @@ PREFIX = ".raytrace-"
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
+def interrupted_line(signum, written=False):
+    """The command line's one line for a signal that ended it."""
+    done = "its outputs were written" if written else "nothing written"
+    return f"raytrace: interrupted by {signal.Signals(signum).name}; {done}"
+
+
 class Interrupted(BaseException):
     """A signal, raised as an exception in the main thread (a BaseException: no `except Exception` stops it)."""
 

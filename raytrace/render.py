@@ -244,10 +244,7 @@ def render_progressive(scene, **kwargs):
     """Render `scene` in passes until its spp, time limit or target error; returns (H x W x 3 float32
     linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats). The
     keyword arguments are render()'s (raytrace/options.py); the command line calls this."""
-    unknown = sorted(set(kwargs) - {f.name for f in dataclasses.fields(RenderOptions)})
-    if unknown:
-        raise TypeError(f"render() got an unexpected keyword argument {unknown[0]!r}")
-    options = RenderOptions(**kwargs)
+    options = RenderOptions(**kwargs)  # a TypeError for an unknown keyword
     ensure_checked(scene, API)
     if options.shading is not None:
         _option(options.shading, API, "shading", lambda v: v in SHADINGS, f"must be one of: {', '.join(SHADINGS)}")

@@ -2,12 +2,20 @@
 the command line in a child process where the user used one. The promise: bad input ends in one line naming
 the file or option, the key and the value, exit status 2, and nothing left behind."""
 import os
+import signal
+import socket
+import struct
+import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
+import numpy as np
+import OpenImageIO as oiio
 import pytest
 
-from helpers import CORNELL, ROOT, run
+from helpers import CORNELL, ROOT, child_env, run
 from raytrace.errors import InputError
 from raytrace.scene import load_file
 
@@ -101,8 +109,6 @@ class _Server:
     after a request that never comes: silent too)."""
 
     def __init__(self, behaviour):
-        import socket
-        import threading
         self.socket = socket.socket()
         self.socket.bind(("127.0.0.1", 0))
         self.socket.listen()
@@ -131,7 +137,6 @@ def test_6_8_a_scheduler_address_that_does_not_answer_as_dask_is_one_line_in_tim
     """Found: a port that accepts and never answers hung past 400 s, though the message promises 10 s; one
     that answers junk ended in 'out of memory: try a smaller --width/--height'. Here with the promise made
     1 s (the same code path as its 10 s)."""
-    import time
     from raytrace.renderer import distributed
     monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
     server = _Server(behaviour)
@@ -190,8 +195,7 @@ def test_a_gamma_encoded_reference_is_refused(tmp_path):
     """Decided (issue 43, also seen): a PNG given as converge --reference was compared as if its 8-bit codes
     were linear radiance. Only linear float files (EXR, HDR) are references."""
     png = tmp_path / "ref.png"
-    oiio_buf = __import__("OpenImageIO").ImageBuf(__import__("numpy").zeros((8, 8, 3), "float32"))
-    assert oiio_buf.write(str(png))
+    assert oiio.ImageBuf(np.zeros((8, 8, 3), "float32")).write(str(png))
     r = run("converge", CORNELL, "--samplers", "random", "--max-spp", 1, "--width", 8, "--height", 8,
             "--reference", png, "--out", tmp_path / "out")
     one_line(r, f"raytrace: error: command line: --reference = '{png}': must be a linear float image")
@@ -201,7 +205,6 @@ def test_12_bench_scaling_on_a_full_disk_leaves_nothing(tmp_path):
     """Found: on a full disk, `bench --scaling DIR` exited 2 but left scaling.csv, scaling.png and a truncated
     visits.png. A full disk here is a 40 KiB tmpfs (root only: skipped where mount is not permitted; not a file
     size limit, under which PoCL's LLVM aborts): the CSV and scaling.png fit, visits.png does not."""
-    import subprocess
     from test_outputs import mount
     disk = tmp_path / "full"
     disk.mkdir()
@@ -262,11 +265,6 @@ def test_5_ctrl_c_while_the_modules_load_is_one_line(tmp_path, delay):
     gave a KeyboardInterrupt traceback. Sent at moments within that span (on a faster machine a later one may
     fall into the command itself: the same line). The interpreter's own start, before the package's first
     line runs (tens of milliseconds), is not covered."""
-    import signal
-    import subprocess
-    import sys
-    import time
-    from helpers import child_env
     child = subprocess.Popen([sys.executable, "-m", "raytrace", "render", str(CORNELL), "-o", str(tmp_path / "x.png")],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=child_env())
     time.sleep(delay)
@@ -279,11 +277,6 @@ def test_5_ctrl_c_while_the_modules_load_is_one_line(tmp_path, delay):
 def test_4_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
     """Found: Ctrl-C during a --scheduler local:2 render printed 68 lines, four workers' KeyboardInterrupt
     tracebacks. A terminal's Ctrl-C reaches the whole process group: sent so here, once the cluster is up."""
-    import signal
-    import subprocess
-    import sys
-    import time
-    from helpers import child_env
     argv = [sys.executable, "-m", "raytrace", "render", str(CORNELL), "-o", str(tmp_path / "x.png"), "--width", 1024,
             "--height", 1024, "--spp", 64, "--scheduler", "local:2", "--no-progress"]
     child = subprocess.Popen(list(map(str, argv)), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -307,7 +300,6 @@ def test_a_binary_ply_face_claiming_more_indices_than_it_holds_is_refused(tmp_pa
     binary reader takes every face to have the first face's count). Decided: the faces are read record by
     record when their counts differ, and bytes left after the last element, beyond a closing newline, mean a
     count that does not match its data: refused, naming the file."""
-    import struct
     from raytrace.scene.mesh_file import load_mesh
     header = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
               b"property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n")
@@ -342,8 +334,6 @@ def test_5_ctrl_c_during_the_kernels_first_build_is_one_line(tmp_path, after):
     """Found with item 5: a signal early in PoCL's build of the kernel (an empty kernel cache) made its clang
     print "1 error generated." before the command's line (here reproduced 10-20 ms into the build, which
     the child times itself: the command line's own main, a timer started as the build starts)."""
-    import subprocess
-    from helpers import child_env
     env = child_env(POCL_CACHE_DIR=str(tmp_path / "cache"), SIGNAL_AFTER=str(after))
     r = subprocess.run([sys.executable, "-c", SIGNAL_DURING_BUILD, "render", str(CORNELL), "-o", str(tmp_path / "x.png"),
                         *map(str, TINY)], capture_output=True, text=True, env=env, timeout=120)
