@@ -48,6 +48,7 @@ BAD_VALUES = [
     ("materials.red.colour", [1, "x", 0], "materials.red.colour", [1, "x", 0]),
     ("materials.red.shininess", -1.0, "materials.red.shininess", -1.0),
     ("materials.red.wrap", "tile", "materials.red.wrap", "tile"),
+    ("materials.red.texture", "a\0b.png", "materials.red.texture", "a\0b.png"),
     ("shapes[3].tangent", [-1, 0, 0], "shapes[3].tangent", [-1, 0, 0]),
     ("lights[0].colour", [1, 1, -1], "lights[0].colour", [1, 1, -1]),
     ("lights[0].colour", [NAN, -1, 1], "lights[0].colour", [NAN, -1, 1]),

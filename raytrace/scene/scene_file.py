@@ -85,6 +85,8 @@ class Reader:
         value, choices = self._given(key), key.choices if choices is None else choices
         if not isinstance(value, str) or (choices and value not in choices):
             self.fail(name, value, f"must be one of: {', '.join(choices)}" if choices else "must be a string")
+        if key.kind == "path" and "\0" in value:  # no file system names a file so
+            self.fail(name, value, "a file path cannot hold a NUL character")
         return value
 
     def boolean(self, name):
