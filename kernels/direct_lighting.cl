@@ -36,10 +36,10 @@ inline float light_scale(__global const Light *light)
 /* Radiance along r from its hit, shaded at sp (albedo k times E / pi); *rays counts the shadow rays traced
  * per lane. */
 inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const uint2 *light_samples,
-                  vuint key, vfloat *rays)
+                  PixelSample *ps, vfloat *rays)
 {
     vint surface = (hit.t < INFINITY) & (hit.material >= 0);
-    vec3 irradiance = lights_sum(s, sp, v3_scale(r.d, -1.0f), surface, light_samples, key, rays);
+    vec3 irradiance = lights_sum(s, sp, v3_scale(r.d, -1.0f), surface, light_samples, ps, rays);
     return v3_select(hit.emitted, v3_mul(sp.k, irradiance), surface);
 }
 

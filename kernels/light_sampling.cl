@@ -21,14 +21,15 @@
  * along -v; *rays counts the shadow rays traced per lane. The models see each sample as w = q - p and its unit
  * direction l, formed once here. */
 inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __global const uint2 *light_samples,
-                       vuint key, vfloat *rays)
+                       PixelSample *ps, vfloat *rays)
 {
     vec3 origin = offset_ray_origin(sp.p, sp.err, sp.ng); /* every sample that counts is on ng's side */
     vec3 total = v3_splat(0.0f, 0.0f, 0.0f);
     int n_samples = s->params->light_samples;
+    const int dimension = ps->dimension; /* light l's pair is dimension + l, whether or not it is drawn */
     for (int li = 0; li < s->params->n_lights && ANY(surface); ++li) {
         __global const Light *light = &s->lights[li];
-        vuint light_key = stream_key(key, (vuint)(li));
+        SampleStream stream = next_stream(ps, s->params->light_sampler, n_samples);
         vec3 light_normal = v3_uniform(light->shape.normal);
         vfloat q_err = light_point_error(light);
         uint skip = rectangles_out_of_reach(s, light, origin, surface);
@@ -39,7 +40,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
             vec3 q[LIGHT_SAMPLE_GROUP], w[LIGHT_SAMPLE_GROUP], l[LIGHT_SAMPLE_GROUP];
             vint lit[LIGHT_SAMPLE_GROUP] = {0}, any_lit = (vint)(0); /* samples past the last count nowhere */
             for (int g = 0; g < LIGHT_SAMPLE_GROUP && j0 + g < n_samples; ++g) {
-                vec2 u = sample_2d(light_samples, (vint)(j0 + g), s->params->light_sampler, light_key);
+                vec2 u = stream_2d(light_samples, s->params->light_sampler, stream, (vint)(j0 + g));
                 q[g] = light_point(light, u);
                 w[g] = v3_sub(q[g], sp.p); /* towards the sample, and its unit direction */
                 l[g] = v3_direction(w[g]);
@@ -64,6 +65,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         }
         total = v3_madd(total, sum * (light_scale(light) / n_samples), v3_uniform(light->colour));
     }
+    ps->dimension = dimension + s->params->n_lights;
     return total;
 }
 

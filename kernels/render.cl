@@ -124,16 +124,17 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
     vec3 first_sum = sum, first_carry = sum;             /* over the samples before sample0 + n_first */
     vfloat rays = 0.0f;
     for (int first = sample0; first < sample0 + n_samples; first += tile.group) {
-        vint s = first + tile.sample;
-        vec2 offset = sample_2d(pixel_samples, s, params->pixel_sampler, key);
+        PixelSample ps = start_pixel_sample(key, first + tile.sample);
+        vec2 offset = stream_2d(pixel_samples, params->pixel_sampler, next_stream(&ps, params->pixel_sampler, 1),
+                                  (vint)(0));
         Ray ray = generate_camera_ray(camera, CONVERT_VFLOAT(x) + offset.x, CONVERT_VFLOAT(y) + offset.y, 1.0f / width,
                                       1.0f / height);
         Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
-        vec3 value = shade(&scene, ray, hit, sp, light_samples, stream_key(key, AS_VUINT(s)), &rays);
+        vec3 value = shade(&scene, ray, hit, sp, light_samples, &ps, &rays);
         kahan_add(&sum, &carry, value);
         if (n_first > 0) /* uniform: the first pass only */
-            kahan_add(&first_sum, &first_carry, v3_select(v3_splat(0.0f, 0.0f, 0.0f), value, s < sample0 + n_first));
+            kahan_add(&first_sum, &first_carry, v3_select(v3_splat(0.0f, 0.0f, 0.0f), value, ps.index < sample0 + n_first));
     }
     rays += (float)(n_samples / tile.group);
 

@@ -1,11 +1,26 @@
-/* Sample points from the host's pattern tables, randomised per pixel and per sample stream.
+/* Sample points: a pixel sample's numbers, drawn dimension pair by dimension pair (pbrt-v4's Sampler), from the
+ * host's pattern tables or from the Owen-scrambled Sobol sequence, randomised per pixel.
  *
  * A table holds a pattern's points in 0.32 fixed point, the same for every pixel. Used as it is, every
  * pixel would see the same pattern and the image would show its structure (aliasing) instead of noise, so
  * random and low-discrepancy patterns are randomised from a key: a hash of the seed, the pixel and the
  * stream (the pixel samples, or the light samples of one pixel sample and one light). Fixed point keeps
  * every randomisation exact: a toroidal shift is an integer addition mod 2^32, Owen scrambling permutes
- * bits, and the float result (v >> 8) 2^-24 lies in [0, 1 - 2^-24], never at 1. */
+ * bits, and the float result (v >> 8) 2^-24 lies in [0, 1 - 2^-24], never at 1.
+ *
+ * Those tables stratify a stream's points among themselves only: the light points of one pixel sample are
+ * spread over the light, but with one light sample per pixel sample each is a fresh random point, and the
+ * error falls like independent random numbers' (N^-1/2). `sobol` instead draws every dimension pair of
+ * every pixel sample from one sequence over the pixel's samples (pbrt-v4's PaddedSobolSampler; Burley,
+ * "Practical Hash-based Owen Scrambling", JCGT 2020, section 4): dimension pair d of pixel sample i is the
+ * 2D Sobol point at index i (light points: i n + j, the n light samples of pixel sample i), Owen-scrambled
+ * under a key of the pixel and d, the index itself first Owen-scrambled under another key for d > 0. An
+ * Owen scramble of the index maps each aligned block of 2^m indices to an aligned block, whose Sobol points
+ * are a (0, m, 2)-net, so every pair stays stratified over every power-of-two prefix of the pixel's samples
+ * (the passes of a progressive render, and the error estimate's halves), while the pairs' independent
+ * shuffles decorrelate them from one another, as padding by random permutations does (Kollig and Keller,
+ * "Efficient Multidimensional Sampling", 2002). Dimension pair 0 is the pixel offset, unshuffled, in the
+ * table's Gray-code order; pair 1 + l is light l's. */
 #ifndef SAMPLERS_CL
 #define SAMPLERS_CL
 
@@ -41,15 +56,39 @@ inline vuint reverse_bits(vuint v)
  * FastOwenScrambler): in bit-reversed order each step only carries lower bits into higher ones, so every
  * digit of the result is flipped by a function of the digits above it: a nested uniform scramble, which
  * keeps (0, m, 2)-nets nets. */
-inline vuint owen_scramble(vuint v, vuint seed)
+inline vuint laine_karras(vuint v, vuint seed)
 {
-    v = reverse_bits(v);
     v ^= v * 0x3d20adeaU;
     v += seed;
     v *= (seed >> 16) | 1U;
     v ^= v * 0x05526c56U;
     v ^= v * 0x53a22864U;
-    return reverse_bits(v);
+    return v;
+}
+
+inline vuint owen_scramble(vuint v, vuint seed) { return reverse_bits(laine_karras(reverse_bits(v), seed)); }
+
+/* Sobol's second dimension at index i, bits reversed (bit p is the coefficient of 2^-(p+1)): its generator
+ * matrix is Pascal's triangle mod 2, so by Lucas' theorem bit p is the xor of the bits k of i whose set bits
+ * include p's, a transform over supersets done in five shifts (dimension 1 of scipy's and Joe and Kuo's
+ * direction numbers; the first dimension is i itself, bits reversed). */
+inline vuint sobol_pascal(vuint i)
+{
+    i ^= (i >> 1) & 0x55555555U;
+    i ^= (i >> 2) & 0x33333333U;
+    i ^= (i >> 4) & 0x0f0f0f0fU;
+    i ^= (i >> 8) & 0x00ff00ffU;
+    return i ^ (i >> 16);
+}
+
+/* The Owen-scrambled 2D Sobol point at `index` (point gray(index) of the sequence: the table's order, the
+ * same points in every aligned block of 2^m) in 0.32 fixed point, each coordinate scrambled under its own
+ * key from `key` (owen_scramble in the bit-reversed domain, the reversals of i and of the scramble cancel). */
+inline void sobol_owen(vuint index, vuint key, vuint *x, vuint *y)
+{
+    vuint i = index ^ (index >> 1);
+    *x = reverse_bits(laine_karras(i, hash(key ^ 0x68e31da4U)));
+    *y = reverse_bits(laine_karras(sobol_pascal(i), hash(key ^ 0xb5297a4dU)));
 }
 
 inline vfloat fixed_to_unit(vuint v) { return CONVERT_VFLOAT(v >> 8) * 0x1p-24f; }
@@ -95,13 +134,69 @@ inline vec2 sample_2d(__global const uint2 *table, vint i, Sampler sampler, vuin
         x += hash(key ^ 0x68e31da4U);
         y += hash(key ^ 0xb5297a4dU);
         break;
-    case RANDOMIZE_OWEN:
-        x = owen_scramble(x, hash(key ^ 0x68e31da4U));
-        y = owen_scramble(y, hash(key ^ 0xb5297a4dU));
-        break;
     }
     vec2 u = {fixed_to_unit(x), fixed_to_unit(y)};
     return u;
+}
+
+/* Point `index` of the sequence's dimension pair keyed `key`, shuffled (d > 0) or not (the pixel offsets). */
+inline vec2 sequence_2d(vuint index, vuint key, int shuffle)
+{
+    vuint x, y;
+    if (shuffle)
+        index = owen_scramble(index, hash(key ^ 0x2c1b3c6dU));
+    sobol_owen(index, key, &x, &y);
+    vec2 u = {fixed_to_unit(x), fixed_to_unit(y)};
+    return u;
+}
+
+/* A pixel sample's numbers (pbrt-v4's Sampler: StartPixelSample, then one dimension pair after another): the
+ * pixel's key, the sample's index in the pixel, and the next dimension pair. The pair counter is the same in
+ * every lane. */
+typedef struct {
+    vuint key;
+    vint index;
+    int dimension;
+} PixelSample;
+
+inline PixelSample start_pixel_sample(vuint pixel_key, vint index)
+{
+    PixelSample ps = {pixel_key, index, 0};
+    return ps;
+}
+
+/* Where the points of one dimension pair come from, n of them per pixel sample (a light's n samples): the key
+ * and the index of the pixel sample's first point. */
+typedef struct {
+    vuint key;
+    vuint first;
+    int shuffle;
+} SampleStream;
+
+/* The next dimension pair of ps, with n points per pixel sample. The table patterns keep their streams: the
+ * pixel offsets' under the pixel's key (point i of the table for sample i), light l's under a key of the
+ * pixel sample and l (points 0 .. n-1 of the table for every pixel sample). */
+inline SampleStream next_stream(PixelSample *ps, Sampler sampler, int n)
+{
+    const int d = ps->dimension++;
+    SampleStream st = {ps->key, AS_VUINT(ps->index), d > 0};
+    if (sampler.randomize == RANDOMIZE_SOBOL) {
+        if (d > 0)
+            st.key = stream_key(ps->key, (vuint)(d));
+        st.first *= (uint)n;
+    } else if (d > 0) {
+        st.key = stream_key(stream_key(ps->key, st.first), (vuint)(d - 1));
+        st.first = 0;
+    }
+    return st;
+}
+
+/* Each lane's point j (of the stream's n per pixel sample) of the stream st, from the pattern `table`. */
+inline vec2 stream_2d(__global const uint2 *table, Sampler sampler, SampleStream st, vint j)
+{
+    if (sampler.randomize == RANDOMIZE_SOBOL)
+        return sequence_2d(st.first + AS_VUINT(j), st.key, st.shuffle);
+    return sample_2d(table, AS_VINT(st.first) + j, sampler, st.key);
 }
 
 #endif

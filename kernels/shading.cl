@@ -40,10 +40,10 @@ inline float light_scale(__global const Light *light) { return 1.0f; }
 
 /* Colour seen along r at its hit, shaded at sp; *rays counts the shadow rays traced per lane. */
 inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global const uint2 *light_samples,
-                  vuint key, vfloat *rays)
+                  PixelSample *ps, vfloat *rays)
 {
     vint surface = (hit.t < INFINITY) & (hit.material >= 0);
-    vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), surface, light_samples, key, rays);
+    vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), surface, light_samples, ps, rays);
     vec3 colour = v3_mul(sp.k, v3_add(v3_uniform(s->params->ambient), direct));
     return v3_select(hit.emitted, colour, surface);
 }

@@ -114,7 +114,7 @@ typedef struct {
 #define RANDOMIZE_INDEPENDENT 1 /* the table is ignored: a fresh uniform point per sample (random) */
 #define RANDOMIZE_JITTER 2      /* table = stratum corners, plus a uniform offset within the stratum */
 #define RANDOMIZE_SHIFT 3       /* a Cranley-Patterson rotation per stream (halton) */
-#define RANDOMIZE_OWEN 4        /* hash-based Owen scrambling per stream (sobol) */
+#define RANDOMIZE_SOBOL 4       /* the table is ignored: Owen-scrambled Sobol points per dimension pair */
 
 typedef struct {
     int randomize;      /* RANDOMIZE_* */

@@ -71,7 +71,7 @@ def pattern(name, n):
     if name == "halton":
         i = np.arange(n)
         return Pattern(name, np.stack([radical_inverse(i, 2), radical_inverse(i, 3)], axis=1), "shift")
-    return Pattern(name, sobol(n) / 2.0**32, "owen")
+    return Pattern(name, sobol(n) / 2.0**32, "sobol")
 
 
 def grid(n):
@@ -146,18 +146,23 @@ def radical_inverse(i, base):
 
 def sobol(n):
     """The first n points of the two-dimensional Sobol sequence, unscrambled, as uint32 fixed point: a
-    (0, 2)-sequence in base 2. Dimension 0 is the van der Corput sequence; dimension 1 has the direction
-    numbers v_k = v_{k-1} xor (v_{k-1} >> 1) (the upper-triangular Pascal matrix mod 2). Points come in
-    Gray-code order (point i is built from the bits of i xor i/2), as scipy.stats.qmc.Sobol and Joe and Kuo
-    generate them; it only reorders each aligned block of 2^m points."""
+    (0, 2)-sequence in base 2, in Gray-code order (point i is sobol_points(i xor i/2)), as scipy.stats.qmc.Sobol
+    and Joe and Kuo generate them; it only reorders each aligned block of 2^m points."""
     i = np.arange(n, dtype=np.uint64)
-    i ^= i >> np.uint64(1)
+    return sobol_points(i ^ (i >> np.uint64(1)))
+
+
+def sobol_points(index):
+    """Points `index` (an integer array) of the two-dimensional Sobol sequence, unscrambled, in index order, as
+    uint32 fixed point (shape index.shape + (2,)). Dimension 0 is the van der Corput sequence; dimension 1 has
+    the direction numbers v_k = v_{k-1} xor (v_{k-1} >> 1) (the upper-triangular Pascal matrix mod 2)."""
+    i = np.asarray(index, np.uint64)
     directions = [np.uint64(1 << 31)]
     for _ in range(31):
         directions.append(directions[-1] ^ (directions[-1] >> np.uint64(1)))
-    points = np.zeros((n, 2), np.uint64)
+    points = np.zeros(i.shape + (2,), np.uint64)
     for k in range(32):
         bit = (i >> np.uint64(k)) & np.uint64(1)
-        points[:, 0] ^= bit * np.uint64(1 << (31 - k))
-        points[:, 1] ^= bit * directions[k]
+        points[..., 0] ^= bit * np.uint64(1 << (31 - k))
+        points[..., 1] ^= bit * directions[k]
     return points.astype(np.uint32)

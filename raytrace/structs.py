@@ -44,7 +44,7 @@ FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 # kernels/types.h: RANDOMIZE_*
-RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "owen": 4}
+RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "sobol": 4}
 
 SAMPLER = np.dtype([("randomize", "<i4"), ("cell_x", "<u4"), ("cell_y", "<u4")])
 
