@@ -10,7 +10,7 @@ import pytest
 from helpers import CORNELL
 from raytrace.errors import InputError
 from raytrace.commands.converge import clamped_rmse, converge, rmse
-from raytrace.commands.converge_peer import race, time_to_reach
+from raytrace.commands.converge_peer import race, race_finals, time_to_reach
 
 FAKE_PEER = """
 import json, sys
@@ -70,3 +70,17 @@ def test_time_to_reach_interpolates_log_log():
     assert time_to_reach(rows, 0.04) == 1.0 and time_to_reach(rows, 0.005) is None
     table = race(rows + [{"sampler": "peer:x", "seconds": 8.0, "rmse": 0.02}], [0.02])
     assert np.isclose(table[0]["ratio"], 2.0 / 8.0)
+
+
+def test_race_against_each_peer_patterns_last_render():
+    """race_finals: for each peer pattern its render with the most samples, and our time to its RMSE (the
+    issue's "time to reach Mitsuba multijitter's 256-spp RMSE"); None where we never reach it."""
+    rows = [{"sampler": "a", "seconds": 1.0, "rmse": 0.04, "spp": 1}, {"sampler": "a", "seconds": 4.0, "rmse": 0.01,
+                                                                      "spp": 4},
+            {"sampler": "peer:x", "seconds": 1.0, "rmse": 0.03, "spp": 4},
+            {"sampler": "peer:x", "seconds": 8.0, "rmse": 0.02, "spp": 16},
+            {"sampler": "peer:y", "seconds": 9.0, "rmse": 0.001, "spp": 16}]
+    x, y = race_finals(rows)
+    assert (x["peer"], x["spp"], x["rmse"], x["peer_s"]) == ("peer:x", 16, 0.02, 8.0)
+    assert np.isclose(x["ours_s"], 2.0) and np.isclose(x["ratio"], 0.25)
+    assert y["ours_s"] is None and y["ratio"] is None

@@ -82,6 +82,20 @@ def time_to_reach(rows, level):
     return best
 
 
+def race_finals(rows):
+    """For each of the peer's patterns, its render with the most samples: its RMSE, its time, our least time
+    to the same RMSE and the ratio (ours / theirs), so that "our time to reach the error of the peer's
+    multijitter at 256 spp" is one line."""
+    ours = [r for r in rows if not r["sampler"].startswith("peer:")]
+    table = []
+    for name in dict.fromkeys(r["sampler"] for r in rows if r["sampler"].startswith("peer:")):
+        last = max((r for r in rows if r["sampler"] == name), key=lambda r: r["spp"])
+        a = time_to_reach(ours, last["rmse"])
+        table.append({"peer": name, "spp": last["spp"], "rmse": last["rmse"], "peer_s": last["seconds"],
+                      "ours_s": a, "ratio": None if a is None or last["seconds"] <= 0 else a / last["seconds"]})
+    return table
+
+
 def race(rows, levels):
     """For each RMSE level: our best time, the peer's best time, and their ratio (ours / theirs)."""
     ours = [r for r in rows if not r["sampler"].startswith("peer:")]
