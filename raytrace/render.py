@@ -103,6 +103,9 @@ def resolve(scene, options):
     nl = _pick(scene, options.light_samples, "render.light_samples", "light_samples", 1, MAX_SPP)
     pixel = _pattern(pick(options.sampler, scene.sampler), spp, "sampler", "spp")
     light = _pattern(pick(options.light_sampler, scene.light_sampler), nl, "light_sampler", "light_samples")
+    problem = samplers.light_problem(light.name, nl, scene.shading)
+    if problem:
+        raise InputError(API, "light_sampler", light.name, problem)
     _option(options.texture_filter, API, "texture_filter", lambda v: v in structs.FILTERS,
             f"unknown filter (have: {', '.join(structs.FILTERS)})")
     _option(options.seed, API, "seed", lambda v: _integer(v) and 0 <= v < 2**32, "must be an integer in [0, 2^32)")

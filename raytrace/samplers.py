@@ -13,6 +13,7 @@ from . import structs
 
 SAMPLERS = ("center", "grid", "rotated-grid-cw", "rotated-grid-ccw", "random", "jittered", "halton", "sobol")
 SQUARE_ONLY = ("grid", "rotated-grid-cw", "rotated-grid-ccw")
+FIXED = ("center",) + SQUARE_ONLY  # the course's patterns: the same points in every pixel
 ROTATION = math.atan(0.5)  # the course's rotated grid: 26.57 degrees
 
 
@@ -48,6 +49,23 @@ def count_problem(name, n):
         return "the center sampler takes exactly one sample"
     if name in SQUARE_ONLY and not is_square(n):
         return f"the {name} sampler needs a square number (1, 4, 9, 16, ...)"
+    return None
+
+
+def default_pattern(shading):
+    """The pattern a scene gets when it names none: the course's grid in its Phong model; in a radiometric
+    model the sequence that converges fastest, sobol (docs/sampling.md)."""
+    return "grid" if shading == "phong" else "sobol"
+
+
+def light_problem(name, n, shading):
+    """Why `name` with n light samples would mislead in the `shading` model, or None: in a radiometric model a
+    course's pattern of one point puts every light sample at the light's centre, a point light, biased by
+    however many pixel samples (the Phong model defines its light samples by the pattern: the course's
+    center sampler is that model's point light)."""
+    if shading != "phong" and n == 1 and name in FIXED:
+        return (f"with 1 light sample puts every light sample at the light's centre, a point light, biased in "
+                f"the {shading} model (use sobol, or more light samples)")
     return None
 
 

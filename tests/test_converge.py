@@ -124,6 +124,9 @@ def test_counts_lights_and_slope():
     assert sample_counts("center", 64) == sample_counts("halton", 1) == [1]
     assert light_pattern("center", 16) == ("grid", None) and light_pattern("halton", 3) == ("halton", None)
     assert light_pattern("center", 3)[0] == light_pattern("rotated-grid-cw", 8)[0] == "sobol"
+    assert light_pattern("grid", 1) == ("grid", None)  # the Phong model's point light
+    light, note = light_pattern("grid", 1, "direct")  # in the direct model a biased one: refused by render()
+    assert light == "sobol" and "light's centre" in note
     rows = [{"spp": 1, "seconds": 1.0, "rmse": 1.0}] + [{"spp": n, "seconds": n, "rmse": n ** -0.5} for n in (2, 4, 8)]
     assert math.isclose(fitted_slope(rows), -0.5)
     assert fitted_slope(rows[:2]) is None

@@ -16,6 +16,7 @@ import pytest
 
 import raytrace
 from raytrace import samplers
+from helpers import run
 from raytrace.errors import InputError
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Light, Material, Scene, parse_scene
@@ -184,7 +185,7 @@ def test_cornell_direct_renders(cornell):
     assert [m.colour.tolist() for m in scene.materials] == [m.colour.tolist() for m in cornell.materials]
     assert (len(scene.rectangles), len(scene.triangles), len(scene.ellipsoids)) == \
         (len(cornell.rectangles), len(cornell.triangles), len(cornell.ellipsoids))
-    image, stats = raytrace.render(scene, width=64, height=64, spp=4, light_samples=4)
+    image, stats = raytrace.render(scene, width=64, height=64, spp=4, light_samples=4, sampler="grid")
     assert np.isfinite(image).all() and stats.extra["nonfinite_values"] == 0
     assert "-DHAS_DIRECT_LIGHTING=1" in stats.build_options
     assert image[1, 32].max() == 0 and np.all(image[6, 32] == 60)  # the ceiling; the light's face
@@ -311,3 +312,41 @@ def test_one_light_sample_per_pixel_sample_converges_at_the_sequences_rate(harne
     random = convergence_slope(harness, "random", p, n, expected)
     assert np.all(sobol < -1.1), sobol
     assert np.all(np.abs(random + 0.5) < 0.12), random
+
+
+def test_the_radiometric_default_pattern_is_sobol(cornell):
+    """A direct scene that names no pattern gets sobol for pixels and lights (the sequence that converges
+    fastest, docs/sampling.md); a Phong one keeps the course's grid."""
+    text = open(cornell.path.replace("cornell.toml", "cornell_direct.toml")).read()
+    assert "sampler" not in text
+    scene = parse_scene(tomllib.loads(text), "cornell_direct.toml")
+    assert (scene.sampler, scene.light_sampler) == ("sobol", "sobol")
+    phong = parse_scene(tomllib.loads(open(cornell.path).read().replace('sampler = "grid"', "")), "cornell.toml")
+    assert (phong.sampler, phong.light_sampler) == ("grid", "grid")
+
+
+@pytest.mark.parametrize("pattern", ["grid", "center", "rotated-grid-cw"])
+def test_one_light_sample_at_one_point_is_refused(cornell, tmp_path, pattern):
+    """In the direct model a course's pattern of one light sample is the light's centre: a point light, biased
+    however many pixel samples. Refused in one line wherever it could come from: the scene file, render()'s
+    options, a parameter edit, the command line (exit 2, no file); 4 grid points, and the Phong model's point
+    light (its center sampler), are accepted."""
+    path = cornell.path.replace("cornell.toml", "cornell_direct.toml")
+    text = open(path).read()
+    with pytest.raises(InputError, match=re.escape(f"render.light_sampler = '{pattern}': with 1 light sample")):
+        parse_scene(tomllib.loads(text.replace("light_samples = 16", f'light_samples = 1\nlight_sampler = '
+                                                                     f'"{pattern}"')), "x.toml")
+    scene = raytrace.load_file(path)
+    with pytest.raises(InputError, match=re.escape(f"render(): light_sampler = '{pattern}': with 1 light")):
+        raytrace.render(scene, width=8, height=8, light_samples=1, light_sampler=pattern)
+    params = raytrace.parameters(scene)
+    params["render.light_samples"], params["render.light_sampler"] = 1, pattern
+    with pytest.raises(InputError, match="light_sampler"):
+        params.update()
+    assert scene.light_samples == 16  # left as it was
+    out = tmp_path / "x.png"
+    r = run("render", path, "-o", out, "--width", 8, "--height", 8, "--light-samples", 1, "--light-sampler", pattern)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and pattern in r.stderr, r.stderr
+    assert "light sample" in r.stderr and not out.exists()
+    raytrace.render(scene, width=8, height=8, light_samples=4, light_sampler="grid")
+    raytrace.render(without_ambient(cornell.path), width=8, height=8, light_samples=1, light_sampler="center")

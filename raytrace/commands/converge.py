@@ -40,7 +40,7 @@ from ..outputs import Outputs, scene_inputs, write_json
 from ..image_file import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
 from ..scene import load_file
-from .converge_peer import PEER_SAMPLERS, check_template, peer_rows, race
+from .converge_peer import PEER_SAMPLERS, check_template, peer_rows, race, race_finals
 
 CLI = "command line"
 COLUMNS = ("sampler", "spp", "seconds", "rmse", "estimated_rmse", "flip")
@@ -103,11 +103,12 @@ def sample_counts(name, max_spp):
     return counts
 
 
-def light_pattern(name, light_samples):
+def light_pattern(name, light_samples, shading="phong"):
     """(light pattern, or None) for the pixel pattern `name`: the same pattern (grid for center, which
-    takes one sample only), else sobol where the light-sample count does not suit it; the note to print."""
+    takes one sample only), else sobol where the light-sample count does not suit it, or where the shading
+    model refuses it (one point of a course's pattern in the direct model); the note to print."""
     light = "grid" if name == "center" else name
-    problem = samplers.count_problem(light, light_samples)
+    problem = samplers.count_problem(light, light_samples) or samplers.light_problem(light, light_samples, shading)
     if problem is None:
         return light, None
     return "sobol", f"{name}: {light_samples} light samples do not suit {light} ({problem}); the light uses sobol"
@@ -164,7 +165,7 @@ def measure(scene, names, max_spp, reference, common, box, out, error=rmse):
     """One row per (pattern, sample count), each with the crop of its image (dropped from the CSV)."""
     rows = []
     for name in names:
-        light, note = light_pattern(name, common["light_samples"])
+        light, note = light_pattern(name, common["light_samples"], scene.shading)
         if note:
             print(note, file=out)
         for spp in sample_counts(name, max_spp):
@@ -339,12 +340,16 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     print(f"montage, {seconds:.3g} s each: " + ", ".join(f"{p['sampler']} {p['spp']} spp in {p['seconds']:.3f} s"
                                                        for p in panels), file=out)
     table = race(rows, RACE_LEVELS) if peer is not None else None
+    finals = race_finals(rows) if peer is not None else None
     for t in table or []:
         print(f"RMSE {t['rmse']:g}: ours {_number(t['ours_s'])} s, the peer's {_number(t['peer_s'])} s, ratio "
               f"{_number(t['ratio'])}", file=out)
+    for t in finals or []:
+        print(f"{t['peer']} at {t['spp']} spp, RMSE {t['rmse']:.4g} in {_number(t['peer_s'])} s: ours in "
+              f"{_number(t['ours_s'])} s, ratio {_number(t['ratio'])}", file=out)
     for path in paths:
         print(f"wrote {path}", file=out)
     return {"rows": [{k: r[k] for k in COLUMNS} for r in rows], "reference": facts, "montage_seconds": seconds,
-            "race": table,
+            "race": table, "race_finals": finals,
             "montage": [{k: p[k] for k in ("sampler", "spp", "seconds", "crop_rmse")} for p in panels],
             "paths": paths}

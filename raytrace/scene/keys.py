@@ -82,9 +82,11 @@ TABLES = {
                Key("light_samples", "integer", "samples per light per pixel sample", default=1, low=1,
                    high=MAX_SAMPLES),
                Key("sampler", "string", "the pixel sample pattern", default="grid", choices=samplers.SAMPLERS,
-                   also="center takes 1 sample, the grids a square number"),
+                   also='center takes 1 sample, the grids a square number; the default is sobol with shading = '
+                        '"direct"'),
                Key("light_sampler", "string", "the light sample pattern", default="grid",
-                   choices=samplers.SAMPLERS, also="as sampler"),
+                   choices=samplers.SAMPLERS, also='as sampler; with shading = "direct", not a single point (center, '
+                                                   'or a grid of 1)'),
                Key("shading", "string", "the shading model: the course's Phong or radiometric direct lighting",
                    default="phong", choices=SHADINGS)],
     "lights[]": _rectangle(_COLOUR),

@@ -74,6 +74,9 @@ def check_model(scene, source="render()"):
         problem = samplers.count_problem(getattr(scene, key), getattr(scene, count))
         if problem:
             render.fail(key, getattr(scene, key), problem)
+    problem = samplers.light_problem(scene.light_sampler, scene.light_samples, scene.shading)
+    if problem:
+        render.fail("light_sampler", scene.light_sampler, problem)
 
     _typed(source, "camera.", scene.camera, Camera)
     camera = _reader(source, "camera.", "camera", scene.camera, CAMERA)

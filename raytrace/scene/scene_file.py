@@ -348,11 +348,15 @@ def parse_scene(table, path="<scene>"):
         materials.append(_material(material_readers[-1], name, textures))
 
     spp, light_samples = render.integer("spp"), render.integer("light_samples")
-    sampler, light_sampler = render.string("sampler", choices=()), render.string("light_sampler", choices=())
+    sampler, light_sampler = (render.string(key, choices=()) if render.has(key) else samplers.default_pattern(shading)
+                              for key in ("sampler", "light_sampler"))
     for key, name, n in (("sampler", sampler, spp), ("light_sampler", light_sampler, light_samples)):
         problem = samplers.count_problem(name, n)
         if problem:
             render.fail(key, name, problem)
+    problem = samplers.light_problem(light_sampler, light_samples, shading)
+    if problem:
+        render.fail("light_sampler", light_sampler, problem)
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
                   textures=textures.textures, shading=shading)

@@ -31,7 +31,9 @@ __kernel void shade_at(int n, SCENE_PARAMETERS, __global const uint2 *light_samp
     ShadingPoint sp = {IN3(p), (vfloat)(0.0f), IN3(nrm), IN3(nrm), v3_splat(1.0f, 1.0f, 1.0f),
                        (vfloat)(materials[0].shininess)};
     vfloat rays = 0.0f;
-    OUT3(colour, shade(&s, r, hit, sp, light_samples, (vuint)(0), &rays));
+    PixelSample ps = start_pixel_sample((vuint)(0), (vint)(0));
+    ps.dimension = 1;
+    OUT3(colour, shade(&s, r, hit, sp, light_samples, &ps, &rays));
 }
 """
 AMBIENT = np.array([0.1, 0.2, 0.3])
