@@ -1,9 +1,12 @@
-"""A measurement record from a `bench --json` file: `python -m benchmarks.record BENCH_JSON --command "..."`.
+"""A measurement record from a `bench --json` or `converge --json` file: `python -m benchmarks.record JSON
+--command "..."`.
 
-The record (benchmarks/results/DATE-MACHINE-bench.json, the format docs/performance.md describes) keeps the
-machine, the date, this checkout's commit, the command that made the file and its headline figures: per
-scene the nominal rate, the time against the first scene (of the fastest renders and paired) and the rate
-against the scalar kernel; with a peer, the first scene against it. The performance page shows the newest
+The record (benchmarks/results/DATE-MACHINE-bench.json or -converge.json, the format docs/performance.md
+describes) keeps the machine, the date, this checkout's commit, the command that made the file and its
+headline figures. For bench: per scene the nominal rate, the time against the first scene (of the fastest
+renders and paired) and the rate against the scalar kernel; with a peer, the first scene against it. For
+converge: each pattern's RMSE at its most samples and that render's time, and with a peer our time to
+reach each of the peer's patterns' last RMSE against its time. The performance page shows the newest
 record of each command on each machine kind.
 """
 import argparse
@@ -45,6 +48,21 @@ def figures(results):
     return rows
 
 
+def converge_figures(results):
+    """The headline figures of converge's results: each pattern's last render, and the race against the
+    peer's patterns' last renders."""
+    rows = []
+    for name in dict.fromkeys(r["sampler"] for r in results["rows"]):
+        last = max((r for r in results["rows"] if r["sampler"] == name), key=lambda r: r["spp"])
+        rows += [{"what": f"{name} RMSE at {last['spp']} spp", "value": float(f"{last['rmse']:.4g}"), "unit": "RMSE"},
+                 {"what": f"{name} seconds at {last['spp']} spp", "value": round(last["seconds"], 3), "unit": "s"}]
+    for t in results.get("race_finals") or []:
+        if t["ratio"] is not None:
+            rows.append({"what": f"our time to {t['peer']}'s RMSE at {t['spp']} spp, against its time",
+                         "value": round(t["ratio"], 3), "unit": "x"})
+    return rows
+
+
 def commit():
     done = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                           cwd=Path(__file__).resolve().parent)
@@ -56,9 +74,9 @@ def record(bench_json, command, machine=None, date=None):
     try:
         results = json.loads(Path(bench_json).read_text())
         kind = machine or machine_kind(results["machine"])
-        rows = figures(results)
+        rows = converge_figures(results) if "race_finals" in results else figures(results)
     except (OSError, ValueError, KeyError, TypeError) as e:
-        raise InputError(bench_json, "file", str(bench_json), f"is no bench --json file: {e}") from None
+        raise InputError(bench_json, "file", str(bench_json), f"is no bench or converge --json file: {e}") from None
     if not command.startswith("python -m "):
         raise InputError("command line", "--command", command, "must be the python -m command that measured it")
     return {"machine": kind, "date": date or datetime.date.today().isoformat(), "commit": commit(),
@@ -67,14 +85,15 @@ def record(bench_json, command, machine=None, date=None):
 
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m benchmarks.record", description=__doc__.split("\n")[0])
-    p.add_argument("bench_json", help="the file `python -m raytrace bench --json` wrote")
+    p.add_argument("bench_json", help="the file `python -m raytrace bench --json` or `converge --json` wrote")
     p.add_argument("--command", required=True, help="the command that wrote it, as the page should show it")
     p.add_argument("--machine", help="the machine kind, the table it goes in (default: from the file)")
     p.add_argument("--out", type=Path, default=RESULTS, help="the folder of records (default: benchmarks/results)")
     args = p.parse_args(argv)
     rec = record(args.bench_json, args.command, args.machine)
     slug = re.sub(r"[^a-z0-9]+", "-", rec["machine"].lower()).strip("-")[:40]
-    path = args.out / f"{rec['date']}-{slug}-bench.json"
+    kind = "converge" if rec["command"].startswith("python -m raytrace converge") else "bench"
+    path = args.out / f"{rec['date']}-{slug}-{kind}.json"
     path.write_text(json.dumps(rec, indent=1) + "\n")
     print(path)
 

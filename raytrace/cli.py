@@ -93,6 +93,9 @@ def parser():
     c.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
     c.add_argument("--light-samples", type=int, help="samples per light (default: the scene's)")
     c.add_argument("--seed", type=int, default=0, help="seed of the measured renders (the reference's: seed + 1000003)")
+    c.add_argument("--json", help="also write the rows, the race against the peer and the machine to this JSON file")
+    c.add_argument("--repeats", type=int, default=1,
+                   help="renders timed per sample count, the median kept (default 1; at most 100)")
     _add_scheduler(c)
     c.add_argument("--peer", metavar="TEMPLATE", help="also another renderer's patterns: a shell command with "
                    "{sampler}, {spp} and {out} that writes an EXR and prints JSON with median_s")
@@ -206,7 +209,7 @@ def cmd_converge(args):
              seed=args.seed, reference_spp=args.reference_spp, montage_seconds=args.montage_seconds,
              crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout, scheduler=args.scheduler,
              peer=args.peer, peer_samplers=[n.strip() for n in args.peer_samplers.split(",") if n.strip()],
-             clamp=args.clamp)
+             clamp=args.clamp, repeats=args.repeats, json_path=args.json)
 
 
 def cmd_compile(args):

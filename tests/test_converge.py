@@ -93,12 +93,13 @@ def test_files_and_table(measured):
 def test_given_reference(measured, tmp_path, capsys):
     """The written reference.exr, given back through the command line, gives the same rows but the
     times: every render is deterministic for a fixed seed and the EXR keeps the float32 image exactly.
-    No reference is rendered or written this time."""
+    No reference is rendered or written this time, and timing each render twice (--repeats) changes only
+    the seconds."""
     out_dir, _, _ = measured
     out = tmp_path / "again"
     assert cli.main(["converge", str(CORNELL), "--samplers", ",".join(SAMPLERS), "--max-spp", "16", *SIZE,
                      "--reference", str(out_dir / "reference.exr"), "--montage-seconds", "0.05",
-                     "--out", str(out)]) == 0
+                     "--repeats", "2", "--out", str(out)]) == 0
     assert "reference.exr" in capsys.readouterr().out
     _, first = read_csv(out_dir / "converge.csv")
     _, again = read_csv(out / "converge.csv")
@@ -136,6 +137,7 @@ def test_counts_lights_and_slope():
     (["--samplers", "random,fancy"], "command line: --samplers = 'fancy'"),
     (["--max-spp", "0"], "command line: --max-spp = 0"),
     (["--max-spp", "65537"], "command line: --max-spp = 65537"),
+    (["--repeats", "0"], "command line: --repeats = 0"),
     (["--reference", "{tmp}/missing.exr"], "command line: --reference = '{tmp}/missing.exr'"),
     (["--reference", "{tmp}/small.exr"], "command line: --reference = '{tmp}/small.exr'"),
     (["--crop", "0.9,0.9,0.2,0.2"], "command line: --crop = '0.9,0.9,0.2,0.2'"),

@@ -2,6 +2,7 @@
 record by the rig's command line. The record is one the performance page takes (test_docs.py's check), and its
 figures are the bench file's own values, scene by scene."""
 import json
+import sys
 
 import pytest
 
@@ -48,3 +49,34 @@ def test_bad_input_is_one_line(bench_json, tmp_path, case):
     named = f"{source}: file = '{source}'" if case == "not json" else "command line: --command = 'bench it'"
     assert r.stderr.startswith(f"benchmarks.record: error: {named}: ")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.json"]
+
+
+def test_a_record_of_a_converge_run(tmp_path):
+    """converge --json (a tiny study beside a stand-in peer) turned into a record: each pattern's last render
+    and the race against each of the peer's patterns, the values converge computed."""
+    from test_converge_peer import FAKE_PEER
+    script = tmp_path / "peer.py"
+    script.write_text(FAKE_PEER)
+    out = tmp_path / "converge.json"
+    r = run("converge", CORNELL, "--samplers", "random,sobol", "--max-spp", 4, "--width", 8, "--height", 8,
+            "--light-samples", 1, "--reference-spp", 16, "--out", tmp_path / "study", "--json", out,
+            "--peer", f"{sys.executable} {script} {{sampler}} {{spp}} {{out}}", "--peer-samplers", "independent",
+            cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    study = json.loads(out.read_text())
+    assert study["machine"]["cpu_count"] and [t["peer"] for t in study["race_finals"]] == ["peer:independent"]
+    records = tmp_path / "records"
+    records.mkdir()
+    command = "python -m raytrace converge scenes/cornell.toml --samplers random,sobol --json converge.json"
+    r = run(out, "--command", command, "--out", records, module="benchmarks.record", cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    (path,) = records.iterdir()
+    assert path.name.endswith("-converge.json")
+    well_formed(path)
+    figures = {f["what"]: f["value"] for f in json.loads(path.read_text())["figures"]}
+    last = [row for row in study["rows"] if row["sampler"] == "sobol"][-1]
+    assert figures["sobol RMSE at 4 spp"] == float(f"{last['rmse']:.4g}")
+    final = study["race_finals"][0]
+    if final["ratio"] is not None:
+        assert figures[f"our time to peer:independent's RMSE at {final['spp']} spp, against its time"] == \
+            round(final["ratio"], 3)

@@ -40,12 +40,14 @@ from ..outputs import Outputs, scene_inputs, write_json
 from ..image_file import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
 from ..scene import load_file
+from . import bench
 from .converge_peer import PEER_SAMPLERS, check_template, peer_rows, race, race_finals
 
 CLI = "command line"
 COLUMNS = ("sampler", "spp", "seconds", "rmse", "estimated_rmse", "flip")
 REFERENCE_SEED_OFFSET = 1000003  # the reference's samples are independent of the ones it judges
 MIN_MONTAGE_SECONDS = 0.05
+MAX_REPEATS = 100
 # The default crop, in fractions of the image (x, y, width, height): in scenes/cornell.toml, the lower right
 # of the ellipsoid: its silhouette against the floor and the back wall, the penumbra of its shadow on the
 # floor, and the corner where the floor meets the green wall.
@@ -161,16 +163,20 @@ def clamped_rmse(image, reference):
     return rmse(np.clip(image, 0.0, 1.0), np.clip(reference, 0.0, 1.0))
 
 
-def measure(scene, names, max_spp, reference, common, box, out, error=rmse):
-    """One row per (pattern, sample count), each with the crop of its image (dropped from the CSV)."""
+def measure(scene, names, max_spp, reference, common, box, out, error=rmse, repeats=1):
+    """One row per (pattern, sample count), each with the crop of its image (dropped from the CSV); its
+    seconds the median of `repeats` renders (the same seed: the same image)."""
     rows = []
     for name in names:
         light, note = light_pattern(name, common["light_samples"], scene.shading)
         if note:
             print(note, file=out)
         for spp in sample_counts(name, max_spp):
-            image, _, stats = render_progressive(scene, spp=spp, sampler=name, light_sampler=light, **common)
-            rows.append({"sampler": name, "spp": spp, "seconds": stats.wall_seconds,
+            seconds = []
+            for _ in range(repeats):
+                image, _, stats = render_progressive(scene, spp=spp, sampler=name, light_sampler=light, **common)
+                seconds.append(stats.wall_seconds)
+            rows.append({"sampler": name, "spp": spp, "seconds": float(np.median(seconds)),
                          "rmse": error(image, reference), "estimated_rmse": stats.estimated_rmse,
                          "flip": flip_error(image, reference), "crop": image[box],
                          "crop_rmse": error(image[box], reference[box])})
@@ -296,7 +302,7 @@ def _number(x):
 
 def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None, height=None, light_samples=None,
              seed=0, reference_spp=None, montage_seconds=None, crop=None, out=sys.stdout, scheduler=None,
-             peer=None, peer_samplers=PEER_SAMPLERS, clamp=False):
+             peer=None, peer_samplers=PEER_SAMPLERS, clamp=False, repeats=1, json_path=None):
     """Measure, write and print as the module says; returns {"rows": [...], "reference": {...},
     "montage": [...], "paths": [...]}. Every bad input raises InputError before anything is written."""
     names = check_samplers(samplers)
@@ -305,6 +311,7 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     error = clamped_rmse if clamp else rmse
     _check_range(max_spp, "--max-spp", 1, MAX_SPP)
     _check_range(reference_spp, "--reference-spp", 1, MAX_SPP)
+    _check_range(repeats, "--repeats", 1, MAX_REPEATS)
     if montage_seconds is not None and not 0 < montage_seconds < math.inf:
         raise InputError(CLI, "--montage-seconds", montage_seconds, "must be a positive number of seconds")
     scene = load_file(scene_path)
@@ -317,14 +324,15 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     with Outputs(inputs=scene_inputs(scene) + ([] if reference is None else [reference])) as outputs:
         outputs.make_directory("--out", out_dir)
         files = {name: outputs.reserve("--out", Path(out_dir) / name, given=out_dir) for name in names_out}
+        json_file = json_path and outputs.reserve("--json", json_path)
         common = dict(width=width, height=height, light_samples=light_samples, progress=False, scheduler=scheduler)
-        render_progressive(scene, spp=1, sampler="center", light_sampler="sobol", **common)  # the build, untimed
+        _, _, built = render_progressive(scene, spp=1, sampler="center", light_sampler="sobol", **common)  # untimed
         reference, facts, metadata = given + (None,) if given else render_reference(
             scene, reference_spp or min(MAX_SPP, 16 * max_spp), (seed + REFERENCE_SEED_OFFSET) % 2**32, common)
         print(f"reference: {facts.get('file', 'rendered')}, {facts['spp'] or '?'} spp, its own estimated RMSE "
               f"{_number(facts['estimated_rmse'])}" + (" (of linear values)" if clamp else ""), file=out)
         common["seed"] = seed
-        rows = measure(scene, names, max_spp, reference, common, box, out, error)
+        rows = measure(scene, names, max_spp, reference, common, box, out, error, repeats)
         if peer is not None:
             rows += peer_rows(peer, peer_samplers, max_spp, reference, box, error, flip_error,
                               lambda path: read_reference(path, width, height)[0])
@@ -334,13 +342,20 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         write_outputs(outputs, files, rows, names, panels, reference, facts, box,
                       f"{Path(scene_path).name}: {width} x {height}, {light_samples} light samples", seconds,
                       metadata, "clamped to [0, 1]" if clamp else "linear")
+        table = race(rows, RACE_LEVELS) if peer is not None else None
+        finals = race_finals(rows) if peer is not None else None
+        if json_file:
+            with outputs.writing(json_file):
+                write_json(json_file, {
+                    "machine": bench.machine(built.device, built.extra.get("target")), "scene": str(scene_path),
+                    "width": width, "height": height, "light_samples": light_samples, "clamp": clamp,
+                    "repeats": repeats, "reference": facts, "rows": [{k: r[k] for k in COLUMNS} for r in rows],
+                    "race": table, "race_finals": finals})
         outputs.commit()
     paths = [Path(out_dir) / name for name in names_out]
     print_table(rows, out)
     print(f"montage, {seconds:.3g} s each: " + ", ".join(f"{p['sampler']} {p['spp']} spp in {p['seconds']:.3f} s"
                                                        for p in panels), file=out)
-    table = race(rows, RACE_LEVELS) if peer is not None else None
-    finals = race_finals(rows) if peer is not None else None
     for t in table or []:
         print(f"RMSE {t['rmse']:g}: ours {_number(t['ours_s'])} s, the peer's {_number(t['peer_s'])} s, ratio "
               f"{_number(t['ratio'])}", file=out)
