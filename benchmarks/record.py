@@ -5,9 +5,9 @@ The record (benchmarks/results/DATE-MACHINE-bench.json or -converge.json, the fo
 describes) keeps the machine, the date, this checkout's commit, the command that made the file and its
 headline figures. For bench: per scene the nominal rate, the time against the first scene (of the fastest
 renders and paired) and the rate against the scalar kernel; with a peer, the first scene against it. For
-converge: each pattern's RMSE at its most samples and that render's time, and with a peer our time to
-reach each of the peer's patterns' last RMSE against its time. The performance page shows the newest
-record of each command on each machine kind.
+converge: each pattern's RMSE at a quarter of its most samples and at its most, that last render's time,
+and with a peer our time to reach each of the peer's patterns' last RMSE against its time. The performance
+page shows the newest record of each command on each machine kind.
 """
 import argparse
 import datetime
@@ -49,13 +49,16 @@ def figures(results):
 
 
 def converge_figures(results):
-    """The headline figures of converge's results: each pattern's last render, and the race against the
-    peer's patterns' last renders."""
+    """The headline figures of converge's results: each pattern's RMSE at a quarter of its most samples and at
+    its most, that last render's time, and the race against the peer's patterns' last renders."""
     rows = []
     for name in dict.fromkeys(r["sampler"] for r in results["rows"]):
-        last = max((r for r in results["rows"] if r["sampler"] == name), key=lambda r: r["spp"])
-        rows += [{"what": f"{name} RMSE at {last['spp']} spp", "value": float(f"{last['rmse']:.4g}"), "unit": "RMSE"},
-                 {"what": f"{name} seconds at {last['spp']} spp", "value": round(last["seconds"], 3), "unit": "s"}]
+        renders = {r["spp"]: r for r in results["rows"] if r["sampler"] == name}
+        last = renders[max(renders)]
+        for spp in sorted({max(renders) // 4, max(renders)} & set(renders)):
+            rows.append({"what": f"{name} RMSE at {spp} spp", "value": float(f"{renders[spp]['rmse']:.4g}"),
+                         "unit": "RMSE"})
+        rows.append({"what": f"{name} seconds at {last['spp']} spp", "value": round(last["seconds"], 3), "unit": "s"})
     for t in results.get("race_finals") or []:
         if t["ratio"] is not None:
             rows.append({"what": f"our time to {t['peer']}'s RMSE at {t['spp']} spp, against its time",
