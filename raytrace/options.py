@@ -30,7 +30,7 @@ class RenderOptions:
     spp: int | None = option(None, "pixel samples (a square number for the grid samplers; default: the scene's)")
     light_samples: int | None = option(None, "samples per light per pixel sample (default: the scene's)")
     sampler: str | None = option(None, "the pixel sample pattern (default: the scene's)", choices=samplers.SAMPLERS)
-    light_sampler: str | None = option(None, "the light sample pattern (default: the scene's, else grid)",
+    light_sampler: str | None = option(None, "the light sample pattern (default: the scene's)",
                                        choices=samplers.SAMPLERS)
     texture_filter: str = option("trilinear", "how textures are filtered", choices=tuple(structs.FILTERS))
     shading: str | None = option(None, "the shading model: phong (the course's) or direct (radiometric direct "
