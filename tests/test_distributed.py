@@ -48,9 +48,11 @@ def assert_same(local, remote):
     assert (sb.rays, sb.passes, sb.estimated_rmse) == (sa.rays, sa.passes, sa.estimated_rmse)
 
 
-@pytest.mark.parametrize("scene_file", ["cornell.toml", "textured_cornell.toml", "mesh_cornell.toml"])
+@pytest.mark.parametrize("scene_file", ["cornell.toml", "textured_cornell.toml", "mesh_cornell.toml",
+                                        "cornell_direct.toml"])
 def test_bit_identical_to_one_process(cluster, scene_file):
-    """Scene 0, a textured scene (mip levels and texels scattered to the workers) and a mesh with a BVH; one
+    """Scene 0, a textured scene (mip levels and texels scattered to the workers), a mesh with a BVH, and the
+    direct model with sobol's one sequence over each pixel's samples (kernels/samplers.cl); one
     row a band, so that the two workers finish the 48 bands of a pass in no fixed order; two passes of 8, the
     first with its first half's sums (the error estimate's prefix) from the workers too."""
     scene = load_file(ROOT / "scenes" / scene_file)

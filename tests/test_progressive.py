@@ -224,3 +224,20 @@ def test_a_black_image_is_exact_not_infinitely_wrong(cornell):
                                lights=[dataclasses.replace(light, colour=light.colour * 0) for light in cornell.lights])
     _, _, stats = render_progressive(dark, width=16, height=16, spp=4, light_samples=1, progress=False)
     assert (stats.estimated_rmse, stats.estimated_relative_rmse) == (0.0, 0.0)
+
+
+def test_passes_continue_the_sequence(cornell):
+    """With sobol, pass k draws pixel samples [k n, (k + 1) n) of one sequence over the pixel's samples
+    (kernels/samplers.cl): 16 samples in 4 passes of 4 are the 16 samples of one pass, summed in another
+    order (float64 passes on the host against the kernel's compensated float32 sum: within a few float32
+    roundings of a pixel's value, 1e-6 relative), for the pixel offsets and, in the direct model, for one
+    light sample per pixel sample. A pass that restarted the sequence would repeat samples 0-3: that image is
+    the 4-sample one, 0.05 or more away in some pixel."""
+    scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
+    options = {**SMALL, "spp": 16, "light_samples": 1}
+    whole, _, one = render_progressive(scene, **options)
+    parts, _, four = render_progressive(scene, **options, max_pass_work=4 * (1 + 1) * 64 * 64)  # 4 samples a pass
+    assert (one.passes, four.passes, one.sampler, one.light_sampler) == (1, 4, "sobol", "sobol")
+    np.testing.assert_allclose(parts, whole, rtol=1e-6, atol=1e-6)
+    fewer, _, _ = render_progressive(scene, **dict(options, spp=4))
+    assert np.max(np.abs(fewer - whole)) > 0.05
