@@ -39,9 +39,18 @@ inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
         __global const Light *light = &s->lights[i];
         vfloat t = intersect_rectangle(&light->shape, r, vmin(tmax, hit.t), &dt, &u, &v);
         t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+#if HAS_PATH_TRACING /* a light with a material reflects: its hits get a point to shade, as a rectangle's do */
+        vfloat err = 0.0f;
+        vec3 p = hit.p;
+        if (light->shape.material >= 0 && ANY(t < hit.t))
+            p = rectangle_point(&light->shape, u, v, &err);
+        hit_update(&hit, r, t, p, err, v3_uniform(light->shape.normal), light->shape.material, light->colour,
+                   SHAPE_NONE, i, (vfloat)(0.0f), (vfloat)(0.0f));
+#else
         hit_update(&hit, r, t, hit.p, 0.0f, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
                    (vfloat)(0.0f), (vfloat)(0.0f));
-#if HAS_DIRECT_LIGHTING /* radiance leaves the front face only: a light's back is black, and hides what is behind */
+#endif
+#if RADIOMETRIC /* radiance leaves the front face only: a light's back is black, and hides what is behind */
         vint back = (t == hit.t) & (v3_dot(r.d, v3_uniform(light->shape.normal)) >= 0.0f);
         hit.emitted = v3_select(hit.emitted, v3_splat(0.0f, 0.0f, 0.0f), back);
 #endif

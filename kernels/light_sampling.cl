@@ -1,9 +1,11 @@
-/* The light sampling both shading models share (shading.cl, direct_lighting.cl): for every light, its samples
+/* The light sampling every shading model shares (shading.cl, direct_lighting.cl, path_tracing.cl): for every
+ * light, its samples
  * from the light sample pattern (randomised under the pixel's key and the light's index), the ones that count
  * (sample_counts), their shadow segments (tested among what the packet's segments towards the light can meet:
  * intersect.cl's shadow_candidates, once per light), and the weights (sample_weight) of those nothing blocks,
  * summed and scaled (light_scale) by the light's colour. The including model defines those three before
- * including this file; a sample that does not count casts no shadow ray. */
+ * including this file (sample_weight also gets the light's area and its sample count, which the path model's
+ * MIS weights need); a sample that does not count casts no shadow ray. */
 #ifndef LIGHT_SAMPLING_CL
 #define LIGHT_SAMPLING_CL
 
@@ -32,6 +34,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         SampleStream stream = next_stream(ps, s->params->light_sampler, n_samples);
         vec3 light_normal = v3_uniform(light->shape.normal);
         vfloat q_err = light_point_error(light);
+        float area = 4.0f * light->shape.half_x * light->shape.half_y;
         uint skip = rectangles_out_of_reach(s, light, origin, surface);
         SweptLeaves candidates = {0};
         int swept = 0; /* found at the first sample that counts: a packet facing away needs none */
@@ -60,7 +63,8 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
                 if (candidates.n != 0) /* else nothing can block the light */
                     lit[g] &= !occluded_among(s, &candidates, shadow_segment(origin, q[g], q_err, light_normal), skip,
                                               lit[g]);
-                sum += SELECT((vfloat)(0.0f), sample_weight(sp, w[g], l[g], light_normal, v), lit[g]);
+                vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples);
+                sum += SELECT((vfloat)(0.0f), weight, lit[g]);
             }
         }
         total = v3_madd(total, sum * (light_scale(light) / n_samples), v3_uniform(light->colour));

@@ -13,7 +13,9 @@
  * counts of nodes and primitives the work-item's traversals tested, each shared equally among its pixels. */
 #include "camera.cl"
 #include "tile.h"
-#if HAS_DIRECT_LIGHTING
+#if HAS_PATH_TRACING
+#include "path_tracing.cl"
+#elif HAS_DIRECT_LIGHTING
 #include "direct_lighting.cl"
 #else
 #include "shading.cl" /* the course's Phong model */
@@ -131,7 +133,11 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                                       1.0f / height);
         Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
+#if HAS_PATH_TRACING
+        vec3 value = trace_path(&scene, ts, ray, hit, sp, light_samples, &ps, &rays);
+#else
         vec3 value = shade(&scene, ray, hit, sp, light_samples, &ps, &rays);
+#endif
         kahan_add(&sum, &carry, value);
         if (n_first > 0) /* uniform: the first pass only */
             kahan_add(&first_sum, &first_carry, v3_select(v3_splat(0.0f, 0.0f, 0.0f), value, ps.index < sample0 + n_first));

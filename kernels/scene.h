@@ -1,8 +1,8 @@
 /* The scene as the kernel sees it: the host's buffers and counts, gathered in one private struct.
  * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
  * HAS_HEIGHT_MAPS and HAS_SMOOTH_NORMALS (set by the host from the scene) leave out the code of what a scene
- * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING the shading model
- * (direct_lighting.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant.
+ * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING and
+ * HAS_PATH_TRACING the shading model (direct_lighting.cl, path_tracing.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant.
  * COUNT_VISITS (never derived from a scene: `bench` and `bench --scaling` set it) builds a render
  * kernel that also counts the nodes and primitives its traversals test (below). */
 #ifndef SCENE_H
@@ -13,7 +13,8 @@
 /* Any texture at all: hits then carry what is needed to find their texture coordinates. */
 #define HAS_TEXTURES (HAS_COLOUR_MAPS || HAS_NORMAL_MAPS || HAS_HEIGHT_MAPS)
 /* Hits carry their shape and barycentrics for texturing or for interpolating smooth normals. */
-#define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS)
+#define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING) /* path: which light was hit */
+#define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
 
 typedef struct {
     __global const Rectangle *rectangles;

@@ -62,7 +62,7 @@ typedef struct {
 /* Bit i of planes_in_front (planes_behind), i < CULLED_RECTANGLES: the whole light, as shadow rays sample it, lies strictly
  * in front of (behind) rectangle i's plane, so that no shadow ray from that side can cross it (intersect.cl). */
 typedef struct {
-    Rectangle shape; /* shape.material is unused */
+    Rectangle shape; /* shape.material: the path model's reflecting material, -1 none (black) */
     Vec3f colour;
     uint planes_in_front, planes_behind;
 } Light;
@@ -130,6 +130,7 @@ typedef struct {
     int width, height;
     int texture_filter;    /* FILTER_* */
     float footprint_scale; /* spacing of the pixel samples in pixels (1 / sqrt(spp)): ray differentials */
+    int max_depth;         /* the path model's vertices per path (-1: unbounded; path_tracing.cl) */
 } RenderParams;
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }

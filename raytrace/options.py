@@ -33,9 +33,11 @@ class RenderOptions:
     light_sampler: str | None = option(None, "the light sample pattern (default: the scene's)",
                                        choices=samplers.SAMPLERS)
     texture_filter: str = option("trilinear", "how textures are filtered", choices=tuple(structs.FILTERS))
-    shading: str | None = option(None, "the shading model: phong (the course's) or direct (radiometric direct "
-                                 "lighting; a light's colour is then its radiance) (default: the scene's)",
-                                 choices=SHADINGS)
+    shading: str | None = option(None, "the shading model: phong (the course's), direct (radiometric direct "
+                                 "lighting; a light's colour is then its radiance) or path (global illumination) "
+                                 "(default: the scene's)", choices=SHADINGS)
+    max_depth: int | None = option(None, "the path model's vertices per path: 1 the emitters seen directly, 2 "
+                                   "direct light, -1 unbounded (default: the scene's)")
     seed: int = option(0, "seed of the random sample patterns' randomisation, in [0, 2^32)")
     time_limit: float | None = option(None, "stop before a pass that would end after this many seconds",
                                       metavar="SECONDS")

@@ -16,7 +16,7 @@ import numpy as np
 from . import samplers, structs
 from .errors import InputError
 from .memory import available_memory
-from .scene.model import SHADINGS
+from .scene.model import MAX_DEPTH, RADIOMETRIC, SHADINGS
 from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
 from .renderer.cpu_target import lanes_for
 from .renderer.device_render import LocalPasses, band_rows
@@ -126,7 +126,8 @@ def check_memory(width, height):
 
 
 def render(scene, *, width=None, height=None, spp=None, light_samples=None, sampler=None, light_sampler=None,
-           texture_filter="trilinear", shading=None, seed=0, time_limit=None, target_error=None, device=None,
+           texture_filter="trilinear", shading=None, max_depth=None, seed=0, time_limit=None, target_error=None,
+           device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
            max_pass_work=PASS_WORK, client=None):
     """Render `scene` (from load_file, load_dict or load_string); returns (image, stats).
@@ -148,8 +149,11 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
             jittered, halton or sobol (docs/sampling.md; None: the scene's).
         light_sampler: the light sample pattern, the same choice (None: the scene's).
         texture_filter: nearest, bilinear, trilinear or anisotropic.
-        shading: "phong" (the course's model) or "direct" (radiometric direct lighting; a light's colour is
-            then its radiance; refused for a scene with an ambient term) (None: the scene's).
+        shading: "phong" (the course's model), "direct" (radiometric direct lighting; a light's colour is
+            then its radiance; refused for a scene with an ambient term) or "path" (global illumination by path
+            tracing, the same lights and surfaces) (None: the scene's).
+        max_depth: the path model's vertices per path, in [-1, 1024], Mitsuba's convention: 1 the emitters
+            seen directly, 2 direct light, -1 unbounded (None: the scene's; only with shading "path").
         seed: the seed of the random patterns' per-pixel randomisation, in [0, 2^32).
         time_limit: seconds; no pass starts that would end after it (the first always runs).
         target_error: stop once the estimated relative RMSE of the image is at most this.
@@ -168,7 +172,7 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
     """
     image, variance, stats = render_progressive(
         scene, width=width, height=height, spp=spp, light_samples=light_samples, sampler=sampler,
-        light_sampler=light_sampler, texture_filter=texture_filter, shading=shading, seed=seed,
+        light_sampler=light_sampler, texture_filter=texture_filter, shading=shading, max_depth=max_depth, seed=seed,
         time_limit=time_limit, target_error=target_error, device=device, scheduler=scheduler, lanes=lanes,
         features=features, progress=progress, max_band_bytes=max_band_bytes, max_pass_work=max_pass_work,
         client=client)
@@ -220,10 +224,18 @@ class Resolved:
     passes: list  # (first pixel sample, samples, samples summed apart: progressive.first_half) of every pass
 
 
+def path_vertices(scene):
+    """Vertices a pixel sample's path has at most, for sizing passes: 1 outside the path model; there
+    max_depth - 1 bounces, counted as at most 8 (Russian roulette ends most paths by then)."""
+    if scene.shading != "path":
+        return 1
+    return max(1, min(8, scene.max_depth - 1 if scene.max_depth >= 0 else 8))
+
+
 def resolve_all(scene, options):
     """resolve(), and the passes: their sizes follow from the options alone, so every device agrees on them."""
     width, height, spp, n_light, pixel, light = resolve(scene, options)
-    work = 1 + len(scene.lights) * n_light
+    work = (1 + len(scene.lights) * n_light) * path_vertices(scene)
     stoppable = options.time_limit is not None or options.target_error is not None
     per_pass = pass_size(spp, width * height * work, options.max_pass_work // (2 if stoppable else 1))
     sizes = [(s, min(per_pass, spp - s)) for s in range(0, spp, per_pass)]
@@ -251,10 +263,16 @@ def render_progressive(scene, **kwargs):
     ensure_checked(scene, API)
     if options.shading is not None:
         _option(options.shading, API, "shading", lambda v: v in SHADINGS, f"must be one of: {', '.join(SHADINGS)}")
-        if options.shading == "direct" and np.any(scene.ambient):
+        if options.shading in RADIOMETRIC and np.any(scene.ambient):
             raise InputError(API, "shading", options.shading, f"the scene's ambient {scene.ambient.tolist()} is the "
-                             "Phong model's, and direct lighting has none: remove it from the scene")
+                             f"Phong model's, and the {options.shading} model has none: remove it from the scene")
         scene = dataclasses.replace(scene, shading=options.shading)
+    if options.max_depth is not None:
+        _option(options.max_depth, API, "max_depth", lambda v: _integer(v) and -1 <= v <= MAX_DEPTH,
+                f"must be an integer in [-1, {MAX_DEPTH}]")
+        _option(options.max_depth, API, "max_depth", lambda v: scene.shading == "path",
+                f'is the path model\'s, and this render\'s shading is "{scene.shading}"')
+        scene = dataclasses.replace(scene, max_depth=options.max_depth)
     r = resolve_all(scene, options)
     check_memory(r.width, r.height)
     passes = _passes(scene, options, r)

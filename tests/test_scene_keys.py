@@ -55,20 +55,25 @@ PLACES = {"": ((), ""), "camera": (("camera",), "camera."), "image": (("image",)
           "rotate": (("shapes", 3, "rotate"), "shapes[3].rotate."),
           'shapes[] type = "ellipsoid"': (("shapes", 4), "shapes[4]."),
           "shapes[]": (("shapes", 4), "shapes[4].")}
-DIRECT = "lights[] (direct)"
+DIRECT = "lights[] (direct, path)"
 SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] type = "mesh"',
          'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"'}
+
+
+def radiometric(scene, shading):
+    """every_table() turned to a radiometric model: no ambient term, the light's colour a radiance."""
+    del scene["ambient"]
+    scene["render"]["shading"] = shading
+    light = scene["lights"][0]
+    light["radiance"] = light.pop("colour")
 
 
 def scene_with(table_name):
     """(the scene as a dict, the table `table_name` inside it, its error prefix)."""
     scene = every_table()
     if table_name == DIRECT:
-        del scene["ambient"]
-        scene["render"]["shading"] = "direct"
-        light = scene["lights"][0]
-        light["radiance"] = light.pop("colour")
-        return scene, light, "lights[0]."
+        radiometric(scene, "direct")
+        return scene, scene["lights"][0], "lights[0]."
     where, prefix = PLACES[table_name]
     node = scene
     for step in where:
@@ -125,6 +130,8 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
     scene, table, prefix = scene_with(table_name)
     if key.name == "triangles" and value > 1000:
         pytest.skip("a mesh this large is refused by the memory there is, not by the bound")
+    if key.name == "max_depth":  # the path model's key
+        radiometric(scene, "path")
     table[key.name] = value
     if accepted:
         parse_scene(scene, SCENE_PATH)

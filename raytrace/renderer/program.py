@@ -38,7 +38,8 @@ class Features:
     height_maps: bool = True
     smooth_normals: bool = False
     bvh: bool = False
-    direct_lighting: bool = False  # the scene's shading: radiometric direct lighting, else Phong
+    direct_lighting: bool = False  # the scene's shading: radiometric direct lighting
+    path_tracing: bool = False     # the scene's shading: global illumination by path tracing (neither: Phong)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -53,12 +54,13 @@ class Features:
         return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
                    used("colour_map"), used("normal_map"), used("height_map"),
                    any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
-                   scene.shading == "direct")
+                   scene.shading == "direct", scene.shading == "path")
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
                  "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps,
-                 "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting}
+                 "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting,
+                 "PATH_TRACING": self.path_tracing}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

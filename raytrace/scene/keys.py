@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import WRAP_MODES
-from .model import DEFAULT_SHININESS, SHADINGS
+from .model import DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 REQUIRED = object()
@@ -55,8 +55,10 @@ def _rectangle(emission=None):
 
 
 _COLOUR = Key("colour", "vector", "Phong shading: the light's colour", length=3, low=0)
-_RADIANCE = Key("radiance", "number-or-vector", 'shading = "direct": the emitted radiance, from the side the '
-                "normal points to (one number: the same in every channel)", length=3, low=0)
+_RADIANCE = Key("radiance", "number-or-vector", 'shading = "direct" or "path": the emitted radiance, from the '
+                "side the normal points to (one number: the same in every channel)", length=3, low=0)
+_LIGHT_MATERIAL = Key("material", "string", "the material the light reflects with (default: none, black)",
+                      default=None, also='shading = "path" only; one of the materials')
 
 TABLES = {
     "": [Key("ambient", "vector", "Phong shading's ambient light, added once and never shadowed", length=3, low=0,
@@ -87,10 +89,12 @@ TABLES = {
                Key("light_sampler", "string", "the light sample pattern", default="grid",
                    choices=samplers.SAMPLERS, also='as sampler; with shading = "direct", not a single point (center, '
                                                    'or a grid of 1)'),
-               Key("shading", "string", "the shading model: the course's Phong or radiometric direct lighting",
-                   default="phong", choices=SHADINGS)],
+               Key("shading", "string", "the shading model: the course's Phong, radiometric direct lighting, or "
+                   "global illumination by path tracing", default="phong", choices=SHADINGS),
+               Key("max_depth", "integer", 'shading = "path": path vertices at most, Mitsuba\'s convention (1: the '
+                   "emitters seen directly, 2: direct light, -1: unbounded)", default=-1, low=-1, high=MAX_DEPTH)],
     "lights[]": _rectangle(_COLOUR),
-    "lights[] (direct)": _rectangle(_RADIANCE),
+    "lights[] (direct, path)": _rectangle(_RADIANCE) + [_LIGHT_MATERIAL],
     "materials.NAME": [
         Key("colour", "vector", "ka = kd = ks, the material's colour (with a texture: its tint)", length=3, low=0,
             default=(1.0, 1.0, 1.0), also="required without texture"),

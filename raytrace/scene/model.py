@@ -17,9 +17,11 @@ def normalize(v):
     return v / np.linalg.norm(v)
 
 
-# The shading models: the course's Phong model, and radiometric direct lighting (Lambertian surfaces, area
-# lights of a given radiance): docs/model.md.
-SHADINGS = ("phong", "direct")
+# The shading models: the course's Phong model, radiometric direct lighting (Lambertian surfaces, area lights
+# of a given radiance: docs/model.md) and global illumination by path tracing (docs/global-illumination.md).
+SHADINGS = ("phong", "direct", "path")
+RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
+MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
 
 @dataclass(frozen=True)
 class Camera:
@@ -67,7 +69,8 @@ class Rectangle:
 
 @dataclass(frozen=True)
 class Light(Rectangle):
-    colour: np.ndarray = field(default_factory=lambda: np.ones(3))  # Phong: the course's colour; direct: radiance
+    colour: np.ndarray = field(default_factory=lambda: np.ones(3))  # Phong: the course's colour; else radiance
+    material: int = -1  # the path model: the material it reflects with (-1: none, black)
 
 
 @dataclass(frozen=True)
@@ -124,6 +127,7 @@ class Scene:
     textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
     meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
     shading: str = "phong"  # one of SHADINGS
+    max_depth: int = -1     # the path model's vertices per path, Mitsuba's convention (-1: unbounded)
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from
     revision: int = field(default=0, compare=False, repr=False)  # counts its edits (raytrace.parameters)
     checked: str | None = field(default=None, compare=False, repr=False)  # fingerprint() when last checked

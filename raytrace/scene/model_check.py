@@ -12,8 +12,9 @@ import numpy as np
 
 from . import ranges
 from .. import samplers
-from .model import SHADINGS, Camera, Ellipsoid, Light, MeshShape, Rectangle, Triangle, fingerprint, normalize
-from .scene_file import Reader, check_frame, check_triangle
+from .model import (RADIOMETRIC, SHADINGS, Camera, Ellipsoid, Light, MeshShape, Rectangle, Triangle, fingerprint,
+                    normalize)
+from .scene_file import LIGHTS_SPEC, Reader, check_frame, check_triangle
 
 # (the model's attribute, the key of keys.py's table it was read from)
 CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("fov_deg", "fov"),
@@ -63,13 +64,17 @@ def check_model(scene, source="render()"):
     top.vector("ambient")
     if scene.shading not in SHADINGS:
         top.fail("shading", scene.shading, f"must be one of: {', '.join(SHADINGS)}")
-    if scene.shading == "direct" and np.any(scene.ambient):
-        top.fail("ambient", _value(scene.ambient), 'is the Phong model\'s: shading = "direct" has no ambient term')
+    if scene.shading in RADIOMETRIC and np.any(scene.ambient):
+        top.fail("ambient", _value(scene.ambient),
+                 f'is the Phong model\'s: shading = "{scene.shading}" has no ambient term')
     image = Reader(source, {"width": scene.width, "height": scene.height}, "", "image")
     image.integer("width"), image.integer("height")
     render = Reader(source, {"spp": scene.spp, "light_samples": scene.light_samples, "sampler": scene.sampler,
-                             "light_sampler": scene.light_sampler}, "", "render")
+                             "light_sampler": scene.light_sampler, "max_depth": scene.max_depth}, "", "render")
     render.integer("spp"), render.integer("light_samples"), render.string("sampler"), render.string("light_sampler")
+    render.integer("max_depth")
+    if scene.max_depth != -1 and scene.shading != "path":
+        render.fail("max_depth", scene.max_depth, 'is the path model\'s: only with shading = "path"')
     for key, count in (("sampler", "spp"), ("light_sampler", "light_samples")):
         problem = samplers.count_problem(getattr(scene, key), getattr(scene, count))
         if problem:
@@ -99,8 +104,8 @@ def check_model(scene, source="render()"):
                 _index(source, f"materials[{i}].{key}", getattr(m, key), len(scene.textures))
         materials.append(r)
 
-    emission = "radiance" if scene.shading == "direct" else "colour"
-    spec = "lights[] (direct)" if scene.shading == "direct" else "lights[]"
+    emission = "radiance" if scene.shading in RADIOMETRIC else "colour"
+    spec = LIGHTS_SPEC if scene.shading in RADIOMETRIC else "lights[]"
     places, lights = [(camera, scene.camera)], []
     if not scene.lights:
         top.fail("lights", [], "must hold one or more lights")
@@ -109,6 +114,10 @@ def check_model(scene, source="render()"):
         r = _reader(source, f"lights[{i}].", spec, light, RECTANGLE + [("colour", emission)])
         _read(r, RECTANGLE + [("colour", emission)])
         check_frame(r)
+        if light.material != -1:
+            if scene.shading != "path":
+                r.fail("material", light.material, 'a light reflects only in the path model (shading = "path")')
+            _index(source, f"lights[{i}].material", light.material, len(scene.materials))
         places.append((r, light))
         lights.append(r)
 

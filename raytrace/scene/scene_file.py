@@ -12,8 +12,10 @@ import numpy as np
 from . import keys, mesh_file, meshes, meshgen, ranges
 from ..errors import InputError
 from .. import samplers
-from .model import (Camera, fingerprint, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene, Triangle,
-                    normalize)
+from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene,
+                    Triangle, normalize)
+
+LIGHTS_SPEC = "lights[] (direct, path)"  # keys.py's table of a radiometric model's lights
 from .textures import TextureCache
 from .transform import mesh_matrix
 
@@ -334,8 +336,11 @@ def parse_scene(table, path="<scene>"):
     render = r.sub("render") if r.has("render") else Reader(path, {}, "render.", "render")
     render.check_keys()
     shading = render.string("shading")
-    if shading == "direct" and r.has("ambient"):
-        r.fail("ambient", r.raw("ambient"), 'is the Phong model\'s: shading = "direct" has no ambient term')
+    if shading in RADIOMETRIC and r.has("ambient"):
+        r.fail("ambient", r.raw("ambient"), f'is the Phong model\'s: shading = "{shading}" has no ambient term')
+    max_depth = render.integer("max_depth")
+    if max_depth != -1 and shading != "path":
+        render.fail("max_depth", max_depth, 'is the path model\'s: only with shading = "path"')
 
     mats = r.raw("materials")
     if not isinstance(mats, dict) or not mats:
@@ -359,17 +364,25 @@ def parse_scene(table, path="<scene>"):
         render.fail("light_sampler", light_sampler, problem)
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
-                  textures=textures.textures, shading=shading)
+                  textures=textures.textures, shading=shading, max_depth=max_depth)
 
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:
         r.fail("lights", lights, "must be a non-empty array of [[lights]] tables")
     places, light_readers = [(c, camera)], []
     for i, light in enumerate(lights):
-        lr = Reader(path, light, f"lights[{i}].", "lights[] (direct)" if shading == "direct" else "lights[]")
-        emission = "radiance" if shading == "direct" else "colour"  # what the light's one colour means
+        lr = Reader(path, light, f"lights[{i}].", LIGHTS_SPEC if shading in RADIOMETRIC else "lights[]")
+        emission = "radiance" if shading in RADIOMETRIC else "colour"  # what the light's one colour means
         lr.check_keys()
-        scene.lights.append(Light(colour=_emission(lr, emission), **_rectangle_fields(lr)))
+        material = -1
+        if lr.has("material"):
+            if shading != "path":
+                lr.fail("material", lr.raw("material"), 'a light reflects only in the path model (shading = "path")')
+            name = lr.string("material")
+            if name not in material_index:
+                lr.fail("material", name, f"no such material (defined: {', '.join(material_index)})")
+            material = material_index[name]
+        scene.lights.append(Light(colour=_emission(lr, emission), material=material, **_rectangle_fields(lr)))
         places.append((lr, scene.lights[-1]))
         light_readers.append(lr)
 

@@ -1,0 +1,155 @@
+/* Global illumination, the third shading model (`shading = "path"`; docs/global-illumination.md):
+ * unidirectional path tracing from the camera (pbrt-v4's PathIntegrator, Mitsuba 3's `path`). The surfaces are
+ * Lambertian, f = albedo / pi, both sides reflecting, as in the direct model; the rectangular lights emit their
+ * radiance from the front face and reflect by their material where they have one.
+ *
+ * At every vertex the lights are sampled by area (next-event estimation, light_sampling.cl) and the BSDF by
+ * the cosine-weighted hemisphere; the two estimates of light reached both ways are combined by multiple
+ * importance sampling with the power heuristic (Veach, "Robust Monte Carlo Methods for Light Transport
+ * Simulation", 1997, section 9.2). Each light's n samples form one technique and the BSDF's single sample
+ * the other: w_light = (n p_light)^2 / ((n p_light)^2 + p_bsdf^2), both densities per solid angle, p_light =
+ * r^2 / (A cos(theta_l)), p_bsdf = cos(theta_s) / pi. The weights are formed from the ratio p_bsdf / (n
+ * p_light), which stays finite where either density does not (a light seen edge-on).
+ *
+ * Depth follows Mitsuba's convention: max_depth 1 shows the emitters seen directly, 2 adds direct light, -1
+ * is unbounded. From vertex rr_depth on (Mitsuba's default 5), Russian roulette continues a path with
+ * probability q = min(max(throughput), 0.95) and divides its throughput by q (pbrt-v4 section 13.1.1). */
+#ifndef PATH_TRACING_CL
+#define PATH_TRACING_CL
+
+#include "vmath.h"
+#include "material.cl"
+
+#define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
+#ifndef PATH_SAMPLING
+/* How light reaching a vertex is sampled: 0, both ways combined by MIS (the renderer's only choice); tests
+ * (tests/test_path_tracing.py) build 1, the lights alone, and 2, the BSDF alone, which must agree with it. */
+#define PATH_SAMPLING 0
+#endif
+#define RR_MAX_Q 0.95f /* a path always has a chance to end there, however bright its throughput */
+
+/* A light sample counts where it lies above the surface (ng and the shading normal n) and in front of the
+ * light (direct_lighting.cl's rule). */
+inline vint sample_counts(ShadingPoint sp, vec3 l, vec3 light_normal)
+{
+    return (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f) & (v3_dot(light_normal, l) < 0.0f);
+}
+
+/* 1 / (1 + x^2): the power heuristic's weight of a technique whose density is 1 / x times the other's. */
+inline vfloat power_weight(vfloat x) { return 1.0f / MAD(x, x, 1.0f); }
+
+/* The light sample's cos(theta_s) cos(theta_l) / r^2, times its MIS weight against a cosine-weighted BSDF
+ * sample of the same direction: x = p_bsdf / (n p_light) = cos(theta_s) A cos(theta_l) / (pi n r^2). */
+inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+{
+    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w);
+    vfloat g = cos_s * cos_l / r2;
+#if PATH_SAMPLING == 1
+    return g;
+#else
+    return g * power_weight(g * (area * M_1_PI_F / (float)n));
+#endif
+}
+
+inline float light_scale(__global const Light *light)
+{
+    return 4.0f * light->shape.half_x * light->shape.half_y * M_1_PI_F;
+}
+
+#include "light_sampling.cl"
+
+/* A direction about the unit normal n with density cos(theta) / pi, from u in [0, 1)^2: Malley's method, a
+ * uniform point on the disk (Shirley and Chiu's concentric map, pbrt-v4 section A.5.1) lifted to the
+ * hemisphere. */
+inline vec3 cosine_direction(vec3 n, vec2 u)
+{
+    vfloat a = MAD(2.0f, u.x, -1.0f), b = MAD(2.0f, u.y, -1.0f);
+    vint first = vabs(a) > vabs(b);
+    vfloat r = SELECT(b, a, first);
+    vfloat phi = SELECT(M_PI_2_F - (M_PI_4_F * a) / b, (M_PI_4_F * b) / a, first);
+    phi = SELECT(phi, (vfloat)(0.0f), (a == 0.0f) & (b == 0.0f));
+    vfloat dx = r * cos(phi), dy = r * sin(phi);
+    vfloat dz = sqrt(vmax((vfloat)(0.0f), 1.0f - dx * dx - dy * dy));
+    /* a frame about n (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017) */
+    vfloat sign = vcopysign((vfloat)(1.0f), n.z), a_ = -1.0f / (sign + n.z), b_ = n.x * n.y * a_;
+    vec3 t = v3(1.0f + sign * n.x * n.x * a_, sign * b_, -sign * n.x);
+    vec3 bt = v3(b_, sign + n.y * n.y * a_, -n.y);
+    return v3_add(v3_add(v3_scale(t, dx), v3_scale(bt, dy)), v3_scale(n, dz));
+}
+
+/* The area of the light each lane's hit is on (HAS_SURFACE_DATA: kind SHAPE_NONE and the light's index, for a
+ * hit; a miss has kind SHAPE_NONE too), 0 elsewhere. */
+inline vfloat hit_light_area(const Scene *s, Hit hit)
+{
+    int kind[LANES], index[LANES];
+    float t[LANES], area[LANES];
+    VSTORE(hit.kind, kind);
+    VSTORE(hit.index, index);
+    VSTORE(hit.t, t);
+    for (int i = 0; i < LANES; ++i) {
+        __global const Rectangle *shape = &s->lights[index[i]].shape;
+        area[i] = kind[i] == SHAPE_NONE && t[i] < INFINITY ? 4.0f * shape->half_x * shape->half_y : 0.0f;
+    }
+    return VLOAD(area);
+}
+
+/* Radiance along the camera ray r, whose first hit is `hit`, shaded at sp; *rays counts the rays traced per
+ * lane after the camera ray. */
+inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingPoint sp,
+                       __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
+{
+    const int max_depth = s->params->max_depth, n_light = s->params->light_samples;
+    const Sampler light_sampler = s->params->light_sampler;
+    /* The BSDF's and roulette's numbers: sobol's sequence, else independent points (a table pattern is a
+     * light's, or the course's). */
+    Sampler bounce = light_sampler;
+    if (bounce.randomize != RANDOMIZE_SOBOL)
+        bounce.randomize = RANDOMIZE_INDEPENDENT;
+    vec3 radiance = max_depth == 0 ? v3_splat(0.0f, 0.0f, 0.0f) : hit.emitted;
+    vec3 beta = v3_splat(1.0f, 1.0f, 1.0f);
+    vint alive = (hit.t < INFINITY) & (hit.material >= 0);
+    for (int depth = 1; (max_depth < 0 || depth < max_depth) && ANY(alive); ++depth) {
+        /* light reached by sampling the lights: k / pi sum over lights (A / n) sum_j V L_e G w */
+        vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), PATH_SAMPLING == 2 ? (vint)(0) : alive, light_samples,
+                                 ps, rays);
+        radiance = v3_add(radiance, v3_mul(v3_mul(beta, sp.k), direct));
+
+        /* the next direction by sampling the BSDF: f cos / p = k */
+        vec2 u = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
+        vec3 wi = cosine_direction(sp.n, u);
+        vfloat cos_s = v3_dot(sp.n, wi);
+        alive &= (v3_dot(sp.ng, wi) > 0.0f) & (cos_s > 0.0f);
+        beta = v3_select(beta, v3_mul(beta, sp.k), alive);
+        Ray next = {offset_ray_origin(sp.p, sp.err, sp.ng), wi};
+        hit = closest_hit(s, next, (vfloat)(INFINITY));
+        *rays += MASK_TO_ONE(alive);
+
+        /* light reached by the BSDF's sample, weighted against the lights' samples of the same direction: x =
+         * n p_light / p_bsdf = n r^2 pi / (A cos(theta_l) cos(theta_s)) (0 where no light was hit: weight 1) */
+        vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi));
+        vfloat x = (float)n_light * hit.t * hit.t * M_PI_F / (area * cos_l * cos_s);
+        vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), area == 0.0f);
+#if PATH_SAMPLING == 1
+        w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), area == 0.0f);
+#elif PATH_SAMPLING == 2
+        w = (vfloat)(1.0f);
+#endif
+        vint lit = alive & (hit.t < INFINITY);
+        radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_scale(v3_mul(beta, hit.emitted), w),
+                                              lit));
+        alive = lit & (hit.material >= 0);
+
+        /* Russian roulette from RR_DEPTH on, on the throughput */
+        vec2 v = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
+        if (depth + 1 >= RR_DEPTH) {
+            vfloat q = vmin(vmax(beta.x, vmax(beta.y, beta.z)), (vfloat)(RR_MAX_Q));
+            alive &= v.x < q;
+            beta = v3_scale(beta, 1.0f / vmax(q, (vfloat)(1e-30f)));
+        }
+        r = next;
+        sp = shading_point(s, ts, r, hit);
+    }
+    return radiance;
+}
+
+#endif
