@@ -21,6 +21,13 @@ typedef struct {
     vec3 n;            /* shading unit normal, on the side of ng */
     vec3 k;            /* the material's colour at the hit (0 where no surface was hit) */
     vfloat shininess;
+#if HAS_SPECULAR
+    vint bsdf;         /* BSDF_* (the path model) */
+    vec3 eta, k_imag;  /* the material's eta and k (types.h) */
+#endif
+#if HAS_DIELECTRICS
+    vint backface;     /* the hit is on the side the normal points away from (inside a closed shape) */
+#endif
 } ShadingPoint;
 
 #if HAS_TEXTURES
@@ -197,6 +204,13 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     float sh[LANES];
     Lanes3 k = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
     VSTORE(hit.material, m);
+#if HAS_SPECULAR
+    int bsdf[LANES];
+    Lanes3 eta = v3_spill(v3_splat(0.0f, 0.0f, 0.0f)), k_imag = eta;
+#endif
+#if HAS_DIELECTRICS
+    sp.backface = hit.backface;
+#endif
 #if HAS_SMOOTH_NORMALS /* the hits' shapes and barycentrics, for interpolating normals per lane */
     int kind[LANES], index[LANES];
     float b1[LANES], b2[LANES];
@@ -211,6 +225,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #endif
     for (int i = 0; i < LANES; ++i) {
         sh[i] = 1.0f;
+#if HAS_SPECULAR
+        bsdf[i] = BSDF_DIFFUSE;
+#endif
 #if HAS_TEXTURES
         textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
         any_textured |= textured[i];
@@ -220,6 +237,11 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         __global const Material *mat = &s->materials[m[i]];
         sh[i] = mat->shininess;
         set_lane3(&k, i, f3(mat->colour));
+#if HAS_SPECULAR
+        bsdf[i] = mat->bsdf;
+        set_lane3(&eta, i, f3(mat->eta));
+        set_lane3(&k_imag, i, f3(mat->k));
+#endif
 #if HAS_SMOOTH_NORMALS
         /* a normal or height map defines its own shading normal, from the flat frame (a known limit) */
         if (kind[i] == SHAPE_TRIANGLE && mat->normal_map < 0 && mat->height_map < 0)
@@ -228,6 +250,11 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     }
     sp.k = v3_fill(&k);
     sp.shininess = VLOAD(sh);
+#if HAS_SPECULAR
+    sp.bsdf = VLOAD_INT(bsdf);
+    sp.eta = v3_fill(&eta);
+    sp.k_imag = v3_fill(&k_imag);
+#endif
 #if HAS_SMOOTH_NORMALS
     sp.n = v3_fill(&n);
 #endif

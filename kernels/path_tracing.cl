@@ -77,6 +77,71 @@ inline vec3 cosine_direction(vec3 n, vec2 u)
     return v3_add(v3_add(v3_scale(t, dx), v3_scale(bt, dy)), v3_scale(n, dz));
 }
 
+#if HAS_SPECULAR
+/* wo mirrored about the unit normal n. */
+inline vec3 reflected(vec3 wo, vec3 n) { return v3_sub(v3_scale(n, 2.0f * v3_dot(wo, n)), wo); }
+
+/* The Fresnel reflectance of a conductor of complex index of refraction eta + i k (relative to the outside)
+ * at cos(theta_i) in [0, 1], unpolarised: the exact formula in real arithmetic (pbrt-v3's FrConductor, after
+ * Born and Wolf). eta = k = 0 gives 1: a perfect mirror, Mitsuba's conductor of material "none". */
+inline vfloat fresnel_conductor(vfloat cos_i, vfloat eta, vfloat k)
+{
+    vfloat cos2 = cos_i * cos_i, sin2 = 1.0f - cos2;
+    vfloat t0 = eta * eta - k * k - sin2;
+    vfloat a2b2 = sqrt(vmax(MAD(t0, t0, 4.0f * eta * eta * k * k), (vfloat)(0.0f)));
+    vfloat t1 = a2b2 + cos2, a = sqrt(vmax(0.5f * (a2b2 + t0), (vfloat)(0.0f))), t2 = 2.0f * cos_i * a;
+    vfloat rs = (t1 - t2) / (t1 + t2);
+    vfloat t3 = MAD(cos2, a2b2, sin2 * sin2), t4 = t2 * sin2;
+    vfloat rp = SELECT(rs * (t3 - t4) / (t3 + t4), rs, t3 + t4 == 0.0f); /* 0 / 0: the mirror head-on */
+    return 0.5f * (rp + rs);
+}
+
+/* The Fresnel reflectance of a dielectric interface at cos(theta_i) in [0, 1] on the incident side, eta the
+ * index of refraction beyond over the one before it; *cos_t the cosine of the refracted direction, and 1 with
+ * *cos_t = 0 beyond the critical angle (total internal reflection): pbrt-v4's FrDielectric. */
+inline vfloat fresnel_dielectric(vfloat cos_i, vfloat eta, vfloat *cos_t)
+{
+    vfloat sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);
+    vint total = sin2_t >= 1.0f;
+    vfloat ct = sqrt(vmax(1.0f - sin2_t, (vfloat)(0.0f)));
+    vfloat r_parl = (eta * cos_i - ct) / (eta * cos_i + ct), r_perp = (cos_i - eta * ct) / (cos_i + eta * ct);
+    *cos_t = SELECT(ct, (vfloat)(0.0f), total);
+    return SELECT(0.5f * (r_parl * r_parl + r_perp * r_perp), (vfloat)(1.0f), total);
+}
+
+/* The smooth BSDFs' sample for the lanes of `lanes`, seen along wo (towards the viewer), the shading normal
+ * sp.n facing wo: the direction *wi and the throughput's factor f cos / p (*weight); *transmit where the
+ * direction crosses the surface. A conductor reflects with weight k F; a dielectric reflects with
+ * probability F (weight k) and refracts otherwise, its radiance divided by eta^2 (pbrt-v4 section 9.5: the
+ * solid angle compresses by eta^2 entering a denser medium), the choice made by u. */
+inline void sample_specular(ShadingPoint sp, vec3 wo, vfloat u, vint lanes, vec3 *wi, vec3 *weight, vint *transmit)
+{
+    vfloat cos_i = v3_dot(wo, sp.n);
+    vec3 mirror = reflected(wo, sp.n);
+#if HAS_CONDUCTORS
+    vint conductor = lanes & (sp.bsdf == BSDF_CONDUCTOR);
+    if (ANY(conductor)) {
+        vec3 f = v3(fresnel_conductor(cos_i, sp.eta.x, sp.k_imag.x), fresnel_conductor(cos_i, sp.eta.y, sp.k_imag.y),
+                    fresnel_conductor(cos_i, sp.eta.z, sp.k_imag.z));
+        *wi = v3_select(*wi, mirror, conductor);
+        *weight = v3_select(*weight, v3_mul(sp.k, f), conductor);
+    }
+#endif
+#if HAS_DIELECTRICS
+    vint dielectric = lanes & (sp.bsdf == BSDF_DIELECTRIC);
+    if (ANY(dielectric)) {
+        vfloat eta = SELECT(sp.eta.x, 1.0f / sp.eta.x, sp.backface), cos_t; /* inside: out through the surface */
+        vfloat f = fresnel_dielectric(cos_i, eta, &cos_t);
+        vint refract = dielectric & (u >= f);
+        vec3 t = v3_sub(v3_scale(sp.n, cos_i / eta - cos_t), v3_scale(wo, 1.0f / eta));
+        *wi = v3_select(*wi, v3_select(mirror, t, refract), dielectric);
+        *weight = v3_select(*weight, v3_select(sp.k, v3_scale(sp.k, 1.0f / (eta * eta)), refract), dielectric);
+        *transmit |= refract;
+    }
+#endif
+}
+#endif
+
 /* The area of the light each lane's hit is on (HAS_SURFACE_DATA: kind SHAPE_NONE and the light's index, for a
  * hit; a miss has kind SHAPE_NONE too), 0 elsewhere. */
 inline vfloat hit_light_area(const Scene *s, Hit hit)
@@ -110,17 +175,28 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
     vint alive = (hit.t < INFINITY) & (hit.material >= 0);
     for (int depth = 1; (max_depth < 0 || depth < max_depth) && ANY(alive); ++depth) {
         /* light reached by sampling the lights: k / pi sum over lights (A / n) sum_j V L_e G w */
-        vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), PATH_SAMPLING == 2 ? (vint)(0) : alive, light_samples,
-                                 ps, rays);
+#if HAS_SPECULAR
+        const vint specular = sp.bsdf != BSDF_DIFFUSE; /* a delta BSDF: no light sample can meet its one direction */
+#else
+        const vint specular = (vint)(0);
+#endif
+        vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), PATH_SAMPLING == 2 ? (vint)(0) : alive & !specular,
+                                 light_samples, ps, rays);
         radiance = v3_add(radiance, v3_mul(v3_mul(beta, sp.k), direct));
 
-        /* the next direction by sampling the BSDF: f cos / p = k */
+        /* the next direction by sampling the BSDF: f cos / p = k for the diffuse surfaces */
         vec2 u = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
-        vec3 wi = cosine_direction(sp.n, u);
-        vfloat cos_s = v3_dot(sp.n, wi);
-        alive &= (v3_dot(sp.ng, wi) > 0.0f) & (cos_s > 0.0f);
-        beta = v3_select(beta, v3_mul(beta, sp.k), alive);
-        Ray next = {offset_ray_origin(sp.p, sp.err, sp.ng), wi};
+        vec3 wi = cosine_direction(sp.n, u), weight = sp.k;
+        vint transmit = (vint)(0);
+#if HAS_SPECULAR
+        vec3 wo = v3_scale(r.d, -1.0f);
+        sample_specular(sp, wo, u.x, alive & specular, &wi, &weight, &transmit);
+        alive &= !specular | (v3_dot(wo, sp.n) > 0.0f);
+#endif
+        vfloat cos_s = v3_dot(sp.n, wi), cos_g = v3_dot(sp.ng, wi);
+        alive &= SELECT(cos_g > 0.0f, cos_g < 0.0f, transmit) & (specular | (cos_s > 0.0f));
+        beta = v3_select(beta, v3_mul(beta, weight), alive);
+        Ray next = {offset_ray_origin(sp.p, sp.err, v3_select(sp.ng, v3_scale(sp.ng, -1.0f), transmit)), wi};
         hit = closest_hit(s, next, (vfloat)(INFINITY));
         *rays += MASK_TO_ONE(alive);
 
@@ -128,9 +204,9 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
          * n p_light / p_bsdf = n r^2 pi / (A cos(theta_l) cos(theta_s)) (0 where no light was hit: weight 1) */
         vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi));
         vfloat x = (float)n_light * hit.t * hit.t * M_PI_F / (area * cos_l * cos_s);
-        vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), area == 0.0f);
+        vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), (area == 0.0f) | specular);
 #if PATH_SAMPLING == 1
-        w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), area == 0.0f);
+        w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), (area == 0.0f) | specular);
 #elif PATH_SAMPLING == 2
         w = (vfloat)(1.0f);
 #endif

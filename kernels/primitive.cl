@@ -21,6 +21,9 @@ typedef struct {
     vec3 n;        /* unit geometric normal, facing the incoming ray */
     vint material; /* -1: nothing or a light */
     vec3 emitted;  /* colour of the light hit first, else 0 */
+#if HAS_DIELECTRICS
+    vint backface; /* the ray met the side the shape's normal points away from: it leaves a closed shape */
+#endif
 #if HAS_SURFACE_DATA /* what texturing and smooth normals need: the shape and where on it */
     vint kind, index; /* SHAPE_* and the shape's index in its table */
     vfloat b1, b2;    /* barycentrics of a triangle hit */
@@ -40,6 +43,9 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n
     hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
     hit->material = SELECT(hit->material, (vint)(material), nearer);
     hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
+#if HAS_DIELECTRICS
+    hit->backface = SELECT(hit->backface, facing < 0.0f, nearer);
+#endif
 #if HAS_SURFACE_DATA
     hit->kind = SELECT(hit->kind, (vint)(kind), nearer);
     hit->index = SELECT(hit->index, (vint)(index), nearer);
@@ -128,6 +134,9 @@ inline Hit no_hit(void)
     hit.p = hit.n = hit.emitted = v3_splat(0.0f, 0.0f, 0.0f);
     hit.err = 0.0f;
     hit.material = (vint)(-1);
+#if HAS_DIELECTRICS
+    hit.backface = (vint)(0);
+#endif
 #if HAS_SURFACE_DATA
     hit.kind = hit.index = (vint)(0);
     hit.b1 = hit.b2 = (vfloat)(0.0f);

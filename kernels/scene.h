@@ -15,6 +15,7 @@
 /* Hits carry their shape and barycentrics for texturing or for interpolating smooth normals. */
 #define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING) /* path: which light was hit */
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
+#define HAS_SPECULAR (HAS_CONDUCTORS || HAS_DIELECTRICS)    /* the path model's smooth BSDFs */
 
 typedef struct {
     __global const Rectangle *rectangles;

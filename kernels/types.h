@@ -78,7 +78,14 @@ typedef struct {
     int wrap;                        /* WRAP_* */
     float height_scale;              /* scene units per unit of height */
     float uv_scale[2], uv_offset[2]; /* (u, v) -> uv_scale * (u, v) + uv_offset before every lookup */
+    int bsdf;                        /* BSDF_*: the path model's; the other models are Lambertian or Phong */
+    Vec3f eta, k;                    /* BSDF_CONDUCTOR: eta + i k per channel (0, 0: a perfect mirror);
+                                      * BSDF_DIELECTRIC: eta.x = int_ior / ext_ior */
 } Material;
+
+#define BSDF_DIFFUSE 0
+#define BSDF_CONDUCTOR 1
+#define BSDF_DIELECTRIC 2
 
 /* How a texture's texels are stored in the packed buffer of 32-bit words. */
 #define TEXELS_SRGB8 0  /* RGBA8 in one word, r in the low byte, sRGB-encoded: decoded through a table */

@@ -29,7 +29,7 @@ LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", 
 
 MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
                      ("height_map", "<i4"), ("wrap", "<i4"), ("height_scale", "<f4"), ("uv_scale", "<f4", (2,)),
-                     ("uv_offset", "<f4", (2,))])
+                     ("uv_offset", "<f4", (2,)), ("bsdf", "<i4"), ("eta", *VEC3F), ("k", *VEC3F)])
 
 TEXTURE = np.dtype([("first_level", "<i4"), ("n_levels", "<i4"), ("encoding", "<i4")])
 
@@ -42,6 +42,9 @@ TEXEL_WORDS = {TEXELS_SRGB8: 1, TEXELS_UNORM8: 1, TEXELS_FLOAT: 4, TEXELS_QUAD8:
 QUAD_TEXELS = (TEXELS_QUAD8, TEXELS_QUAD16, TEXELS_QUADF)  # height maps' quads
 FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in the texel buffer
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
+
+# kernels/types.h: BSDF_*
+BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2}
 
 # kernels/types.h: RANDOMIZE_*
 RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "sobol": 4}

@@ -195,3 +195,174 @@ def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
         bound = 5 * np.hypot(se[a], se[b]) + 1e-5 * np.abs(mean[a])
         assert np.all(np.abs(mean[a] - mean[b]) <= bound), (a, b, mean, se)
     assert np.all(mean[0] > 0) and se[0][4] < min(se[1][4], se[2][4])
+
+
+# --- the smooth BSDFs: Fresnel, Snell, and energy ------------------------------------------------------------
+
+FRESNEL = """
+#include "path_tracing.cl"
+/* Per lane: the conductor's and the dielectric's Fresnel reflectance at cos_i, and the dielectric's cos_t. */
+__kernel void fresnel(int n, __global const float *cos_i, __global const float *eta, __global const float *k,
+                      __global float *conductor, __global float *dielectric, __global float *cos_t)
+{
+    vfloat c = IN(cos_i), t;
+    OUT(conductor, fresnel_conductor(c, IN(eta), IN(k)));
+    OUT(dielectric, fresnel_dielectric(c, IN(eta), &t));
+    OUT(cos_t, t);
+}
+"""
+SPECULAR = dict(HAS_PATH_TRACING=1, HAS_CONDUCTORS=1, HAS_DIELECTRICS=1, HAS_RECTANGLES=1)
+
+
+def fresnel_reference(cos_i, eta, k):
+    """Unpolarised Fresnel reflectance of the interface to a medium of complex index eta + i k (relative), in
+    complex float64 (Born and Wolf): the conductor's, and with k = 0 the dielectric's (1 beyond the critical
+    angle, where the complex cos_t is imaginary and |r| = 1 exactly)."""
+    n = eta + 1j * k
+    sin2_t = (1 - cos_i**2) / n**2
+    cos_t = np.sqrt(1 - sin2_t + 0j)
+    cos_t = np.where(cos_t.imag < 0, -cos_t, cos_t)  # the decaying wave: Im(n cos_t) >= 0
+    r_s = (cos_i - n * cos_t) / (cos_i + n * cos_t)
+    r_p = (n * cos_i - cos_t) / (n * cos_i + cos_t)
+    return 0.5 * (np.abs(r_s) ** 2 + np.abs(r_p) ** 2)
+
+
+def test_fresnel_against_float64(harness):
+    """The conductor's reflectance (pbrt-v3's real-arithmetic form) and the dielectric's against complex
+    float64, over cos_i in (0, 1] and indices of gold, silver, aluminium, glass, water and their inverses (the
+    ray leaving the denser medium), at every lane width. The float32 forms take some tens of roundings
+    (square roots, a division of near-equal sums at grazing angles): 2e-5 absolute, where the values are
+    in [0, 1] and a sign or a swapped polarisation is off by 1e-2 or more. Beyond the critical angle the
+    dielectric reflects 1 exactly and cos_t is 0; elsewhere cos_t is Snell's, sqrt(1 - sin_i^2 / eta^2)."""
+    cos_i = np.concatenate([np.linspace(1e-3, 1.0, 200), [1.0, 0.5, 1e-2]])
+    media = [(0.143, 3.98), (0.155, 4.83), (1.66, 8.06), (0.05, 3.1), (0.0, 0.0)]  # Au, Ag, Al red; Ag blue; mirror
+    glass = [1.5046, 1.333, 2.4, 1 / 1.5046, 1 / 1.333]
+    c, e, kk = (np.repeat(cos_i[None], len(media) + len(glass), 0).ravel(),
+                np.repeat([m[0] for m in media] + glass, len(cos_i)), np.repeat([m[1] for m in media] + [0] * 5,
+                                                                                len(cos_i)))
+    out = harness.run(FRESNEL, "fresnel", len(c), [c, e, kk], {"conductor": 1, "dielectric": 1, "cos_t": 1},
+                      **SPECULAR)
+    conductor = kk > 0
+    np.testing.assert_allclose(out["conductor"][conductor], fresnel_reference(c, e, kk)[conductor], atol=2e-5)
+    mirror = (e == 0) & (kk == 0)
+    np.testing.assert_allclose(out["conductor"][mirror], 1.0, atol=1e-6)
+    dielectric = np.isin(e, glass)
+    np.testing.assert_allclose(out["dielectric"][dielectric], fresnel_reference(c, e, 0 * e)[dielectric], atol=2e-5)
+    sin2_t = (1 - c**2) / e**2
+    total = dielectric & (sin2_t >= 1)
+    assert total.sum() > 50 and np.all(out["dielectric"][total] == 1) and np.all(out["cos_t"][total] == 0)
+    inside = dielectric & (sin2_t < 1 - 1e-4)
+    np.testing.assert_allclose(out["cos_t"][inside], np.sqrt(1 - sin2_t[inside]), atol=2e-6)
+
+
+SCATTER = """
+#include "path_tracing.cl"
+/* The smooth BSDFs' sample at a surface of normal nrm seen along wo, u choosing reflection or refraction. */
+__kernel void scatter(int n, __global const float *wo_, __global const float *nrm, __global const float *eta,
+                      __global const float *u, __global const int *bsdf, __global const int *backface,
+                      __global float *wi, __global float *weight, __global float *transmit)
+{
+    vec3 normal = IN3(nrm);
+    ShadingPoint sp = {v3_splat(0.0f, 0.0f, 0.0f), (vfloat)(0.0f), normal, normal, v3_splat(1.0f, 1.0f, 1.0f),
+                       (vfloat)(1.0f), VLOAD_INT(bsdf + I * LANES), v3((vfloat)(IN(eta)), (vfloat)(0.0f), (vfloat)(0.0f)),
+                       v3_splat(0.0f, 0.0f, 0.0f), VLOAD_INT(backface + I * LANES)};
+    vec3 w = normal, f = v3_splat(0.0f, 0.0f, 0.0f);
+    vint t = (vint)(0);
+    sample_specular(sp, IN3(wo_), IN(u), sp.bsdf != BSDF_DIFFUSE, &w, &f, &t);
+    OUT3(wi, w);
+    OUT3(weight, f);
+    OUT(transmit, SELECT((vfloat)(0.0f), (vfloat)(1.0f), t != 0));
+}
+"""
+
+
+def test_reflection_and_refraction_directions(harness):
+    """Mirror reflection about the normal, and refraction by Snell's law: the refracted direction is a unit
+    vector in the plane of wo and n, on the far side, with eta sin(theta_t) = sin(theta_i); inside a shape
+    (backface) the index is inverted; past the critical angle every sample reflects. The radiance of a
+    refracted sample is divided by eta^2 (pbrt-v4 9.5). Float32 to a few roundings: 1e-5."""
+    rng = np.random.default_rng(5)
+    m = 4096
+    normal = rng.normal(size=(m, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    wo = rng.normal(size=(m, 3))
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    wo *= np.sign(np.sum(wo * normal, axis=1))[:, None]  # on the normal's side
+    eta = rng.uniform(1.1, 2.5, m)
+    u = rng.uniform(0, 1, m)
+    bsdf = rng.choice([1, 2], m).astype(np.int32)
+    backface = rng.choice([0, -1], m).astype(np.int32)
+    out = harness.run(SCATTER, "scatter", m, [planar(wo), planar(normal), eta, u, bsdf, backface],
+                      {"wi": 3, "weight": 3, "transmit": 1}, **SPECULAR)
+    wi, weight, transmit = out["wi"].T, out["weight"].T, out["transmit"] > 0
+    cos_i = np.sum(wo * normal, axis=1)
+    mirror = 2 * cos_i[:, None] * normal - wo
+    reflect = ~transmit
+    np.testing.assert_allclose(wi[reflect], mirror[reflect], atol=1e-5)
+    assert not np.any(transmit & (bsdf == 1))
+    rel = np.where(backface != 0, 1 / eta, eta)
+    t = transmit
+    np.testing.assert_allclose(np.linalg.norm(wi[t], axis=1), 1, atol=1e-5)
+    cos_t = -np.sum(wi[t] * normal[t], axis=1)
+    assert np.all(cos_t > 0)
+    sin_t = np.linalg.norm(np.cross(wi[t], normal[t]), axis=1)
+    np.testing.assert_allclose(rel[t] * sin_t, np.sqrt(1 - cos_i[t] ** 2), atol=1e-5)
+    np.testing.assert_allclose(np.sum(np.cross(wo[t], normal[t]) * wi[t], axis=1), 0, atol=1e-5)  # coplanar
+    np.testing.assert_allclose(weight[t], 1 / rel[t, None] ** 2 * np.ones((1, 3)), rtol=1e-5)
+    beyond = (bsdf == 2) & ((1 - cos_i**2) / rel**2 >= 1)
+    assert beyond.sum() > 100 and not np.any(transmit[beyond])
+    # the choice is Fresnel's: the share of samples refracted matches 1 - F to the binomial noise
+    f = fresnel_reference(cos_i, rel, 0 * rel)
+    glass = bsdf == 2
+    assert abs(transmit[glass].mean() - (1 - f[glass]).mean()) < 5 * np.sqrt(0.25 / glass.sum())
+
+
+@pytest.mark.parametrize("inside", [False, True])
+def test_furnace_with_a_mirror_and_glass(inside):
+    """A perfect mirror (conductor of material "none") and clear glass are lossless: in the furnace's uniform
+    radiance L_e / (1 - rho) a camera sees that radiance through and off them too, in expectation (2.0 at
+    rho = 0.5). Light reaching a wall through the glass comes only by the BSDF's rays (shadow rays stop at the
+    glass), with MIS weight 1 after a specular vertex: a weight of the diffuse kind there fails it. A camera
+    inside the glass (a large ellipsoid around it) sees eta^2 times that radiance, the radiance of a medium
+    of index eta in the same field: the factor 1 / eta^2 of every refraction, which cancels for paths that go
+    in and out again, decides it; leaving it out fails it."""
+    table = {
+        "camera": {"position": [0.0, -0.85 + 0.2 * inside, 0.0], "look_at": [0.0, 0.5, 0.0], "up": [0, 0, 1],
+                   "fov": 70.0},
+        "image": {"width": 48, "height": 48},
+        "render": {"shading": "path"},
+        "materials": {"grey": {"colour": [0.5] * 3}, "glass": {"type": "dielectric", "int_ior": 1.5},
+                      "mirror": {"type": "conductor"}},
+        "lights": [{"center": c, "size": [2.0, 2.0], "normal": [-x for x in c], "tangent": t, "radiance": 1.0,
+                    "material": "grey"} for c, t in FACES],
+        "shapes": [{"type": "ellipsoid", "material": "glass", "center": [-0.3, 0.3, 0.0],
+                    "axes": [[0.35, 0, 0], [0, 0.3, 0], [0, 0, 0.4]]},
+                   {"type": "ellipsoid", "material": "mirror", "center": [0.35, 0.4, 0.1],
+                    "axes": [[0.3, 0, 0], [0, 0.3, 0], [0, 0, 0.3]]}]}
+    if inside:
+        table["shapes"] = [{"type": "ellipsoid", "material": "glass", "center": [0.0, -0.6, 0.0],
+                            "axes": [[0.3, 0, 0], [0, 0.3, 0], [0, 0, 0.3]]}] + table["shapes"][1:]
+    image, stats = raytrace.render(raytrace.load_dict(table), spp=64, light_samples=1)
+    assert "-DHAS_DIELECTRICS=1" in stats.build_options and "-DHAS_CONDUCTORS=1" in stats.build_options
+    assert_mean(image, 2.0 * (1.5 / 1.000277) ** 2 if inside else 2.0)
+
+
+def test_bsdf_keys_are_checked():
+    base = {"camera": {"position": [0, -3, 1], "look_at": [0, 0, 1], "up": [0, 0, 1], "fov": 45.0},
+            "image": {"width": 8, "height": 8}, "render": {"shading": "path"},
+            "lights": [{"center": [0, 0, 2], "size": [1, 1], "normal": [0, 0, -1], "tangent": [1, 0, 0],
+                        "radiance": 1.0}]}
+    cases = [({"type": "glass"}, "materials.m.type = 'glass': must be one of: diffuse, conductor, dielectric"),
+             ({"type": "dielectric", "int_ior": 0.0}, "materials.m.int_ior = 0.0: must be > 0"),
+             ({"type": "dielectric", "ext_ior": -1.0}, "materials.m.ext_ior = -1.0"),
+             ({"type": "dielectric", "eta": 1.5}, "materials.m.eta = 1.5: is not a parameter of type = \"dielectric\""),
+             ({"type": "conductor", "k": [1.0, -2.0, 1.0]}, "materials.m.k = [1.0, -2.0, 1.0]"),
+             ({"colour": [1, 1, 1], "int_ior": 1.3}, "materials.m.int_ior = 1.3: is not a parameter")]
+    for material, message in cases:
+        with pytest.raises(InputError, match=re.escape(message)):
+            raytrace.load_dict({**base, "materials": {"m": material}})
+    direct = {**base, "render": {"shading": "direct"}, "materials": {"m": {"type": "conductor"}}}
+    with pytest.raises(InputError, match=re.escape("materials.m.type = 'conductor': is the path model's")):
+        raytrace.load_dict(direct)
+    scene = raytrace.load_dict({**base, "materials": {"m": {"type": "conductor", "eta": 0.2, "k": [3.0, 3.5, 4.0]}}})
+    assert scene.materials[0].eta == (0.2, 0.2, 0.2) and scene.materials[0].k == (3.0, 3.5, 4.0)

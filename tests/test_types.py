@@ -61,11 +61,12 @@ def test_padding_is_found(cl_env):
 
 
 def test_constants_match_device(cl_env):
-    """The WRAP_*, FILTER_*, RANDOMIZE_*, SHAPE_* and TEXELS_* macros of kernels/types.h and the limits of
+    """The WRAP_*, FILTER_*, RANDOMIZE_*, BSDF_*, SHAPE_* and TEXELS_* macros of kernels/types.h and the limits of
     kernels/limits.h against their mirrors in raytrace/structs.py."""
     names = {f"WRAP_{k.upper()}": v for k, v in structs.WRAP_MODES.items()}
     names |= {f"FILTER_{k.upper()}": v for k, v in structs.FILTERS.items()}
     names |= {f"RANDOMIZE_{k.upper()}": v for k, v in structs.RANDOMIZE.items()}
+    names |= {f"BSDF_{k.upper()}": v for k, v in structs.BSDFS.items()}
     names |= {f"SHAPE_{k.upper()}": v for k, v in structs.SHAPES.items()}
     names |= {"TEXELS_SRGB8": structs.TEXELS_SRGB8, "TEXELS_UNORM8": structs.TEXELS_UNORM8,
               "TEXELS_FLOAT": structs.TEXELS_FLOAT, "TEXELS_QUAD8": structs.TEXELS_QUAD8,

@@ -127,6 +127,8 @@ def material_structs(materials):
         s["colour_map"], s["normal_map"], s["height_map"] = m.colour_map, m.normal_map, m.height_map
         s["wrap"], s["height_scale"] = structs.WRAP_MODES[m.wrap], m.height_scale
         s["uv_scale"], s["uv_offset"] = m.uv_scale, m.uv_offset
+        s["bsdf"] = structs.BSDFS[m.bsdf]
+        s["eta"], s["k"] = (m.int_ior / m.ext_ior, 0.0, 0.0) if m.bsdf == "dielectric" else m.eta, m.k
     return a
 
 

@@ -40,6 +40,8 @@ class Features:
     bvh: bool = False
     direct_lighting: bool = False  # the scene's shading: radiometric direct lighting
     path_tracing: bool = False     # the scene's shading: global illumination by path tracing (neither: Phong)
+    conductors: bool = False       # the path model's smooth conductors (type = "conductor")
+    dielectrics: bool = False      # the path model's smooth glass (type = "dielectric")
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -54,13 +56,15 @@ class Features:
         return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
                    used("colour_map"), used("normal_map"), used("height_map"),
                    any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
-                   scene.shading == "direct", scene.shading == "path")
+                   scene.shading == "direct", scene.shading == "path",
+                   any(m.bsdf == "conductor" for m in scene.materials),
+                   any(m.bsdf == "dielectric" for m in scene.materials))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
                  "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps,
                  "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting,
-                 "PATH_TRACING": self.path_tracing}
+                 "PATH_TRACING": self.path_tracing, "CONDUCTORS": self.conductors, "DIELECTRICS": self.dielectrics}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import WRAP_MODES
-from .model import DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
+from .model import BSDFS, DEFAULT_EXT_IOR, DEFAULT_INT_IOR, DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 REQUIRED = object()
@@ -97,7 +97,7 @@ TABLES = {
     "lights[] (direct, path)": _rectangle(_RADIANCE) + [_LIGHT_MATERIAL],
     "materials.NAME": [
         Key("colour", "vector", "ka = kd = ks, the material's colour (with a texture: its tint)", length=3, low=0,
-            default=(1.0, 1.0, 1.0), also="required without texture"),
+            default=(1.0, 1.0, 1.0), also="required without texture for type = diffuse"),
         Key("shininess", "number", "the Phong exponent", default=DEFAULT_SHININESS, low=0, open_low=True),
         Key("texture", "path", "colour map (from the scene file's folder)", default=None),
         Key("normal_map", "path", "tangent-space normal map, rgb = (n + 1) / 2", default=None),
@@ -109,7 +109,18 @@ TABLES = {
             low=FLOAT32_TINY, high=FLOAT32_MAX),
         Key("uv_offset", "vector", "added after uv_scale", length=2, default=(0.0, 0.0)),
         Key("wrap", "string", "how texture coordinates outside [0, 1] wrap", default="repeat",
-            choices=tuple(WRAP_MODES))],
+            choices=tuple(WRAP_MODES)),
+        Key("type", "string", "the BSDF, with Mitsuba's names: Lambertian, a smooth mirror (conductor), smooth "
+            "glass (dielectric); colour is then their reflectance (and transmittance)", default="diffuse",
+            choices=BSDFS, also='other than diffuse with shading = "path" only'),
+        Key("eta", "number-or-vector", "conductor: the real part of the index of refraction, per channel",
+            length=3, low=0, default=(0.0, 0.0, 0.0), also="with k; both 0: a perfect mirror"),
+        Key("k", "number-or-vector", "conductor: the imaginary part (absorption), per channel", length=3, low=0,
+            default=(0.0, 0.0, 0.0)),
+        Key("int_ior", "number", "dielectric: the index of refraction inside (the side the normal points away "
+            "from)", default=DEFAULT_INT_IOR, low=0, open_low=True),
+        Key("ext_ior", "number", "dielectric: the index of refraction outside", default=DEFAULT_EXT_IOR, low=0,
+            open_low=True)],
     "shapes[]": [Key("type", "string", "the kind of shape", choices=SHAPE_KINDS),
                  Key("material", "string", "a material's name", also="a defined material")],
     'shapes[] type = "rectangle"': _rectangle(),

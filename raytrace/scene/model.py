@@ -20,6 +20,10 @@ def normalize(v):
 # The shading models: the course's Phong model, radiometric direct lighting (Lambertian surfaces, area lights
 # of a given radiance: docs/model.md) and global illumination by path tracing (docs/global-illumination.md).
 SHADINGS = ("phong", "direct", "path")
+# The BSDFs of the path model, with Mitsuba 3's names: Lambertian, a smooth conductor (a mirror with the Fresnel
+# reflectance of eta + i k), smooth glass (Fresnel reflection and refraction). Only "diffuse" elsewhere.
+BSDFS = ("diffuse", "conductor", "dielectric")
+DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
 
@@ -40,7 +44,8 @@ class Camera:
 
 @dataclass(frozen=True)
 class Material:
-    """The course's Phong material; textures are indices into Scene.textures (-1: none)."""
+    """A material: the course's Phong material, a Lambertian one in the radiometric models, or in the path model
+    one of Mitsuba's smooth BSDFs (bsdf); textures are indices into Scene.textures (-1: none)."""
     name: str
     colour: np.ndarray
     shininess: float = DEFAULT_SHININESS
@@ -51,6 +56,11 @@ class Material:
     uv_scale: tuple = (1.0, 1.0)
     uv_offset: tuple = (0.0, 0.0)
     wrap: str = "repeat"
+    bsdf: str = "diffuse"                # one of BSDFS
+    eta: tuple = (0.0, 0.0, 0.0)         # conductor: the complex index of refraction eta + i k, per channel;
+    k: tuple = (0.0, 0.0, 0.0)           # both 0: a perfect mirror (Mitsuba's material "none")
+    int_ior: float = DEFAULT_INT_IOR     # dielectric: the index of refraction inside (the normal points out)
+    ext_ior: float = DEFAULT_EXT_IOR     # and outside
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("
           ("focal_length", "focal_length")]
 RECTANGLE = [("center", "center"), ("size", "size"), ("normal", "normal"), ("tangent", "tangent")]
 MATERIAL = [("colour", "colour"), ("shininess", "shininess"), ("height_scale", "height_scale"),
-            ("uv_scale", "uv_scale"), ("uv_offset", "uv_offset"), ("wrap", "wrap")]
+            ("uv_scale", "uv_scale"), ("uv_offset", "uv_offset"), ("wrap", "wrap"), ("bsdf", "type"), ("eta", "eta"),
+            ("k", "k"), ("int_ior", "int_ior"), ("ext_ior", "ext_ior")]
 
 
 def _value(x):
@@ -99,6 +100,8 @@ def check_model(scene, source="render()"):
         r = _reader(source, f"materials[{i}].", "materials.NAME", m, MATERIAL)
         r.table.update(texture=m.colour_map, height_map=m.height_map)  # what ranges.py names in its errors
         _read(r, MATERIAL)
+        if m.bsdf != "diffuse" and scene.shading != "path":
+            r.fail("type", m.bsdf, 'is the path model\'s: only with shading = "path"')
         for key in ("colour_map", "normal_map", "height_map"):
             if getattr(m, key) != -1:
                 _index(source, f"materials[{i}].{key}", getattr(m, key), len(scene.textures))

@@ -286,9 +286,25 @@ def _mesh_shape(r, material):
                      source)
 
 
-def _material(r, name, textures):
+def _bsdf(r, shading):
+    """The material's BSDF fields: its type, and the parameters of that type only."""
+    bsdf = r.string("type")
+    if bsdf != "diffuse" and shading != "path":
+        r.fail("type", bsdf, 'is the path model\'s: only with shading = "path"')
+    own = {"diffuse": (), "conductor": ("eta", "k"), "dielectric": ("int_ior", "ext_ior")}[bsdf]
+    for key in ("eta", "k", "int_ior", "ext_ior"):
+        if r.has(key) and key not in own:
+            r.fail(key, r.raw(key), f'is not a parameter of type = "{bsdf}"')
+    number = lambda key: isinstance(r.table.get(key), (int, float)) and not isinstance(r.table.get(key), bool)  # noqa
+    vector = lambda key: tuple(np.full(3, r.number(key)) if number(key) else r.vector(key))  # noqa: E731
+    return dict(bsdf=bsdf, eta=vector("eta"), k=vector("k"), int_ior=r.number("int_ior"),
+                ext_ior=r.number("ext_ior"))
+
+
+def _material(r, name, textures, shading="phong"):
     """A material table; texture paths are relative to the scene file and read here."""
     r.check_keys()
+    bsdf = _bsdf(r, shading)
     maps = {}
     for key, role in (("texture", "colour"), ("normal_map", "normal"), ("height_map", "height")):
         if r.has(key):
@@ -303,12 +319,12 @@ def _material(r, name, textures):
     uv_offset = r.vector("uv_offset")
     if not np.all(np.abs(uv_offset) <= FLOAT32_MAX):
         r.fail("uv_offset", uv_offset.tolist(), f"both offsets must lie within +-{FLOAT32_MAX:.6g} (float32)")
-    if "texture" not in maps and not r.has("colour"):
+    if "texture" not in maps and not r.has("colour") and bsdf["bsdf"] == "diffuse":
         r.fail("colour", None, "missing")
     return Material(name, r.vector("colour"), r.number("shininess"),
                     maps.get("texture", -1), maps.get("normal_map", -1), maps.get("height_map", -1),
                     r.number("height_scale") if "height_map" in maps else 0.0,
-                    tuple(uv_scale), tuple(uv_offset), r.string("wrap"))
+                    tuple(uv_scale), tuple(uv_offset), r.string("wrap"), **bsdf)
 
 
 def parse_scene(table, path="<scene>"):
@@ -350,7 +366,7 @@ def parse_scene(table, path="<scene>"):
     for name in mats:
         material_index[name] = len(materials)
         material_readers.append(Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
-        materials.append(_material(material_readers[-1], name, textures))
+        materials.append(_material(material_readers[-1], name, textures, shading))
 
     spp, light_samples = render.integer("spp"), render.integer("light_samples")
     sampler, light_sampler = (render.string(key, choices=()) if render.has(key) else samplers.default_pattern(shading)
