@@ -38,7 +38,11 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         uint skip = rectangles_out_of_reach(s, light, origin, surface);
         SweptLeaves candidates = {0};
         int swept = 0; /* found at the first sample that counts: a packet facing away needs none */
+#if LIGHT_VALUE_VEC3 /* the model's sample weights are colours (path_tracing.cl's rough conductors) */
+        vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
+#else
         vfloat sum = 0.0f;
+#endif
         for (int j0 = 0; j0 < n_samples; j0 += LIGHT_SAMPLE_GROUP) {
             vec3 q[LIGHT_SAMPLE_GROUP], w[LIGHT_SAMPLE_GROUP], l[LIGHT_SAMPLE_GROUP];
             vint lit[LIGHT_SAMPLE_GROUP] = {0}, any_lit = (vint)(0); /* samples past the last count nowhere */
@@ -63,11 +67,20 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
                 if (candidates.n != 0) /* else nothing can block the light */
                     lit[g] &= !occluded_among(s, &candidates, shadow_segment(origin, q[g], q_err, light_normal), skip,
                                               lit[g]);
+#if LIGHT_VALUE_VEC3
+                vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples);
+                sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), weight, lit[g]));
+#else
                 vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples);
                 sum += SELECT((vfloat)(0.0f), weight, lit[g]);
+#endif
             }
         }
+#if LIGHT_VALUE_VEC3
+        total = v3_add(total, v3_mul(v3_scale(sum, light_scale(light) / n_samples), v3_uniform(light->colour)));
+#else
         total = v3_madd(total, sum * (light_scale(light) / n_samples), v3_uniform(light->colour));
+#endif
     }
     ps->dimension = dimension + s->params->n_lights;
     return total;

@@ -21,9 +21,10 @@ typedef struct {
     vec3 n;            /* shading unit normal, on the side of ng */
     vec3 k;            /* the material's colour at the hit (0 where no surface was hit) */
     vfloat shininess;
-#if HAS_SPECULAR
+#if HAS_BSDF_PARAMETERS
     vint bsdf;         /* BSDF_* (the path model) */
     vec3 eta, k_imag;  /* the material's eta and k (types.h) */
+    vfloat alpha;      /* the material's roughness */
 #endif
 #if HAS_DIELECTRICS
     vint backface;     /* the hit is on the side the normal points away from (inside a closed shape) */
@@ -204,8 +205,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     float sh[LANES];
     Lanes3 k = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
     VSTORE(hit.material, m);
-#if HAS_SPECULAR
+#if HAS_BSDF_PARAMETERS
     int bsdf[LANES];
+    float alpha[LANES];
     Lanes3 eta = v3_spill(v3_splat(0.0f, 0.0f, 0.0f)), k_imag = eta;
 #endif
 #if HAS_DIELECTRICS
@@ -225,8 +227,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #endif
     for (int i = 0; i < LANES; ++i) {
         sh[i] = 1.0f;
-#if HAS_SPECULAR
+#if HAS_BSDF_PARAMETERS
         bsdf[i] = BSDF_DIFFUSE;
+        alpha[i] = 1.0f;
 #endif
 #if HAS_TEXTURES
         textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
@@ -237,8 +240,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         __global const Material *mat = &s->materials[m[i]];
         sh[i] = mat->shininess;
         set_lane3(&k, i, f3(mat->colour));
-#if HAS_SPECULAR
+#if HAS_BSDF_PARAMETERS
         bsdf[i] = mat->bsdf;
+        alpha[i] = mat->alpha;
         set_lane3(&eta, i, f3(mat->eta));
         set_lane3(&k_imag, i, f3(mat->k));
 #endif
@@ -250,10 +254,11 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     }
     sp.k = v3_fill(&k);
     sp.shininess = VLOAD(sh);
-#if HAS_SPECULAR
+#if HAS_BSDF_PARAMETERS
     sp.bsdf = VLOAD_INT(bsdf);
     sp.eta = v3_fill(&eta);
     sp.k_imag = v3_fill(&k_imag);
+    sp.alpha = VLOAD(alpha);
 #endif
 #if HAS_SMOOTH_NORMALS
     sp.n = v3_fill(&n);

@@ -19,6 +19,12 @@
 
 #include "vmath.h"
 #include "material.cl"
+#if HAS_ROUGH_CONDUCTORS
+#include "microfacet.cl"
+#endif
+/* The light samples' weights are colours where a BSDF's value varies by channel with the direction (a rough
+ * conductor's Fresnel term): light_sampling.cl then sums them as such. */
+#define LIGHT_VALUE_VEC3 HAS_ROUGH_CONDUCTORS
 
 #define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
 #ifndef PATH_SAMPLING
@@ -38,46 +44,7 @@ inline vint sample_counts(ShadingPoint sp, vec3 l, vec3 light_normal)
 /* 1 / (1 + x^2): the power heuristic's weight of a technique whose density is 1 / x times the other's. */
 inline vfloat power_weight(vfloat x) { return 1.0f / MAD(x, x, 1.0f); }
 
-/* The light sample's cos(theta_s) cos(theta_l) / r^2, times its MIS weight against a cosine-weighted BSDF
- * sample of the same direction: x = p_bsdf / (n p_light) = cos(theta_s) A cos(theta_l) / (pi n r^2). */
-inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
-{
-    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w);
-    vfloat g = cos_s * cos_l / r2;
-#if PATH_SAMPLING == 1
-    return g;
-#else
-    return g * power_weight(g * (area * M_1_PI_F / (float)n));
-#endif
-}
-
-inline float light_scale(__global const Light *light)
-{
-    return 4.0f * light->shape.half_x * light->shape.half_y * M_1_PI_F;
-}
-
-#include "light_sampling.cl"
-
-/* A direction about the unit normal n with density cos(theta) / pi, from u in [0, 1)^2: Malley's method, a
- * uniform point on the disk (Shirley and Chiu's concentric map, pbrt-v4 section A.5.1) lifted to the
- * hemisphere. */
-inline vec3 cosine_direction(vec3 n, vec2 u)
-{
-    vfloat a = MAD(2.0f, u.x, -1.0f), b = MAD(2.0f, u.y, -1.0f);
-    vint first = vabs(a) > vabs(b);
-    vfloat r = SELECT(b, a, first);
-    vfloat phi = SELECT(M_PI_2_F - (M_PI_4_F * a) / b, (M_PI_4_F * b) / a, first);
-    phi = SELECT(phi, (vfloat)(0.0f), (a == 0.0f) & (b == 0.0f));
-    vfloat dx = r * cos(phi), dy = r * sin(phi);
-    vfloat dz = sqrt(vmax((vfloat)(0.0f), 1.0f - dx * dx - dy * dy));
-    /* a frame about n (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017) */
-    vfloat sign = vcopysign((vfloat)(1.0f), n.z), a_ = -1.0f / (sign + n.z), b_ = n.x * n.y * a_;
-    vec3 t = v3(1.0f + sign * n.x * n.x * a_, sign * b_, -sign * n.x);
-    vec3 bt = v3(b_, sign + n.y * n.y * a_, -n.y);
-    return v3_add(v3_add(v3_scale(t, dx), v3_scale(bt, dy)), v3_scale(n, dz));
-}
-
-#if HAS_SPECULAR
+#if HAS_BSDF_PARAMETERS
 /* wo mirrored about the unit normal n. */
 inline vec3 reflected(vec3 wo, vec3 n) { return v3_sub(v3_scale(n, 2.0f * v3_dot(wo, n)), wo); }
 
@@ -96,6 +63,91 @@ inline vfloat fresnel_conductor(vfloat cos_i, vfloat eta, vfloat k)
     return 0.5f * (rp + rs);
 }
 
+/* The conductor's reflectance per channel. */
+inline vec3 fresnel_conductor3(vfloat cos_i, vec3 eta, vec3 k)
+{
+    return v3(fresnel_conductor(cos_i, eta.x, k.x), fresnel_conductor(cos_i, eta.y, k.y),
+              fresnel_conductor(cos_i, eta.z, k.z));
+}
+#endif
+
+#if LIGHT_VALUE_VEC3
+/* The light sample's pi f cos(theta_s) cos(theta_l) / (k r^2), the BSDF relative to a Lambertian one of the
+ * same colour k (1 for the diffuse lanes; for a rough conductor pi F D G2 / (4 cos(theta_o) cos(theta_s))),
+ * times its MIS weight against the BSDF's own sample of the direction: x = p_bsdf A cos(theta_l) / (n r^2),
+ * p_bsdf cos(theta_s) / pi or GGX's G1 D / (4 cos(theta_o)). The GGX terms need only cosines to the normal:
+ * they are isotropic. */
+inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+{
+    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w);
+    vfloat g = cos_s * cos_l / r2, pdf = cos_s * M_1_PI_F;
+    vec3 value = v3(g, g, g);
+    vint rough = sp.bsdf == BSDF_ROUGHCONDUCTOR;
+    if (ANY(rough)) {
+        vec3 h = v3_direction(v3_add(v, l));
+        vfloat cos_o = v3_dot(sp.n, v), zero = 0.0f;
+        vec3 zo = v3(zero, zero, cos_o), zi = v3(zero, zero, cos_s), zh = v3(zero, zero, v3_dot(sp.n, h));
+        vfloat d = ggx_d(zh, sp.alpha);
+        vfloat common = M_PI_F * d * ggx_g2(zo, zi, sp.alpha) * cos_l / (4.0f * cos_o * r2);
+        common = SELECT(common, zero, cos_o <= 0.0f);
+        value = v3_select(value, v3_scale(fresnel_conductor3(v3_dot(v, h), sp.eta, sp.k_imag), common), rough);
+        pdf = SELECT(pdf, ggx_g1(zo, sp.alpha) * d / (4.0f * cos_o), rough);
+    }
+#if PATH_SAMPLING == 1
+    return value;
+#else
+    return v3_scale(value, power_weight(pdf * area * cos_l / ((float)n * r2)));
+#endif
+}
+#else
+/* The light sample's cos(theta_s) cos(theta_l) / r^2, times its MIS weight against a cosine-weighted BSDF
+ * sample of the same direction: x = p_bsdf / (n p_light) = cos(theta_s) A cos(theta_l) / (pi n r^2). */
+inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+{
+    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w);
+    vfloat g = cos_s * cos_l / r2;
+#if PATH_SAMPLING == 1
+    return g;
+#else
+    return g * power_weight(g * (area * M_1_PI_F / (float)n));
+#endif
+}
+#endif
+
+inline float light_scale(__global const Light *light)
+{
+    return 4.0f * light->shape.half_x * light->shape.half_y * M_1_PI_F;
+}
+
+#include "light_sampling.cl"
+
+/* Unit vectors *t and *b completing the unit n to a right-handed orthonormal frame, without a branch or a
+ * cancellation (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017). */
+inline void orthonormal_frame(vec3 n, vec3 *t, vec3 *b)
+{
+    vfloat sign = vcopysign((vfloat)(1.0f), n.z), a = -1.0f / (sign + n.z), c = n.x * n.y * a;
+    *t = v3(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
+    *b = v3(c, sign + n.y * n.y * a, -n.y);
+}
+
+/* A direction about the unit normal n with density cos(theta) / pi, from u in [0, 1)^2: Malley's method, a
+ * uniform point on the disk (Shirley and Chiu's concentric map, pbrt-v4 section A.5.1) lifted to the
+ * hemisphere. */
+inline vec3 cosine_direction(vec3 n, vec2 u)
+{
+    vfloat a = MAD(2.0f, u.x, -1.0f), b = MAD(2.0f, u.y, -1.0f);
+    vint first = vabs(a) > vabs(b);
+    vfloat r = SELECT(b, a, first);
+    vfloat phi = SELECT(M_PI_2_F - (M_PI_4_F * a) / b, (M_PI_4_F * b) / a, first);
+    phi = SELECT(phi, (vfloat)(0.0f), (a == 0.0f) & (b == 0.0f));
+    vfloat dx = r * cos(phi), dy = r * sin(phi);
+    vfloat dz = sqrt(vmax((vfloat)(0.0f), 1.0f - dx * dx - dy * dy));
+    vec3 t, bt;
+    orthonormal_frame(n, &t, &bt);
+    return v3_add(v3_add(v3_scale(t, dx), v3_scale(bt, dy)), v3_scale(n, dz));
+}
+
+#if HAS_SPECULAR
 /* The Fresnel reflectance of a dielectric interface at cos(theta_i) in [0, 1] on the incident side, eta the
  * index of refraction beyond over the one before it; *cos_t the cosine of the refracted direction, and 1 with
  * *cos_t = 0 beyond the critical angle (total internal reflection): pbrt-v4's FrDielectric. */
@@ -121,8 +173,7 @@ inline void sample_specular(ShadingPoint sp, vec3 wo, vfloat u, vint lanes, vec3
 #if HAS_CONDUCTORS
     vint conductor = lanes & (sp.bsdf == BSDF_CONDUCTOR);
     if (ANY(conductor)) {
-        vec3 f = v3(fresnel_conductor(cos_i, sp.eta.x, sp.k_imag.x), fresnel_conductor(cos_i, sp.eta.y, sp.k_imag.y),
-                    fresnel_conductor(cos_i, sp.eta.z, sp.k_imag.z));
+        vec3 f = fresnel_conductor3(cos_i, sp.eta, sp.k_imag);
         *wi = v3_select(*wi, mirror, conductor);
         *weight = v3_select(*weight, v3_mul(sp.k, f), conductor);
     }
@@ -193,7 +244,28 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         sample_specular(sp, wo, u.x, alive & specular, &wi, &weight, &transmit);
         alive &= !specular | (v3_dot(wo, sp.n) > 0.0f);
 #endif
+        vint rough = (vint)(0);
+        vfloat rough_pdf = 0.0f;
+#if HAS_ROUGH_CONDUCTORS
+        rough = alive & (sp.bsdf == BSDF_ROUGHCONDUCTOR);
+        if (ANY(rough)) { /* a visible normal h (microfacet.cl), wo reflected about it: f cos / p = k F G2 / G1 */
+            vec3 wo_ = v3_scale(r.d, -1.0f), t, b;
+            orthonormal_frame(sp.n, &t, &b);
+            vec3 lo = v3(v3_dot(wo_, t), v3_dot(wo_, b), v3_dot(wo_, sp.n));
+            vec3 hl = ggx_sample_visible_normal(lo, sp.alpha, u);
+            vec3 h = v3_add(v3_add(v3_scale(t, hl.x), v3_scale(b, hl.y)), v3_scale(sp.n, hl.z));
+            vec3 wr = reflected(wo_, h);
+            vfloat zero = 0.0f, g1 = ggx_g1(v3(zero, zero, lo.z), sp.alpha);
+            vfloat g2 = ggx_g2(v3(zero, zero, lo.z), v3(zero, zero, v3_dot(sp.n, wr)), sp.alpha);
+            vec3 f = v3_scale(v3_mul(sp.k, fresnel_conductor3(v3_dot(wo_, h), sp.eta, sp.k_imag)), g2 / g1);
+            rough_pdf = g1 * ggx_d(v3(zero, zero, hl.z), sp.alpha) / (4.0f * lo.z);
+            wi = v3_select(wi, wr, rough);
+            weight = v3_select(weight, f, rough);
+            alive &= !rough | (lo.z > 0.0f);
+        }
+#endif
         vfloat cos_s = v3_dot(sp.n, wi), cos_g = v3_dot(sp.ng, wi);
+        vfloat pdf = SELECT(cos_s * M_1_PI_F, rough_pdf, rough); /* the BSDF sample's density, for MIS */
         alive &= SELECT(cos_g > 0.0f, cos_g < 0.0f, transmit) & (specular | (cos_s > 0.0f));
         beta = v3_select(beta, v3_mul(beta, weight), alive);
         Ray next = {offset_ray_origin(sp.p, sp.err, v3_select(sp.ng, v3_scale(sp.ng, -1.0f), transmit)), wi};
@@ -201,9 +273,9 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         *rays += MASK_TO_ONE(alive);
 
         /* light reached by the BSDF's sample, weighted against the lights' samples of the same direction: x =
-         * n p_light / p_bsdf = n r^2 pi / (A cos(theta_l) cos(theta_s)) (0 where no light was hit: weight 1) */
+         * n p_light / p_bsdf = n r^2 / (A cos(theta_l) p_bsdf) (0 where no light was hit: weight 1) */
         vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi));
-        vfloat x = (float)n_light * hit.t * hit.t * M_PI_F / (area * cos_l * cos_s);
+        vfloat x = (float)n_light * hit.t * hit.t / (area * cos_l * pdf);
         vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), (area == 0.0f) | specular);
 #if PATH_SAMPLING == 1
         w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), (area == 0.0f) | specular);

@@ -16,6 +16,7 @@
 #define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING) /* path: which light was hit */
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
 #define HAS_SPECULAR (HAS_CONDUCTORS || HAS_DIELECTRICS)    /* the path model's smooth BSDFs */
+#define HAS_BSDF_PARAMETERS (HAS_SPECULAR || HAS_ROUGH_CONDUCTORS) /* shading points carry a BSDF's own values */
 
 typedef struct {
     __global const Rectangle *rectangles;

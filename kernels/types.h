@@ -81,11 +81,13 @@ typedef struct {
     int bsdf;                        /* BSDF_*: the path model's; the other models are Lambertian or Phong */
     Vec3f eta, k;                    /* BSDF_CONDUCTOR: eta + i k per channel (0, 0: a perfect mirror);
                                       * BSDF_DIELECTRIC: eta.x = int_ior / ext_ior */
+    float alpha;                     /* BSDF_ROUGH_CONDUCTOR: the GGX roughness (microfacet.cl) */
 } Material;
 
 #define BSDF_DIFFUSE 0
 #define BSDF_CONDUCTOR 1
 #define BSDF_DIELECTRIC 2
+#define BSDF_ROUGHCONDUCTOR 3
 
 /* How a texture's texels are stored in the packed buffer of 32-bit words. */
 #define TEXELS_SRGB8 0  /* RGBA8 in one word, r in the low byte, sRGB-encoded: decoded through a table */

@@ -29,7 +29,8 @@ LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", 
 
 MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
                      ("height_map", "<i4"), ("wrap", "<i4"), ("height_scale", "<f4"), ("uv_scale", "<f4", (2,)),
-                     ("uv_offset", "<f4", (2,)), ("bsdf", "<i4"), ("eta", *VEC3F), ("k", *VEC3F)])
+                     ("uv_offset", "<f4", (2,)), ("bsdf", "<i4"), ("eta", *VEC3F), ("k", *VEC3F),
+                     ("alpha", "<f4")])
 
 TEXTURE = np.dtype([("first_level", "<i4"), ("n_levels", "<i4"), ("encoding", "<i4")])
 
@@ -44,7 +45,7 @@ FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 # kernels/types.h: BSDF_*
-BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2}
+BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2, "roughconductor": 3}
 
 # kernels/types.h: RANDOMIZE_*
 RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "sobol": 4}

@@ -60,6 +60,9 @@ SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] 
          'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"'}
 
 
+BSDF_OF = {"alpha": "roughconductor", "int_ior": "dielectric", "ext_ior": "dielectric"}
+
+
 def radiometric(scene, shading):
     """every_table() turned to a radiometric model: no ambient term, the light's colour a radiance."""
     del scene["ambient"]
@@ -132,6 +135,9 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
         pytest.skip("a mesh this large is refused by the memory there is, not by the bound")
     if key.name == "max_depth":  # the path model's key
         radiometric(scene, "path")
+    if table_name == "materials.NAME" and key.name in BSDF_OF:  # a parameter of one of the path model's BSDFs
+        radiometric(scene, "path")
+        table["type"] = BSDF_OF[key.name]
     table[key.name] = value
     if accepted:
         parse_scene(scene, SCENE_PATH)

@@ -129,6 +129,7 @@ def material_structs(materials):
         s["uv_scale"], s["uv_offset"] = m.uv_scale, m.uv_offset
         s["bsdf"] = structs.BSDFS[m.bsdf]
         s["eta"], s["k"] = (m.int_ior / m.ext_ior, 0.0, 0.0) if m.bsdf == "dielectric" else m.eta, m.k
+        s["alpha"] = m.alpha
     return a
 
 

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import WRAP_MODES
-from .model import BSDFS, DEFAULT_EXT_IOR, DEFAULT_INT_IOR, DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
+from .model import (BSDFS, DEFAULT_ALPHA, DEFAULT_EXT_IOR, DEFAULT_INT_IOR, DEFAULT_SHININESS, MAX_DEPTH,
+                    SHADINGS)
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 REQUIRED = object()
@@ -111,12 +112,16 @@ TABLES = {
         Key("wrap", "string", "how texture coordinates outside [0, 1] wrap", default="repeat",
             choices=tuple(WRAP_MODES)),
         Key("type", "string", "the BSDF, with Mitsuba's names: Lambertian, a smooth mirror (conductor), smooth "
-            "glass (dielectric); colour is then their reflectance (and transmittance)", default="diffuse",
+            "glass (dielectric), a rough metal (roughconductor); colour is then their reflectance (and "
+            "transmittance)", default="diffuse",
             choices=BSDFS, also='other than diffuse with shading = "path" only'),
-        Key("eta", "number-or-vector", "conductor: the real part of the index of refraction, per channel",
+        Key("eta", "number-or-vector", "conductor, roughconductor: the real part of the index of refraction, per "
+            "channel",
             length=3, low=0, default=(0.0, 0.0, 0.0), also="with k; both 0: a perfect mirror"),
-        Key("k", "number-or-vector", "conductor: the imaginary part (absorption), per channel", length=3, low=0,
-            default=(0.0, 0.0, 0.0)),
+        Key("k", "number-or-vector", "conductor, roughconductor: the imaginary part (absorption), per channel",
+            length=3, low=0, default=(0.0, 0.0, 0.0)),
+        Key("alpha", "number", "roughconductor: the GGX roughness", default=DEFAULT_ALPHA, low=0, high=1,
+            open_low=True),
         Key("int_ior", "number", "dielectric: the index of refraction inside (the side the normal points away "
             "from)", default=DEFAULT_INT_IOR, low=0, open_low=True),
         Key("ext_ior", "number", "dielectric: the index of refraction outside", default=DEFAULT_EXT_IOR, low=0,

@@ -21,8 +21,10 @@ def normalize(v):
 # of a given radiance: docs/model.md) and global illumination by path tracing (docs/global-illumination.md).
 SHADINGS = ("phong", "direct", "path")
 # The BSDFs of the path model, with Mitsuba 3's names: Lambertian, a smooth conductor (a mirror with the Fresnel
-# reflectance of eta + i k), smooth glass (Fresnel reflection and refraction). Only "diffuse" elsewhere.
-BSDFS = ("diffuse", "conductor", "dielectric")
+# reflectance of eta + i k), smooth glass (Fresnel reflection and refraction), a rough conductor (GGX
+# microfacets of roughness alpha). Only "diffuse" elsewhere.
+BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor")
+DEFAULT_ALPHA = 0.1  # Mitsuba's roughconductor default
 DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
@@ -61,6 +63,7 @@ class Material:
     k: tuple = (0.0, 0.0, 0.0)           # both 0: a perfect mirror (Mitsuba's material "none")
     int_ior: float = DEFAULT_INT_IOR     # dielectric: the index of refraction inside (the normal points out)
     ext_ior: float = DEFAULT_EXT_IOR     # and outside
+    alpha: float = DEFAULT_ALPHA         # roughconductor: the GGX roughness
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("
 RECTANGLE = [("center", "center"), ("size", "size"), ("normal", "normal"), ("tangent", "tangent")]
 MATERIAL = [("colour", "colour"), ("shininess", "shininess"), ("height_scale", "height_scale"),
             ("uv_scale", "uv_scale"), ("uv_offset", "uv_offset"), ("wrap", "wrap"), ("bsdf", "type"), ("eta", "eta"),
-            ("k", "k"), ("int_ior", "int_ior"), ("ext_ior", "ext_ior")]
+            ("k", "k"), ("int_ior", "int_ior"), ("ext_ior", "ext_ior"), ("alpha", "alpha")]
 
 
 def _value(x):

@@ -291,14 +291,15 @@ def _bsdf(r, shading):
     bsdf = r.string("type")
     if bsdf != "diffuse" and shading != "path":
         r.fail("type", bsdf, 'is the path model\'s: only with shading = "path"')
-    own = {"diffuse": (), "conductor": ("eta", "k"), "dielectric": ("int_ior", "ext_ior")}[bsdf]
-    for key in ("eta", "k", "int_ior", "ext_ior"):
+    own = {"diffuse": (), "conductor": ("eta", "k"), "dielectric": ("int_ior", "ext_ior"),
+           "roughconductor": ("eta", "k", "alpha")}[bsdf]
+    for key in ("eta", "k", "int_ior", "ext_ior", "alpha"):
         if r.has(key) and key not in own:
             r.fail(key, r.raw(key), f'is not a parameter of type = "{bsdf}"')
     number = lambda key: isinstance(r.table.get(key), (int, float)) and not isinstance(r.table.get(key), bool)  # noqa
     vector = lambda key: tuple(np.full(3, r.number(key)) if number(key) else r.vector(key))  # noqa: E731
     return dict(bsdf=bsdf, eta=vector("eta"), k=vector("k"), int_ior=r.number("int_ior"),
-                ext_ior=r.number("ext_ior"))
+                ext_ior=r.number("ext_ior"), alpha=r.number("alpha"))
 
 
 def _material(r, name, textures, shading="phong"):
