@@ -71,28 +71,38 @@ inline vec3 fresnel_conductor3(vfloat cos_i, vec3 eta, vec3 k)
 }
 #endif
 
-#if LIGHT_VALUE_VEC3
-/* The light sample's pi f cos(theta_s) cos(theta_l) / (k r^2), the BSDF relative to a Lambertian one of the
- * same colour k (1 for the diffuse lanes; for a rough conductor pi F D G2 / (4 cos(theta_o) cos(theta_s))),
- * times its MIS weight against the BSDF's own sample of the direction: x = p_bsdf A cos(theta_l) / (n r^2),
- * p_bsdf cos(theta_s) / pi or GGX's G1 D / (4 cos(theta_o)). The GGX terms need only cosines to the normal:
- * they are isotropic. */
-inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+/* The BSDF towards l seen along v relative to a Lambertian one of the same colour k, pi f / k (1 for the
+ * diffuse lanes; a rough conductor's pi F D G2 / (4 cos(theta_o) cos(theta_l))), and *pdf, the density of the
+ * BSDF's own sample of l: cos(theta_l) / pi, or GGX's G1 D / (4 cos(theta_o)). The GGX terms need only cosines
+ * to the normal: they are isotropic. */
+inline vec3 bsdf_value(ShadingPoint sp, vec3 v, vec3 l, vfloat *pdf)
 {
-    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w);
-    vfloat g = cos_s * cos_l / r2, pdf = cos_s * M_1_PI_F;
-    vec3 value = v3(g, g, g);
+    vfloat cos_s = v3_dot(sp.n, l);
+    vec3 value = v3_splat(1.0f, 1.0f, 1.0f);
+    *pdf = cos_s * M_1_PI_F;
+#if HAS_ROUGH_CONDUCTORS
     vint rough = sp.bsdf == BSDF_ROUGHCONDUCTOR;
     if (ANY(rough)) {
         vec3 h = v3_direction(v3_add(v, l));
         vfloat cos_o = v3_dot(sp.n, v), zero = 0.0f;
         vec3 zo = v3(zero, zero, cos_o), zi = v3(zero, zero, cos_s), zh = v3(zero, zero, v3_dot(sp.n, h));
         vfloat d = ggx_d(zh, sp.alpha);
-        vfloat common = M_PI_F * d * ggx_g2(zo, zi, sp.alpha) * cos_l / (4.0f * cos_o * r2);
+        vfloat common = M_PI_F * d * ggx_g2(zo, zi, sp.alpha) / (4.0f * cos_o * cos_s);
         common = SELECT(common, zero, cos_o <= 0.0f);
         value = v3_select(value, v3_scale(fresnel_conductor3(v3_dot(v, h), sp.eta, sp.k_imag), common), rough);
-        pdf = SELECT(pdf, ggx_g1(zo, sp.alpha) * d / (4.0f * cos_o), rough);
+        *pdf = SELECT(*pdf, ggx_g1(zo, sp.alpha) * d / (4.0f * cos_o), rough);
     }
+#endif
+    return value;
+}
+
+#if LIGHT_VALUE_VEC3
+/* The light sample's pi f cos(theta_s) cos(theta_l) / (k r^2) (bsdf_value), times its MIS weight against the
+ * BSDF's own sample of the direction: x = p_bsdf A cos(theta_l) / (n r^2). */
+inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+{
+    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w), pdf;
+    vec3 value = v3_scale(bsdf_value(sp, v, l, &pdf), cos_s * cos_l / r2);
 #if PATH_SAMPLING == 1
     return value;
 #else
@@ -209,6 +219,23 @@ inline vfloat hit_light_area(const Scene *s, Hit hit)
     return VLOAD(area);
 }
 
+#if HAS_ENVIRONMENT
+/* The lanes of `active` whose ray from o along the unit d leaves the scene: no shape and no light meets it
+ * before it is beyond every coordinate the scene has (the segment to o + 4 extent d, |o| being within
+ * sqrt(3) extent of the origin). */
+inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active)
+{
+    Ray r = {o, v3_scale(d, 4.0f * s->params->scene_extent)};
+    vint blocked = occluded(s, r, 0u, active);
+    vfloat dt, u, v;
+    for (int i = 0; i < s->params->n_lights; ++i) {
+        vfloat t = intersect_rectangle(&s->lights[i].shape, r, (vfloat)(1.0f), &dt, &u, &v);
+        blocked |= hit_on_segment(t, dt);
+    }
+    return active & !blocked;
+}
+#endif
+
 /* Radiance along the camera ray r, whose first hit is `hit`, shaded at sp; *rays counts the rays traced per
  * lane after the camera ray. */
 inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingPoint sp,
@@ -222,6 +249,11 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
     if (bounce.randomize != RANDOMIZE_SOBOL)
         bounce.randomize = RANDOMIZE_INDEPENDENT;
     vec3 radiance = max_depth == 0 ? v3_splat(0.0f, 0.0f, 0.0f) : hit.emitted;
+#if HAS_ENVIRONMENT
+    const vec3 environment = v3_uniform(s->params->environment);
+    if (max_depth != 0)
+        radiance = v3_select(radiance, environment, hit.t == INFINITY);
+#endif
     vec3 beta = v3_splat(1.0f, 1.0f, 1.0f);
     vint alive = (hit.t < INFINITY) & (hit.material >= 0);
     for (int depth = 1; (max_depth < 0 || depth < max_depth) && ANY(alive); ++depth) {
@@ -234,6 +266,23 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), PATH_SAMPLING == 2 ? (vint)(0) : alive & !specular,
                                  light_samples, ps, rays);
         radiance = v3_add(radiance, v3_mul(v3_mul(beta, sp.k), direct));
+#if HAS_ENVIRONMENT
+        { /* the environment, sampled by the cosine about the normal (density cos / pi, so the BSDF's value times
+           * its cosine over that density is pi f = k bsdf_value), weighted against the BSDF's sample of the
+           * same direction: x = p_bsdf / p_env */
+            vec2 ue = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
+            vec3 we = cosine_direction(sp.n, ue), wo_ = v3_scale(r.d, -1.0f);
+            vfloat cos_e = v3_dot(sp.n, we), pdf_b;
+            vint sampled = alive & !specular & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f);
+            sampled = PATH_SAMPLING == 2 ? (vint)(0) : sampled;
+            vec3 f = bsdf_value(sp, wo_, we, &pdf_b);
+            vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / (cos_e * M_1_PI_F));
+            vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
+            *rays += MASK_TO_ONE(sampled);
+            vec3 e = v3_scale(v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment), w);
+            radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, open));
+        }
+#endif
 
         /* the next direction by sampling the BSDF: f cos / p = k for the diffuse surfaces */
         vec2 u = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
@@ -281,6 +330,19 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), (area == 0.0f) | specular);
 #elif PATH_SAMPLING == 2
         w = (vfloat)(1.0f);
+#endif
+#if HAS_ENVIRONMENT
+        { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after a specular vertex */
+            vfloat w_env = SELECT(power_weight(cos_s * M_1_PI_F / pdf), (vfloat)(1.0f), specular);
+#if PATH_SAMPLING == 1
+            w_env = SELECT((vfloat)(0.0f), (vfloat)(1.0f), specular);
+#elif PATH_SAMPLING == 2
+            w_env = (vfloat)(1.0f);
+#endif
+            vint escaped = alive & (hit.t == INFINITY);
+            radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f),
+                                                  v3_scale(v3_mul(beta, environment), w_env), escaped));
+        }
 #endif
         vint lit = alive & (hit.t < INFINITY);
         radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_scale(v3_mul(beta, hit.emitted), w),

@@ -140,6 +140,8 @@ typedef struct {
     int texture_filter;    /* FILTER_* */
     float footprint_scale; /* spacing of the pixel samples in pixels (1 / sqrt(spp)): ray differentials */
     int max_depth;         /* the path model's vertices per path (-1: unbounded; path_tracing.cl) */
+    Vec3f environment;     /* the path model's constant environment radiance */
+    float scene_extent;    /* a bound on every coordinate of the scene (renderer/culling.py) */
 } RenderParams;
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }

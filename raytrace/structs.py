@@ -55,7 +55,8 @@ SAMPLER = np.dtype([("randomize", "<i4"), ("cell_x", "<u4"), ("cell_y", "<u4")])
 RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_triangles", "<i4"),
                           ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("pixel_sampler", SAMPLER),
                           ("light_sampler", SAMPLER), ("seed", "<u4"), ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4"),
-                          ("texture_filter", "<i4"), ("footprint_scale", "<f4"), ("max_depth", "<i4")])
+                          ("texture_filter", "<i4"), ("footprint_scale", "<f4"), ("max_depth", "<i4"),
+                          ("environment", *VEC3F), ("scene_extent", "<f4")])
 
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,

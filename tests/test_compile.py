@@ -47,11 +47,15 @@ def test_a_kernel_clang_rejects_fails(monkeypatch, cornell, target):
         compile_scene(dataclasses.replace(cornell), target)
 
 
+PATH_MODEL = dict(path_tracing=True, conductors=True, dielectrics=True, rough_conductors=True, environment=True)
+
+
+@pytest.mark.parametrize("model", [{}, PATH_MODEL], ids=["phong", "path"])
 @pytest.mark.parametrize("target", TARGETS)
-def test_every_feature_at_once_compiles(monkeypatch, cornell, target):
-    """No shipped scene turns on every feature (smooth normals beside every map, with the BVH): that build
-    compiles for every target too."""
-    every = Features(smooth_normals=True, bvh=True)
+def test_every_feature_at_once_compiles(monkeypatch, cornell, target, model):
+    """No shipped scene turns on every feature (smooth normals beside every map, with the BVH; in the path
+    model, every BSDF and the environment too): those builds compile for every target too, GPUs included."""
+    every = Features(smooth_normals=True, bvh=True, **model)
     monkeypatch.setattr(Features, "of", classmethod(lambda cls, scene, lanes: dataclasses.replace(every, lanes=lanes)))
     result = compile_scene(cornell, target)
     assert "-DHAS_SMOOTH_NORMALS=1" in result["options"] and "-DHAS_HEIGHT_MAPS=1" in result["options"]

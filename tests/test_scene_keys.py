@@ -56,6 +56,7 @@ PLACES = {"": ((), ""), "camera": (("camera",), "camera."), "image": (("image",)
           'shapes[] type = "ellipsoid"': (("shapes", 4), "shapes[4]."),
           "shapes[]": (("shapes", 4), "shapes[4].")}
 DIRECT = "lights[] (direct, path)"
+ENVIRONMENT = "environment"
 SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] type = "mesh"',
          'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"'}
 
@@ -77,6 +78,10 @@ def scene_with(table_name):
     if table_name == DIRECT:
         radiometric(scene, "direct")
         return scene, scene["lights"][0], "lights[0]."
+    if table_name == ENVIRONMENT:  # the path model's table
+        radiometric(scene, "path")
+        scene["environment"] = {"type": "constant", "radiance": [1.0, 1.0, 1.0]}
+        return scene, scene["environment"], "environment."
     where, prefix = PLACES[table_name]
     node = scene
     for step in where:
@@ -90,9 +95,10 @@ def declared_keys(table_name):
 
 
 def test_every_declared_table_is_exercised():
-    assert set(TABLES) == set(PLACES) | {DIRECT}
+    assert set(TABLES) == set(PLACES) | {DIRECT, ENVIRONMENT}
     parse_scene(every_table(), SCENE_PATH)
     parse_scene(scene_with(DIRECT)[0], SCENE_PATH)
+    parse_scene(scene_with(ENVIRONMENT)[0], SCENE_PATH)
 
 
 @pytest.mark.parametrize("table_name", list(TABLES))

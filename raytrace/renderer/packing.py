@@ -176,6 +176,7 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["seed"] = seed % 2**32
     p["light_samples"], p["width"], p["height"] = light_samples, width, height
     p["max_depth"] = scene.max_depth
+    p["environment"] = np.zeros(3) if scene.environment is None else scene.environment
     p["texture_filter"] = structs.FILTERS[texture_filter]
     # Ray differentials span one sample spacing, but at least 1/8 pixel, as pbrt-v4's RayIntegrator does.
     p["footprint_scale"] = max(0.125, 1 / math.sqrt(spp))

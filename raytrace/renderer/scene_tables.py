@@ -49,9 +49,10 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
     triangles, uvs, normals, nodes, prims, culled = _geometry_tables(
         scene, features is None or features.textures, features is None or features.smooth_normals,
         features is not None and features.bvh)
-    return {"camera": camera_struct(scene.camera, width, height),
-            "params": params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern,
-                                    light_pattern, seed),
+    params = params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
+                           seed)
+    params["scene_extent"] = scene_extent(scene, triangles)
+    return {"camera": camera_struct(scene.camera, width, height), "params": params,
             "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
             "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
             "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),

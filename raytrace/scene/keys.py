@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import WRAP_MODES
-from .model import (BSDFS, DEFAULT_ALPHA, DEFAULT_EXT_IOR, DEFAULT_INT_IOR, DEFAULT_SHININESS, MAX_DEPTH,
+from .model import (BSDFS, ENVIRONMENTS, DEFAULT_ALPHA, DEFAULT_EXT_IOR, DEFAULT_INT_IOR, DEFAULT_SHININESS, MAX_DEPTH,
                     SHADINGS)
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
@@ -69,7 +69,12 @@ TABLES = {
          Key("render", "table", "the render's defaults (the command line overrides them)", default={}),
          Key("lights", "tables", "rectangular area lights, one or more"),
          Key("materials", "named-tables", "materials by name, one or more"),
-         Key("shapes", "tables", "the shapes", default=())],
+         Key("shapes", "tables", "the shapes", default=()),
+         Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None)],
+    "environment": [Key("type", "string", "the emitter, with Mitsuba's name: a constant radiance",
+                        choices=ENVIRONMENTS),
+                    Key("radiance", "number-or-vector", "the radiance arriving from every direction (one number: "
+                        "the same in every channel)", length=3, low=0)],
     "camera": [Key("position", "vector", "the eye", length=3),
                Key("look_at", "vector", "the point at the image's centre", length=3,
                    also="differs from position"),

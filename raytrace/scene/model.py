@@ -25,6 +25,7 @@ SHADINGS = ("phong", "direct", "path")
 # microfacets of roughness alpha). Only "diffuse" elsewhere.
 BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor")
 DEFAULT_ALPHA = 0.1  # Mitsuba's roughconductor default
+ENVIRONMENTS = ("constant",)  # the path model's environment emitters, with Mitsuba's names
 DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
@@ -141,6 +142,7 @@ class Scene:
     meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
     shading: str = "phong"  # one of SHADINGS
     max_depth: int = -1     # the path model's vertices per path, Mitsuba's convention (-1: unbounded)
+    environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from
     revision: int = field(default=0, compare=False, repr=False)  # counts its edits (raytrace.parameters)
     checked: str | None = field(default=None, compare=False, repr=False)  # fingerprint() when last checked

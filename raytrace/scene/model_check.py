@@ -74,6 +74,11 @@ def check_model(scene, source="render()"):
                              "light_sampler": scene.light_sampler, "max_depth": scene.max_depth}, "", "render")
     render.integer("spp"), render.integer("light_samples"), render.string("sampler"), render.string("light_sampler")
     render.integer("max_depth")
+    if scene.environment is not None:
+        if scene.shading != "path":
+            top.fail("environment", _value(scene.environment), 'is the path model\'s: only with shading = "path"')
+        Reader(source, {"radiance": _value(np.asarray(scene.environment, np.float64))}, "environment.",
+               "environment").vector("radiance")
     if scene.max_depth != -1 and scene.shading != "path":
         render.fail("max_depth", scene.max_depth, 'is the path model\'s: only with shading = "path"')
     for key, count in (("sampler", "spp"), ("light_sampler", "light_samples")):

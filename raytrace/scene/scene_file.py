@@ -379,9 +379,17 @@ def parse_scene(table, path="<scene>"):
     problem = samplers.light_problem(light_sampler, light_samples, shading)
     if problem:
         render.fail("light_sampler", light_sampler, problem)
+    environment = None
+    if r.has("environment"):
+        e = r.sub("environment")
+        e.check_keys()
+        if shading != "path":
+            r.fail("environment", r.raw("environment"), 'is the path model\'s: only with shading = "path"')
+        e.string("type")
+        environment = _emission(e, "radiance")
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
-                  textures=textures.textures, shading=shading, max_depth=max_depth)
+                  textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment)
 
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:
