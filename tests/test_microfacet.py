@@ -1,13 +1,13 @@
 """The GGX microfacet distribution (kernels/microfacet.cl) against float64 references: D, Smith's Lambda,
 G1 and G2; D normalised over projected area; sampling of visible normals by a chi-square test of the
-reflected directions against their density (tests/chi_square.py); and the energy a rough mirror keeps.
+reflected directions against their density (devtools/chi_square.py); and the energy a rough mirror keeps.
 
 Tolerances: the float32 forms take a few roundings each (a square root, a division), so 1e-5 relative
 holds with room; D's normalisation and the energy are integrals estimated here to 1e-3."""
 import numpy as np
 import pytest
 
-from chi_square import SIGNIFICANCE, chi_square
+from devtools.chi_square import SIGNIFICANCE, chi_square
 from raytrace.commands.stability.probe import planar
 
 MICROFACET = """

@@ -19,7 +19,7 @@ from raytrace.renderer.packing import texture_tables
 from raytrace.renderer.program import Features
 from raytrace.commands.stability.probe import planar, scene_args
 
-from chi_square import SIGNIFICANCE, chi_square
+from devtools.chi_square import SIGNIFICANCE, chi_square
 from helpers import ROOT
 from test_direct_lighting import without_ambient
 
@@ -182,6 +182,17 @@ def traced(harness, scene, p, n, sampling, lanes=1024, samples=16, shaded=False)
     return out[0].reshape(len(p), lanes)
 
 
+def assert_techniques_agree(est):
+    """The three estimators' means (PATH_SAMPLING 0, 1, 2: {k: (cases, lanes)}) agree pairwise within 5
+    standard errors of each difference, plus float32 rounding; returns (means, standard errors)."""
+    mean = {k: e.mean(axis=1) for k, e in est.items()}
+    se = {k: e.std(axis=1, ddof=1) / np.sqrt(e.shape[1]) for k, e in est.items()}
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        bound = 5 * np.hypot(se[a], se[b]) + 1e-5 * np.abs(mean[a])
+        assert np.all(np.abs(mean[a] - mean[b]) <= bound), (a, b, mean, se)
+    return mean, se
+
+
 def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
     """Sampling the lights alone, the BSDF alone, and both combined by MIS are three unbiased estimators of the
     same radiance: at points of scene 0's direct variant (a lit floor point, one in the ellipsoid's penumbra,
@@ -197,11 +208,7 @@ def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
     n = np.array([[0, 0, 1.0], [0, 0, 1.0], [-1.0, 0, 0], [0.6, -0.6, -0.53], [0, 0, 1.0], [-0.6, 0, 1.0]])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     est = {k: traced(harness, scene, p, n, k) for k in (0, 1, 2)}
-    mean = {k: e.mean(axis=1) for k, e in est.items()}
-    se = {k: e.std(axis=1, ddof=1) / np.sqrt(e.shape[1]) for k, e in est.items()}
-    for a, b in ((0, 1), (0, 2), (1, 2)):
-        bound = 5 * np.hypot(se[a], se[b]) + 1e-5 * np.abs(mean[a])
-        assert np.all(np.abs(mean[a] - mean[b]) <= bound), (a, b, mean, se)
+    mean, se = assert_techniques_agree(est)
     assert np.all(mean[0] > 0) and se[0][4] < min(se[1][4], se[2][4])
 
 
@@ -395,7 +402,7 @@ __kernel void cosine(int n, __global const float *nrm, __global const float *u, 
 def test_diffuse_sampling_chi_square(harness, normal):
     """The diffuse BSDF's directions (Malley's method on the concentric disk) are distributed as cos(theta) / pi
     about the normal, in the normal's frame (Duff et al.'s basis, also for a normal pointing down): a
-    chi-square test over 16 x 32 cells of the sphere from 2^18 independent samples (tests/chi_square.py),
+    chi-square test over 16 x 32 cells of the sphere from 2^18 independent samples (devtools/chi_square.py),
     significance 1e-4 per case, 3 cases: a correct sampler fails once in 3000 runs. The same samples fail
     against the uniform hemisphere's density (p below 1e-10): the test sees a wrong density."""
     n = np.asarray(normal) / np.linalg.norm(normal)
@@ -429,11 +436,7 @@ def test_rough_conductor_techniques_agree(harness, cornell):
     p = np.array([[-0.3, -0.5, 0.0], [0.05, 0.02, 1.6], [0.2, -0.1, 1.8]])
     n = np.array([[0, 0, 1.0], [0, 0, 1.0], [0, 0, 1.0]])
     est = {k: traced(harness, scene, p, n, k, shaded=True) for k in (0, 1, 2)}
-    mean = {k: e.mean(axis=1) for k, e in est.items()}
-    se = {k: e.std(axis=1, ddof=1) / np.sqrt(e.shape[1]) for k, e in est.items()}
-    for a, b in ((0, 1), (0, 2), (1, 2)):
-        bound = 5 * np.hypot(se[a], se[b]) + 1e-5 * np.abs(mean[a])
-        assert np.all(np.abs(mean[a] - mean[b]) <= bound), (a, b, mean, se)
+    mean, _ = assert_techniques_agree(est)
     assert np.all(mean[0] > 0)
 
 
@@ -481,11 +484,7 @@ def test_environment_techniques_agree(harness, cornell):
     p = np.array([[0.2, -0.9, 0.0], [-0.4, 0.6, 0.0], [-0.999, -0.5, 0.8]])
     n = np.array([[0, 0, 1.0], [0, 0, 1.0], [1.0, 0, 0]])
     est = {k: traced(harness, scene, p, n, k, shaded=True) for k in (0, 1, 2)}
-    mean = {k: e.mean(axis=1) for k, e in est.items()}
-    se = {k: e.std(axis=1, ddof=1) / np.sqrt(e.shape[1]) for k, e in est.items()}
-    for a, b in ((0, 1), (0, 2), (1, 2)):
-        bound = 5 * np.hypot(se[a], se[b]) + 1e-5 * np.abs(mean[a])
-        assert np.all(np.abs(mean[a] - mean[b]) <= bound), (a, b, mean, se)
+    mean, _ = assert_techniques_agree(est)
     assert np.all(mean[0] > 0)
 
 
