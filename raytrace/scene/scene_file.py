@@ -144,10 +144,11 @@ def check_frame(r):
     _frame(r)
 
 
-def _emission(r, key):
-    """A light's colour (Phong) or radiance (direct, emitted from the side its normal points to): three
-    numbers >= 0, or for radiance one, the same in every channel."""
-    if key == "radiance" and isinstance(r.raw(key), (int, float)) and not isinstance(r.raw(key), bool):
+def _rgb(r, key):
+    """A light's colour (Phong) or radiance (direct, emitted from the side its normal points to), or any
+    other key declared number-or-vector: three numbers, or for such a key one, the same in every channel."""
+    value = r.table.get(key)
+    if r.spec[key].kind == "number-or-vector" and isinstance(value, (int, float)) and not isinstance(value, bool):
         return np.full(3, r.number(key))
     return r.vector(key)
 
@@ -296,9 +297,7 @@ def _bsdf(r, shading):
     for key in ("eta", "k", "int_ior", "ext_ior", "alpha"):
         if r.has(key) and key not in own:
             r.fail(key, r.raw(key), f'is not a parameter of type = "{bsdf}"')
-    number = lambda key: isinstance(r.table.get(key), (int, float)) and not isinstance(r.table.get(key), bool)  # noqa
-    vector = lambda key: tuple(np.full(3, r.number(key)) if number(key) else r.vector(key))  # noqa: E731
-    return dict(bsdf=bsdf, eta=vector("eta"), k=vector("k"), int_ior=r.number("int_ior"),
+    return dict(bsdf=bsdf, eta=tuple(_rgb(r, "eta")), k=tuple(_rgb(r, "k")), int_ior=r.number("int_ior"),
                 ext_ior=r.number("ext_ior"), alpha=r.number("alpha"))
 
 
@@ -386,7 +385,7 @@ def parse_scene(table, path="<scene>"):
         if shading != "path":
             r.fail("environment", r.raw("environment"), 'is the path model\'s: only with shading = "path"')
         e.string("type")
-        environment = _emission(e, "radiance")
+        environment = _rgb(e, "radiance")
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
                   textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment)
@@ -407,7 +406,7 @@ def parse_scene(table, path="<scene>"):
             if name not in material_index:
                 lr.fail("material", name, f"no such material (defined: {', '.join(material_index)})")
             material = material_index[name]
-        scene.lights.append(Light(colour=_emission(lr, emission), material=material, **_rectangle_fields(lr)))
+        scene.lights.append(Light(colour=_rgb(lr, emission), material=material, **_rectangle_fields(lr)))
         places.append((lr, scene.lights[-1]))
         light_readers.append(lr)
 
