@@ -130,6 +130,9 @@ inline float light_scale(__global const Light *light)
 }
 
 #include "light_sampling.cl"
+#if HAS_ENVIRONMENT
+#include "environment.cl"
+#endif
 
 /* Unit vectors *t and *b completing the unit n to a right-handed orthonormal frame, without a branch or a
  * cancellation (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017). */
@@ -250,9 +253,8 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         bounce.randomize = RANDOMIZE_INDEPENDENT;
     vec3 radiance = max_depth == 0 ? v3_splat(0.0f, 0.0f, 0.0f) : hit.emitted;
 #if HAS_ENVIRONMENT
-    const vec3 environment = v3_uniform(s->params->environment);
     if (max_depth != 0)
-        radiance = v3_select(radiance, environment, hit.t == INFINITY);
+        radiance = v3_select(radiance, environment_radiance(s, r.d), hit.t == INFINITY);
 #endif
     vec3 beta = v3_splat(1.0f, 1.0f, 1.0f);
     vint alive = (hit.t < INFINITY) & (hit.material >= 0);
@@ -267,19 +269,27 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
                                  light_samples, ps, rays);
         radiance = v3_add(radiance, v3_mul(v3_mul(beta, sp.k), direct));
 #if HAS_ENVIRONMENT
-        { /* the environment, sampled by the cosine about the normal (density cos / pi, so the BSDF's value times
-           * its cosine over that density is pi f = k bsdf_value), weighted against the BSDF's sample of the
-           * same direction: x = p_bsdf / p_env */
+        { /* the environment, sampled by its map (environment.cl) or, constant, by the cosine about the normal;
+           * the sample's f cos / p_env = k bsdf_value cos / (pi p_env), weighted against the BSDF's sample of
+           * the same direction: x = p_bsdf / p_env */
             vec2 ue = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
-            vec3 we = cosine_direction(sp.n, ue), wo_ = v3_scale(r.d, -1.0f);
+            vec3 wo_ = v3_scale(r.d, -1.0f);
+#if HAS_ENVIRONMENT_MAP
+            vfloat pdf_e;
+            vec3 we = sample_environment(s, ue, &pdf_e);
+#else
+            vec3 we = cosine_direction(sp.n, ue);
+            vfloat pdf_e = v3_dot(sp.n, we) * M_1_PI_F;
+#endif
             vfloat cos_e = v3_dot(sp.n, we), pdf_b;
-            vint sampled = alive & !specular & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f);
+            vint sampled = alive & !specular & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
             sampled = PATH_SAMPLING == 2 ? (vint)(0) : sampled;
             vec3 f = bsdf_value(sp, wo_, we, &pdf_b);
-            vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / (cos_e * M_1_PI_F));
+            vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / pdf_e);
             vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
             *rays += MASK_TO_ONE(sampled);
-            vec3 e = v3_scale(v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment), w);
+            vec3 e = v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment_radiance(s, we));
+            e = v3_scale(e, w * cos_e * M_1_PI_F / pdf_e);
             radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, open));
         }
 #endif
@@ -333,7 +343,12 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
 #endif
 #if HAS_ENVIRONMENT
         { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after a specular vertex */
-            vfloat w_env = SELECT(power_weight(cos_s * M_1_PI_F / pdf), (vfloat)(1.0f), specular);
+#if HAS_ENVIRONMENT_MAP
+            vfloat pdf_e = environment_pdf(s, wi);
+#else
+            vfloat pdf_e = cos_s * M_1_PI_F;
+#endif
+            vfloat w_env = SELECT(power_weight(pdf_e / pdf), (vfloat)(1.0f), specular);
 #if PATH_SAMPLING == 1
             w_env = SELECT((vfloat)(0.0f), (vfloat)(1.0f), specular);
 #elif PATH_SAMPLING == 2
@@ -341,7 +356,8 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
 #endif
             vint escaped = alive & (hit.t == INFINITY);
             radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f),
-                                                  v3_scale(v3_mul(beta, environment), w_env), escaped));
+                                                  v3_scale(v3_mul(beta, environment_radiance(s, wi)), w_env),
+                                                  escaped));
         }
 #endif
         vint lit = alive & (hit.t < INFINITY);

@@ -32,6 +32,7 @@ typedef struct {
     __global const int *prims;     /* its leaves' primitive references, index * 4 + SHAPE_* */
     __global const uint *culled_subtrees; /* per node: the bits of the rectangles it holds when it holds only
                                            * rectangles shadow rays may skip (intersect.cl), else 0 */
+    __global const float *environment_map; /* HAS_ENVIRONMENT_MAP: texels and sampling tables (environment.cl) */
 #if COUNT_VISITS
     int *visits; /* a measuring build's counts of the work-item's traversal work, VISITS_* below */
 #endif
@@ -68,11 +69,13 @@ typedef struct {
     __global const Rectangle *rectangles, __global const Triangle *triangles,                              \
     __global const TriangleUV *triangle_uvs, __global const TriangleNormals *triangle_normals,             \
     __global const Ellipsoid *ellipsoids, __global const Light *lights, __global const Material *materials, \
-    __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees
+    __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees,        \
+    __global const float *environment_map
 #define SCENE_FROM_PARAMETERS                                                                               \
     {.rectangles = rectangles, .triangles = triangles, .triangle_uvs = triangle_uvs,                        \
      .triangle_normals = triangle_normals, .ellipsoids = ellipsoids, .lights = lights, .materials = materials, \
-     .camera = camera, .params = params, .nodes = nodes, .prims = prims, .culled_subtrees = culled_subtrees}
+     .camera = camera, .params = params, .nodes = nodes, .prims = prims, .culled_subtrees = culled_subtrees, \
+     .environment_map = environment_map}
 
 #define TEXTURE_PARAMETERS                                                                                  \
     __global const Texture *textures, __global const MipLevel *mip_levels, __global const uint *texels,    \

@@ -140,8 +140,10 @@ typedef struct {
     int texture_filter;    /* FILTER_* */
     float footprint_scale; /* spacing of the pixel samples in pixels (1 / sqrt(spp)): ray differentials */
     int max_depth;         /* the path model's vertices per path (-1: unbounded; path_tracing.cl) */
-    Vec3f environment;     /* the path model's constant environment radiance */
+    Vec3f environment;     /* the path model's environment radiance: constant, or an envmap's scale */
     float scene_extent;    /* a bound on every coordinate of the scene (renderer/culling.py) */
+    int environment_width, environment_height; /* HAS_ENVIRONMENT_MAP: the map's texels (environment.cl) */
+    Vec3f environment_x, environment_y, environment_z; /* the world directions of the map's local axes */
 } RenderParams;
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }

@@ -56,7 +56,9 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
                           ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("pixel_sampler", SAMPLER),
                           ("light_sampler", SAMPLER), ("seed", "<u4"), ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4"),
                           ("texture_filter", "<i4"), ("footprint_scale", "<f4"), ("max_depth", "<i4"),
-                          ("environment", *VEC3F), ("scene_extent", "<f4")])
+                          ("environment", *VEC3F), ("scene_extent", "<f4"),
+                          ("environment_width", "<i4"), ("environment_height", "<i4"),
+                          ("environment_x", *VEC3F), ("environment_y", *VEC3F), ("environment_z", *VEC3F)])
 
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,

@@ -72,15 +72,18 @@ def radiometric(scene, shading):
     light["radiance"] = light.pop("colour")
 
 
-def scene_with(table_name):
-    """(the scene as a dict, the table `table_name` inside it, its error prefix)."""
+def scene_with(table_name, key_name=None):
+    """(the scene as a dict, the table `table_name` inside it, its error prefix); the environment is an envmap
+    with every key of its own, or a constant one for the key `radiance`."""
     scene = every_table()
     if table_name == DIRECT:
         radiometric(scene, "direct")
         return scene, scene["lights"][0], "lights[0]."
     if table_name == ENVIRONMENT:  # the path model's table
         radiometric(scene, "path")
-        scene["environment"] = {"type": "constant", "radiance": [1.0, 1.0, 1.0]}
+        scene["environment"] = ({"type": "constant", "radiance": [1.0, 1.0, 1.0]} if key_name == "radiance" else
+                                {"type": "envmap", "filename": "../assets/textures/sky.exr", "scale": 1.0,
+                                 "up": [0.0, 1.0, 0.0], "forward": [0.0, 0.0, 1.0]})
         return scene, scene["environment"], "environment."
     where, prefix = PLACES[table_name]
     node = scene
@@ -136,7 +139,7 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
     """A value just beyond a declared bound is refused, naming the key and the value; the bound itself is
     accepted where the declaration closes the interval (a scene may still refuse it for a reason between keys,
     as a triangle count beyond the memory: those cases are skipped)."""
-    scene, table, prefix = scene_with(table_name)
+    scene, table, prefix = scene_with(table_name, key.name)
     if key.name == "triangles" and value > 1000:
         pytest.skip("a mesh this large is refused by the memory there is, not by the bound")
     if key.name == "max_depth":  # the path model's key

@@ -50,6 +50,11 @@ GRID_LINE = 2         # texels per line, from each cell boundary on
 GRID_LIGHT, GRID_DARK = 0.85, 0.05   # linear values of cells and lines
 
 SRGB_SPACE, DATA_SPACE = "srgb_rec709_scene", "Raw"   # "Raw" writes no sRGB / gAMA chunk: data maps
+LINEAR_SPACE = "lin_rec709"   # sky.exr: linear radiance
+
+SKY_WIDTH = 256        # sky.exr: texels around the horizon (half as many from zenith to nadir)
+SUN_U, SUN_ELEVATION = 0.4, 35.0   # the sun's azimuth (the map's u) and its elevation, degrees
+SUN_SIGMA, SUN_PEAK = 3.0, 300.0   # the sun's Gaussian width, degrees, and its peak radiance
 
 
 # --- shared helpers --------------------------------------------------------------------------------------
@@ -151,6 +156,23 @@ def write_png(path, pixels, colour_space):
         raise OSError(errno.EIO, message.splitlines()[0].strip(), str(path))
 
 
+def write_exr(path, pixels, colour_space):
+    """Write an H x W x C float array as a half-float, zip-compressed OpenEXR file into `path` itself, like
+    write_png; an empty DateTime keeps OIIO from stamping the file with the time (capDate), so that the same
+    seed gives the same bytes."""
+    pixels = np.ascontiguousarray(pixels, np.float32)
+    height, width, channels = pixels.shape
+    spec = oiio.ImageSpec(width, height, channels, oiio.HALF)
+    spec.attribute("oiio:ColorSpace", colour_space)
+    spec.attribute("compression", "zip")
+    spec.attribute("DateTime", "")
+    out = oiio.ImageOutput.create(str(path))
+    if (out is None or not out.open(str(path), spec) or not out.write_image(pixels) or out.has_error
+            or not out.close() or out.has_error):
+        message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
+        raise OSError(errno.EIO, message.splitlines()[0].strip(), str(path))
+
+
 # --- the textures ----------------------------------------------------------------------------------------
 
 def grid(n=SIZE):
@@ -220,7 +242,33 @@ def stones(rng, n=SIZE, rows=6, jitter=0.3, gap=2.0, rounding=18.0, soften=4.0):
 
 
 FILES = ["grid.png", "bricks_height.png", "bricks_normal.png", "bricks_colour.png", "stones_height.png",
-         "stones_normal.png", "stones_colour.png"]
+         "stones_normal.png", "stones_colour.png", "sky.exr"]
+
+
+def sky(width=SKY_WIDTH, height=SKY_WIDTH // 2):
+    """sky.exr: an equirectangular sky in the `envmap` layout (kernels/environment.cl; the top row looks up),
+    linear RGB radiance. A sky blue at the zenith, paling to a whitish horizon (a smooth gradient in the
+    elevation), a grey-brown ground below it, and a sun: a Gaussian lobe SUN_SIGMA wide about the direction
+    at u = SUN_U and SUN_ELEVATION above the horizon, bright enough to dominate the light (about 60% of the
+    irradiance on a level surface), so that importance sampling the map matters."""
+    u = (np.arange(width) + 0.5) / width
+    v = (np.arange(height) + 0.5) / height
+    theta, phi = np.pi * v[:, None], 2 * np.pi * u[None, :]
+    d = np.stack(np.broadcast_arrays(np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)),
+                 axis=-1)
+    elevation = np.pi / 2 - theta
+    up = np.clip(np.sin(elevation), 0.0, 1.0)
+    zenith, horizon, ground = np.array([0.25, 0.45, 0.9]), np.array([0.9, 0.95, 1.0]), np.array([0.25, 0.22, 0.2])
+    t = up ** 0.5
+    rgb = np.where(elevation[..., None] >= 0, (1 - t[..., None]) * horizon + t[..., None] * zenith,
+                   np.broadcast_to(ground, (height, 1, 3)))
+    rgb = np.broadcast_to(rgb, (height, width, 3)).copy()
+    sun_phi, sun_theta = 2 * np.pi * SUN_U, np.pi / 2 - np.radians(SUN_ELEVATION)
+    sun = np.array([np.sin(sun_phi) * np.sin(sun_theta), np.cos(sun_theta), -np.cos(sun_phi) * np.sin(sun_theta)])
+    angle = np.arccos(np.clip(d @ sun, -1.0, 1.0))
+    sigma = np.radians(SUN_SIGMA)
+    rgb += SUN_PEAK * np.exp(-0.5 * (angle / sigma) ** 2)[..., None] * np.array([1.0, 0.9, 0.75])
+    return rgb.astype(np.float32)
 
 
 def textures(seed):
@@ -233,6 +281,7 @@ def textures(seed):
         yield f"{name}_height.png", codes, DATA_SPACE
         yield f"{name}_normal.png", encode_normal(normal_map(codes / 65535.0)), DATA_SPACE
         yield f"{name}_colour.png", encode_srgb(colour), SRGB_SPACE
+    yield "sky.exr", sky(), LINEAR_SPACE
 
 
 def generate(out_dir, seed=0, key="--out"):
@@ -246,6 +295,6 @@ def generate(out_dir, seed=0, key="--out"):
         temporary = {name: outputs.reserve(key, Path(out_dir) / name, given=out_dir) for name in FILES}
         for name, pixels, colour_space in textures(seed):
             with outputs.writing(temporary[name]):
-                write_png(temporary[name], pixels, colour_space)
+                (write_exr if name.endswith(".exr") else write_png)(temporary[name], pixels, colour_space)
         outputs.commit()
     return [Path(out_dir) / name for name in FILES]

@@ -177,9 +177,48 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["light_samples"], p["width"], p["height"] = light_samples, width, height
     p["max_depth"] = scene.max_depth
     p["environment"] = np.zeros(3) if scene.environment is None else scene.environment
+    if scene.environment_map is not None:
+        m = scene.environment_map
+        p["environment"] = np.full(3, m.scale)
+        p["environment_height"], p["environment_width"] = m.texels.shape[:2]
+        p["environment_x"], p["environment_y"], p["environment_z"] = m.frame()
     p["texture_filter"] = structs.FILTERS[texture_filter]
     # Ray differentials span one sample spacing, but at least 1/8 pixel, as pbrt-v4's RayIntegrator does.
     p["footprint_scale"] = max(0.125, 1 / math.sqrt(spp))
     return p
 
 
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 / sRGB primaries' Y, Mitsuba's luminance()
+
+
+def environment_weights(texels):
+    """Each texel's sampling weight (float64, H x W): its luminance averaged over the texel under bilinear
+    interpolation (neighbours weigh 1/8 per axis, wrapping in u and clamped in v, so every texel whose
+    interpolated radiance is anywhere positive has a positive weight), times sin(theta) at its row's centre."""
+    y = np.asarray(texels, np.float64) @ LUMINANCE
+    y = 0.125 * np.roll(y, 1, axis=1) + 0.75 * y + 0.125 * np.roll(y, -1, axis=1)
+    above, below = np.concatenate([y[:1], y[:-1]]), np.concatenate([y[1:], y[-1:]])
+    y = 0.125 * above + 0.75 * y + 0.125 * below
+    h = y.shape[0]
+    return y * np.sin(np.pi * (np.arange(h) + 0.5) / h)[:, None]
+
+
+def _cdf(weights):
+    """Cumulative tables along the last axis, from 0 to exactly 1 (float32); a row of zero weight uniform."""
+    total = weights.sum(axis=-1, keepdims=True)
+    n = weights.shape[-1]
+    step = np.where(total > 0, weights / np.where(total > 0, total, 1.0), 1.0 / n)
+    cdf = np.concatenate([np.zeros(weights.shape[:-1] + (1,)), np.cumsum(step, axis=-1)], axis=-1)
+    cdf[..., -1] = 1.0
+    return cdf.astype(np.float32)
+
+
+def environment_table(scene):
+    """kernels/environment.cl's environment_map buffer: the texels' RGB, the marginal cumulative table over rows
+    and each row's conditional one (float32), or one dummy float without a map."""
+    if scene.environment_map is None:
+        return np.zeros(1, np.float32)
+    texels = scene.environment_map.texels
+    weights = environment_weights(texels)
+    marginal, conditional = _cdf(weights.sum(axis=1)), _cdf(weights)
+    return np.concatenate([np.asarray(texels, np.float32).ravel(), marginal, conditional.ravel()])

@@ -44,6 +44,7 @@ class Features:
     dielectrics: bool = False      # the path model's smooth glass (type = "dielectric")
     rough_conductors: bool = False  # the path model's rough metals (type = "roughconductor")
     environment: bool = False      # the path model's environment emitter
+    environment_map: bool = False  # the environment is an image (type = "envmap"), importance-sampled
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -61,14 +62,17 @@ class Features:
                    scene.shading == "direct", scene.shading == "path",
                    any(m.bsdf == "conductor" for m in scene.materials),
                    any(m.bsdf == "dielectric" for m in scene.materials),
-                   any(m.bsdf == "roughconductor" for m in scene.materials), scene.environment is not None)
+                   any(m.bsdf == "roughconductor" for m in scene.materials),
+                   scene.environment is not None or scene.environment_map is not None,
+                   scene.environment_map is not None)
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
                  "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps,
                  "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting,
                  "PATH_TRACING": self.path_tracing, "CONDUCTORS": self.conductors, "DIELECTRICS": self.dielectrics,
-                 "ROUGH_CONDUCTORS": self.rough_conductors, "ENVIRONMENT": self.environment}
+                 "ROUGH_CONDUCTORS": self.rough_conductors, "ENVIRONMENT": self.environment,
+                 "ENVIRONMENT_MAP": self.environment_map}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

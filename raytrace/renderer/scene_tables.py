@@ -7,7 +7,7 @@ import numpy as np
 from .. import structs
 from .culling import scene_extent
 from .geometry import bvh_structs, in_leaf_order, triangle_soup
-from .packing import (camera_struct, ellipsoid_structs, light_structs, material_structs, params_struct,
+from .packing import (camera_struct, ellipsoid_structs, environment_table, light_structs, material_structs, params_struct,
                       rectangle_structs, triangle_normal_records, triangle_records, triangle_uv_records)
 
 
@@ -57,4 +57,6 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
             "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
             "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
             "materials": material_structs(scene.materials), "nodes": nodes, "prims": prims,
-            "culled_subtrees": culled}
+            "culled_subtrees": culled,
+            "environment_map": environment_table(scene) if features is None or features.environment_map
+            else np.zeros(1, np.float32)}

@@ -71,10 +71,20 @@ TABLES = {
          Key("materials", "named-tables", "materials by name, one or more"),
          Key("shapes", "tables", "the shapes", default=()),
          Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None)],
-    "environment": [Key("type", "string", "the emitter, with Mitsuba's name: a constant radiance",
-                        choices=ENVIRONMENTS),
-                    Key("radiance", "number-or-vector", "the radiance arriving from every direction (one number: "
-                        "the same in every channel)", length=3, low=0)],
+    "environment": [Key("type", "string", "the emitter, with Mitsuba's names: a constant radiance, or an "
+                        "equirectangular image (envmap)", choices=ENVIRONMENTS),
+                    Key("radiance", "number-or-vector", "constant: the radiance arriving from every direction (one "
+                        "number: the same in every channel)", length=3, low=0, also='type = "constant" only'),
+                    Key("filename", "path", "envmap: the image of radiance (linear RGB; EXR, HDR or any format "
+                        "OpenImageIO reads, 8- and 16-bit ones sRGB-decoded), relative to the scene file",
+                        also='type = "envmap" only'),
+                    Key("scale", "number", "envmap: a factor on the image's radiance", default=1.0, low=0,
+                        high=FLOAT32_MAX),
+                    Key("up", "vector", "envmap: the direction the image's top row looks along (Mitsuba's local "
+                        "+y)", length=3, nonzero=True, default=(0.0, 1.0, 0.0)),
+                    Key("forward", "vector", "envmap: the direction the image's centre looks along (Mitsuba's "
+                        "local +z), made orthogonal to up", length=3, nonzero=True, default=(0.0, 0.0, 1.0),
+                        also="not parallel to up")],
     "camera": [Key("position", "vector", "the eye", length=3),
                Key("look_at", "vector", "the point at the image's centre", length=3,
                    also="differs from position"),

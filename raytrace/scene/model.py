@@ -25,7 +25,7 @@ SHADINGS = ("phong", "direct", "path")
 # microfacets of roughness alpha). Only "diffuse" elsewhere.
 BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor")
 DEFAULT_ALPHA = 0.1  # Mitsuba's roughconductor default
-ENVIRONMENTS = ("constant",)  # the path model's environment emitters, with Mitsuba's names
+ENVIRONMENTS = ("constant", "envmap")  # the path model's environment emitters, with Mitsuba's names
 DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
@@ -43,6 +43,25 @@ class Camera:
         forward = normalize(self.look_at - self.position)
         right = normalize(np.cross(forward, self.ref_up))
         return forward, right, np.cross(right, forward)
+
+
+@dataclass(frozen=True, eq=False)
+class EnvironmentMap:
+    """The path model's `envmap` emitter: an equirectangular image of linear RGB radiance (H x W x 3 float32,
+    rows top to bottom) times `scale`, in Mitsuba 3's layout about the world directions `up` (the top row, the
+    map's +y) and `forward` (the image's centre, its +z; made orthogonal to up): kernels/environment.cl."""
+    path: str
+    texels: np.ndarray
+    scale: float = 1.0
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
+    forward: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+
+    def frame(self):
+        """The world directions of the map's local x, y and z axes (float64, orthonormal, right-handed)."""
+        y = normalize(np.asarray(self.up, np.float64))
+        forward = normalize(np.asarray(self.forward, np.float64))
+        z = normalize(forward - np.dot(forward, y) * y)
+        return np.cross(y, z), y, z
 
 
 @dataclass(frozen=True)
@@ -143,6 +162,7 @@ class Scene:
     shading: str = "phong"  # one of SHADINGS
     max_depth: int = -1     # the path model's vertices per path, Mitsuba's convention (-1: unbounded)
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
+    environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from
     revision: int = field(default=0, compare=False, repr=False)  # counts its edits (raytrace.parameters)
     checked: str | None = field(default=None, compare=False, repr=False)  # fingerprint() when last checked

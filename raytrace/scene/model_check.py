@@ -12,8 +12,9 @@ import numpy as np
 
 from . import ranges
 from .. import samplers
-from .model import (RADIOMETRIC, SHADINGS, Camera, Ellipsoid, Light, MeshShape, Rectangle, Triangle, fingerprint,
-                    normalize)
+from .model import (RADIOMETRIC, SHADINGS, Camera, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle, Triangle,
+                    fingerprint, normalize)
+from .textures import check_pixels
 from .scene_file import LIGHTS_SPEC, Reader, check_frame, check_triangle
 
 # (the model's attribute, the key of keys.py's table it was read from)
@@ -44,6 +45,32 @@ def _read(reader, fields):
 def _typed(source, prefix, obj, cls):
     if not isinstance(obj, cls):
         Reader(source, {}, prefix).fail("", type(obj).__name__, f"must be a raytrace.scene.{cls.__name__}")
+
+
+def _check_environment_map(source, scene):
+    """The envmap emitter as the scene file's reader would have made it (scene_file._environment)."""
+    m = scene.environment_map
+    _typed(source, "environment", m, EnvironmentMap)
+    top = Reader(source, {}, "")
+    if scene.shading != "path":
+        top.fail("environment", m.path, 'is the path model\'s: only with shading = "path"')
+    if scene.environment is not None:
+        top.fail("environment", _value(scene.environment), "a constant radiance and an envmap cannot both be set")
+    e = Reader(source, {"scale": m.scale, "up": _value(m.up), "forward": _value(m.forward)}, "environment.",
+               "environment")
+    e.number("scale")
+    up, forward = e.vector("up"), e.vector("forward")
+    if np.linalg.norm(np.cross(normalize(up), normalize(forward))) < 1e-6:
+        e.fail("forward", forward.tolist(), "must not be parallel to up")
+    texels = m.texels
+    if not (isinstance(texels, np.ndarray) and texels.ndim == 3 and texels.shape[2] == 3 and texels.size
+            and texels.dtype.kind == "f"):
+        shape = getattr(texels, "shape", type(texels).__name__)
+        e.fail("texels", str(shape), "must be a non-empty H x W x 3 float array of linear RGB")
+    try:
+        check_pixels(texels, "float", "colour")
+    except ValueError as problem:
+        e.fail("texels", m.path, str(problem).replace("a colour map's", "an environment map's"))
 
 
 def _index(source, key, value, count):
@@ -79,6 +106,8 @@ def check_model(scene, source="render()"):
             top.fail("environment", _value(scene.environment), 'is the path model\'s: only with shading = "path"')
         Reader(source, {"radiance": _value(np.asarray(scene.environment, np.float64))}, "environment.",
                "environment").vector("radiance")
+    if scene.environment_map is not None:
+        _check_environment_map(source, scene)
     if scene.max_depth != -1 and scene.shading != "path":
         render.fail("max_depth", scene.max_depth, 'is the path model\'s: only with shading = "path"')
     for key, count in (("sampler", "spp"), ("light_sampler", "light_samples")):

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import keys, mesh_file, meshes, meshgen, ranges
+from . import environment_map, keys, mesh_file, meshes, meshgen, ranges
 from ..errors import InputError
 from .. import samplers
-from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, Light, Material, MeshShape, Rectangle, Scene,
+from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     Triangle, normalize)
 
 LIGHTS_SPEC = "lights[] (direct, path)"  # keys.py's table of a radiometric model's lights
@@ -301,6 +301,25 @@ def _bsdf(r, shading):
                 ext_ior=r.number("ext_ior"), alpha=r.number("alpha"))
 
 
+def _environment(e, base_dir):
+    """(constant radiance, None) or (None, EnvironmentMap) from the [environment] table: each type takes its
+    own keys only; the map's file is relative to the scene file."""
+    e.check_keys()
+    kind = e.string("type")
+    own = {"constant": ("radiance",), "envmap": ("filename", "scale", "up", "forward")}[kind]
+    for key in ("radiance", "filename", "scale", "up", "forward"):
+        if e.has(key) and key not in own:
+            e.fail(key, e.raw(key), f'is not a parameter of type = "{kind}"')
+    if kind == "constant":
+        return _rgb(e, "radiance"), None
+    up, forward = e.vector("up"), e.vector("forward")
+    if np.linalg.norm(np.cross(normalize(up), normalize(forward))) < 1e-6:
+        e.fail("forward", forward.tolist(), "must not be parallel to up")
+    texels = environment_map.load(base_dir / e.string("filename"), e.path, e.prefix + "filename")
+    return None, EnvironmentMap(str((base_dir / e.string("filename")).resolve()), texels, e.number("scale"),
+                                up, forward)
+
+
 def _material(r, name, textures, shading="phong"):
     """A material table; texture paths are relative to the scene file and read here."""
     r.check_keys()
@@ -378,17 +397,15 @@ def parse_scene(table, path="<scene>"):
     problem = samplers.light_problem(light_sampler, light_samples, shading)
     if problem:
         render.fail("light_sampler", light_sampler, problem)
-    environment = None
+    environment, environment_map = None, None
     if r.has("environment"):
-        e = r.sub("environment")
-        e.check_keys()
         if shading != "path":
             r.fail("environment", r.raw("environment"), 'is the path model\'s: only with shading = "path"')
-        e.string("type")
-        environment = _rgb(e, "radiance")
+        environment, environment_map = _environment(r.sub("environment"), Path(path).parent)
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
-                  textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment)
+                  textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment,
+                  environment_map=environment_map)
 
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:

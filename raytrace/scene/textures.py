@@ -191,7 +191,7 @@ def load_texture(path, role, source, key):
         fail("is not a regular file")
     try:
         pixels, kind = read_image(path)
-        _check_pixels(pixels, kind, role)
+        check_pixels(pixels, kind, role)
         return make_texture(pixels, kind, role, str(path))
     except OSError as e:
         fail(f"cannot read the image: {e}")
@@ -201,7 +201,7 @@ def load_texture(path, role, source, key):
         fail("the image does not fit in memory")
 
 
-def _check_pixels(pixels, kind, role):
+def check_pixels(pixels, kind, role):
     """ValueError for values no texture can hold: NaN and infinities (any role), values beyond float32's
     range (float64 files), fewer than 3 channels in a normal map, negative colours and heights (float and
     signed integer files; a negative colour would give negative light)."""
