@@ -5,25 +5,25 @@
  *
  * The map follows Mitsuba 3's `envmap`: in the map's frame (environment_x, _y, _z: the world directions of
  * its local axes) a unit direction d has u = atan2(d.x, -d.z) / (2 pi) in [0, 1) and v = acos(d.y) / pi, so
- * the top row looks along +y, the image's centre along +z and u = 1/4 along +x. Texel (i, j) is centred at
- * ((i + 1/2) / w, (j + 1/2) / h), and the radiance between centres is bilinear, wrapping in u and clamped in
- * v (Mitsuba puts its rows' centres at v = j / (h - 1) instead, a shift of at most half a row at the poles
- * and none at the horizon).
+ * the top row looks along +y, the image's centre along +z and u = 1/4 along +x. Texel (i, j) sits at u = (i +
+ * 1/2) / w and, as in Mitsuba, v = j / (h - 1): the first row at the zenith, the last at the nadir (h >= 2).
+ * The radiance between texels is bilinear, wrapping in u.
  *
- * Directions are sampled by a piecewise-constant 2D distribution over the texels (pbrt-v4's
- * PiecewiseConstant2D, section A.5.3 of the book; for environment maps pbrt-v3 section 14.2.4): a row by the
- * marginal distribution, then a column by the row's conditional one, each by inverting its cumulative table,
- * and (u, v) uniform within the texel. The host (raytrace/renderer/packing.py's environment_table) makes
- * each texel's weight its luminance averaged over the texel (the bilinear interpolant's mean: neighbours
- * weigh 1/8 per axis, so no direction with light has density 0) times sin(theta) at the row's centre, the
- * area the texel spans on the sphere. The density per steradian is p(u, v) / (2 pi^2 sin(theta)).
+ * Directions are sampled by a piecewise-constant 2D distribution (pbrt-v4's PiecewiseConstant2D, section
+ * A.5.3 of the book; for environment maps pbrt-v3 section 14.2.4) over w x (h - 1) cells: cell (i, j) spans u
+ * in [i, i + 1] / w and v in [j, j + 1] / (h - 1), between two rows. A row of cells is drawn by the marginal
+ * distribution, then a cell by the row's conditional one, each by inverting its cumulative table, and (u, v)
+ * uniformly within the cell. The host (raytrace/renderer/packing.py's environment_weights) weighs each cell
+ * by the luminance the bilinear radiance has on average over it (its two rows' mean, their neighbours in u
+ * weighing 1/8 each, so no direction with light has density 0) times sin(theta) at its centre, the area it
+ * spans on the sphere. The density per steradian is p(u, v) / (2 pi^2 sin(theta)).
  *
  * The densities are read from the same float32 cumulative tables the sampling inverts: a texel's probability
  * is the difference of two table entries, which is exactly how often a uniform number lands between them, so
  * the density a direction is given is the one it was drawn with, however the tables rounded.
  *
- * environment_map holds, in floats: the texels' RGB, rows top to bottom (3 w h); the marginal table (h + 1
- * entries from 0 to exactly 1); then each row's conditional table (w + 1 entries each). */
+ * environment_map holds, in floats: the texels' RGB, rows top to bottom (3 w h); the marginal table over the
+ * rows of cells (h entries from 0 to exactly 1); then each row's conditional table (w + 1 entries each). */
 #ifndef ENVIRONMENT_CL
 #define ENVIRONMENT_CL
 
@@ -43,24 +43,23 @@ inline float2 environment_uv(__constant const RenderParams *p, float3 d)
     return (float2)(u < 1.0f ? u : 0.0f, fmin(fmax(acos(clamp(y, -1.0f, 1.0f)) * M_1_PI_F, 0.0f), 1.0f));
 }
 
-/* The texel's RGB, column i wrapped, row j clamped. */
+/* The texel's RGB, column i in [-1, w] wrapped. */
 inline float3 environment_texel(__constant const RenderParams *p, __global const float *map, int i, int j)
 {
-    const int w = p->environment_width, h = p->environment_height;
+    const int w = p->environment_width;
     i = i < 0 ? i + w : (i >= w ? i - w : i);
-    j = clamp(j, 0, h - 1);
     __global const float *t = map + 3 * (j * w + i);
     return (float3)(t[0], t[1], t[2]);
 }
 
-/* The map's radiance along the unit world direction d (before its scale), bilinear between texel centres. */
+/* The map's radiance along the unit world direction d (before its scale), bilinear between texels. */
 inline float3 environment_lookup(__constant const RenderParams *p, __global const float *map, float3 d)
 {
     float2 uv = environment_uv(p, d);
-    float x = uv.x * (float)p->environment_width - 0.5f, y = uv.y * (float)p->environment_height - 0.5f;
-    float fx = floor(x), fy = floor(y);
+    float x = uv.x * (float)p->environment_width - 0.5f, y = uv.y * (float)(p->environment_height - 1);
+    float fx = floor(x), fy = clamp(floor(y), 0.0f, (float)(p->environment_height - 2));
     int i = (int)fx, j = (int)fy;
-    float a = x - fx, b = y - fy;
+    float a = x - fx, b = clamp(y - fy, 0.0f, 1.0f);
     float3 top = mix(environment_texel(p, map, i, j), environment_texel(p, map, i + 1, j), a);
     float3 bottom = mix(environment_texel(p, map, i, j + 1), environment_texel(p, map, i + 1, j + 1), a);
     return mix(top, bottom, b);
@@ -81,13 +80,14 @@ inline int cdf_step(__global const float *cdf, int n, float x)
     return lo;
 }
 
-/* The density per unit (u, v) of the texel (i, j) (clamped into the map): its probability times w h. */
+/* The density per unit (u, v) of the cell (i, j) (clamped into the w x (h - 1) cells): its probability times
+ * their count. */
 inline float environment_uv_density(__constant const RenderParams *p, __global const float *map, int i, int j)
 {
-    const int w = p->environment_width, h = p->environment_height;
+    const int w = p->environment_width, h = p->environment_height - 1;
     i = clamp(i, 0, w - 1);
     j = clamp(j, 0, h - 1);
-    __global const float *marginal = map + 3 * w * h, *conditional = marginal + (h + 1) + j * (w + 1);
+    __global const float *marginal = map + 3 * w * (h + 1), *conditional = marginal + (h + 1) + j * (w + 1);
     return (marginal[j + 1] - marginal[j]) * (conditional[i + 1] - conditional[i]) * (float)(w * h);
 }
 
@@ -97,7 +97,7 @@ inline float environment_density(__constant const RenderParams *p, __global cons
     float2 uv = environment_uv(p, d);
     float sin_theta = sin(uv.y * M_PI_F);
     float density = environment_uv_density(p, map, (int)(uv.x * (float)p->environment_width),
-                                            (int)(uv.y * (float)p->environment_height));
+                                            (int)(uv.y * (float)(p->environment_height - 1)));
     return sin_theta > 0.0f ? density / (2.0f * M_PI_F * M_PI_F * sin_theta) : 0.0f;
 }
 
@@ -106,8 +106,8 @@ inline float environment_density(__constant const RenderParams *p, __global cons
 inline float3 environment_sample(__constant const RenderParams *p, __global const float *map, float2 xi,
                                  float *density)
 {
-    const int w = p->environment_width, h = p->environment_height;
-    __global const float *marginal = map + 3 * w * h;
+    const int w = p->environment_width, h = p->environment_height - 1; /* cells */
+    __global const float *marginal = map + 3 * w * (h + 1);
     int j = cdf_step(marginal, h, xi.y);
     __global const float *conditional = marginal + (h + 1) + j * (w + 1);
     int i = cdf_step(conditional, w, xi.x);

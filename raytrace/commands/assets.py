@@ -252,7 +252,7 @@ def sky(width=SKY_WIDTH, height=SKY_WIDTH // 2):
     at u = SUN_U and SUN_ELEVATION above the horizon, bright enough to dominate the light (about 60% of the
     irradiance on a level surface), so that importance sampling the map matters."""
     u = (np.arange(width) + 0.5) / width
-    v = (np.arange(height) + 0.5) / height
+    v = np.arange(height) / (height - 1)  # the envmap layout's rows: the first at the zenith, the last at the nadir
     theta, phi = np.pi * v[:, None], 2 * np.pi * u[None, :]
     d = np.stack(np.broadcast_arrays(np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)),
                  axis=-1)

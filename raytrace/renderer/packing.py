@@ -192,15 +192,15 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 / sRGB primaries' Y, 
 
 
 def environment_weights(texels):
-    """Each texel's sampling weight (float64, H x W): its luminance averaged over the texel under bilinear
-    interpolation (neighbours weigh 1/8 per axis, wrapping in u and clamped in v, so every texel whose
-    interpolated radiance is anywhere positive has a positive weight), times sin(theta) at its row's centre."""
+    """The sampling weight of each of the map's w x (h - 1) cells (float64, (h - 1) x w; kernels/environment.cl):
+    the luminance the bilinear radiance has on average over the cell, its two rows' mean in v, and in u its
+    column weighing 3/4 and the neighbours on either side 1/8 (wrapping), so that every cell where the
+    interpolated radiance is anywhere positive has a positive weight; times sin(theta) at its centre."""
     y = np.asarray(texels, np.float64) @ LUMINANCE
     y = 0.125 * np.roll(y, 1, axis=1) + 0.75 * y + 0.125 * np.roll(y, -1, axis=1)
-    above, below = np.concatenate([y[:1], y[:-1]]), np.concatenate([y[1:], y[-1:]])
-    y = 0.125 * above + 0.75 * y + 0.125 * below
-    h = y.shape[0]
-    return y * np.sin(np.pi * (np.arange(h) + 0.5) / h)[:, None]
+    y = 0.5 * (y[:-1] + y[1:])
+    cells = y.shape[0]
+    return y * np.sin(np.pi * (np.arange(cells) + 0.5) / cells)[:, None]
 
 
 def _cdf(weights):
@@ -214,8 +214,8 @@ def _cdf(weights):
 
 
 def environment_table(scene):
-    """kernels/environment.cl's environment_map buffer: the texels' RGB, the marginal cumulative table over rows
-    and each row's conditional one (float32), or one dummy float without a map."""
+    """kernels/environment.cl's environment_map buffer: the texels' RGB, the marginal cumulative table over the
+    rows of cells and each row's conditional one (float32), or one dummy float without a map."""
     if scene.environment_map is None:
         return np.zeros(1, np.float32)
     texels = scene.environment_map.texels

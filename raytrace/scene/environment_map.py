@@ -11,6 +11,8 @@ from ..errors import InputError
 from .mipmap import srgb_to_linear
 from .textures import check_pixels, read_image
 
+ROWS_PROBLEM = "an environment map needs at least 2 rows (its first looks at the zenith, its last at the nadir)"
+
 
 def linear_rgb(pixels, kind):
     """H x W x 3 float32 linear RGB from H x W x C pixels as textures.read_image gives them."""
@@ -32,6 +34,8 @@ def load(path, source, key):
     try:
         pixels, kind = read_image(path)
         check_pixels(pixels, kind, "colour")
+        if pixels.shape[0] < 2:
+            raise ValueError(ROWS_PROBLEM)
         return linear_rgb(pixels, kind)
     except OSError as e:
         fail(f"cannot read the image: {e}")

@@ -14,6 +14,7 @@ from . import ranges
 from .. import samplers
 from .model import (RADIOMETRIC, SHADINGS, Camera, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle, Triangle,
                     fingerprint, normalize)
+from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
 from .scene_file import LIGHTS_SPEC, Reader, check_frame, check_triangle
 
@@ -67,6 +68,8 @@ def _check_environment_map(source, scene):
             and texels.dtype.kind == "f"):
         shape = getattr(texels, "shape", type(texels).__name__)
         e.fail("texels", str(shape), "must be a non-empty H x W x 3 float array of linear RGB")
+    if texels.shape[0] < 2:
+        e.fail("texels", str(texels.shape), ROWS_PROBLEM)
     try:
         check_pixels(texels, "float", "colour")
     except ValueError as problem:
