@@ -54,7 +54,7 @@ LINEAR_SPACE = "lin_rec709"   # sky.exr: linear radiance
 
 SKY_WIDTH = 256        # sky.exr: texels around the horizon (half as many from zenith to nadir)
 SUN_U, SUN_ELEVATION = 0.4, 35.0   # the sun's azimuth (the map's u) and its elevation, degrees
-SUN_SIGMA, SUN_PEAK = 3.0, 300.0   # the sun's Gaussian width, degrees, and its peak radiance
+SUN_SIGMA, SUN_PEAK = 10.0, 27.0   # the sun's Gaussian width, degrees, and its peak radiance
 
 
 # --- shared helpers --------------------------------------------------------------------------------------
@@ -250,7 +250,10 @@ def sky(width=SKY_WIDTH, height=SKY_WIDTH // 2):
     linear RGB radiance. A sky blue at the zenith, paling to a whitish horizon (a smooth gradient in the
     elevation), a grey-brown ground below it, and a sun: a Gaussian lobe SUN_SIGMA wide about the direction
     at u = SUN_U and SUN_ELEVATION above the horizon, bright enough to dominate the light (about 60% of the
-    irradiance on a level surface), so that importance sampling the map matters."""
+    irradiance on a level surface), so that importance sampling the map matters. The sun is 10 degrees wide:
+    at 3 the caustics it casts through and off the materials scene's spheres, which a unidirectional path
+    tracer finds only by its BSDF's rays, left an RMSE of 0.022 at 2048 spp against Mitsuba's (ours and its
+    alike: the means agreed within 0.01%)."""
     u = (np.arange(width) + 0.5) / width
     v = np.arange(height) / (height - 1)  # the envmap layout's rows: the first at the zenith, the last at the nadir
     theta, phi = np.pi * v[:, None], 2 * np.pi * u[None, :]
