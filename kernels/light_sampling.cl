@@ -11,6 +11,14 @@
 
 #include "lights.cl"
 #include "material.cl"
+#if LIGHT_SOLID_ANGLE
+#include "spherical_rectangle.cl"
+/* The model samples a light by the solid angle it subtends where that is accurate (spherical_rectangle.cl),
+ * and its sample_weight takes that solid angle (0 where the light is sampled by area). */
+#define SOLID_ANGLE_ARGUMENT , solid_angle
+#else
+#define SOLID_ANGLE_ARGUMENT
+#endif
 
 /* How many light samples lights_sum forms at once: their points, directions and masks (sample_counts) are
  * independent work that the CPU overlaps, before their shadow rays are traced and their weights added in
@@ -36,6 +44,11 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         vfloat q_err = light_point_error(light);
         float area = 4.0f * light->shape.half_x * light->shape.half_y;
         uint skip = rectangles_out_of_reach(s, light, origin, surface);
+#if LIGHT_SOLID_ANGLE
+        SphericalRectangle spherical = spherical_rectangle(&light->shape, sp.p);
+        vint by_solid_angle = spherical_rectangle_used(spherical);
+        vfloat solid_angle = SELECT((vfloat)(0.0f), spherical.solid_angle, by_solid_angle);
+#endif
         SweptLeaves candidates = {0};
         int swept = 0; /* found at the first sample that counts: a packet facing away needs none */
 #if LIGHT_VALUE_VEC3 /* the model's sample weights are colours (path_tracing.cl's rough conductors) */
@@ -48,6 +61,13 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
             vint lit[LIGHT_SAMPLE_GROUP] = {0}, any_lit = (vint)(0); /* samples past the last count nowhere */
             for (int g = 0; g < LIGHT_SAMPLE_GROUP && j0 + g < n_samples; ++g) {
                 vec2 u = stream_2d(light_samples, s->params->light_sampler, stream, (vint)(j0 + g));
+#if LIGHT_SOLID_ANGLE
+                if (ANY(by_solid_angle)) { /* the point of the light u maps to by solid angle */
+                    vec2 st = spherical_rectangle_point(spherical, u);
+                    u.x = SELECT(u.x, st.x, by_solid_angle);
+                    u.y = SELECT(u.y, st.y, by_solid_angle);
+                }
+#endif
                 q[g] = light_point(light, u);
                 w[g] = v3_sub(q[g], sp.p); /* towards the sample, and its unit direction */
                 l[g] = v3_direction(w[g]);
@@ -68,10 +88,10 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
                     lit[g] &= !occluded_among(s, &candidates, shadow_segment(origin, q[g], q_err, light_normal), skip,
                                               lit[g]);
 #if LIGHT_VALUE_VEC3
-                vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples);
+                vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples SOLID_ANGLE_ARGUMENT);
                 sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), weight, lit[g]));
 #else
-                vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples);
+                vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples SOLID_ANGLE_ARGUMENT);
                 sum += SELECT((vfloat)(0.0f), weight, lit[g]);
 #endif
             }

@@ -25,6 +25,11 @@
 /* The light samples' weights are colours where a BSDF's value varies by channel with the direction (a rough
  * conductor's Fresnel term): light_sampling.cl then sums them as such. */
 #define LIGHT_VALUE_VEC3 HAS_ROUGH_CONDUCTORS
+#ifndef LIGHT_SOLID_ANGLE
+/* Lights are sampled by the solid angle they subtend (spherical_rectangle.cl) where that is accurate, else by
+ * area; a build with 0 samples them by area alone (the measurement of docs/global-illumination.md). */
+#define LIGHT_SOLID_ANGLE 1
+#endif
 
 #define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
 #ifndef PATH_SAMPLING
@@ -96,30 +101,40 @@ inline vec3 bsdf_value(ShadingPoint sp, vec3 v, vec3 l, vfloat *pdf)
     return value;
 }
 
-#if LIGHT_VALUE_VEC3
-/* The light sample's pi f cos(theta_s) cos(theta_l) / (k r^2) (bsdf_value), times its MIS weight against the
- * BSDF's own sample of the direction: x = p_bsdf A cos(theta_l) / (n r^2). */
-inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+/* 1 / p_light, the inverse of the density per steradian of a light's sample towards l: the solid angle where
+ * the light was sampled by it (solid_angle > 0), else A cos(theta_l) / r^2 (by area). */
+inline vfloat light_inverse_density(vfloat cos_l, vfloat r2, float area, vfloat solid_angle)
 {
-    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w), pdf;
-    vec3 value = v3_scale(bsdf_value(sp, v, l, &pdf), cos_s * cos_l / r2);
+    return SELECT(area * cos_l / r2, solid_angle, solid_angle > 0.0f);
+}
+
+#if LIGHT_VALUE_VEC3
+/* The light sample's pi f cos(theta_s) / (k A p_light) (bsdf_value), times its MIS weight against the BSDF's
+ * own sample of the direction: x = p_bsdf / (n p_light). */
+inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n,
+                          vfloat solid_angle)
+{
+    vfloat cos_s = v3_dot(sp.n, l), pdf;
+    vfloat inverse = light_inverse_density(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
+    vec3 value = v3_scale(bsdf_value(sp, v, l, &pdf), cos_s * inverse / area);
 #if PATH_SAMPLING == 1
     return value;
 #else
-    return v3_scale(value, power_weight(pdf * area * cos_l / ((float)n * r2)));
+    return v3_scale(value, power_weight(pdf * inverse / (float)n));
 #endif
 }
 #else
-/* The light sample's cos(theta_s) cos(theta_l) / r^2, times its MIS weight against a cosine-weighted BSDF
- * sample of the same direction: x = p_bsdf / (n p_light) = cos(theta_s) A cos(theta_l) / (pi n r^2). */
-inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+/* The light sample's cos(theta_s) / (A p_light), times its MIS weight against a cosine-weighted BSDF sample of
+ * the same direction: x = p_bsdf / (n p_light) = cos(theta_s) / (pi n p_light). */
+inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n,
+                            vfloat solid_angle)
 {
-    vfloat cos_s = v3_dot(sp.n, l), cos_l = -v3_dot(light_normal, l), r2 = v3_dot(w, w);
-    vfloat g = cos_s * cos_l / r2;
+    vfloat cos_s = v3_dot(sp.n, l);
+    vfloat inverse = light_inverse_density(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
 #if PATH_SAMPLING == 1
-    return g;
+    return cos_s * inverse / area;
 #else
-    return g * power_weight(g * (area * M_1_PI_F / (float)n));
+    return cos_s * inverse / area * power_weight(cos_s * inverse * (M_1_PI_F / (float)n));
 #endif
 }
 #endif
@@ -221,6 +236,24 @@ inline vfloat hit_light_area(const Scene *s, Hit hit)
     }
     return VLOAD(area);
 }
+
+#if LIGHT_SOLID_ANGLE
+/* The solid angle, seen from each lane's o, of the light each lane's hit is on where light_sampling.cl samples
+ * that light by solid angle from o, 0 elsewhere (by area, or no light hit). */
+inline vfloat hit_light_solid_angle(const Scene *s, Hit hit, vec3 o)
+{
+    vfloat solid_angle = 0.0f;
+    vint on_light = (hit.kind == SHAPE_NONE) & (hit.t < INFINITY);
+    for (int li = 0; li < s->params->n_lights; ++li) {
+        vint here = on_light & (hit.index == li);
+        if (ANY(here)) {
+            SphericalRectangle q = spherical_rectangle(&s->lights[li].shape, o);
+            solid_angle = SELECT(solid_angle, q.solid_angle, here & spherical_rectangle_used(q));
+        }
+    }
+    return solid_angle;
+}
+#endif
 
 #if HAS_ENVIRONMENT
 /* The lanes of `active` whose ray from o along the unit d leaves the scene: no shape and no light meets it
@@ -335,6 +368,10 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
          * n p_light / p_bsdf = n r^2 / (A cos(theta_l) p_bsdf) (0 where no light was hit: weight 1) */
         vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi));
         vfloat x = (float)n_light * hit.t * hit.t / (area * cos_l * pdf);
+#if LIGHT_SOLID_ANGLE
+        vfloat solid_angle = hit_light_solid_angle(s, hit, sp.p); /* p_light = 1 / solid_angle there */
+        x = SELECT(x, (float)n_light / (solid_angle * pdf), solid_angle > 0.0f);
+#endif
         vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), (area == 0.0f) | specular);
 #if PATH_SAMPLING == 1
         w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), (area == 0.0f) | specular);

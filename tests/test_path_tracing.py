@@ -200,8 +200,10 @@ def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
     the light, where both techniques carry weight) their means over 1024 lanes agree within 5 standard
     errors of each difference. Far from the small light its samples take nearly all the weight (MIS and the
     lights alone agree to 4 digits there); close to it both count. A BSDF hit counted with weight 1 beside
-    the lights' MIS-weighted samples fails this at every point (seen). MIS is less noisy than either alone
-    under the light (standard errors measured 0.078 against 0.175 and 0.108)."""
+    the lights' MIS-weighted samples fails this at every point (seen). MIS is less noisy than the BSDF alone
+    everywhere; just under the light the light's samples by solid angle alone are less noisy still
+    (standard errors measured 0.020, MIS 0.035, the BSDF 0.108; by area the light alone measured 0.175 and
+    MIS 0.078): the power heuristic gives the BSDF's samples weight where the light's are nearly exact."""
     scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
     p = np.array([[-0.3, -0.5, 0.0], [0.45, 0.4, 0.0], [0.999, 0.2, 1.0], [-0.95, 0.95, 1.95], [0.0, 0.05, 1.85],
                   [0.32, 0.0, 1.9]])
@@ -209,7 +211,7 @@ def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     est = {k: traced(harness, scene, p, n, k) for k in (0, 1, 2)}
     mean, se = assert_techniques_agree(est)
-    assert np.all(mean[0] > 0) and se[0][4] < min(se[1][4], se[2][4])
+    assert np.all(mean[0] > 0) and np.all(se[0] < se[2]) and se[1][4] < se[0][4]
 
 
 # --- the smooth BSDFs: Fresnel, Snell, and energy ------------------------------------------------------------
