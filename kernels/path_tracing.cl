@@ -26,9 +26,10 @@
  * conductor's Fresnel term): light_sampling.cl then sums them as such. */
 #define LIGHT_VALUE_VEC3 HAS_ROUGH_CONDUCTORS
 #ifndef LIGHT_SOLID_ANGLE
-/* Lights are sampled by the solid angle they subtend (spherical_rectangle.cl) where that is accurate, else by
- * area; a build with 0 samples them by area alone (the measurement of docs/global-illumination.md). */
-#define LIGHT_SOLID_ANGLE 1
+/* Lights are sampled by area. A build with 1 samples them by the solid angle they subtend where that is
+ * accurate (spherical_rectangle.cl): on the Cornell box its images are 3% less noisy at the same samples but
+ * take 15% longer (docs/global-illumination.md), so the renderer leaves it off; the tests keep it correct. */
+#define LIGHT_SOLID_ANGLE 0
 #endif
 
 #define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
@@ -101,6 +102,15 @@ inline vec3 bsdf_value(ShadingPoint sp, vec3 v, vec3 l, vfloat *pdf)
     return value;
 }
 
+/* The model's sample_weight takes the solid angle light_sampling.cl sampled the light by (0: by area). */
+#if LIGHT_SOLID_ANGLE
+#define SOLID_ANGLE_PARAMETER , vfloat solid_angle
+#define SOLID_ANGLE_BY_AREA
+#else
+#define SOLID_ANGLE_PARAMETER
+#define SOLID_ANGLE_BY_AREA const vfloat solid_angle = 0.0f;
+#endif
+
 /* 1 / p_light, the inverse of the density per steradian of a light's sample towards l: the solid angle where
  * the light was sampled by it (solid_angle > 0), else A cos(theta_l) / r^2 (by area). */
 inline vfloat light_inverse_density(vfloat cos_l, vfloat r2, float area, vfloat solid_angle)
@@ -111,9 +121,10 @@ inline vfloat light_inverse_density(vfloat cos_l, vfloat r2, float area, vfloat 
 #if LIGHT_VALUE_VEC3
 /* The light sample's pi f cos(theta_s) / (k A p_light) (bsdf_value), times its MIS weight against the BSDF's
  * own sample of the direction: x = p_bsdf / (n p_light). */
-inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n,
-                          vfloat solid_angle)
+inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area,
+                          int n SOLID_ANGLE_PARAMETER)
 {
+    SOLID_ANGLE_BY_AREA
     vfloat cos_s = v3_dot(sp.n, l), pdf;
     vfloat inverse = light_inverse_density(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
     vec3 value = v3_scale(bsdf_value(sp, v, l, &pdf), cos_s * inverse / area);
@@ -126,9 +137,10 @@ inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, ve
 #else
 /* The light sample's cos(theta_s) / (A p_light), times its MIS weight against a cosine-weighted BSDF sample of
  * the same direction: x = p_bsdf / (n p_light) = cos(theta_s) / (pi n p_light). */
-inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n,
-                            vfloat solid_angle)
+inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area,
+                            int n SOLID_ANGLE_PARAMETER)
 {
+    SOLID_ANGLE_BY_AREA
     vfloat cos_s = v3_dot(sp.n, l);
     vfloat inverse = light_inverse_density(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
 #if PATH_SAMPLING == 1
