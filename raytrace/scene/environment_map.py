@@ -3,13 +3,10 @@ OpenImageIO in any format it knows and checked like a colour texture (scene/text
 HDR, float TIFF) hold linear radiance, 8- and 16-bit ones are sRGB-encoded; grey is replicated to RGB and
 alpha is not used. A file that cannot be one is refused with one InputError naming the scene file, the key and
 the file: unreadable, no pixels, too large, NaN, infinite, beyond float32 or negative values."""
-from pathlib import Path
-
 import numpy as np
 
-from ..errors import InputError
 from .mipmap import srgb_to_linear
-from .textures import check_pixels, read_image
+from .textures import load_checked
 
 ROWS_PROBLEM = "an environment map needs at least 2 rows (its first looks at the zenith, its last at the nadir)"
 
@@ -27,19 +24,8 @@ def linear_rgb(pixels, kind):
 def load(path, source, key):
     """The map at `path` as H x W x 3 float32 linear RGB; errors name the scene file (`source`), the key and
     the path."""
-    def fail(problem):
-        raise InputError(source, key, str(path), problem) from None
-    if Path(path).exists() and not Path(path).is_file():  # a directory, a FIFO, /dev/zero: never an image
-        fail("is not a regular file")
-    try:
-        pixels, kind = read_image(path)
-        check_pixels(pixels, kind, "colour")
+    def make(pixels, kind):
         if pixels.shape[0] < 2:
             raise ValueError(ROWS_PROBLEM)
         return linear_rgb(pixels, kind)
-    except OSError as e:
-        fail(f"cannot read the image: {e}")
-    except ValueError as e:
-        fail(str(e).replace("a colour map's", "an environment map's"))
-    except MemoryError:
-        fail("the image does not fit in memory")
+    return load_checked(path, "environment", source, key, make)

@@ -71,9 +71,9 @@ def _check_environment_map(source, scene):
     if texels.shape[0] < 2:
         e.fail("texels", str(texels.shape), ROWS_PROBLEM)
     try:
-        check_pixels(texels, "float", "colour")
+        check_pixels(texels, "float", "environment")
     except ValueError as problem:
-        e.fail("texels", m.path, str(problem).replace("a colour map's", "an environment map's"))
+        e.fail("texels", m.path, str(problem))
 
 
 def _index(source, key, value, count):

@@ -185,6 +185,13 @@ def _filtered(rgb, role, alpha):
 
 def load_texture(path, role, source, key):
     """Read `path` for `role`; errors name the scene file (`source`), the key and the path."""
+    return load_checked(path, role, source, key, lambda pixels, kind: make_texture(pixels, kind, role, str(path)))
+
+
+def load_checked(path, role, source, key, make):
+    """make(pixels, kind) of the image at `path`, read (read_image) and checked for `role` (check_pixels; a
+    ValueError `make` raises counts as a check too); any problem is one InputError naming the scene file
+    (`source`), the key and the path."""
     def fail(problem):
         raise InputError(source, key, str(path), problem) from None
     if Path(path).exists() and not Path(path).is_file():  # a directory, a FIFO, /dev/zero: never an image
@@ -192,7 +199,7 @@ def load_texture(path, role, source, key):
     try:
         pixels, kind = read_image(path)
         check_pixels(pixels, kind, role)
-        return make_texture(pixels, kind, role, str(path))
+        return make(pixels, kind)
     except OSError as e:
         fail(f"cannot read the image: {e}")
     except ValueError as e:
@@ -217,8 +224,8 @@ def check_pixels(pixels, kind, role):
         raise ValueError(f"the image holds {what}: texel (x={x}, y={y}) channel {c} is {value:g}")
     used = _rgb(pixels)[..., :1 if role == "height" else 3]
     if role != "normal" and used.min() < 0:
-        name = {"colour": "a colour map's values must be >= 0", "height": "a height map's heights must be >= 0 "
-                "(relief lifts the surface outwards)"}[role]
+        name = {"colour": "a colour map's values must be >= 0", "environment": "an environment map's values must "
+                "be >= 0", "height": "a height map's heights must be >= 0 (relief lifts the surface outwards)"}[role]
         raise ValueError(f"{name}, its lowest is {float(used.min()):g}")
 
 
