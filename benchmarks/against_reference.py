@@ -42,17 +42,20 @@ def main(argv=None):
     parser.add_argument("--spp", type=int, default=256)
     parser.add_argument("--light-samples", type=int, default=16)
     parser.add_argument("--sampler", default="sobol")
+    parser.add_argument("--texture-filter", default="trilinear",
+                        help="bilinear matches a peer that looks textures up bilinearly at every sample")
     parser.add_argument("--out", required=True, type=Path)
     args = parser.parse_args(argv)
     scene = load_file(args.scene)
     reference, _ = read_reference(args.reference, scene.width, scene.height)
     ours, _, stats = render_progressive(scene, spp=args.spp, light_samples=args.light_samples, sampler=args.sampler,
-                                        light_sampler=args.sampler)
+                                        light_sampler=args.sampler, texture_filter=args.texture_filter)
     args.out.mkdir(parents=True, exist_ok=True)
     write_image_file(args.out / "ours.exr", ours)
     write_image_file(args.out / "side.png", side_by_side(ours, reference))
     figures = {"scene": args.scene, "reference": args.reference, "spp": stats.spp,
                "light_samples": stats.light_samples, "sampler": args.sampler,
+               "texture_filter": args.texture_filter,
                "our_estimated_rmse": stats.estimated_rmse, **compare(ours, reference)}
     (args.out / "against_reference.json").write_text(json.dumps(figures, indent=1) + "\n")
     print(json.dumps(figures))
