@@ -12,7 +12,7 @@ Run from the repository's root, e.g. a reference of 16 renders of 528 samples:
 --scene cornell_box is `mi.cornell_box()` from Mitsuba's own package (scenes/cornell_box.toml is its
 translation) with a box pixel filter in place of its Gaussian. --scene materials is scenes/materials.toml:
 spheres; the floor a `rectangle` scaled 4 x 4 with a `bitmap` of grid.png (bilinear,
-repeat, to_uv scaled 4); the light a `rectangle` turned to face -z with an `area` emitter and a black BSDF;
+repeat, to_uv scaled 4 and flipped in v: Mitsuba's v runs down the image, ours up); the light a `rectangle` turned to face -z with an `area` emitter and a black BSDF;
 the sky an `envmap` of sky.exr whose to_world has the columns (x, y, z) = (1, 0, 0), (0, 0, 1), (0, -1, 0):
 the local axes raytrace's up = +z and forward = -y give; a perspective camera with fov 40 on the y axis,
 256 x 256, a box pixel filter, max_depth 8.
@@ -54,7 +54,7 @@ def materials(sampler, spp, max_depth):
         "floor": {"type": "rectangle", "to_world": T().scale([4, 4, 1]),
                   "bsdf": {"type": "diffuse", "reflectance": {
                       "type": "bitmap", "filename": os.path.join(TEXTURES, "grid.png"), "filter_type": "bilinear",
-                      "wrap_mode": "repeat", "to_uv": T().scale([4, 4, 1])}}},
+                      "wrap_mode": "repeat", "to_uv": T().scale([4, -4, 1])}}},
         "light": {"type": "rectangle", "to_world": T().translate([0.5, -0.5, 3.0]) @ T().rotate([1, 0, 0], 180)
                   @ T().scale([0.5, 0.5, 1]),
                   "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0, 0, 0]}},
