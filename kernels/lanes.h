@@ -176,6 +176,16 @@ inline float max_lane(vfloat x)
 /* A mask as 0/1 floats, e.g. to count rays per lane. */
 #define MASK_TO_ONE(m) SELECT((vfloat)(0.0f), (vfloat)(1.0f), (m))
 
+/* The number of lanes set in `mask` (a measuring build's counts: render.cl, path_tracing.cl). */
+inline int count_lanes(vint mask)
+{
+    int m[LANES], n = 0;
+    VSTORE(mask, m);
+    for (int i = 0; i < LANES; ++i)
+        n += m[i] != 0;
+    return n;
+}
+
 /* Two or three coordinates, one vfloat each: structure of arrays, so that LANES rays share one register
  * each. */
 typedef struct { vfloat x, y; } vec2;

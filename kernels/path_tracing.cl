@@ -304,6 +304,8 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
     vec3 beta = v3_splat(1.0f, 1.0f, 1.0f);
     vint alive = (hit.t < INFINITY) & (hit.material >= 0);
     for (int depth = 1; (max_depth < 0 || depth < max_depth) && ANY(alive); ++depth) {
+        COUNT_VISITS_ADD(s, VISITS_PATH_LANES, count_lanes(alive));
+        COUNT_VISITS_ADD(s, VISITS_PATH_LANE_STEPS, LANES);
         /* light reached by sampling the lights: k / pi sum over lights (A / n) sum_j V L_e G w */
 #if HAS_SPECULAR
         const vint specular = sp.bsdf != BSDF_DIFFUSE; /* a delta BSDF: no light sample can meet its one direction */

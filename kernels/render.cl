@@ -38,17 +38,6 @@ inline void kahan_add(vec3 *sum, vec3 *carry, vec3 x)
     *sum = t;
 }
 
-#if COUNT_VISITS
-/* The number of lanes set in `mask`: the pixels among which a measuring build shares its counts. */
-inline int count_lanes(vint mask)
-{
-    int m[LANES], n = 0;
-    VSTORE(mask, m);
-    for (int i = 0; i < LANES; ++i)
-        n += m[i] != 0;
-    return n;
-}
-#endif
 
 /* *s + b, where *s and b are two lanes' partial sums and *e and e_b the rounding errors they carry: the sum
  * rounded, and its own rounding error, found exactly by Knuth's TwoSum, added to the errors. The same in

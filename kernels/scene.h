@@ -39,17 +39,24 @@ typedef struct {
 } Scene;
 
 /* A measuring build (COUNT_VISITS) counts what a work-item's traversals test: BVH nodes (their boxes, bvh.cl)
- * and primitives (primitive.cl), of closest-hit and of shadow traversals, once per test of all its lanes.
- * render.cl stores the counts as planes of its output, raytrace/commands/visits.py reads them. */
+ * and primitives (primitive.cl), of closest-hit and of shadow traversals, once per test of all its lanes. It
+ * also counts the path model's bounce loop (path_tracing.cl): the lanes whose paths go on at each iteration,
+ * and LANES per iteration; their ratio is how busy the loop's lanes are, the share of its work that the paths
+ * ended before the packet's last one do not waste. render.cl stores the counts as planes of its output,
+ * raytrace/commands/visits.py reads them. */
 #define VISITS_CLOSEST_NODES 0
 #define VISITS_SHADOW_NODES 1
 #define VISITS_CLOSEST_PRIMITIVES 2
 #define VISITS_SHADOW_PRIMITIVES 3
-#define VISIT_KINDS 4
+#define VISITS_PATH_LANES 4
+#define VISITS_PATH_LANE_STEPS 5
+#define VISIT_KINDS 6
 #if COUNT_VISITS
 #define COUNT_VISIT(s, kind) (++(s)->visits[kind])
+#define COUNT_VISITS_ADD(s, kind, n) ((s)->visits[kind] += (n))
 #else
 #define COUNT_VISIT(s, kind) ((void)0)
+#define COUNT_VISITS_ADD(s, kind, n) ((void)0)
 #endif
 
 /* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */

@@ -19,7 +19,7 @@ FIELDS = ["scene", "lights", "width", "height", "spp", "light_samples", "rays", 
           "build_seconds_cold", "build_seconds_warm", "process_seconds_cold", "process_seconds_warm",
           "peak_host_bytes", "device_bytes", "device", "build_options", "cold", "warm", "time_ratio_to_first",
           "paired_time_ratio_to_first", "visits_per_camera_ray", "visits_per_shadow_ray", "primitives_per_camera_ray",
-          "primitives_per_shadow_ray", "pixels_with_half_the_shadow_visits"]
+          "primitives_per_shadow_ray", "pixels_with_half_the_shadow_visits", "path_lanes_busy"]
 
 
 def test_bench_json_and_table(tmp_path):
@@ -45,7 +45,8 @@ def test_bench_json_and_table(tmp_path):
         assert 0 < row[key] < math.inf, key  # scene 0 has a BVH
     header, line, machine = r.stdout.strip().splitlines()
     assert header.split()[:2] == ["scene", "Mrays/s"] and line.startswith(row["scene"])
-    assert header.endswith("nodes/camera ray  nodes/shadow ray  prims/camera ray  prims/shadow ray")
+    assert header.endswith("nodes/camera ray  nodes/shadow ray  prims/camera ray  prims/shadow ray  path lanes busy")
+    assert line.endswith(" -")  # scene 0 is Phong: no bounce loop
     assert "16x16, 1 spp x 1 light samples; best of 1" in machine and data["machine"]["cpu"] in machine
 
 

@@ -10,12 +10,12 @@ import pytest
 
 from raytrace.render import render
 from raytrace.renderer.program import Features
-from raytrace.scene import Camera, Triangle
+from raytrace.scene import Camera, Triangle, load_file
 from raytrace.renderer.device_render import FIRST_HALF_PLANE, OUTPUT_PLANES, RAYS_PLANE, VISIT_KINDS
 from raytrace.renderer.progressive import pass_size
 from raytrace.structs import samples_at_once, tile_shape
 from raytrace.commands.visits import node_visits, pixels_with_half
-from helpers import planar, run_int_kernel, values_kernel
+from helpers import ROOT, planar, run_int_kernel, values_kernel
 from raytrace.commands.stability.probe import scene_args
 
 # 11 x 7 pixels: the tiles of 4 x 2, 2 x 2 and 2 x 1 pixels (kernels/tile.h, with 16, 8 and 4 lanes holding 2
@@ -233,8 +233,24 @@ def test_visit_kinds_match_the_kernel(cl_env):
     """The host's names of the counting build's planes (device_render.VISIT_KINDS) against scene.h's VISITS_*
     indices, in order: the host reads plane OUTPUT_PLANES + k as kind k."""
     names = ["VISIT_KINDS", "VISITS_CLOSEST_NODES", "VISITS_SHADOW_NODES", "VISITS_CLOSEST_PRIMITIVES",
-             "VISITS_SHADOW_PRIMITIVES"]
+             "VISITS_SHADOW_PRIMITIVES", "VISITS_PATH_LANES", "VISITS_PATH_LANE_STEPS"]
     source = f'#include "scene.h"\n{values_kernel(names)}'
-    n, *indices = run_int_kernel(cl_env, source, 5, ["-DLANES=1"])
+    n, *indices = run_int_kernel(cl_env, source, 7, ["-DLANES=1"])
     assert n == len(VISIT_KINDS) and indices == [VISIT_KINDS.index(k) for k in (
-        "closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives")]
+        "closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives", "path_lanes",
+        "path_lane_steps")]
+
+
+def test_path_lanes_busy():
+    """How busy the path model's bounce loop keeps its lanes (visits.path_lanes_busy): in a closed furnace
+    below the depth where Russian roulette starts every path bounces to max_depth, so every lane of every
+    iteration is busy (exactly 1); in mi.cornell_box(), open at the front and with roulette, paths end at
+    different depths and a packet bounces as often as its longest one (measured 0.4 to 0.6 at 16 lanes); the
+    other models have no bounce loop (None)."""
+    from test_path_tracing import furnace
+    closed = node_visits(furnace(0.5, max_depth=4), width=16, height=16, spp=4, light_samples=1)
+    assert closed["path_lanes_busy"] == 1.0
+    box = node_visits(load_file(ROOT / "scenes" / "cornell_box.toml"), width=32, height=32, spp=4, light_samples=1)
+    assert 0.2 < box["path_lanes_busy"] < 0.9
+    phong = node_visits(load_file(ROOT / "scenes" / "cornell.toml"), width=16, height=16, spp=1, light_samples=1)
+    assert phong["path_lanes_busy"] is None

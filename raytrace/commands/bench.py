@@ -158,7 +158,7 @@ def measure(scene_path, scene, repeat, kwargs, stats):
             "process_seconds_cold": cold["process_seconds"], "process_seconds_warm": warm["process_seconds"],
             "peak_host_bytes": max(cold["peak_rss_bytes"], warm["peak_rss_bytes"]),
             "device_bytes": stats.extra["device_bytes"], "device": stats.device, "target": stats.extra["target"],
-            **{key: visits[key] for key in (*PER_RAY, "pixels_with_half_the_shadow_visits")},
+            **{key: visits[key] for key in (*PER_RAY, "pixels_with_half_the_shadow_visits", "path_lanes_busy")},
             "cold": cold, "warm": warm}
 
 
@@ -180,7 +180,8 @@ COLUMNS = [("scene", lambda r: r["scene"]),
            ("nodes/camera ray", lambda r: f"{r['visits_per_camera_ray']:.2f}"),
            ("nodes/shadow ray", lambda r: f"{r['visits_per_shadow_ray']:.2f}"),
            ("prims/camera ray", lambda r: f"{r['primitives_per_camera_ray']:.2f}"),
-           ("prims/shadow ray", lambda r: f"{r['primitives_per_shadow_ray']:.2f}")]
+           ("prims/shadow ray", lambda r: f"{r['primitives_per_shadow_ray']:.2f}"),
+           ("path lanes busy", lambda r: "-" if r.get("path_lanes_busy") is None else f"{r['path_lanes_busy']:.2f}")]
 
 
 def table(rows):

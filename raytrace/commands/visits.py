@@ -1,6 +1,7 @@
 """BVH node visits and primitive tests per ray, counted by the render kernel itself: the figures that explain
 where a mesh's time goes (`bench` and `bench --scaling` print them beside the seconds), the two terms of the
-surface area heuristic's cost (pbrt-v4 section 7.3.2) as the render's own rays meet them.
+surface area heuristic's cost (pbrt-v4 section 7.3.2) as the render's own rays meet them; and for the path
+model, how busy the lanes of its bounce loop are.
 
 A measuring build of the scene's kernel (Features.count_visits: -DCOUNT_VISITS, kernels/scene.h) counts every
 node whose box a traversal tests and every primitive it tests, once per work-item: with packets, one test
@@ -24,7 +25,9 @@ def node_visits(scene, features=None, **render_kwargs):
     nodes and primitives, with the ray counts they are divided by, the per-pixel maps of node visits (height
     x width, summed over the pixel's samples) and how concentrated the shadow rays' node visits are, for the
     kernel variant `features` (default: the one render() picks). Without a BVH the kernel loops over every
-    shape: 0 nodes, and every shape a primitive test."""
+    shape: 0 nodes, and every shape a primitive test. In the path model, also the share of the bounce loop's
+    lanes whose paths go on (path_lanes_busy: 1 when every lane of a packet bounces as often as its longest
+    path; None in the other models)."""
     features = features or Features.of(scene, default_lanes(select_device(render_kwargs.get("device"))))
     _, stats = render(scene, features=dataclasses.replace(features, count_visits=True), **render_kwargs)
     visits = stats.extra["visits"]
@@ -38,6 +41,8 @@ def node_visits(scene, features=None, **render_kwargs):
             "primitives_per_camera_ray": visits["closest_hit_primitives"] / camera_rays,
             "primitives_per_shadow_ray": visits["shadow_primitives"] / shadow_divisor,
             "pixels_with_half_the_shadow_visits": pixels_with_half(shadow_map),
+            "path_lanes_busy": (visits["path_lanes"] / visits["path_lane_steps"] if visits["path_lane_steps"]
+                                else None),
             "closest_hit_map": closest_map, "shadow_map": shadow_map}
 
 

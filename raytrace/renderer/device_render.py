@@ -19,7 +19,8 @@ from .progressive import CHANNELS, PASS_WORK
 # launch's first n_first samples; a measuring build's counts after them
 RAYS_PLANE, FIRST_HALF_PLANE, OUTPUT_PLANES = CHANNELS, CHANNELS + 1, 2 * CHANNELS + 1
 # A COUNT_VISITS build's planes more: the nodes and primitives its traversals test (kernels/scene.h's VISITS_*)
-VISIT_KINDS = ("closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives")
+VISIT_KINDS = ("closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives", "path_lanes",
+               "path_lane_steps")
 WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch on a CPU, so that a launch stays short
 
 
