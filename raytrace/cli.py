@@ -16,7 +16,8 @@ from pathlib import Path
 
 from . import samplers
 from .errors import InputError
-from .outputs import Interrupted, Outputs, committed, handle_signals, interrupted_line, scene_inputs, write_json
+from .outputs import (Interrupted, Outputs, committed, handle_signals, interrupted_line, raise_pending, scene_inputs,
+                      write_json)
 from .image import metadata
 from .image_file import FORMATS, write_image_file
 from .options import API, command_line_name, declared, option_type
@@ -278,6 +279,7 @@ def main(argv=None):
                 "compile": cmd_compile, "stability": cmd_stability}
     with handle_signals(), _dask_closed():
         try:
+            raise_pending()
             args = parser().parse_args(argv)
             _refuse_empty(args)
             return commands[args.command](args) or 0

@@ -84,13 +84,24 @@ def handle_signals():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    before = {s: signal.signal(s, _on_signal) for s in SIGNALS if signal.getsignal(s) is not signal.SIG_IGN}
     _State.signum, _State.raised, _State.committed = None, False, 0
+    _State.held += 1  # a signal while the handlers go in is held: raise_pending() raises it in the caller's try
+    try:
+        before = {s: signal.signal(s, _on_signal) for s in SIGNALS if signal.getsignal(s) is not signal.SIG_IGN}
+    finally:
+        _State.held -= 1
     try:
         yield
     finally:
         for s, handler in before.items():
             signal.signal(s, handler)
+
+
+def raise_pending():
+    """Raise Interrupted for a signal handle_signals() held while it put its handlers in (found: Ctrl-C at
+    that moment gave a traceback, the exception leaving before the command's try had begun)."""
+    if _State.signum is not None and not _State.held and not _State.raised:
+        _raise()
 
 
 def committed():
