@@ -298,7 +298,7 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         bounce.randomize = RANDOMIZE_INDEPENDENT;
     vec3 radiance = max_depth == 0 ? v3_splat(0.0f, 0.0f, 0.0f) : hit.emitted;
 #if HAS_ENVIRONMENT
-    if (max_depth != 0)
+    if (max_depth != 0 && ANY(hit.t == INFINITY)) /* the map's lookups only where a camera ray escapes */
         radiance = v3_select(radiance, environment_radiance(s, r.d), hit.t == INFINITY);
 #endif
     vec3 beta = v3_splat(1.0f, 1.0f, 1.0f);
@@ -319,25 +319,29 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         { /* the environment, sampled by its map (environment.cl) or, constant, by the cosine about the normal;
            * the sample's f cos / p_env = k bsdf_value cos / (pi p_env), weighted against the BSDF's sample of
            * the same direction: x = p_bsdf / p_env */
-            vec2 ue = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
-            vec3 wo_ = v3_scale(r.d, -1.0f);
+            vec2 ue = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0)); /* drawn or not */
+            const vint candidates = PATH_SAMPLING == 2 ? (vint)(0) : alive & !specular;
+            if (ANY(candidates)) { /* the map's sampling and lookups are per lane: none for a packet without use */
+                vec3 wo_ = v3_scale(r.d, -1.0f);
 #if HAS_ENVIRONMENT_MAP
-            vfloat pdf_e;
-            vec3 we = sample_environment(s, ue, &pdf_e);
+                vfloat pdf_e;
+                vec3 we = sample_environment(s, ue, &pdf_e);
 #else
-            vec3 we = cosine_direction(sp.n, ue);
-            vfloat pdf_e = v3_dot(sp.n, we) * M_1_PI_F;
+                vec3 we = cosine_direction(sp.n, ue);
+                vfloat pdf_e = v3_dot(sp.n, we) * M_1_PI_F;
 #endif
-            vfloat cos_e = v3_dot(sp.n, we), pdf_b;
-            vint sampled = alive & !specular & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
-            sampled = PATH_SAMPLING == 2 ? (vint)(0) : sampled;
-            vec3 f = bsdf_value(sp, wo_, we, &pdf_b);
-            vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / pdf_e);
-            vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
-            *rays += MASK_TO_ONE(sampled);
-            vec3 e = v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment_radiance(s, we));
-            e = v3_scale(e, w * cos_e * M_1_PI_F / pdf_e);
-            radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, open));
+                vfloat cos_e = v3_dot(sp.n, we), pdf_b;
+                vint sampled = candidates & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
+                vec3 f = bsdf_value(sp, wo_, we, &pdf_b);
+                vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / pdf_e);
+                vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
+                *rays += MASK_TO_ONE(sampled);
+                if (ANY(open)) {
+                    vec3 e = v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment_radiance(s, we));
+                    e = v3_scale(e, w * cos_e * M_1_PI_F / pdf_e);
+                    radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, open));
+                }
+            }
         }
 #endif
 
@@ -393,7 +397,9 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
         w = (vfloat)(1.0f);
 #endif
 #if HAS_ENVIRONMENT
-        { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after a specular vertex */
+        vint escaped = alive & (hit.t == INFINITY);
+        if (ANY(escaped)) { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after a
+                             * specular vertex */
 #if HAS_ENVIRONMENT_MAP
             vfloat pdf_e = environment_pdf(s, wi);
 #else
@@ -405,7 +411,6 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
 #elif PATH_SAMPLING == 2
             w_env = (vfloat)(1.0f);
 #endif
-            vint escaped = alive & (hit.t == INFINITY);
             radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f),
                                                   v3_scale(v3_mul(beta, environment_radiance(s, wi)), w_env),
                                                   escaped));
