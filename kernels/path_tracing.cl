@@ -111,11 +111,15 @@ inline vec3 bsdf_value(ShadingPoint sp, vec3 v, vec3 l, vfloat *pdf)
 #define SOLID_ANGLE_BY_AREA const vfloat solid_angle = 0.0f;
 #endif
 
-/* 1 / p_light, the inverse of the density per steradian of a light's sample towards l: the solid angle where
- * the light was sampled by it (solid_angle > 0), else A cos(theta_l) / r^2 (by area). */
-inline vfloat light_inverse_density(vfloat cos_l, vfloat r2, float area, vfloat solid_angle)
+/* 1 / (A p_light), A the light's area and p_light the density per steradian of a light's sample towards l:
+ * cos(theta_l) / r^2 by area, the solid angle over A where the light was sampled by it (solid_angle > 0). */
+inline vfloat light_area_weight(vfloat cos_l, vfloat r2, float area, vfloat solid_angle)
 {
-    return SELECT(area * cos_l / r2, solid_angle, solid_angle > 0.0f);
+#if LIGHT_SOLID_ANGLE
+    return SELECT(cos_l / r2, solid_angle / area, solid_angle > 0.0f);
+#else
+    return cos_l / r2;
+#endif
 }
 
 #if LIGHT_VALUE_VEC3
@@ -126,12 +130,12 @@ inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, ve
 {
     SOLID_ANGLE_BY_AREA
     vfloat cos_s = v3_dot(sp.n, l), pdf;
-    vfloat inverse = light_inverse_density(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
-    vec3 value = v3_scale(bsdf_value(sp, v, l, &pdf), cos_s * inverse / area);
+    vfloat g = light_area_weight(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
+    vec3 value = v3_scale(bsdf_value(sp, v, l, &pdf), cos_s * g);
 #if PATH_SAMPLING == 1
     return value;
 #else
-    return v3_scale(value, power_weight(pdf * inverse / (float)n));
+    return v3_scale(value, power_weight(pdf * g * (area / (float)n)));
 #endif
 }
 #else
@@ -141,12 +145,11 @@ inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, 
                             int n SOLID_ANGLE_PARAMETER)
 {
     SOLID_ANGLE_BY_AREA
-    vfloat cos_s = v3_dot(sp.n, l);
-    vfloat inverse = light_inverse_density(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
+    vfloat g = v3_dot(sp.n, l) * light_area_weight(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
 #if PATH_SAMPLING == 1
-    return cos_s * inverse / area;
+    return g;
 #else
-    return cos_s * inverse / area * power_weight(cos_s * inverse * (M_1_PI_F / (float)n));
+    return g * power_weight(g * (area * M_1_PI_F / (float)n));
 #endif
 }
 #endif
