@@ -16,7 +16,7 @@ from .model import (RADIOMETRIC, SHADINGS, Camera, Ellipsoid, EnvironmentMap, Li
                     fingerprint, normalize)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
-from .scene_file import LIGHTS_SPEC, Reader, check_frame, check_triangle
+from .scene_file import LIGHTS_SPEC, Reader, check_frame, check_triangle, map_placement
 
 # (the model's attribute, the key of keys.py's table it was read from)
 CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("fov_deg", "fov"),
@@ -59,10 +59,7 @@ def _check_environment_map(source, scene):
         top.fail("environment", _value(scene.environment), "a constant radiance and an envmap cannot both be set")
     e = Reader(source, {"scale": m.scale, "up": _value(m.up), "forward": _value(m.forward)}, "environment.",
                "environment")
-    e.number("scale")
-    up, forward = e.vector("up"), e.vector("forward")
-    if np.linalg.norm(np.cross(normalize(up), normalize(forward))) < 1e-6:
-        e.fail("forward", forward.tolist(), "must not be parallel to up")
+    map_placement(e)
     texels = m.texels
     if not (isinstance(texels, np.ndarray) and texels.ndim == 3 and texels.shape[2] == 3 and texels.size
             and texels.dtype.kind == "f"):

@@ -312,12 +312,18 @@ def _environment(e, base_dir):
             e.fail(key, e.raw(key), f'is not a parameter of type = "{kind}"')
     if kind == "constant":
         return _rgb(e, "radiance"), None
+    scale, up, forward = map_placement(e)
+    texels = environment_map.load(base_dir / e.string("filename"), e.path, e.prefix + "filename")
+    return None, EnvironmentMap(str((base_dir / e.string("filename")).resolve()), texels, scale, up, forward)
+
+
+def map_placement(e):
+    """An envmap's scale, up and forward from its reader (a scene file's table, or model_check's of a model),
+    forward not parallel to up."""
     up, forward = e.vector("up"), e.vector("forward")
     if np.linalg.norm(np.cross(normalize(up), normalize(forward))) < 1e-6:
         e.fail("forward", forward.tolist(), "must not be parallel to up")
-    texels = environment_map.load(base_dir / e.string("filename"), e.path, e.prefix + "filename")
-    return None, EnvironmentMap(str((base_dir / e.string("filename")).resolve()), texels, e.number("scale"),
-                                up, forward)
+    return e.number("scale"), up, forward
 
 
 def _material(r, name, textures, shading="phong"):
