@@ -149,6 +149,11 @@ def write_png(path, pixels, colour_space):
     height, width, channels = pixels.shape
     spec = oiio.ImageSpec(width, height, channels, oiio.TypeDesc(pixels.dtype.name))
     spec.attribute("oiio:ColorSpace", colour_space)
+    _write(path, spec, pixels)
+
+
+def _write(path, spec, pixels):
+    """Write `pixels` with `spec` into the file `path`; OSError with OpenImageIO's words when it fails."""
     out = oiio.ImageOutput.create(str(path))
     if (out is None or not out.open(str(path), spec) or not out.write_image(pixels) or out.has_error
             or not out.close() or out.has_error):
@@ -166,11 +171,7 @@ def write_exr(path, pixels, colour_space):
     spec.attribute("oiio:ColorSpace", colour_space)
     spec.attribute("compression", "zip")
     spec.attribute("DateTime", "")
-    out = oiio.ImageOutput.create(str(path))
-    if (out is None or not out.open(str(path), spec) or not out.write_image(pixels) or out.has_error
-            or not out.close() or out.has_error):
-        message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
-        raise OSError(errno.EIO, message.splitlines()[0].strip(), str(path))
+    _write(path, spec, pixels)
 
 
 # --- the textures ----------------------------------------------------------------------------------------

@@ -6,14 +6,14 @@ the file: unreadable, no pixels, too large, NaN, infinite, beyond float32 or neg
 import numpy as np
 
 from .mipmap import srgb_to_linear
-from .textures import load_checked
+from .textures import load_checked, rgb_channels
 
 ROWS_PROBLEM = "an environment map needs at least 2 rows (its first looks at the zenith, its last at the nadir)"
 
 
 def linear_rgb(pixels, kind):
     """H x W x 3 float32 linear RGB from H x W x C pixels as textures.read_image gives them."""
-    rgb = np.repeat(pixels[:, :, :1], 3, axis=2) if pixels.shape[2] < 3 else pixels[:, :, :3]
+    rgb = rgb_channels(pixels)
     if kind == "8-bit":
         rgb = srgb_to_linear(rgb / 255.0)
     elif kind in ("16-bit", "integer"):

@@ -169,7 +169,7 @@ def _pyramid_texels(width, height):
     return total
 
 
-def _rgb(pixels):
+def rgb_channels(pixels):
     """Grey (1 or 2 channels) replicated to RGB; RGB(A) kept as RGB."""
     return np.repeat(pixels[:, :, :1], 3, axis=2) if pixels.shape[2] < 3 else pixels[:, :, :3]
 
@@ -222,7 +222,7 @@ def check_pixels(pixels, kind, role):
         value = pixels[y, x, c]
         what = "NaN or infinite values" if not np.isfinite(value) else "values beyond float32's range"
         raise ValueError(f"the image holds {what}: texel (x={x}, y={y}) channel {c} is {value:g}")
-    used = _rgb(pixels)[..., :1 if role == "height" else 3]
+    used = rgb_channels(pixels)[..., :1 if role == "height" else 3]
     if role != "normal" and used.min() < 0:
         name = {"colour": "a colour map's values must be >= 0", "environment": "an environment map's values must "
                 "be >= 0", "height": "a height map's heights must be >= 0 (relief lifts the surface outwards)"}[role]
@@ -232,7 +232,7 @@ def check_pixels(pixels, kind, role):
 def make_texture(pixels, kind, role, path="<array>"):
     """A Texture from H x W x C pixels as read_image gives them (kind "8-bit", "16-bit", "integer", "float" or
     "double")."""
-    rgb = _rgb(pixels)
+    rgb = rgb_channels(pixels)
     if kind == "8-bit":
         encoding = structs.TEXELS_SRGB8 if role == "colour" else structs.TEXELS_UNORM8
         levels = mipmap.pyramid_8bit(_filtered(rgb, role, 255), srgb=encoding == structs.TEXELS_SRGB8)
