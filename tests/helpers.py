@@ -31,6 +31,29 @@ needs_a_cpu_device = pytest.mark.skipif(not any(d.type & cl.device_type.CPU for 
                                         reason="needs an OpenCL CPU device (PoCL); this machine has none")
 
 
+# The test kernels' surface point (test_direct_lighting.py, test_path_tracing.py): a hit at `at` with the unit
+# normal `normal` and material 0, seen by the ray r from one unit above it; `white`, the same point as a white
+# Lambertian shading point. Paste it into a kernel source after the includes.
+SURFACE_POINT = """
+inline Hit surface_hit(vec3 at, vec3 normal, Ray *r)
+{
+    Hit hit = no_hit();
+    hit.t = (vfloat)(1.0f);
+    hit.p = at;
+    hit.n = normal;
+    hit.material = (vint)(0);
+    r->o = v3_add(at, normal);
+    r->d = v3_scale(normal, -1.0f);
+    return hit;
+}
+inline ShadingPoint white(vec3 at, vec3 normal)
+{
+    ShadingPoint sp = {at, (vfloat)(0.0f), normal, normal, v3_splat(1.0f, 1.0f, 1.0f), (vfloat)(1.0f)};
+    return sp;
+}
+"""
+
+
 def run(*args, env=None, module="raytrace", **kwargs):
     """`python -m raytrace ARGS` (or another `module`: a rig of benchmarks/), its output captured, in `env`
     (default: this process's environment); kwargs go to subprocess.run (cwd, preexec_fn)."""

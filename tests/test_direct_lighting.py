@@ -16,7 +16,7 @@ import pytest
 
 import raytrace
 from raytrace import samplers
-from helpers import run
+from helpers import SURFACE_POINT, run
 from raytrace.errors import InputError
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Light, Material, Scene, parse_scene
@@ -24,18 +24,14 @@ from raytrace.commands.stability.probe import CLOSEST_HIT, CLOSEST_HIT_OUTPUTS, 
 
 RADIANCE = """
 #include "direct_lighting.cl"
-__kernel void radiance(int n, SCENE_PARAMETERS, __global const uint2 *light_samples, __global const float *p,
+""" + SURFACE_POINT + """__kernel void radiance(int n, SCENE_PARAMETERS, __global const uint2 *light_samples, __global const float *p,
                        __global const float *nrm, __global float *out)
 {
     const Scene s = SCENE_FROM_PARAMETERS;
     vec3 at = IN3(p), normal = IN3(nrm);
-    Hit hit = no_hit();
-    hit.t = (vfloat)(1.0f);
-    hit.p = at;
-    hit.n = normal;
-    hit.material = (vint)(0);
-    ShadingPoint sp = {at, (vfloat)(0.0f), normal, normal, v3_splat(1.0f, 1.0f, 1.0f), (vfloat)(1.0f)};
-    Ray r = {v3_add(at, normal), v3_scale(normal, -1.0f)}; /* a viewer above the point: Lambertian, any */
+    Ray r; /* a viewer above the point: Lambertian, any */
+    Hit hit = surface_hit(at, normal, &r);
+    ShadingPoint sp = white(at, normal);
     vfloat rays = 0.0f;
     PixelSample ps = start_pixel_sample(pixel_key(AS_VUINT(I * LANES + LANE_IDS), s.params->seed), (vint)(0));
     OUT3(out, shade(&s, r, hit, sp, light_samples, &ps, &rays));
@@ -248,20 +244,16 @@ def test_textures_in_the_direct_model(cornell):
 
 CONVERGENCE = """
 #include "direct_lighting.cl"
-/* Lane i's estimate of the radiance leaving p (albedo 1): the mean of shade() over pixel samples 0 .. N-1, each
+""" + SURFACE_POINT + """/* Lane i's estimate of the radiance leaving p (albedo 1): the mean of shade() over pixel samples 0 .. N-1, each
  * with the scene's light samples, written for N = 4, 16, 64 and 256 (out plane k: N = 4^(k+1)). */
 __kernel void convergence(int n, SCENE_PARAMETERS, __global const uint2 *light_samples, __global const float *p,
                           __global const float *nrm, __global float *out)
 {
     const Scene s = SCENE_FROM_PARAMETERS;
     vec3 at = IN3(p), normal = IN3(nrm);
-    Hit hit = no_hit();
-    hit.t = (vfloat)(1.0f);
-    hit.p = at;
-    hit.n = normal;
-    hit.material = (vint)(0);
-    ShadingPoint sp = {at, (vfloat)(0.0f), normal, normal, v3_splat(1.0f, 1.0f, 1.0f), (vfloat)(1.0f)};
-    Ray r = {v3_add(at, normal), v3_scale(normal, -1.0f)};
+    Ray r;
+    Hit hit = surface_hit(at, normal, &r);
+    ShadingPoint sp = white(at, normal);
     vfloat rays = 0.0f, sum = 0.0f;
     vuint key = pixel_key(AS_VUINT(I * LANES + LANE_IDS), s.params->seed);
     for (int i = 0, k = 0; i < 256; ++i) {

@@ -20,7 +20,7 @@ from raytrace.renderer.program import Features
 from raytrace.commands.stability.probe import planar, scene_args
 
 from devtools.chi_square import SIGNIFICANCE, chi_square
-from helpers import ROOT
+from helpers import ROOT, SURFACE_POINT
 from test_direct_lighting import without_ambient
 
 FACES = [([1, 0, 0], [0, 1, 0]), ([-1, 0, 0], [0, 1, 0]), ([0, 1, 0], [0, 0, 1]), ([0, -1, 0], [0, 0, 1]),
@@ -135,7 +135,7 @@ def test_a_phong_scene_in_the_path_model(cornell):
 
 TRACE = """
 #include "path_tracing.cl"
-/* Lane i's estimate of the radiance leaving p (normal nrm, albedo 1 there) towards a viewer above it: the mean of
+""" + SURFACE_POINT + """/* Lane i's estimate of the radiance leaving p (normal nrm, albedo 1 there) towards a viewer above it: the mean of
  * trace_path over pixel samples 0 .. samples-1, as render.cl traces a camera ray's hit. */
 __kernel void trace(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const uint2 *light_samples,
                     __global const float *p, __global const float *nrm, int samples, __global float *out)
@@ -143,16 +143,12 @@ __kernel void trace(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const 
     const Scene s = SCENE_FROM_PARAMETERS;
     const TextureStore ts = TEXTURES_FROM_PARAMETERS;
     vec3 at = IN3(p), normal = IN3(nrm);
-    Hit hit = no_hit();
-    hit.t = (vfloat)(1.0f);
-    hit.p = at;
-    hit.n = normal;
-    hit.material = (vint)(0);
-    Ray r = {v3_add(at, normal), v3_scale(normal, -1.0f)};
+    Ray r;
+    Hit hit = surface_hit(at, normal, &r);
 #if SHADED /* material 0's BSDF */
     ShadingPoint sp = shading_point(&s, ts, r, hit);
 #else /* a white Lambertian surface */
-    ShadingPoint sp = {at, (vfloat)(0.0f), normal, normal, v3_splat(1.0f, 1.0f, 1.0f), (vfloat)(1.0f)};
+    ShadingPoint sp = white(at, normal);
 #endif
     vfloat rays = 0.0f;
     vuint key = pixel_key(AS_VUINT(I * LANES + LANE_IDS), s.params->seed);
