@@ -36,7 +36,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
     vec3 origin = offset_ray_origin(sp.p, sp.err, sp.ng); /* every sample that counts is on ng's side */
     vec3 total = v3_splat(0.0f, 0.0f, 0.0f);
     int n_samples = s->params->light_samples;
-    const int dimension = ps->dimension; /* light l's pair is dimension + l, whether or not it is drawn */
+    const vint dimension = ps->dimension; /* light l's pair is dimension + l, whether or not it is drawn */
     for (int li = 0; li < s->params->n_lights && ANY(surface); ++li) {
         __global const Light *light = &s->lights[li];
         SampleStream stream = next_stream(ps, s->params->light_sampler, n_samples);

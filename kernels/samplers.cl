@@ -139,29 +139,30 @@ inline vec2 sample_2d(__global const uint2 *table, vint i, Sampler sampler, vuin
     return u;
 }
 
-/* Point `index` of the sequence's dimension pair keyed `key`, shuffled (d > 0) or not (the pixel offsets). */
-inline vec2 sequence_2d(vuint index, vuint key, int shuffle)
+/* Point `index` of the sequence's dimension pair keyed `key`, shuffled in the lanes of `shuffle` (d > 0) or
+ * not (the pixel offsets). */
+inline vec2 sequence_2d(vuint index, vuint key, vint shuffle)
 {
     vuint x, y;
-    if (shuffle)
-        index = owen_scramble(index, hash(key ^ 0x2c1b3c6dU));
+    if (ANY(shuffle))
+        index = SELECT(index, owen_scramble(index, hash(key ^ 0x2c1b3c6dU)), shuffle);
     sobol_owen(index, key, &x, &y);
     vec2 u = {fixed_to_unit(x), fixed_to_unit(y)};
     return u;
 }
 
 /* A pixel sample's numbers (pbrt-v4's Sampler: StartPixelSample, then one dimension pair after another): the
- * pixel's key, the sample's index in the pixel, and the next dimension pair. The pair counter is the same in
- * every lane. */
+ * pixel's key, the sample's index in the pixel, and the next dimension pair, each lane's own: the path model's
+ * lanes start their pixels' next samples as their paths end (render.cl), each at its own pair. */
 typedef struct {
     vuint key;
     vint index;
-    int dimension;
+    vint dimension;
 } PixelSample;
 
 inline PixelSample start_pixel_sample(vuint pixel_key, vint index)
 {
-    PixelSample ps = {pixel_key, index, 0};
+    PixelSample ps = {pixel_key, index, (vint)(0)};
     return ps;
 }
 
@@ -170,7 +171,7 @@ inline PixelSample start_pixel_sample(vuint pixel_key, vint index)
 typedef struct {
     vuint key;
     vuint first;
-    int shuffle;
+    vint shuffle;
 } SampleStream;
 
 /* The next dimension pair of ps, with n points per pixel sample. The table patterns keep their streams: the
@@ -178,16 +179,25 @@ typedef struct {
  * pixel sample and l (points 0 .. n-1 of the table for every pixel sample). */
 inline SampleStream next_stream(PixelSample *ps, Sampler sampler, int n)
 {
-    const int d = ps->dimension++;
-    SampleStream st = {ps->key, AS_VUINT(ps->index), d > 0};
+    const vint d = ps->dimension++, later = d > 0; /* pair 0 is the pixel offset */
+    SampleStream st = {ps->key, AS_VUINT(ps->index), later};
     if (sampler.randomize == RANDOMIZE_SOBOL) {
-        if (d > 0)
-            st.key = stream_key(ps->key, (vuint)(d));
+        if (ANY(later))
+            st.key = SELECT(st.key, stream_key(ps->key, AS_VUINT(d)), later);
         st.first *= (uint)n;
-    } else if (d > 0) {
-        st.key = stream_key(stream_key(ps->key, st.first), (vuint)(d - 1));
-        st.first = 0;
+    } else if (ANY(later)) {
+        st.key = SELECT(st.key, stream_key(stream_key(ps->key, st.first), AS_VUINT(d - 1)), later);
+        st.first = SELECT(st.first, (vuint)(0), later);
     }
+    return st;
+}
+
+/* next_stream for the lanes of `lanes` only: the other lanes' pair counters stay where they are. */
+inline SampleStream next_stream_in(PixelSample *ps, Sampler sampler, int n, vint lanes)
+{
+    const vint d = ps->dimension;
+    SampleStream st = next_stream(ps, sampler, n);
+    ps->dimension = SELECT(d, ps->dimension, lanes);
     return st;
 }
 

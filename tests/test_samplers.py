@@ -16,17 +16,19 @@ SAMPLE = """
 /* Work-item I draws points 0..count-1 of dimension pair `dimension` for the pixels p = I*LANES .. I*LANES+LANES-1,
  * pixel p its point (i + stagger p) mod count at step i: with stagger 0 the lanes share each index, with 1 each
  * lane has its own. Point i is point i mod per_sample (of per_sample per pixel sample) of pixel sample
- * first + i / per_sample; pair 0 (the pixel offsets) has one point per pixel sample. out: count x-planes, then
- * count y-planes, of n pixels each, by step. */
+ * first + i / per_sample; pair 0 (the pixel offsets) has one point per pixel sample. Pixel p draws pair
+ * dimension + p mod spread: with spread > 1 a packet's lanes stand at different pairs, as the path model's do
+ * (render.cl). out: count x-planes, then count y-planes, of n pixels each, by step. */
 __kernel void samples(int n, __global const uint2 *table, __global const Sampler *sampler, uint seed,
-                      int dimension, int first, int per_sample, int count, int stagger, __global float *out)
+                      int dimension, int first, int per_sample, int count, int stagger, int spread,
+                      __global float *out)
 {
     vint pixel = I * LANES + LANE_IDS;
     vuint key = pixel_key(AS_VUINT(pixel), seed);
     for (int i = 0; i < count; ++i) {
         vint at = (i + stagger * pixel) % count;
         PixelSample ps = start_pixel_sample(key, first + at / per_sample);
-        ps.dimension = dimension;
+        ps.dimension = dimension + pixel % spread;
         SampleStream stream = next_stream(&ps, *sampler, per_sample);
         vec2 u = stream_2d(table, *sampler, stream, at % per_sample);
         OUT(out + i * n, u.x);
@@ -110,14 +112,15 @@ def reference_samples(pattern, pixels, seed, count, dimension=0, first=0, per_sa
 
 
 def kernel_samples(harness, pattern, n_pixels, seed=0, count=None, dimension=0, first=0, per_sample=None,
-                   stagger=0):
-    """(count, n_pixels, 2) points of dimension pair `dimension` drawn by the kernel for pixels 0 ..
-    n_pixels-1, pixel p's point (i + stagger p) mod count at step i (reference_samples says which)."""
+                   stagger=0, spread=1):
+    """(count, n_pixels, 2) points of dimension pair `dimension` (pixel p's: dimension + p mod spread) drawn by
+    the kernel for pixels 0 .. n_pixels-1, pixel p's point (i + stagger p) mod count at step i
+    (reference_samples says which)."""
     count = count or len(pattern.points)
     per_sample = per_sample or (1 if dimension == 0 else count)
     out = harness.run(SAMPLE, "samples", n_pixels,
                       [pattern.table(), pattern.sampler_struct().reshape(1), np.uint32(seed), np.int32(dimension),
-                       np.int32(first), np.int32(per_sample), np.int32(count), np.int32(stagger)],
+                       np.int32(first), np.int32(per_sample), np.int32(count), np.int32(stagger), np.int32(spread)],
                       {"out": 2 * count})["out"]
     return np.stack([out[:count], out[count:]], axis=-1)
 
@@ -213,6 +216,22 @@ def test_kernel_matches_reference(harness, name, n):
         assert np.all((got >= 0) & (got < 1))
         staggered = kernel_samples(harness, pattern, 64, seed, n, dimension, first, per_sample, stagger=1)
         np.testing.assert_array_equal(staggered, want[(np.arange(n)[:, None] + pixels) % n, pixels])
+
+
+@pytest.mark.parametrize("name", ["random", "halton", "sobol"])
+def test_each_lane_draws_its_own_dimension_pair(harness, name):
+    """The lanes of a packet at different dimension pairs (kernels/samplers.cl's per-lane counter; the path
+    model's lanes start new paths as theirs end): pixel p draws pair p mod 3, the pixel offsets (pair 0,
+    unshuffled, under the pixel's key) beside pairs 1 and 2 (shuffled, under their own keys), each exactly as
+    a packet all at that pair draws it."""
+    n = 16
+    pattern = samplers.pattern(name, n)
+    pixels = np.arange(64)
+    got = kernel_samples(harness, pattern, 64, 5, n, 0, 0, per_sample=1, spread=3)
+    for d in range(3):
+        want = reference_samples(pattern, pixels, 5, n, d, 0, 1)
+        np.testing.assert_array_equal(got[:, d::3], want[:, d::3])
+    assert not np.array_equal(got[:, 0::3], reference_samples(pattern, pixels, 5, n, 1, 0, 1)[:, 0::3])
 
 
 def test_fixed_patterns_are_the_table_in_every_pixel(harness):
