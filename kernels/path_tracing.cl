@@ -287,154 +287,229 @@ inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active)
 }
 #endif
 
-/* Radiance along the camera ray r, whose first hit is `hit`, shaded at sp; *rays counts the rays traced per
- * lane after the camera ray. */
+/* A path in each lane (pbrt-v4's PathIntegrator::Li, cut at its closest-hit call so that the lanes of a packet
+ * may stand at different vertices: render.cl starts a lane's next pixel sample where its path ends): the ray
+ * it follows next, from the camera (depth 0) or from its vertex `depth`, the throughput beta, the radiance
+ * gathered so far, and what the MIS weight of light the ray reaches needs of the vertex it left: its BSDF
+ * sample's density, whether that was a delta BSDF's or the camera's (weight 1), and for a constant
+ * environment the sample's cosine (p_env = cos / pi), for solid-angle light sampling the vertex. */
+typedef struct {
+    Ray r;
+    vec3 beta, radiance;
+    vint depth, specular;
+    vfloat pdf;
+#if HAS_ENVIRONMENT
+    vfloat cos_s;
+#endif
+#if LIGHT_SOLID_ANGLE
+    vec3 p;
+#endif
+} PathState;
+
+/* The paths of `lanes` start anew along the camera rays r. */
+inline void start_paths(PathState *path, Ray r, vint lanes)
+{
+    path->r.o = v3_select(path->r.o, r.o, lanes);
+    path->r.d = v3_select(path->r.d, r.d, lanes);
+    path->beta = v3_select(path->beta, v3_splat(1.0f, 1.0f, 1.0f), lanes);
+    path->radiance = v3_select(path->radiance, v3_splat(0.0f, 0.0f, 0.0f), lanes);
+    path->depth = SELECT(path->depth, (vint)(0), lanes);
+    path->specular = SELECT(path->specular, (vint)(-1), lanes) != 0; /* a mask, whatever the lane width */
+    path->pdf = SELECT(path->pdf, (vfloat)(1.0f), lanes);
+}
+
+/* The BSDF's and roulette's numbers: sobol's sequence, else independent points (a table pattern is a light's,
+ * or the course's). */
+inline Sampler bounce_sampler(const Scene *s)
+{
+    Sampler bounce = s->params->light_sampler;
+    if (bounce.randomize != RANDOMIZE_SOBOL)
+        bounce.randomize = RANDOMIZE_INDEPENDENT;
+    return bounce;
+}
+
+/* The paths of `lanes` meet `hit` along their rays: the light and environment they reach, weighted against the
+ * lights' samples of the same direction at the vertex they left (a camera ray's counts whole, max_depth 0
+ * excepted), then Russian roulette on the paths that bounced. Returns the lanes whose hit is a vertex to shade:
+ * a surface, the path not cut by roulette nor by max_depth. */
+inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes, __global const uint2 *light_samples,
+                     PixelSample *ps)
+{
+    const int max_depth = s->params->max_depth, n_light = s->params->light_samples;
+    const vec3 wi = path->r.d;
+    const vint bounced = lanes & (path->depth > 0), specular = path->specular;
+    const vfloat pdf = path->pdf;
+    /* light reached by the BSDF's sample, weighted against the lights' samples of the same direction: x = n
+     * p_light / p_bsdf = n r^2 / (A cos(theta_l) p_bsdf) (0 where no light was hit: weight 1) */
+    vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi));
+    vfloat x = (float)n_light * hit.t * hit.t / (area * cos_l * pdf);
+#if LIGHT_SOLID_ANGLE
+    vfloat solid_angle = hit_light_solid_angle(s, hit, path->p); /* p_light = 1 / solid_angle there */
+    x = SELECT(x, (float)n_light / (solid_angle * pdf), solid_angle > 0.0f);
+#endif
+    vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), (area == 0.0f) | specular);
+#if PATH_SAMPLING == 1
+    w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), (area == 0.0f) | specular);
+#elif PATH_SAMPLING == 2
+    w = (vfloat)(1.0f);
+#endif
+    const vint seen = max_depth != 0 ? lanes : (vint)(0); /* max_depth 0: nothing, not even the emitters */
+#if HAS_ENVIRONMENT
+    vint escaped = seen & (hit.t == INFINITY);
+    if (ANY(escaped)) { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after the
+                         * camera or a specular vertex */
+#if HAS_ENVIRONMENT_MAP
+        vfloat pdf_e = environment_pdf(s, wi);
+#else
+        vfloat pdf_e = path->cos_s * M_1_PI_F;
+#endif
+        vfloat w_env = SELECT(power_weight(pdf_e / pdf), (vfloat)(1.0f), specular);
+#if PATH_SAMPLING == 1
+        w_env = SELECT((vfloat)(0.0f), (vfloat)(1.0f), specular);
+#elif PATH_SAMPLING == 2
+        w_env = (vfloat)(1.0f);
+#endif
+        path->radiance = v3_add(path->radiance,
+                                v3_select(v3_splat(0.0f, 0.0f, 0.0f),
+                                          v3_scale(v3_mul(path->beta, environment_radiance(s, wi)), w_env), escaped));
+    }
+#endif
+    vint lit = seen & (hit.t < INFINITY);
+    path->radiance = v3_add(path->radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f),
+                                                      v3_scale(v3_mul(path->beta, hit.emitted), w), lit));
+    vint alive = lanes & (hit.t < INFINITY) & (hit.material >= 0);
+
+    /* Russian roulette at vertex RR_DEPTH and beyond, on the throughput; a camera ray draws no number */
+    if (ANY(bounced)) {
+        const Sampler bounce = bounce_sampler(s);
+        vec2 v = stream_2d(light_samples, bounce, next_stream_in(ps, bounce, 1, bounced), (vint)(0));
+        vint roulette = bounced & (path->depth + 1 >= RR_DEPTH);
+        if (ANY(roulette)) {
+            vec3 beta = path->beta;
+            vfloat q = vmin(vmax(beta.x, vmax(beta.y, beta.z)), (vfloat)(RR_MAX_Q));
+            alive &= !roulette | (v.x < q);
+            path->beta = v3_select(beta, v3_scale(beta, 1.0f / vmax(q, (vfloat)(1e-30f))), roulette);
+        }
+    }
+    path->depth += 1; /* (a lane without a path is reset when it starts one) */
+    return alive & (((vint)(max_depth < 0) != 0) | (path->depth < max_depth));
+}
+
+/* The paths of `alive` at their vertex, shaded at sp: the light sampled there (the lights, and the
+ * environment), then the BSDF's sample of the direction onwards, which becomes the path's ray; *rays counts the
+ * rays traced per lane. Returns the lanes whose path goes on: the BSDF's sample leaves the surface on its side. */
+inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, ShadingPoint sp, vint alive,
+                        __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
+{
+    const Sampler bounce = bounce_sampler(s);
+    const Ray r = path->r;
+    vec3 beta = path->beta, radiance = path->radiance;
+    COUNT_VISITS_ADD(s, VISITS_PATH_LANES, count_lanes(alive));
+    COUNT_VISITS_ADD(s, VISITS_PATH_LANE_STEPS, LANES);
+    /* light reached by sampling the lights: k / pi sum over lights (A / n) sum_j V L_e G w */
+#if HAS_SPECULAR
+    const vint specular = sp.bsdf != BSDF_DIFFUSE; /* a delta BSDF: no light sample can meet its one direction */
+#else
+    const vint specular = (vint)(0);
+#endif
+    vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), PATH_SAMPLING == 2 ? (vint)(0) : alive & !specular,
+                             light_samples, ps, rays);
+    radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_mul(v3_mul(beta, sp.k), direct), alive));
+#if HAS_ENVIRONMENT
+    { /* the environment, sampled by its map (environment.cl) or, constant, by the cosine about the normal;
+       * the sample's f cos / p_env = k bsdf_value cos / (pi p_env), weighted against the BSDF's sample of
+       * the same direction: x = p_bsdf / p_env */
+        vec2 ue = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0)); /* drawn or not */
+        const vint candidates = PATH_SAMPLING == 2 ? (vint)(0) : alive & !specular;
+        if (ANY(candidates)) { /* the map's sampling and lookups are per lane: none for a packet without use */
+            vec3 wo_ = v3_scale(r.d, -1.0f);
+#if HAS_ENVIRONMENT_MAP
+            vfloat pdf_e;
+            vec3 we = sample_environment(s, ue, &pdf_e);
+#else
+            vec3 we = cosine_direction(sp.n, ue);
+            vfloat pdf_e = v3_dot(sp.n, we) * M_1_PI_F;
+#endif
+            vfloat cos_e = v3_dot(sp.n, we), pdf_b;
+            vint sampled = candidates & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
+            vec3 f = bsdf_value(sp, wo_, we, &pdf_b);
+            vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / pdf_e);
+            vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
+            *rays += MASK_TO_ONE(sampled);
+            if (ANY(open)) {
+                vec3 e = v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment_radiance(s, we));
+                e = v3_scale(e, w * cos_e * M_1_PI_F / pdf_e);
+                radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, open));
+            }
+        }
+    }
+#endif
+
+    /* the next direction by sampling the BSDF: f cos / p = k for the diffuse surfaces */
+    vec2 u = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
+    vec3 wi = cosine_direction(sp.n, u), weight = sp.k;
+    vint transmit = (vint)(0);
+#if HAS_SPECULAR
+    vec3 wo = v3_scale(r.d, -1.0f);
+    sample_specular(sp, wo, u.x, alive & specular, &wi, &weight, &transmit);
+    alive &= !specular | (v3_dot(wo, sp.n) > 0.0f);
+#endif
+    vint rough = (vint)(0);
+    vfloat rough_pdf = 0.0f;
+#if HAS_ROUGH_CONDUCTORS
+    rough = alive & (sp.bsdf == BSDF_ROUGHCONDUCTOR);
+    if (ANY(rough)) { /* a visible normal h (microfacet.cl), wo reflected about it: f cos / p = k F G2 / G1 */
+        vec3 wo_ = v3_scale(r.d, -1.0f), t, b;
+        orthonormal_frame(sp.n, &t, &b);
+        vec3 lo = v3(v3_dot(wo_, t), v3_dot(wo_, b), v3_dot(wo_, sp.n));
+        vec3 hl = ggx_sample_visible_normal(lo, sp.alpha, u);
+        vec3 h = v3_add(v3_add(v3_scale(t, hl.x), v3_scale(b, hl.y)), v3_scale(sp.n, hl.z));
+        vec3 wr = reflected(wo_, h);
+        vfloat zero = 0.0f, g1 = ggx_g1(v3(zero, zero, lo.z), sp.alpha);
+        vfloat g2 = ggx_g2(v3(zero, zero, lo.z), v3(zero, zero, v3_dot(sp.n, wr)), sp.alpha);
+        vec3 f = v3_scale(v3_mul(sp.k, fresnel_conductor3(v3_dot(wo_, h), sp.eta, sp.k_imag)), g2 / g1);
+        rough_pdf = g1 * ggx_d(v3(zero, zero, hl.z), sp.alpha) / (4.0f * lo.z);
+        wi = v3_select(wi, wr, rough);
+        weight = v3_select(weight, f, rough);
+        alive &= !rough | (lo.z > 0.0f);
+    }
+#endif
+    vfloat cos_s = v3_dot(sp.n, wi), cos_g = v3_dot(sp.ng, wi);
+    vfloat pdf = SELECT(cos_s * M_1_PI_F, rough_pdf, rough); /* the BSDF sample's density, for MIS */
+    alive &= SELECT(cos_g > 0.0f, cos_g < 0.0f, transmit) & (specular | (cos_s > 0.0f));
+    beta = v3_select(beta, v3_mul(beta, weight), alive);
+    Ray next = {offset_ray_origin(sp.p, sp.err, v3_select(sp.ng, v3_scale(sp.ng, -1.0f), transmit)), wi};
+    *rays += MASK_TO_ONE(alive);
+    path->r = next;
+    path->beta = beta;
+    path->radiance = radiance;
+    path->specular = specular;
+    path->pdf = pdf;
+#if HAS_ENVIRONMENT
+    path->cos_s = cos_s;
+#endif
+#if LIGHT_SOLID_ANGLE
+    path->p = sp.p;
+#endif
+    return alive;
+}
+
+/* Radiance along the camera ray r, whose first hit is `hit`, shaded at sp: one pixel sample's path in every
+ * lane, vertex after vertex (render.cl's loop does the same, restarting each lane's path where it ends); *rays
+ * counts the rays traced per lane after the camera ray. */
 inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingPoint sp,
                        __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
 {
-    const int max_depth = s->params->max_depth, n_light = s->params->light_samples;
-    const Sampler light_sampler = s->params->light_sampler;
-    /* The BSDF's and roulette's numbers: sobol's sequence, else independent points (a table pattern is a
-     * light's, or the course's). */
-    Sampler bounce = light_sampler;
-    if (bounce.randomize != RANDOMIZE_SOBOL)
-        bounce.randomize = RANDOMIZE_INDEPENDENT;
-    vec3 radiance = max_depth == 0 ? v3_splat(0.0f, 0.0f, 0.0f) : hit.emitted;
-#if HAS_ENVIRONMENT
-    if (max_depth != 0 && ANY(hit.t == INFINITY)) /* the map's lookups only where a camera ray escapes */
-        radiance = v3_select(radiance, environment_radiance(s, r.d), hit.t == INFINITY);
-#endif
-    vec3 beta = v3_splat(1.0f, 1.0f, 1.0f);
-    vint alive = (hit.t < INFINITY) & (hit.material >= 0);
-    for (int depth = 1; (max_depth < 0 || depth < max_depth) && ANY(alive); ++depth) {
-        COUNT_VISITS_ADD(s, VISITS_PATH_LANES, count_lanes(alive));
-        COUNT_VISITS_ADD(s, VISITS_PATH_LANE_STEPS, LANES);
-        /* light reached by sampling the lights: k / pi sum over lights (A / n) sum_j V L_e G w */
-#if HAS_SPECULAR
-        const vint specular = sp.bsdf != BSDF_DIFFUSE; /* a delta BSDF: no light sample can meet its one direction */
-#else
-        const vint specular = (vint)(0);
-#endif
-        vec3 direct = lights_sum(s, sp, v3_scale(r.d, -1.0f), PATH_SAMPLING == 2 ? (vint)(0) : alive & !specular,
-                                 light_samples, ps, rays);
-        radiance = v3_add(radiance, v3_mul(v3_mul(beta, sp.k), direct));
-#if HAS_ENVIRONMENT
-        { /* the environment, sampled by its map (environment.cl) or, constant, by the cosine about the normal;
-           * the sample's f cos / p_env = k bsdf_value cos / (pi p_env), weighted against the BSDF's sample of
-           * the same direction: x = p_bsdf / p_env */
-            vec2 ue = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0)); /* drawn or not */
-            const vint candidates = PATH_SAMPLING == 2 ? (vint)(0) : alive & !specular;
-            if (ANY(candidates)) { /* the map's sampling and lookups are per lane: none for a packet without use */
-                vec3 wo_ = v3_scale(r.d, -1.0f);
-#if HAS_ENVIRONMENT_MAP
-                vfloat pdf_e;
-                vec3 we = sample_environment(s, ue, &pdf_e);
-#else
-                vec3 we = cosine_direction(sp.n, ue);
-                vfloat pdf_e = v3_dot(sp.n, we) * M_1_PI_F;
-#endif
-                vfloat cos_e = v3_dot(sp.n, we), pdf_b;
-                vint sampled = candidates & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
-                vec3 f = bsdf_value(sp, wo_, we, &pdf_b);
-                vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / pdf_e);
-                vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
-                *rays += MASK_TO_ONE(sampled);
-                if (ANY(open)) {
-                    vec3 e = v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment_radiance(s, we));
-                    e = v3_scale(e, w * cos_e * M_1_PI_F / pdf_e);
-                    radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, open));
-                }
-            }
-        }
-#endif
-
-        /* the next direction by sampling the BSDF: f cos / p = k for the diffuse surfaces */
-        vec2 u = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
-        vec3 wi = cosine_direction(sp.n, u), weight = sp.k;
-        vint transmit = (vint)(0);
-#if HAS_SPECULAR
-        vec3 wo = v3_scale(r.d, -1.0f);
-        sample_specular(sp, wo, u.x, alive & specular, &wi, &weight, &transmit);
-        alive &= !specular | (v3_dot(wo, sp.n) > 0.0f);
-#endif
-        vint rough = (vint)(0);
-        vfloat rough_pdf = 0.0f;
-#if HAS_ROUGH_CONDUCTORS
-        rough = alive & (sp.bsdf == BSDF_ROUGHCONDUCTOR);
-        if (ANY(rough)) { /* a visible normal h (microfacet.cl), wo reflected about it: f cos / p = k F G2 / G1 */
-            vec3 wo_ = v3_scale(r.d, -1.0f), t, b;
-            orthonormal_frame(sp.n, &t, &b);
-            vec3 lo = v3(v3_dot(wo_, t), v3_dot(wo_, b), v3_dot(wo_, sp.n));
-            vec3 hl = ggx_sample_visible_normal(lo, sp.alpha, u);
-            vec3 h = v3_add(v3_add(v3_scale(t, hl.x), v3_scale(b, hl.y)), v3_scale(sp.n, hl.z));
-            vec3 wr = reflected(wo_, h);
-            vfloat zero = 0.0f, g1 = ggx_g1(v3(zero, zero, lo.z), sp.alpha);
-            vfloat g2 = ggx_g2(v3(zero, zero, lo.z), v3(zero, zero, v3_dot(sp.n, wr)), sp.alpha);
-            vec3 f = v3_scale(v3_mul(sp.k, fresnel_conductor3(v3_dot(wo_, h), sp.eta, sp.k_imag)), g2 / g1);
-            rough_pdf = g1 * ggx_d(v3(zero, zero, hl.z), sp.alpha) / (4.0f * lo.z);
-            wi = v3_select(wi, wr, rough);
-            weight = v3_select(weight, f, rough);
-            alive &= !rough | (lo.z > 0.0f);
-        }
-#endif
-        vfloat cos_s = v3_dot(sp.n, wi), cos_g = v3_dot(sp.ng, wi);
-        vfloat pdf = SELECT(cos_s * M_1_PI_F, rough_pdf, rough); /* the BSDF sample's density, for MIS */
-        alive &= SELECT(cos_g > 0.0f, cos_g < 0.0f, transmit) & (specular | (cos_s > 0.0f));
-        beta = v3_select(beta, v3_mul(beta, weight), alive);
-        Ray next = {offset_ray_origin(sp.p, sp.err, v3_select(sp.ng, v3_scale(sp.ng, -1.0f), transmit)), wi};
-        hit = closest_hit(s, next, (vfloat)(INFINITY));
-        *rays += MASK_TO_ONE(alive);
-
-        /* light reached by the BSDF's sample, weighted against the lights' samples of the same direction: x =
-         * n p_light / p_bsdf = n r^2 / (A cos(theta_l) p_bsdf) (0 where no light was hit: weight 1) */
-        vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi));
-        vfloat x = (float)n_light * hit.t * hit.t / (area * cos_l * pdf);
-#if LIGHT_SOLID_ANGLE
-        vfloat solid_angle = hit_light_solid_angle(s, hit, sp.p); /* p_light = 1 / solid_angle there */
-        x = SELECT(x, (float)n_light / (solid_angle * pdf), solid_angle > 0.0f);
-#endif
-        vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), (area == 0.0f) | specular);
-#if PATH_SAMPLING == 1
-        w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), (area == 0.0f) | specular);
-#elif PATH_SAMPLING == 2
-        w = (vfloat)(1.0f);
-#endif
-#if HAS_ENVIRONMENT
-        vint escaped = alive & (hit.t == INFINITY);
-        if (ANY(escaped)) { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after a
-                             * specular vertex */
-#if HAS_ENVIRONMENT_MAP
-            vfloat pdf_e = environment_pdf(s, wi);
-#else
-            vfloat pdf_e = cos_s * M_1_PI_F;
-#endif
-            vfloat w_env = SELECT(power_weight(pdf_e / pdf), (vfloat)(1.0f), specular);
-#if PATH_SAMPLING == 1
-            w_env = SELECT((vfloat)(0.0f), (vfloat)(1.0f), specular);
-#elif PATH_SAMPLING == 2
-            w_env = (vfloat)(1.0f);
-#endif
-            radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f),
-                                                  v3_scale(v3_mul(beta, environment_radiance(s, wi)), w_env),
-                                                  escaped));
-        }
-#endif
-        vint lit = alive & (hit.t < INFINITY);
-        radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_scale(v3_mul(beta, hit.emitted), w),
-                                              lit));
-        alive = lit & (hit.material >= 0);
-
-        /* Russian roulette from RR_DEPTH on, on the throughput */
-        vec2 v = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
-        if (depth + 1 >= RR_DEPTH) {
-            vfloat q = vmin(vmax(beta.x, vmax(beta.y, beta.z)), (vfloat)(RR_MAX_Q));
-            alive &= v.x < q;
-            beta = v3_scale(beta, 1.0f / vmax(q, (vfloat)(1e-30f)));
-        }
-        r = next;
-        sp = shading_point(s, ts, r, hit);
+    PathState path;
+    start_paths(&path, r, (vint)(-1) != 0);
+    vint alive = path_hit(s, &path, hit, (vint)(-1) != 0, light_samples, ps);
+    while (ANY(alive)) {
+        alive = path_vertex(s, ts, &path, sp, alive, light_samples, ps, rays);
+        hit = closest_hit(s, path.r, (vfloat)(INFINITY));
+        alive = path_hit(s, &path, hit, alive, light_samples, ps);
+        sp = shading_point(s, ts, path.r, hit);
     }
-    return radiance;
+    return path.radiance;
 }
 
 #endif

@@ -3,8 +3,8 @@
  *
  * A launch renders the band of rows [row0, row1) with the pixel samples [sample0, sample0 + n_samples) of a
  * progressive render (the host accumulates passes). One work-item renders a tile of pixels, several samples
- * of each at once where n_samples allows (tile.h); lanes beyond the band or the image's width compute and
- * store nothing. The output holds the band only, so its size is bounded whatever the image's: planes of
+ * of each at once where n_samples allows (tile.h); in the path model each lane starts its next sample as its
+ * path ends (render_paths). Lanes beyond the band or the image's width store nothing. The output holds the band only, so its size is bounded whatever the image's: planes of
  * width * (row1 - row0) floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear),
  * the number of rays traced for the pixel, and, where n_first > 0, R, G, B again over the launch's first
  * n_first samples only: the first half of a pass that holds both halves of the host's error estimate
@@ -91,6 +91,105 @@ inline void store_lanes(__global float *plane, vint index, vfloat value, vint ac
             plane[at[i]] = v[i];
 }
 
+/* A work-item's sums per lane over its pixel samples (compensated: a launch may hold 32768 samples), over those
+ * before sample0 + n_first, and the rays traced after the camera rays. */
+typedef struct {
+    vec3 sum, carry, first_sum, first_carry;
+    vfloat rays;
+} Sums;
+
+/* The lanes' pixel samples of `value` (their indices: index) added to the sums, in the lanes of `lanes`. */
+inline void add_samples(Sums *sums, vec3 value, vint lanes, vint index, int first_end, int n_first)
+{
+    vec3 sum = sums->sum, carry = sums->carry;
+    kahan_add(&sum, &carry, value);
+    sums->sum = v3_select(sums->sum, sum, lanes);
+    sums->carry = v3_select(sums->carry, carry, lanes);
+    if (n_first > 0) { /* uniform: the first pass only */
+        vec3 first_sum = sums->first_sum, first_carry = sums->first_carry;
+        kahan_add(&first_sum, &first_carry, v3_select(v3_splat(0.0f, 0.0f, 0.0f), value, index < first_end));
+        sums->first_sum = v3_select(sums->first_sum, first_sum, lanes);
+        sums->first_carry = v3_select(sums->first_carry, first_carry, lanes);
+    }
+}
+
+/* Lane l's camera ray through its pixel (x, y) for the pixel sample ps (whose pair counter is advanced in the
+ * lanes of `lanes` only). */
+inline Ray camera_ray(const Scene *s, Tile tile, PixelSample *ps, __global const uint2 *pixel_samples, vint lanes)
+{
+    const int width = s->params->width, height = s->params->height;
+    vec2 offset = stream_2d(pixel_samples, s->params->pixel_sampler,
+                            next_stream_in(ps, s->params->pixel_sampler, 1, lanes), (vint)(0));
+    return generate_camera_ray(s->camera, CONVERT_VFLOAT(tile.x) + offset.x, CONVERT_VFLOAT(tile.y) + offset.y,
+                               1.0f / width, 1.0f / height);
+}
+
+#ifndef PATH_REGENERATION
+/* 1: the path model's lanes start new paths as theirs end (render_paths). Tests build 0, one sample at a time
+ * in every lane (render_samples), which must give the same sums to the bit (tests/test_path_regeneration.py). */
+#define PATH_REGENERATION 1
+#endif
+
+#if HAS_PATH_TRACING && PATH_REGENERATION
+/* The path model's pixel samples: each lane follows its own path, and where the path ends starts its pixel's
+ * next sample (path regeneration: Novak, Havran and Dachsbacher, "Path Regeneration for Interactive Path
+ * Tracing", Eurographics 2010 short papers), so that a packet's lanes stay busy while its longest path goes
+ * on; a lane's samples are its own as in render_samples, in the same order, and give the same sums. The
+ * lanes' closest-hit traversal is one, camera rays and bounces together; the lanes without a ray (outside the
+ * image, or done) search none of it. */
+inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active, vuint key,
+                         __global const uint2 *pixel_samples, __global const uint2 *light_samples, int sample0,
+                         int n_samples, int n_first, Sums *sums)
+{
+    const int end = sample0 + n_samples;
+    PixelSample ps = start_pixel_sample(key, (vint)(0));
+    PathState path = {0};
+    vint next = sample0 + tile.sample, in_path = (vint)(0) != 0;
+    for (;;) {
+        vint start = active & !in_path & (next < end);
+        if (ANY(start)) {
+            ps.index = SELECT(ps.index, next, start);
+            ps.dimension = SELECT(ps.dimension, (vint)(0), start);
+            next = SELECT(next, next + tile.group, start);
+            start_paths(&path, camera_ray(s, tile, &ps, pixel_samples, start), start);
+            in_path |= start;
+        }
+        if (!ANY(in_path))
+            return;
+        Hit hit = closest_hit(s, path.r, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), in_path));
+        vint alive = path_hit(s, &path, hit, in_path, light_samples, &ps);
+        if (ANY(alive))
+            alive = path_vertex(s, ts, &path, shading_point(s, ts, path.r, hit), alive, light_samples, &ps,
+                                &sums->rays);
+        vint ended = in_path & !alive;
+        if (ANY(ended)) {
+            add_samples(sums, path.radiance, ended, ps.index, sample0 + n_first, n_first);
+            in_path = alive;
+        }
+    }
+}
+#else
+/* The pixel samples of the course's model, of the direct one, and of the path model one at a time: a camera
+ * ray and its shading, group samples of each pixel at a step (tile.h). */
+inline void render_samples(const Scene *s, TextureStore ts, Tile tile, vuint key, __global const uint2 *pixel_samples,
+                           __global const uint2 *light_samples, int sample0, int n_samples, int n_first, Sums *sums)
+{
+    const vint all = (vint)(-1) != 0;
+    for (int first = sample0; first < sample0 + n_samples; first += tile.group) {
+        PixelSample ps = start_pixel_sample(key, first + tile.sample);
+        Ray ray = camera_ray(s, tile, &ps, pixel_samples, all);
+        Hit hit = closest_hit(s, ray, (vfloat)(INFINITY));
+        ShadingPoint sp = shading_point(s, ts, ray, hit);
+#if HAS_PATH_TRACING
+        vec3 value = trace_path(s, ts, ray, hit, sp, light_samples, &ps, &sums->rays);
+#else
+        vec3 value = shade(s, ray, hit, sp, light_samples, &ps, &sums->rays);
+#endif
+        add_samples(sums, value, all, ps.index, sample0 + n_first, n_first);
+    }
+}
+#endif
+
 __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                      __global const uint2 *pixel_samples, /* the pixel and light sample tables (samplers.cl) */
                      __global const uint2 *light_samples, int sample0, int n_samples, int n_first, int row0,
@@ -111,27 +210,14 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
         return;
 
     vuint key = pixel_key(AS_VUINT(y * width + x), params->seed);
-    vec3 sum = v3_splat(0.0f, 0.0f, 0.0f), carry = sum; /* compensated: a launch may hold 32768 samples */
-    vec3 first_sum = sum, first_carry = sum;             /* over the samples before sample0 + n_first */
-    vfloat rays = 0.0f;
-    for (int first = sample0; first < sample0 + n_samples; first += tile.group) {
-        PixelSample ps = start_pixel_sample(key, first + tile.sample);
-        vec2 offset = stream_2d(pixel_samples, params->pixel_sampler, next_stream(&ps, params->pixel_sampler, 1),
-                                  (vint)(0));
-        Ray ray = generate_camera_ray(camera, CONVERT_VFLOAT(x) + offset.x, CONVERT_VFLOAT(y) + offset.y, 1.0f / width,
-                                      1.0f / height);
-        Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
-        ShadingPoint sp = shading_point(&scene, ts, ray, hit);
-#if HAS_PATH_TRACING
-        vec3 value = trace_path(&scene, ts, ray, hit, sp, light_samples, &ps, &rays);
+    Sums sums = {0};
+#if HAS_PATH_TRACING && PATH_REGENERATION
+    render_paths(&scene, ts, tile, active, key, pixel_samples, light_samples, sample0, n_samples, n_first, &sums);
 #else
-        vec3 value = shade(&scene, ray, hit, sp, light_samples, &ps, &rays);
+    render_samples(&scene, ts, tile, key, pixel_samples, light_samples, sample0, n_samples, n_first, &sums);
 #endif
-        kahan_add(&sum, &carry, value);
-        if (n_first > 0) /* uniform: the first pass only */
-            kahan_add(&first_sum, &first_carry, v3_select(v3_splat(0.0f, 0.0f, 0.0f), value, ps.index < sample0 + n_first));
-    }
-    rays += (float)(n_samples / tile.group);
+    const vec3 sum = sums.sum, carry = sums.carry, first_sum = sums.first_sum, first_carry = sums.first_carry;
+    vfloat rays = sums.rays + (float)(n_samples / tile.group); /* and the camera rays */
 
     const int plane = width * (row1 - row0);
     const vint index = (y - row0) * width + x, stored = active & (tile.sample == 0); /* a pixel's first lane */

@@ -40,9 +40,9 @@ typedef struct {
 
 /* A measuring build (COUNT_VISITS) counts what a work-item's traversals test: BVH nodes (their boxes, bvh.cl)
  * and primitives (primitive.cl), of closest-hit and of shadow traversals, once per test of all its lanes. It
- * also counts the path model's bounce loop (path_tracing.cl): the lanes whose paths go on at each iteration,
- * and LANES per iteration; their ratio is how busy the loop's lanes are, the share of its work that the paths
- * ended before the packet's last one do not waste. render.cl stores the counts as planes of its output,
+ * also counts the path model's vertices (path_tracing.cl's path_vertex): the lanes with a vertex to shade at
+ * each step, and LANES per step; their ratio is how busy the lanes are, the share of the work that lanes
+ * without a path (theirs ended at this step's hit, or the work-item's samples ran out) do not waste. render.cl stores the counts as planes of its output,
  * raytrace/commands/visits.py reads them. */
 #define VISITS_CLOSEST_NODES 0
 #define VISITS_SHADOW_NODES 1

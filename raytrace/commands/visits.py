@@ -25,9 +25,9 @@ def node_visits(scene, features=None, **render_kwargs):
     nodes and primitives, with the ray counts they are divided by, the per-pixel maps of node visits (height
     x width, summed over the pixel's samples) and how concentrated the shadow rays' node visits are, for the
     kernel variant `features` (default: the one render() picks). Without a BVH the kernel loops over every
-    shape: 0 nodes, and every shape a primitive test. In the path model, also the share of the bounce loop's
-    lanes whose paths go on (path_lanes_busy: 1 when every lane of a packet bounces as often as its longest
-    path; None in the other models)."""
+    shape: 0 nodes, and every shape a primitive test. In the path model, also the share of lanes with a vertex
+    to shade at each step of a work-item's paths (path_lanes_busy: 1 when no lane ever waits; None in the other
+    models)."""
     features = features or Features.of(scene, default_lanes(select_device(render_kwargs.get("device"))))
     _, stats = render(scene, features=dataclasses.replace(features, count_visits=True), **render_kwargs)
     visits = stats.extra["visits"]
