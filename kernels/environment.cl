@@ -123,17 +123,20 @@ inline float3 environment_sample(__constant const RenderParams *p, __global cons
 }
 #endif
 
-/* The environment's radiance along each lane's unit direction d. */
-inline vec3 environment_radiance(const Scene *s, vec3 d)
+/* The environment's radiance along each lane's unit direction d, in the lanes of `lanes` (0 in the others: a
+ * map's lookups are one lane at a time, and a packet's lanes seldom all need one). */
+inline vec3 environment_radiance(const Scene *s, vec3 d, vint lanes)
 {
     const vec3 scale = v3_uniform(s->params->environment);
 #if HAS_ENVIRONMENT_MAP
     float x[LANES], y[LANES], z[LANES], r[LANES], g[LANES], b[LANES];
+    int used[LANES];
     VSTORE(d.x, x);
     VSTORE(d.y, y);
     VSTORE(d.z, z);
+    VSTORE(lanes, used);
     for (int i = 0; i < LANES; ++i) {
-        float3 e = environment_lookup(s->params, s->environment_map, (float3)(x[i], y[i], z[i]));
+        float3 e = used[i] ? environment_lookup(s->params, s->environment_map, (float3)(x[i], y[i], z[i])) : 0.0f;
         r[i] = e.x;
         g[i] = e.y;
         b[i] = e.z;
@@ -145,14 +148,18 @@ inline vec3 environment_radiance(const Scene *s, vec3 d)
 }
 
 #if HAS_ENVIRONMENT_MAP
-/* Each lane's direction drawn from the map by the point xi, and *density its density per steradian. */
-inline vec3 sample_environment(const Scene *s, vec2 xi, vfloat *density)
+/* Each lane's direction drawn from the map by the point xi, and *density its density per steradian, in the
+ * lanes of `lanes` (the others: the zero vector, density 0). */
+inline vec3 sample_environment(const Scene *s, vec2 xi, vint lanes, vfloat *density)
 {
     float u[LANES], v[LANES], x[LANES], y[LANES], z[LANES], p[LANES];
+    int used[LANES];
     VSTORE(xi.x, u);
     VSTORE(xi.y, v);
+    VSTORE(lanes, used);
     for (int i = 0; i < LANES; ++i) {
-        float3 d = environment_sample(s->params, s->environment_map, (float2)(u[i], v[i]), &p[i]);
+        p[i] = 0.0f;
+        float3 d = used[i] ? environment_sample(s->params, s->environment_map, (float2)(u[i], v[i]), &p[i]) : 0.0f;
         x[i] = d.x;
         y[i] = d.y;
         z[i] = d.z;
@@ -161,15 +168,18 @@ inline vec3 sample_environment(const Scene *s, vec2 xi, vfloat *density)
     return v3(VLOAD(x), VLOAD(y), VLOAD(z));
 }
 
-/* The density per steradian with which sample_environment draws each lane's unit direction d. */
-inline vfloat environment_pdf(const Scene *s, vec3 d)
+/* The density per steradian with which sample_environment draws each lane's unit direction d, in the lanes of
+ * `lanes` (0 in the others). */
+inline vfloat environment_pdf(const Scene *s, vec3 d, vint lanes)
 {
     float x[LANES], y[LANES], z[LANES], p[LANES];
+    int used[LANES];
     VSTORE(d.x, x);
     VSTORE(d.y, y);
     VSTORE(d.z, z);
+    VSTORE(lanes, used);
     for (int i = 0; i < LANES; ++i)
-        p[i] = environment_density(s->params, s->environment_map, (float3)(x[i], y[i], z[i]));
+        p[i] = used[i] ? environment_density(s->params, s->environment_map, (float3)(x[i], y[i], z[i])) : 0.0f;
     return VLOAD(p);
 }
 #endif

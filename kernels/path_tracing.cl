@@ -359,7 +359,7 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes, __glo
     if (ANY(escaped)) { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after the
                          * camera or a specular vertex */
 #if HAS_ENVIRONMENT_MAP
-        vfloat pdf_e = environment_pdf(s, wi);
+        vfloat pdf_e = environment_pdf(s, wi, escaped & !specular); /* (a camera ray's needs none) */
 #else
         vfloat pdf_e = path->cos_s * M_1_PI_F;
 #endif
@@ -371,7 +371,7 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes, __glo
 #endif
         path->radiance = v3_add(path->radiance,
                                 v3_select(v3_splat(0.0f, 0.0f, 0.0f),
-                                          v3_scale(v3_mul(path->beta, environment_radiance(s, wi)), w_env), escaped));
+                                          v3_scale(v3_mul(path->beta, environment_radiance(s, wi, escaped)), w_env), escaped));
     }
 #endif
     vint lit = seen & (hit.t < INFINITY);
@@ -425,7 +425,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
             vec3 wo_ = v3_scale(r.d, -1.0f);
 #if HAS_ENVIRONMENT_MAP
             vfloat pdf_e;
-            vec3 we = sample_environment(s, ue, &pdf_e);
+            vec3 we = sample_environment(s, ue, candidates, &pdf_e);
 #else
             vec3 we = cosine_direction(sp.n, ue);
             vfloat pdf_e = v3_dot(sp.n, we) * M_1_PI_F;
@@ -437,7 +437,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
             vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
             *rays += MASK_TO_ONE(sampled);
             if (ANY(open)) {
-                vec3 e = v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment_radiance(s, we));
+                vec3 e = v3_mul(v3_mul(v3_mul(beta, sp.k), f), environment_radiance(s, we, open));
                 e = v3_scale(e, w * cos_e * M_1_PI_F / pdf_e);
                 radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, open));
             }

@@ -25,18 +25,20 @@ from test_path_tracing import assert_mean, assert_techniques_agree, environment_
 ENVIRONMENT = """
 #include "environment.cl"
 /* Per lane: the map's radiance along d (times its scale), the density environment_pdf gives d, and a
- * direction drawn by the point xi with the density the sample reports. */
-__kernel void probe(int n, SCENE_PARAMETERS, __global const float *d, __global const float *xi,
+ * direction drawn by the point xi with the density the sample reports; with skip > 0, for the lanes whose
+ * index is not skip - 1 mod skip only. */
+__kernel void probe(int n, SCENE_PARAMETERS, __global const float *d, __global const float *xi, int skip,
                     __global float *radiance, __global float *pdf, __global float *sampled,
                     __global float *sampled_pdf)
 {
     const Scene s = SCENE_FROM_PARAMETERS;
+    const vint ALL_LANES = skip > 0 ? (I * LANES + LANE_IDS) % skip != skip - 1 : (vint)(-1) != 0;
     vec3 dir = IN3(d);
-    OUT3(radiance, environment_radiance(&s, dir));
-    OUT(pdf, environment_pdf(&s, dir));
+    OUT3(radiance, environment_radiance(&s, dir, ALL_LANES));
+    OUT(pdf, environment_pdf(&s, dir, ALL_LANES));
     vec2 u = {IN(xi), IN(xi + n)};
     vfloat p;
-    OUT3(sampled, sample_environment(&s, u, &p));
+    OUT3(sampled, sample_environment(&s, u, ALL_LANES, &p));
     OUT(sampled_pdf, p);
 }
 """
@@ -102,8 +104,8 @@ def unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def probe(harness, scene, d, xi):
-    args = {**scene_args(scene), "d": planar(d), "xi": planar(xi)}
+def probe(harness, scene, d, xi, skip=0):
+    args = {**scene_args(scene), "d": planar(d), "xi": planar(xi), "skip": np.int32(skip)}
     return harness.run(ENVIRONMENT, "probe", len(d), args, {"radiance": 3, "pdf": 1, "sampled": 3,
                                                           "sampled_pdf": 1}, **DEFINES)
 
@@ -131,6 +133,19 @@ def test_lookup_against_float64(harness):
     out = probe(harness, scene, d, rng.uniform(size=(len(d), 2)))
     expected = 2.0 * bilinear(texels, *uv_of(d, axes))
     np.testing.assert_allclose(out["radiance"].T, expected, rtol=0, atol=0.02)
+
+
+def test_lanes_left_out_look_nothing_up(harness):
+    """The lookups, densities and samples of a packet's lanes (environment.cl takes a mask: the path model asks
+    for few lanes at a time) are those of the full packet in the lanes asked for, and 0 in the others."""
+    scene = map_scene(small_map(), (0.0, 0.0, 1.0), (0.3, -1.0, 0.2))
+    rng = np.random.default_rng(4)
+    d, xi = random_directions(rng, 512), rng.uniform(size=(512, 2))
+    full, masked = probe(harness, scene, d, xi), probe(harness, scene, d, xi, skip=3)
+    off = np.arange(512) % 3 == 2
+    for key in full:
+        np.testing.assert_array_equal(masked[key][..., ~off], full[key][..., ~off])
+        assert np.all(masked[key][..., off] == 0) and np.mean(full[key][..., off] != 0) > 0.5, key
 
 
 def test_density_matches_the_luminance(harness):
