@@ -12,8 +12,9 @@
  * p_light), which stays finite where either density does not (a light seen edge-on).
  *
  * Depth follows Mitsuba's convention: max_depth 1 shows the emitters seen directly, 2 adds direct light, -1
- * is unbounded. From vertex rr_depth on (Mitsuba's default 5), Russian roulette continues a path with
- * probability q = min(max(throughput), 0.95) and divides its throughput by q (pbrt-v4 section 13.1.1). */
+ * is unbounded. From vertex rr_depth on (Mitsuba's default 5), after the vertex's light samples, Russian
+ * roulette continues a path with probability q = min(max(throughput), 0.95) and divides its throughput by q
+ * (pbrt-v4 section 13.1.1). */
 #ifndef PATH_TRACING_CL
 #define PATH_TRACING_CL
 
@@ -330,14 +331,12 @@ inline Sampler bounce_sampler(const Scene *s)
 
 /* The paths of `lanes` meet `hit` along their rays: the light and environment they reach, weighted against the
  * lights' samples of the same direction at the vertex they left (a camera ray's counts whole, max_depth 0
- * excepted), then Russian roulette on the paths that bounced. Returns the lanes whose hit is a vertex to shade:
- * a surface, the path not cut by roulette nor by max_depth. */
-inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes, __global const uint2 *light_samples,
-                     PixelSample *ps)
+ * excepted). Returns the lanes whose hit is a vertex to shade: a surface, below max_depth. */
+inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes)
 {
     const int max_depth = s->params->max_depth, n_light = s->params->light_samples;
     const vec3 wi = path->r.d;
-    const vint bounced = lanes & (path->depth > 0), specular = path->specular;
+    const vint specular = path->specular;
     const vfloat pdf = path->pdf;
     /* light reached by the BSDF's sample, weighted against the lights' samples of the same direction: x = n
      * p_light / p_bsdf = n r^2 / (A cos(theta_l) p_bsdf) (0 where no light was hit: weight 1) */
@@ -379,18 +378,6 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes, __glo
                                                       v3_scale(v3_mul(path->beta, hit.emitted), w), lit));
     vint alive = lanes & (hit.t < INFINITY) & (hit.material >= 0);
 
-    /* Russian roulette at vertex RR_DEPTH and beyond, on the throughput; a camera ray draws no number */
-    if (ANY(bounced)) {
-        const Sampler bounce = bounce_sampler(s);
-        vec2 v = stream_2d(light_samples, bounce, next_stream_in(ps, bounce, 1, bounced), (vint)(0));
-        vint roulette = bounced & (path->depth + 1 >= RR_DEPTH);
-        if (ANY(roulette)) {
-            vec3 beta = path->beta;
-            vfloat q = vmin(vmax(beta.x, vmax(beta.y, beta.z)), (vfloat)(RR_MAX_Q));
-            alive &= !roulette | (v.x < q);
-            path->beta = v3_select(beta, v3_scale(beta, 1.0f / vmax(q, (vfloat)(1e-30f))), roulette);
-        }
-    }
     path->depth += 1; /* (a lane without a path is reset when it starts one) */
     return alive & (((vint)(max_depth < 0) != 0) | (path->depth < max_depth));
 }
@@ -478,6 +465,17 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
     vfloat pdf = SELECT(cos_s * M_1_PI_F, rough_pdf, rough); /* the BSDF sample's density, for MIS */
     alive &= SELECT(cos_g > 0.0f, cos_g < 0.0f, transmit) & (specular | (cos_s > 0.0f));
     beta = v3_select(beta, v3_mul(beta, weight), alive);
+
+    /* Russian roulette from vertex RR_DEPTH on, on the throughput onwards: here, after the vertex's light
+     * samples and before its ray is traced, as in Mitsuba 3's `path` and pbrt-v4's PathIntegrator, so that a
+     * path it ends keeps its vertex's sampled light (the estimate's low-variance part) and costs no ray */
+    vec2 v = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0));
+    vint roulette = alive & (path->depth >= RR_DEPTH);
+    if (ANY(roulette)) {
+        vfloat q = vmin(vmax(beta.x, vmax(beta.y, beta.z)), (vfloat)(RR_MAX_Q));
+        alive &= !roulette | (v.x < q);
+        beta = v3_select(beta, v3_scale(beta, 1.0f / vmax(q, (vfloat)(1e-30f))), roulette);
+    }
     Ray next = {offset_ray_origin(sp.p, sp.err, v3_select(sp.ng, v3_scale(sp.ng, -1.0f), transmit)), wi};
     *rays += MASK_TO_ONE(alive);
     path->r = next;
@@ -502,11 +500,11 @@ inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingP
 {
     PathState path;
     start_paths(&path, r, (vint)(-1) != 0);
-    vint alive = path_hit(s, &path, hit, (vint)(-1) != 0, light_samples, ps);
+    vint alive = path_hit(s, &path, hit, (vint)(-1) != 0);
     while (ANY(alive)) {
         alive = path_vertex(s, ts, &path, sp, alive, light_samples, ps, rays);
         hit = closest_hit(s, path.r, (vfloat)(INFINITY));
-        alive = path_hit(s, &path, hit, alive, light_samples, ps);
+        alive = path_hit(s, &path, hit, alive);
         sp = shading_point(s, ts, path.r, hit);
     }
     return path.radiance;

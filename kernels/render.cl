@@ -157,7 +157,7 @@ inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active
         if (!ANY(in_path))
             return;
         Hit hit = closest_hit(s, path.r, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), in_path));
-        vint alive = path_hit(s, &path, hit, in_path, light_samples, &ps);
+        vint alive = path_hit(s, &path, hit, in_path);
         if (ANY(alive))
             alive = path_vertex(s, ts, &path, shading_point(s, ts, path.r, hit), alive, light_samples, &ps,
                                 &sums->rays);
