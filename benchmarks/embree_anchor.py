@@ -7,7 +7,9 @@ geometry to it, as to our shadow rays). It traces the primary rays of a width x 
 random pixel sample positions (the camera model of reference_camera.py) with its closest-hit query, then from
 each surface hit `light_samples` shadow segments to uniformly random points of each light with its any-hit
 query, only where our renderer would cast them (the point faces the light, both by its geometric and its
-shading normal, and no light hides it). Only the two queries are timed, each the best of `repeat`.
+shading normal, and no light hides it). Scattered rays besides: from every surface hit one bounce ray,
+cosine-distributed about the shading normal (the path model's diffuse sample), where it leaves the surface on
+the ray's side, with the closest-hit query. Only the queries are timed, each the best of `repeat`.
 
 This is a measuring tool, not a dependency: embreex (PyPI) is imported only where it is used. Its binding traces
 one ray at a time on one thread, so its figures are per core; ours use every core of the OpenCL device, so
@@ -116,6 +118,34 @@ def shadow_rays(scene, soup, o, d, hits, light_samples, rng):
     return o, d, np.full(len(o), SHADOW_END, np.float32)
 
 
+def cosine_directions(n, rng):
+    """Unit directions about the unit normals n (rows) with density cos(theta) / pi: a uniform point on the unit
+    disk lifted to the hemisphere (Malley's method, pbrt-v4 section A.5.3)."""
+    r, phi = np.sqrt(rng.random(len(n))), 2 * np.pi * rng.random(len(n))
+    x, y = r * np.cos(phi), r * np.sin(phi)
+    z = np.sqrt(np.maximum(0.0, 1 - x * x - y * y))
+    helper = np.where(np.abs(n[:, :1]) > 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]])
+    t = np.cross(helper, n)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(n, t)
+    return x[:, None] * t + y[:, None] * b + z[:, None] * n
+
+
+def bounce_rays(scene, soup, o, d, hits, rng):
+    """Scattered rays (float32 origins and unit directions): from every surface hit one direction drawn with
+    density cos / pi about the shading normal, kept where it leaves the surface on the side the camera ray came
+    from (the kernel's rule), its origin off the surface as the shadow rays' are."""
+    o, d = o.astype(np.float64), d.astype(np.float64)
+    t = hits["tfar"].astype(np.float64)
+    index = np.nonzero((hits["primID"] >= 0) & (t < light_distances(scene.lights, o, d)))[0]
+    p = o[index] + t[index, None] * d[index]
+    ng, n = surface_frames(soup, hits, d, index)
+    wi = cosine_directions(n, rng)
+    leaves = np.einsum("ij,ij->i", ng, wi) > 0
+    origin = p + OFFSET * np.maximum(np.abs(p).max(1), 1.0)[:, None] * ng
+    return origin[leaves].astype(np.float32), wi[leaves].astype(np.float32)
+
+
 def unmet_scene(scene, soup):
     """An Embree scene of one small triangle that no ray of `measure` meets (`soup`: embree_scene's, the room's
     triangles with the rectangles', whose extent sets the distance): 10^3 times the room's size behind
@@ -147,7 +177,8 @@ def best_seconds(query, repeat):
 
 def measure(scene, width=256, height=256, spp=4, light_samples=4, repeat=3, seed=0):
     """Embree's ns per ray on one core: primary (closest hit), shadow (any hit) and all rays together; the binding's
-    own ns a ray (the same rays against unmet_scene) and all rays' net of it; with
+    own ns a ray (the same rays against unmet_scene) and all rays' net of it; the scattered rays' (bounce_rays,
+    closest hit), as measured and net of the binding's cost for them, apart from the others; with
     the ray counts, the fraction of primary rays that hit and of shadow rays blocked (a check that the rays
     are the scene's), and ns_per_ray_all_cores, the all-rays figure divided by this machine's cores (linear
     scaling, an upper bound on what Embree's threads would do), to set beside our absolute figure."""
@@ -162,9 +193,14 @@ def measure(scene, width=256, height=256, spp=4, light_samples=4, repeat=3, seed
     unmet = unmet_scene(scene, soup)
     binding = (best_seconds(lambda: closest_hits(unmet, o, d), repeat)
                + best_seconds(lambda: unmet.run(so, sd, tfar, query="OCCLUDED"), repeat))
+    bo, bd = bounce_rays(scene, soup, o, d, hits, rng)
+    bounce = best_seconds(lambda: closest_hits(embree, bo, bd), repeat)
+    bounce_binding = best_seconds(lambda: closest_hits(unmet, bo, bd), repeat)
     rays = len(o) + len(so)
     ns_per_ray, binding_ns = (primary + shadow) / rays * 1e9, binding / rays * 1e9
     return {"primary_rays": len(o), "shadow_rays": len(so), "rays": rays, "threads": 1,
+            "bounce_rays": len(bo), "bounce_ns_per_ray": bounce / max(len(bo), 1) * 1e9,
+            "bounce_net_ns_per_ray": (bounce - bounce_binding) / max(len(bo), 1) * 1e9,
             "primary_ns_per_ray": primary / len(o) * 1e9, "shadow_ns_per_ray": shadow / max(len(so), 1) * 1e9,
             "ns_per_ray": ns_per_ray, "binding_ns_per_ray": binding_ns, "net_ns_per_ray": ns_per_ray - binding_ns,
             "cores": os.cpu_count(), "ns_per_ray_all_cores": ns_per_ray / os.cpu_count(),

@@ -6,7 +6,10 @@ with 4 pixel samples x 4 light samples (fixed: the render options of `bench` do 
 time per ray should grow like log N; a loop over every shape grows like N. Writes scaling.csv and scaling.png
 (log-log: seconds per ray and BVH build seconds against the number of triangles); each row also has the BVH
 nodes and primitives tested per camera and per shadow ray (visits.py, counted in this process), and
-visits.png maps the node visits pixel by pixel for the smallest and the largest mesh. With an anchor
+visits.png maps the node visits pixel by pixel for the smallest and the largest mesh. Each row also has the
+cost of a scattered ray: the room rendered in the path model to depth 2 (camera rays, the light samples at
+their hits, and one cosine-distributed bounce ray from each) against the direct model (the same without the
+bounce), the difference in seconds over the difference in rays (bounce_seconds_per_ray). With an anchor
 (`python -m benchmarks.embree_anchor`, a developer's rig outside the package) each row also has Embree's ns per
 ray on the same geometry and kinds of rays, on one core, as measured and net of what its Python binding costs
 a ray: beside ours, its growth is the anchor."""
@@ -28,7 +31,7 @@ from .visits import PER_RAY, node_visits, plot_maps
 
 OPTIONS = dict(width=256, height=256, spp=4, light_samples=4, progress=False)
 COLUMNS = ["triangles", "build_seconds", "render_seconds", "rays", "seconds_per_ray", "mrays_per_s",
-           "nominal_mrays_per_s", *PER_RAY]
+           "nominal_mrays_per_s", *PER_RAY, "bounce_rays", "bounce_seconds_per_ray"]
 
 
 # Each row's renders are repeated for at least this many seconds (and at least 3 times), and the fastest is
@@ -64,11 +67,25 @@ def measure(scene, scheduler=None):
     stats = min(_renders(scene, options), key=lambda s: s.render_seconds)
     nominal = OPTIONS["width"] * OPTIONS["height"] * OPTIONS["spp"] * (1 + OPTIONS["light_samples"])
     visits = node_visits(scene, **OPTIONS)
+    bounce_rays, bounce_seconds = bounce_cost(scene, options)
     return visits, {"triangles": scene.triangle_count, "build_seconds": build_seconds,
             "render_seconds": stats.render_seconds, "rays": stats.rays,
             "seconds_per_ray": stats.render_seconds / stats.rays, "mrays_per_s": stats.mrays_per_s,
             "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6,
-            **{key: visits[key] for key in PER_RAY}}
+            **{key: visits[key] for key in PER_RAY},
+            "bounce_rays": bounce_rays, "bounce_seconds_per_ray": bounce_seconds / bounce_rays}
+
+
+def bounce_cost(scene, options):
+    """(bounce rays, their seconds): the room without its ambient term rendered in the path model to depth 2
+    against the direct model, each the fastest of renders repeated for TIMING_SECONDS. The path model's renders
+    trace what the direct model's do (camera rays, then light_samples shadow rays from each hit) and from each
+    hit one bounce ray with the diffuse BSDF's density cos / pi, and weigh the light samples for MIS: the
+    difference is the bounce rays' traversal, their sampling and those weights, so it errs against us."""
+    room = dataclasses.replace(scene, ambient=np.zeros(3))
+    direct, path = (min(_renders(room, dict(options, **model)), key=lambda s: s.render_seconds)
+                    for model in ({"shading": "direct"}, {"shading": "path", "max_depth": 2}))
+    return path.rays - direct.rays, path.render_seconds - direct.render_seconds
 
 
 def _renders(scene, options):
@@ -126,21 +143,26 @@ def _measure_rows(scene, files, outputs, max_triangles, out, anchor, scheduler):
         if measured:
             rows[-1]["embree_ns_per_ray"] = measured["ns_per_ray"]
             rows[-1]["embree_net_ns_per_ray"] = measured["net_ns_per_ray"]
+            rows[-1]["embree_bounce_ns_per_ray"] = measured["bounce_ns_per_ray"]
+            rows[-1]["embree_bounce_net_ns_per_ray"] = measured["bounce_net_ns_per_ray"]
         if out:
             r = rows[-1]
             print(f"{r['triangles']:>9d} triangles: BVH {r['build_seconds']:7.2f} s, render {r['render_seconds']:6.3f} s, "
                   f"{r['seconds_per_ray'] * 1e9:7.1f} ns per ray, {r['mrays_per_s']:6.2f} Mrays/s, BVH nodes and "
                   f"primitives per camera ray {r['visits_per_camera_ray']:.2f} and {r['primitives_per_camera_ray']:.2f}, "
-                  f"per shadow ray {r['visits_per_shadow_ray']:.2f} and {r['primitives_per_shadow_ray']:.2f}"
+                  f"per shadow ray {r['visits_per_shadow_ray']:.2f} and {r['primitives_per_shadow_ray']:.2f}; "
+                  f"scattered rays {r['bounce_seconds_per_ray'] * 1e9:.1f} ns per ray"
                   + (f"; Embree {measured['ns_per_ray']:7.1f} ns per ray on 1 core "
                      f"({measured['ns_per_ray_all_cores']:.1f} ideal on {measured['cores']}), "
-                     f"{measured['net_ns_per_ray']:.1f} net of its binding's {measured['binding_ns_per_ray']:.1f}"
-                     if measured else ""),
+                     f"{measured['net_ns_per_ray']:.1f} net of its binding's {measured['binding_ns_per_ray']:.1f}, "
+                     f"scattered rays {measured['bounce_ns_per_ray']:.1f} ({measured['bounce_net_ns_per_ray']:.1f} "
+                     f"net)" if measured else ""),
                   file=out, flush=True)
     if out and 10**3 in counts[:-1]:
         print(growth(rows, counts, rooms, embree, scheduler), file=out, flush=True)
     with outputs.writing(files["scaling.csv"]) as path, open(path, "w", newline="") as f:
-        writer = csv.DictWriter(f, COLUMNS + ["embree_ns_per_ray", "embree_net_ns_per_ray"] * embree)
+        writer = csv.DictWriter(f, COLUMNS + ["embree_ns_per_ray", "embree_net_ns_per_ray", "embree_bounce_ns_per_ray",
+                                              "embree_bounce_net_ns_per_ray"] * embree)
         writer.writeheader()
         writer.writerows(rows)
     with outputs.writing(files["scaling.png"]) as path:
@@ -170,10 +192,13 @@ def plot(rows, path):
     n = np.array([r["triangles"] for r in rows], float)
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.loglog(n, [r["seconds_per_ray"] * 1e9 for r in rows], "o-", label="render: ns per ray")
+    ax.loglog(n, [r["bounce_seconds_per_ray"] * 1e9 for r in rows], "D-", label="render: ns per scattered ray")
     ax.loglog(n, [r["build_seconds"] * 1e3 for r in rows], "s-", label="BVH build: ms")
     if "embree_ns_per_ray" in rows[0]:
         ax.loglog(n, [r["embree_ns_per_ray"] for r in rows], "^--", label="Embree, 1 core: ns per ray")
         ax.loglog(n, [r["embree_net_ns_per_ray"] for r in rows], "v:", label="Embree net of its binding")
+        ax.loglog(n, [r["embree_bounce_net_ns_per_ray"] for r in rows], "d:",
+                  label="Embree net, ns per scattered ray")
     ax.set_xlabel("triangles")
     ax.set_title("Cost against scene size (256x256, 4 spp x 4 light samples)")
     ax.grid(True, which="both", alpha=0.3)
