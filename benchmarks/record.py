@@ -50,7 +50,8 @@ def figures(results):
 
 def converge_figures(results):
     """The headline figures of converge's results: each pattern's RMSE at a quarter of its most samples and at
-    its most, that last render's time, and the race against the peer's patterns' last renders."""
+    its most, that last render's time, the race at each RMSE both sides reached (our best pattern's time against
+    the peer's best's), and the race against the peer's patterns' last renders."""
     rows = []
     for name in dict.fromkeys(r["sampler"] for r in results["rows"]):
         renders = {r["spp"]: r for r in results["rows"] if r["sampler"] == name}
@@ -59,6 +60,10 @@ def converge_figures(results):
             rows.append({"what": f"{name} RMSE at {spp} spp", "value": float(f"{renders[spp]['rmse']:.4g}"),
                          "unit": "RMSE"})
         rows.append({"what": f"{name} seconds at {last['spp']} spp", "value": round(last["seconds"], 3), "unit": "s"})
+    for t in results.get("race") or []:
+        if t["ratio"] is not None:
+            rows.append({"what": f"our time to RMSE {t['rmse']:g}, against the peer's", "value": round(t["ratio"], 3),
+                         "unit": "x"})
     for t in results.get("race_finals") or []:
         if t["ratio"] is not None:
             rows.append({"what": f"our time to {t['peer']}'s RMSE at {t['spp']} spp, against its time",

@@ -76,6 +76,9 @@ def test_a_record_of_a_converge_run(tmp_path):
     figures = {f["what"]: f["value"] for f in json.loads(path.read_text())["figures"]}
     last = [row for row in study["rows"] if row["sampler"] == "sobol"][-1]
     assert figures["sobol RMSE at 4 spp"] == float(f"{last['rmse']:.4g}")
+    for level in study["race"]:
+        assert figures.get(f"our time to RMSE {level['rmse']:g}, against the peer's") == \
+            (None if level["ratio"] is None else round(level["ratio"], 3))
     final = study["race_finals"][0]
     if final["ratio"] is not None:
         assert figures[f"our time to peer:independent's RMSE at {final['spp']} spp, against its time"] == \
