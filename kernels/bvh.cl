@@ -103,8 +103,9 @@ inline int meets_node(const Scene *s, int j, Ray r, BoxRay b, vfloat t)
  * again when popped, against the closer hit found since (no entry distances are pushed: a stack of 16-lane
  * distances measured slower). Against testing each child when it is popped, this saves time on the
  * 10^6-triangle torus of `bench --scaling` and changes nothing beyond the noise on smaller scenes (measured in
- * commit 2effa75). */
-inline void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
+ * commit 2effa75). Inline (lanes.h): the path model calls it from its loop, where a call spills the paths'
+ * state. */
+ALWAYS_INLINE void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
 {
     BoxRay b = box_ray(r);
     PrimitiveRay p = primitive_ray(r);

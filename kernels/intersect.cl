@@ -23,7 +23,7 @@ inline int shape_count(const Scene *s, int kind)
 #endif
 
 /* The nearest hit along r in (0, tmax]; a ray leaving a surface never hits that surface (ray.h). */
-inline Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
+ALWAYS_INLINE Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
 {
     Hit hit = no_hit();
 #if HAS_BVH

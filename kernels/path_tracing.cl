@@ -182,9 +182,11 @@ inline vec3 cosine_direction(vec3 n, vec2 u)
     vfloat a = MAD(2.0f, u.x, -1.0f), b = MAD(2.0f, u.y, -1.0f);
     vint first = vabs(a) > vabs(b);
     vfloat r = SELECT(b, a, first);
-    vfloat phi = SELECT(M_PI_2_F - (M_PI_4_F * a) / b, (M_PI_4_F * b) / a, first);
-    phi = SELECT(phi, (vfloat)(0.0f), (a == 0.0f) & (b == 0.0f));
-    vfloat dx = r * cos(phi), dy = r * sin(phi);
+    /* phi = x (first) or pi/2 - x, |x| <= pi/4: cos and sin of x, exchanged for pi/2 - x, inline (vmath.h) */
+    vfloat x = SELECT((M_PI_4_F * a) / b, (M_PI_4_F * b) / a, first), sin_x, cos_x;
+    x = SELECT(x, (vfloat)(0.0f), (a == 0.0f) & (b == 0.0f));
+    vsincos_quarter(x, &sin_x, &cos_x);
+    vfloat dx = r * SELECT(sin_x, cos_x, first), dy = r * SELECT(cos_x, sin_x, first);
     vfloat dz = sqrt(vmax((vfloat)(0.0f), 1.0f - dx * dx - dy * dy));
     vec3 t, bt;
     orthonormal_frame(n, &t, &bt);

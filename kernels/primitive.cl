@@ -56,7 +56,7 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n
 
 /* The closest-hit test of one primitive of each kind, merged into *hit for the lanes it is nearer for; tmax
  * bounds t. Hit points and their error bounds are formed only where some lane's hit is nearer (ray.h). */
-inline void hit_rectangle(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
+ALWAYS_INLINE void hit_rectangle(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
 {
     __global const Rectangle *rect = &s->rectangles[i];
     vfloat dt, u, v, err;

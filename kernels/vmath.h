@@ -1,5 +1,5 @@
-/* exp2, log2 and 1/sqrt on lanes, written out for the shading loop; floor, unit vectors and lengths for
- * texturing.
+/* exp2, log2, 1/sqrt, and sine and cosine of a quarter turn on lanes, written out for the shading loop and
+ * the path model's sampling; floor, unit vectors and lengths for texturing.
  *
  * PoCL leaves its builtins as out-of-line calls (lanes.h), and the loop over light samples would make three
  * of them per sample, each spilling every live vector register. These run inline on any target, with error
@@ -48,6 +48,19 @@ inline vfloat vexp2(vfloat z)
     p = MAD(f, p, 6.9314718e-01f);
     p = MAD(f, p, 1.0f);
     return p * AS_VFLOAT((i + 127) << 23); /* i = -127 scales by 0 */
+}
+
+/* sin x and cos x for |x| <= pi/4 (the concentric disk mapping's angles, path_tracing.cl): the minimax
+ * polynomials of Cephes' sinf and cosf on that range (S. L. Moshier, Cephes Math Library, 1992), whose own
+ * error is below 0.5u relative; Horner's 3 steps and the products add about 4 roundings of terms below
+ * |x|^3/6 <= 0.081 |x| (sine) and of 1 - x^2/2 >= 0.69 (cosine): within 2u |sin x| and 2u of 1 for the
+ * cosine, measured in tests/test_vmath.py. */
+inline void vsincos_quarter(vfloat x, vfloat *s, vfloat *c)
+{
+    vfloat z = x * x;
+    *s = MAD(x * z, MAD(MAD(-1.9515295891e-4f, z, 8.3321608736e-3f), z, -1.6666654611e-1f), x);
+    *c = MAD(z * z, MAD(MAD(2.443315711809948e-5f, z, -1.388731625493765e-3f), z, 4.166664568298827e-2f),
+             MAD(-0.5f, z, 1.0f));
 }
 
 /* 1 / sqrt(x) for normal, finite x > 0 (not for 0, subnormals or inf): the classic bit-level first guess

@@ -14,6 +14,8 @@ VMATH = """
 __kernel void log2_(int n, __global const float *x, __global float *out) { OUT(out, vlog2(IN(x))); }
 __kernel void exp2_(int n, __global const float *z, __global float *out) { OUT(out, vexp2(IN(z))); }
 __kernel void rsqrt_(int n, __global const float *x, __global float *out) { OUT(out, vrsqrt(IN(x))); }
+__kernel void sin_(int n, __global const float *x, __global float *out) { vfloat s, c; vsincos_quarter(IN(x), &s, &c); OUT(out, s); }
+__kernel void cos_(int n, __global const float *x, __global float *out) { vfloat s, c; vsincos_quarter(IN(x), &s, &c); OUT(out, c); }
 """
 
 
@@ -59,6 +61,22 @@ def test_exp2(harness):
     ref = np.exp2(z.astype(np.float64))
     assert np.max(np.abs(out - ref) / ref) <= 3 * U
     assert out[z == 0][0] == 1.0
+
+
+def test_sin_cos_of_a_quarter_turn(harness):
+    """vsincos_quarter on [-pi/4, pi/4] (uniform, and 2000 values by factors of 2 down to 2^-60, where sin x = x
+    must hold): the sine within 2u |sin x|, the cosine within 2u (vmath.h); a degree-5 Taylor sine (the Cephes
+    coefficients cut short) misses the bound by far, so the test can fail."""
+    rng = np.random.default_rng(7)
+    x = np.concatenate([rng.uniform(-np.pi / 4, np.pi / 4, 40000), 2.0 ** -rng.uniform(1, 60, 2000),
+                        [np.float32(np.pi / 4), -np.float32(np.pi / 4), 0.0]]).astype(np.float32)
+    sin, x = run(harness, "sin_", x)
+    cos, _ = run(harness, "cos_", x)
+    x64 = x.astype(np.float64)
+    assert np.all(np.abs(sin - np.sin(x64)) <= 2 * U * np.abs(np.sin(x64)))
+    assert np.max(np.abs(cos - np.cos(x64))) <= 2 * U
+    taylor = x64 - x64 ** 3 / 6 + x64 ** 5 / 120
+    assert np.max(np.abs(taylor - np.sin(x64)) / np.maximum(np.abs(np.sin(x64)), 1e-30)) > 2 * U
 
 
 def test_exp2_underflow(harness):
