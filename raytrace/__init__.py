@@ -17,10 +17,13 @@ import os
 import signal
 import sys
 
+from .errors import interrupted_line as _interrupted_line  # no imports of its own: quick
+
 
 def _interrupted_while_loading(signum, frame):
-    from .outputs import interrupted_line  # the standard library and errors.py only: nothing slow
-    os.write(2, (interrupted_line(signum) + "\n").encode())
+    # _interrupted_line is bound before the handler goes in: imported here, from outputs.py, a signal that landed
+    # while the package imported outputs.py met the half-made module (ImportError, a traceback; seen in the suite)
+    os.write(2, (_interrupted_line(signum) + "\n").encode())
     os._exit(128 + signum)
 
 

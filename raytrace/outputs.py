@@ -24,16 +24,10 @@ import sys
 import tempfile
 import threading
 
-from .errors import InputError
+from .errors import InputError, interrupted_line  # noqa: F401 (the command line takes it from here)
 
 PREFIX = ".raytrace-"
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-
-
-def interrupted_line(signum, written=False):
-    """The command line's one line for a signal that ended it."""
-    done = "its outputs were written" if written else "nothing written"
-    return f"raytrace: interrupted by {signal.Signals(signum).name}; {done}"
 
 
 class Interrupted(BaseException):
@@ -241,10 +235,12 @@ class Outputs:
     @contextlib.contextmanager
     def writing(self, tmp):
         """Around the writing of a reserved temporary: an OSError about it (a full disk, a file too large)
-        becomes the InputError naming the option and the path the user gave."""
+        becomes the InputError naming the option and the path the user gave. A signal meanwhile is held until
+        the writer is done (the temporary is then removed, as after any signal)."""
         [out] = [o for o in self.outputs if o.tmp == str(tmp)]
         try:
-            yield out.tmp
+            with _held():  # a writer cut short by a signal complains on stderr itself (libpng: "No IDATs written")
+                yield out.tmp
         except OSError as e:
             if e.filename not in (None, out.tmp):
                 raise
