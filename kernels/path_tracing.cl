@@ -33,7 +33,9 @@
 #define LIGHT_SOLID_ANGLE 0
 #endif
 
+#ifndef RR_DEPTH
 #define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
+#endif
 #ifndef PATH_SAMPLING
 /* How light reaching a vertex is sampled: 0, both ways combined by MIS (the renderer's only choice); tests
  * (tests/test_path_tracing.py) build 1, the lights alone, and 2, the BSDF alone, which must agree with it. */

@@ -163,11 +163,11 @@ __kernel void trace(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const 
 """
 
 
-def traced(harness, scene, p, n, sampling, lanes=1024, samples=16, shaded=False, solid_angle=False):
+def traced(harness, scene, p, n, sampling, lanes=1024, samples=16, shaded=False, solid_angle=False, **defines_too):
     """(cases, lanes) estimates of the red channel leaving points p, light reaching them sampled as
     `sampling` says (path_tracing.cl's PATH_SAMPLING: 0 MIS, 1 the lights alone, 2 the BSDF alone); with
     `shaded`, the points have material 0's BSDF, else a white Lambertian one; with `solid_angle`, the lights
-    sampled by solid angle (LIGHT_SOLID_ANGLE)."""
+    sampled by solid angle (LIGHT_SOLID_ANGLE); defines_too, more build options (RR_DEPTH)."""
     pattern = samplers.pattern("sobol", 1)
     features = dataclasses.replace(Features.of(scene, harness.lanes), direct_lighting=False, path_tracing=True)
     defines = dict(option[2:].split("=") for option in features.options() if not option.startswith("-DLANES"))
@@ -175,7 +175,7 @@ def traced(harness, scene, p, n, sampling, lanes=1024, samples=16, shaded=False,
             **texture_tables(scene), "light_samples": pattern.table(), "p": planar(np.repeat(p, lanes, axis=0)),
             "nrm": planar(np.repeat(n, lanes, axis=0)), "samples": np.int32(samples)}
     out = harness.run(TRACE, "trace", len(p) * lanes, args, {"out": 3}, **defines, PATH_SAMPLING=sampling,
-                      SHADED=int(shaded), LIGHT_SOLID_ANGLE=int(solid_angle))["out"]
+                      SHADED=int(shaded), LIGHT_SOLID_ANGLE=int(solid_angle), **defines_too)["out"]
     return out[0].reshape(len(p), lanes)
 
 
@@ -209,6 +209,24 @@ def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
     est = {k: traced(harness, scene, LIGHT_POINTS, LIGHT_NORMALS, k) for k in (0, 1, 2)}
     mean, se = assert_techniques_agree(est)
     assert np.all(mean[0] > 0) and se[0][4] < min(se[1][4], se[2][4])
+
+
+def test_roulette_comes_after_the_light_samples(harness, cornell):
+    """Russian roulette decides after a vertex's light samples and BSDF sample, before its ray is traced, as
+    in Mitsuba 3 and pbrt-v4 (path_tracing.cl). With the lights alone sampled (PATH_SAMPLING 1: light that a
+    BSDF ray meets weighs 0) and max_depth = RR_DEPTH + 1, the last vertex shaded is the first where roulette
+    plays, and it can only cut the ray along which no light is counted: every lane's estimate equals, to the
+    bit, that of a build whose roulette never plays (RR_DEPTH 100; the numbers drawn are the same). One
+    vertex deeper, roulette cuts paths before a vertex's light samples, and the two builds differ: the
+    comparison sees roulette where it acts. Roulette played right after a vertex's hit, before its light
+    samples (the placement before commit 07d2363), fails the first part."""
+    scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
+    for depth, same in ((6, True), (7, False)):
+        at = dataclasses.replace(scene, max_depth=depth)
+        with_roulette = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 1, lanes=64)
+        without = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 1, lanes=64, RR_DEPTH=100)
+        assert np.array_equal(with_roulette, without) == same, depth
+        assert np.all(np.isfinite(with_roulette)) and np.all(with_roulette >= 0)
 
 
 def test_lights_sampled_by_solid_angle(harness, cornell):
