@@ -97,15 +97,22 @@ def surface_frames(soup, hits, d, index):
     return face * side, shading / np.linalg.norm(shading, axis=1, keepdims=True) * side
 
 
-def shadow_rays(scene, soup, o, d, hits, light_samples, rng):
-    """Shadow segments (float32 origins, directions to the light point, and tfar) from every surface hit to
-    `light_samples` uniformly random points of each light, where the kernel would cast them."""
+def surface_points(scene, soup, o, d, hits):
+    """Where the rays (o, d) hit a surface before any light (the kernel shades those hits): the points
+    (float64), their geometric and shading normals on the rays' side (surface_frames), and the origins of
+    rays leaving them, off the surface by OFFSET times the point's largest coordinate."""
     o, d = o.astype(np.float64), d.astype(np.float64)
     t = hits["tfar"].astype(np.float64)
     index = np.nonzero((hits["primID"] >= 0) & (t < light_distances(scene.lights, o, d)))[0]
     p = o[index] + t[index, None] * d[index]
     ng, n = surface_frames(soup, hits, d, index)
-    origin = p + OFFSET * np.maximum(np.abs(p).max(1), 1.0)[:, None] * ng
+    return p, ng, n, p + OFFSET * np.maximum(np.abs(p).max(1), 1.0)[:, None] * ng
+
+
+def shadow_rays(scene, soup, o, d, hits, light_samples, rng):
+    """Shadow segments (float32 origins, directions to the light point, and tfar) from every surface hit to
+    `light_samples` uniformly random points of each light, where the kernel would cast them."""
+    p, ng, n, origin = surface_points(scene, soup, o, d, hits)
     origins, directions = [], []
     for light in scene.lights:
         for uv in rng.random((light_samples, len(p), 2)):
@@ -135,14 +142,9 @@ def bounce_rays(scene, soup, o, d, hits, rng):
     """Scattered rays (float32 origins and unit directions): from every surface hit one direction drawn with
     density cos / pi about the shading normal, kept where it leaves the surface on the side the camera ray came
     from (the kernel's rule), its origin off the surface as the shadow rays' are."""
-    o, d = o.astype(np.float64), d.astype(np.float64)
-    t = hits["tfar"].astype(np.float64)
-    index = np.nonzero((hits["primID"] >= 0) & (t < light_distances(scene.lights, o, d)))[0]
-    p = o[index] + t[index, None] * d[index]
-    ng, n = surface_frames(soup, hits, d, index)
+    _, ng, n, origin = surface_points(scene, soup, o, d, hits)
     wi = cosine_directions(n, rng)
     leaves = np.einsum("ij,ij->i", ng, wi) > 0
-    origin = p + OFFSET * np.maximum(np.abs(p).max(1), 1.0)[:, None] * ng
     return origin[leaves].astype(np.float32), wi[leaves].astype(np.float32)
 
 
