@@ -15,8 +15,8 @@ import sys
 from pathlib import Path
 
 from . import samplers
-from .errors import InputError
-from .outputs import (Interrupted, Outputs, committed, handle_signals, interrupted_line, raise_pending, scene_inputs,
+from .errors import InputError, interrupted_line
+from .outputs import (Interrupted, Outputs, committed, handle_signals, raise_pending, scene_inputs,
                       write_json)
 from .image import metadata
 from .image_file import FORMATS, write_image_file

@@ -24,7 +24,7 @@ import sys
 import tempfile
 import threading
 
-from .errors import InputError, interrupted_line  # noqa: F401 (the command line takes it from here)
+from .errors import InputError
 
 PREFIX = ".raytrace-"
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
