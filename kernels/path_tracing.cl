@@ -372,9 +372,8 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes)
 #elif PATH_SAMPLING == 2
         w_env = (vfloat)(1.0f);
 #endif
-        path->radiance = v3_add(path->radiance,
-                                v3_select(v3_splat(0.0f, 0.0f, 0.0f),
-                                          v3_scale(v3_mul(path->beta, environment_radiance(s, wi, escaped)), w_env), escaped));
+        vec3 e = v3_scale(v3_mul(path->beta, environment_radiance(s, wi, escaped)), w_env);
+        path->radiance = v3_add(path->radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, escaped));
     }
 #endif
     vint lit = seen & (hit.t < INFINITY);

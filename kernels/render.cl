@@ -1,16 +1,17 @@
 /* The per-pixel pipeline: generate camera rays, intersect, find the material's shading point, shade (the
- * scene's model: the course's Phong, or direct lighting), accumulate.
+ * scene's model: the course's Phong, direct lighting, or path tracing), accumulate.
  *
  * A launch renders the band of rows [row0, row1) with the pixel samples [sample0, sample0 + n_samples) of a
- * progressive render (the host accumulates passes). One work-item renders a tile of pixels, several samples
- * of each at once where n_samples allows (tile.h); in the path model each lane starts its next sample as its
- * path ends (render_paths). Lanes beyond the band or the image's width store nothing. The output holds the band only, so its size is bounded whatever the image's: planes of
- * width * (row1 - row0) floats, row y at y - row0: R, G, B (sums over the launch's pixel samples, linear),
- * the number of rays traced for the pixel, and, where n_first > 0, R, G, B again over the launch's first
- * n_first samples only: the first half of a pass that holds both halves of the host's error estimate
- * (raytrace/renderer/progressive.py), so that a pass may hold all of a render's samples and a work-item's
- * lanes as many of a pixel's. A measuring build (COUNT_VISITS, scene.h) stores VISIT_KINDS planes more: the
- * counts of nodes and primitives the work-item's traversals tested, each shared equally among its pixels. */
+ * progressive render (the host accumulates passes). One work-item renders a tile of pixels, several samples of
+ * each at once where n_samples allows (tile.h); in the path model each lane starts its next sample as its path
+ * ends (render_paths). Lanes beyond the band or the image's width store nothing. The output holds the band
+ * only, so its size is bounded whatever the image's: planes of width * (row1 - row0) floats, row y at y -
+ * row0: R, G, B (sums over the launch's pixel samples, linear), the number of rays traced for the pixel, and,
+ * where n_first > 0, R, G, B again over the launch's first n_first samples only: the first half of a pass that
+ * holds both halves of the host's error estimate (raytrace/renderer/progressive.py), so that a pass may hold
+ * all of a render's samples and a work-item's lanes as many of a pixel's. A measuring build (COUNT_VISITS,
+ * scene.h) stores VISIT_KINDS planes more: the counts of nodes and primitives the work-item's traversals
+ * tested, each shared equally among its pixels. */
 #include "camera.cl"
 #include "tile.h"
 #if HAS_PATH_TRACING
@@ -216,20 +217,19 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
 #else
     render_samples(&scene, ts, tile, key, pixel_samples, light_samples, sample0, n_samples, n_first, &sums);
 #endif
-    const vec3 sum = sums.sum, carry = sums.carry, first_sum = sums.first_sum, first_carry = sums.first_carry;
-    vfloat rays = sums.rays + (float)(n_samples / tile.group); /* and the camera rays */
+    const vfloat rays = sums.rays + (float)(n_samples / tile.group); /* and the camera rays */
 
     const int plane = width * (row1 - row0);
     const vint index = (y - row0) * width + x, stored = active & (tile.sample == 0); /* a pixel's first lane */
-    store_lanes(out, index, pixel_sums(sum.x, carry.x, tile.group), stored);
-    store_lanes(out + plane, index, pixel_sums(sum.y, carry.y, tile.group), stored);
-    store_lanes(out + 2 * plane, index, pixel_sums(sum.z, carry.z, tile.group), stored);
+    store_lanes(out, index, pixel_sums(sums.sum.x, sums.carry.x, tile.group), stored);
+    store_lanes(out + plane, index, pixel_sums(sums.sum.y, sums.carry.y, tile.group), stored);
+    store_lanes(out + 2 * plane, index, pixel_sums(sums.sum.z, sums.carry.z, tile.group), stored);
     store_lanes(out + RAYS_PLANE * plane, index, pixel_sums(rays, (vfloat)(0.0f), tile.group), stored);
     if (n_first > 0) {
         __global float *first = out + FIRST_HALF_PLANE * plane;
-        store_lanes(first, index, pixel_sums(first_sum.x, first_carry.x, tile.group), stored);
-        store_lanes(first + plane, index, pixel_sums(first_sum.y, first_carry.y, tile.group), stored);
-        store_lanes(first + 2 * plane, index, pixel_sums(first_sum.z, first_carry.z, tile.group), stored);
+        store_lanes(first, index, pixel_sums(sums.first_sum.x, sums.first_carry.x, tile.group), stored);
+        store_lanes(first + plane, index, pixel_sums(sums.first_sum.y, sums.first_carry.y, tile.group), stored);
+        store_lanes(first + 2 * plane, index, pixel_sums(sums.first_sum.z, sums.first_carry.z, tile.group), stored);
     }
 #if COUNT_VISITS
     const float pixels = (float)count_lanes(stored);
