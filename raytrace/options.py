@@ -54,6 +54,10 @@ class RenderOptions:
     max_band_bytes: int = option(MAX_BAND_BYTES, "the device output buffer's size in bytes, at least one row",
                                  cli=False)
     max_pass_work: int = option(PASS_WORK, "rays of a pass, roughly, at most", cli=False)
+    accumulate: str | None = option(None, 'where the passes add up: "device" (the sums stay on the device and the '
+                                    'host reads the images once) or "host" (float64 sums, each pass read back) '
+                                    "(default: the device on GPUs, the host on CPUs)",
+                                    choices=("device", "host"))
     client: object = option(None, "a dask.distributed.Client to render on, instead of scheduler", cli=False)
 
 

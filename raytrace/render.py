@@ -5,7 +5,8 @@ passes accumulate in renderer/progressive.py.
 
 Renders of any size: a launch renders a band of whole rows into a device buffer of one band, which the host
 adds into its sums before the next launch, so device memory is bounded by max_band_bytes; host memory grows
-with the image (progressive.BYTES_PER_PIXEL), and a render it cannot hold is refused before any device work."""
+with the image (progressive.BYTES_PER_PIXEL), and a render it cannot hold is refused before any device work.
+On a GPU the sums stay on the device instead (renderer/device_sums.py), where they fit."""
 import sys
 import time
 import dataclasses
@@ -21,7 +22,7 @@ from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
 from .renderer.cpu_target import lanes_for
 from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
-from .renderer.progressive import (BYTES_PER_PIXEL, CHANNELS, MIN_PASSES_FOR_TARGET, PASS_WORK, Accumulator,
+from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_WORK,
                                    first_half, pass_size, row_chunks)
 from .options import API, MAX_BAND_BYTES, RenderOptions  # noqa: F401 (MAX_BAND_BYTES: for the renderer's callers)
 from .image import Image
@@ -129,7 +130,7 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
            texture_filter="trilinear", shading=None, max_depth=None, seed=0, time_limit=None, target_error=None,
            device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
-           max_pass_work=PASS_WORK, client=None):
+           max_pass_work=PASS_WORK, accumulate=None, client=None):
     """Render `scene` (from load_file, load_dict or load_string); returns (image, stats).
 
     image is a raytrace.Image: an H x W x 3 float32 numpy array of linear radiance (row 0 at the top) that
@@ -165,6 +166,9 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
         progress: a progress bar on stderr: True, False, or None for one once the render takes a second.
         max_band_bytes: the device output buffer's size in bytes, at least one row.
         max_pass_work: rays of a pass, roughly, at most.
+        accumulate: where the passes add up: "device" (the sums stay on the device between passes and the
+            host reads the images once: docs/gpu.md), "host" (float64 sums on the host, each pass read back),
+            or None: the device on GPUs, the host on CPUs and on a Dask cluster.
         client: a dask.distributed.Client to render on, instead of scheduler.
 
     Returns:
@@ -175,7 +179,7 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
         light_sampler=light_sampler, texture_filter=texture_filter, shading=shading, max_depth=max_depth, seed=seed,
         time_limit=time_limit, target_error=target_error, device=device, scheduler=scheduler, lanes=lanes,
         features=features, progress=progress, max_band_bytes=max_band_bytes, max_pass_work=max_pass_work,
-        client=client)
+        client=client, accumulate=accumulate)
     return Image.of(image, variance, stats, scene.path), stats
 
 
@@ -273,17 +277,21 @@ def render_progressive(scene, **kwargs):
         _option(options.max_depth, API, "max_depth", lambda v: scene.shading == "path",
                 f'is the path model\'s, and this render\'s shading is "{scene.shading}"')
         scene = dataclasses.replace(scene, max_depth=options.max_depth)
+    _option(options.accumulate, API, "accumulate", lambda v: v in (None, "device", "host"),
+            'must be "device" or "host"')
+    if options.accumulate == "device" and (options.scheduler is not None or options.client is not None):
+        raise InputError(API, "accumulate", options.accumulate, "a Dask render adds its bands on the client: "
+                         'use "host" or None')
     r = resolve_all(scene, options)
     check_memory(r.width, r.height)
     passes = _passes(scene, options, r)
-    acc, rays, render_seconds, history = Accumulator((CHANNELS, r.height, r.width)), 0.0, 0.0, []
+    acc, render_seconds, history = passes.accumulator(), 0.0, []
     progress, stopped_by = _Progress(r.spp, options.progress), "spp"
     start = time.perf_counter()
     for k, (_, n, n_first) in enumerate(r.passes):
         pass_start = time.perf_counter()
-        seconds, pass_rays = passes.run_pass(k, acc)
+        render_seconds += passes.run_pass(k, acc)
         acc.end_pass(n, n_first)
-        render_seconds, rays = render_seconds + seconds, rays + pass_rays
         now = time.perf_counter()
         rmse, relative = acc.estimated_rmse(keep_variance=acc.n_total >= r.spp)  # the last pass: images() reuses it
         history.append({"pass": acc.passes, "samples": acc.n_total, "seconds": now - start,
@@ -304,6 +312,7 @@ def render_progressive(scene, **kwargs):
     progress.close()
     wall_seconds = time.perf_counter() - start
 
+    rays = acc.rays_traced()
     image, variance = acc.images()  # rmse and relative are the last pass's
     nonfinite = sum(_zero_nonfinite(a) for a in (image, variance) if a is not None)
     info = passes.info()

@@ -47,6 +47,14 @@ def test_a_kernel_clang_rejects_fails(monkeypatch, cornell, target):
         compile_scene(dataclasses.replace(cornell), target)
 
 
+@pytest.mark.parametrize("target", [t for t in GPU_TARGETS if t != "pocl"])
+def test_the_accumulation_kernels_compile(target):
+    """kernels/accumulate.cl, the sums a GPU keeps between passes (renderer/device_sums.py), compiles for every
+    GPU target too: its own program, outside the renderer's."""
+    output, _ = clang_compile(None, target, '#include "accumulate.cl"\n')
+    assert len(output) > 500
+
+
 PATH_MODEL = dict(path_tracing=True, conductors=True, dielectrics=True, rough_conductors=True, environment=True)
 
 

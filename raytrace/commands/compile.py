@@ -59,14 +59,15 @@ def _clang(target):
                      "`gpu` extra), or Debian's clang (apt-get install clang)")
 
 
-def clang_compile(features, target):
-    """(the output, seconds); a compile error raises RuntimeError with clang's first error line."""
+def clang_compile(features, target, entry=SOURCE):
+    """(the output, seconds) of the source `entry` (default: the renderer's) built with the features' -D options
+    (None: none); a compile error raises RuntimeError with clang's first error line."""
     clang, header = _clang(target)
     with tempfile.TemporaryDirectory() as tmp:
         source, output = Path(tmp) / "render_entry.cl", Path(tmp) / "out"
-        source.write_text(SOURCE)
+        source.write_text(entry)
         command = [*clang, "-x", "cl", "-cl-std=CL1.2", *header, "-O2", *_whole(target), *CLANG_TARGETS[target],
-                   *features.options(), "-I", str(kernel_dir()), str(source), "-o", str(output)]
+                   *(features.options() if features else ()), "-I", str(kernel_dir()), str(source), "-o", str(output)]
         start = time.perf_counter()
         result = subprocess.run(command, capture_output=True, text=True)
         seconds = time.perf_counter() - start

@@ -5,15 +5,16 @@ pass a task."""
 import numpy as np
 import pyopencl as cl
 
-from ..errors import InputError
+from ..errors import API, InputError
 from ..structs import tile_shape
 from .cpu_target import apply_target, check_lanes, describe_target
 from .device import context_for, default_lanes, describe, select_device
+from .device_sums import DeviceSums, device_fits
 from .interface import KernelArguments
 from .packing import texture_tables
 from .scene_tables import scene_tables
 from .program import Features, render_program
-from .progressive import CHANNELS, PASS_WORK
+from .progressive import CHANNELS, PASS_WORK, Accumulator
 
 # The kernel's output planes, float32 (kernels/render.cl's): R, G, B sums, the ray count, R, G, B over the
 # launch's first n_first samples; a measuring build's counts after them
@@ -96,17 +97,22 @@ class _Bands:
         """The first row of every band, in the order a pass adds them."""
         return range(0, self.height, self.rows)
 
-    def run_band(self, queue, args, row0, rows=None):
-        """Launch the band of `rows` (default: as many as fit, up to the image's end) from row0 with the
-        kernel's other `args` set: (its CHANNELS x rows x width float32 sums and those of the first n_first
-        samples or None, views of the host buffer; rays traced; kernel seconds)."""
+    def launch_band(self, queue, args, row0, rows=None):
+        """Enqueue the band of `rows` (default: as many as fit, up to the image's end) from row0, with the
+        kernel's other `args` set; returns (its event, rows)."""
         rows = min(self.rows, self.height - row0) if rows is None else rows
         args.set("out", self.host, self.device)
         args.set("row0", np.int32(row0))
         args.set("row1", np.int32(row0 + rows))
         columns, tile_rows = self.tile
         tiles = (-(-self.width // columns), -(-rows // tile_rows))
-        event = args.launch(queue, launch_grid(tiles, self.local_size), self.local_size)
+        return args.launch(queue, launch_grid(tiles, self.local_size), self.local_size), rows
+
+    def run_band(self, queue, args, row0, rows=None):
+        """Launch the band of `rows` (default: as many as fit, up to the image's end) from row0 with the
+        kernel's other `args` set: (its CHANNELS x rows x width float32 sums and those of the first n_first
+        samples or None, views of the host buffer; rays traced; kernel seconds)."""
+        event, rows = self.launch_band(queue, args, row0, rows)
         event.wait()
         out = self.host[:self.planes * rows * self.width].reshape(self.planes, rows, self.width)
         cl.enqueue_copy(queue, out, self.device)
@@ -116,13 +122,23 @@ class _Bands:
                 (event.profile.end - event.profile.start) * 1e-9)
 
     def run_pass(self, queue, args, acc):
-        """Every band, its sums added into `acc`; returns (kernel seconds, rays traced)."""
-        seconds = rays = 0.0
+        """Every band, its sums and rays added into `acc`, an Accumulator on the host or DeviceSums; returns
+        the kernel seconds. Into DeviceSums the bands are added by the device, in the queue's order, and nothing
+        is read back."""
+        if isinstance(acc, DeviceSums):
+            events = []
+            for row0 in self.starts():
+                event, rows = self.launch_band(queue, args, row0)
+                acc.add_band(self.device, row0, rows, self.n_first > 0)
+                events.append(event)
+            cl.wait_for_events(events)
+            return sum((e.profile.end - e.profile.start) * 1e-9 for e in events)
+        seconds = 0.0
         for row0 in self.starts():
             sums, first, band_rays, band_seconds = self.run_band(queue, args, row0)
-            acc.add_rows(row0, sums, first)
-            seconds, rays = seconds + band_seconds, rays + band_rays
-        return seconds, rays
+            acc.add_rows(row0, sums, first, band_rays)
+            seconds += band_seconds
+        return seconds
 
 
 class DeviceRender:
@@ -174,19 +190,49 @@ class DeviceRender:
                               "visit_maps": bands.visits} if self.features.count_visits else {})}}
 
 
+def sums_on_device(device, features, accumulate, width, height):
+    """Whether a render's passes add up on its device (DeviceSums) rather than on the host (Accumulator): as
+    the option `accumulate` says, and where it is None on a GPU whose memory holds the sums
+    (device_sums.device_fits); a measuring build (count_visits) reads its counts back each pass, so on the host.
+    On a CPU the host's sums are as near as the device's: the device's memory is the host's."""
+    if accumulate is None:
+        return (not device.type & cl.device_type.CPU and not features.count_visits
+                and device_fits(device, width, height))
+    if accumulate == "device" and features.count_visits:
+        raise InputError(API, "accumulate", accumulate, "a counting build (features.count_visits) reads "
+                         'its counts back every pass: use "host"')
+    if accumulate == "device" and not device_fits(device, width, height):
+        raise InputError(API, "accumulate", accumulate, f"the sums of a {width}x{height} image do not fit "
+                         f"the device's memory ({describe(device)}): use \"host\"")
+    return accumulate == "device"
+
+
 class LocalPasses:
     """The passes of a render on this process's device."""
 
     def __init__(self, scene, options, r):
         self.d, self.passes = DeviceRender(scene, options, r), r.passes
+        self.on_device = sums_on_device(self.d.device, self.d.features, options.accumulate, r.width, r.height)
+        self.shape, self.sums = (CHANNELS, r.height, r.width), None
+
+    def accumulator(self):
+        """Where the passes add up: DeviceSums on the device, or the host's Accumulator (sums_on_device)."""
+        if self.on_device:
+            self.sums = DeviceSums(self.d.queue.context, self.d.queue, self.shape[2], self.shape[1])
+            return self.sums
+        return Accumulator(self.shape)
 
     def run_pass(self, k, acc):
-        """Pass k's bands added into `acc`; returns (kernel seconds, rays traced)."""
+        """Pass k's bands added into `acc` (accumulator()); returns the kernel seconds."""
         self.d.set_samples(*self.passes[k])
         return self.d.bands.run_pass(self.d.queue, self.d.args, acc)
 
     def info(self):
-        return self.d.info()
+        info = self.d.info()
+        info["extra"]["sums"] = "device" if self.on_device else "host"
+        if self.sums is not None:
+            info["extra"]["device_bytes"] += self.sums.nbytes
+        return info
 
     def cancel(self):
         pass

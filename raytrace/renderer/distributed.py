@@ -35,6 +35,7 @@ import time
 
 from ..errors import API, InputError
 from .device_render import DeviceRender
+from .progressive import CHANNELS, Accumulator
 
 PASSES_AHEAD = 2  # passes submitted beyond the one being merged: the workers never wait on the client
 CONNECT_SECONDS = 10
@@ -221,22 +222,27 @@ class DaskPasses:
         self.futures[k] = [self.client.submit(render_band, self.payload, self.resolved, self.digest,
                                               *self.passes[k], row0, rows, pure=False) for row0, rows in self.bands]
 
+    def accumulator(self):
+        """The client's float64 sums: the bands come from the workers' devices."""
+        return Accumulator((CHANNELS, self.resolved.height, self.resolved.width))
+
     def run_pass(self, k, acc):
-        """Pass k's bands added into `acc` in band order; returns (kernel seconds, rays traced)."""
+        """Pass k's bands added into `acc` in band order; returns the kernel seconds."""
         for j in range(k, min(k + 1 + PASSES_AHEAD, len(self.passes))):
             if j not in self.futures:
                 self._submit(j)
-        seconds = rays = 0.0
+        seconds = 0.0
         for (row0, _), future in zip(self.bands, self.futures.pop(k)):
             sums, first, band_rays, band_seconds, self.last_info = future.result()
-            acc.add_rows(row0, sums, first)
-            seconds, rays = seconds + band_seconds, rays + band_rays
-        return seconds, rays
+            acc.add_rows(row0, sums, first, band_rays)
+            seconds += band_seconds
+        return seconds
 
     def info(self):
         """The statistics' device: the last band's worker's, the workers being of one kind."""
         n = len(self.client.scheduler_info()["workers"])
-        return {**self.last_info, "device": f"{self.last_info['device']} (Dask, {n} workers)"}
+        return {**self.last_info, "device": f"{self.last_info['device']} (Dask, {n} workers)",
+                "extra": {**self.last_info["extra"], "sums": "host"}}
 
     def cancel(self):
         """Drop the passes submitted ahead of a render that stopped early."""

@@ -50,14 +50,17 @@ class Accumulator:
         self.prefix = None  # float32 sum of the first n_prefix samples, n_prefix a power of two
         self.kept_variance = None  # variance() as estimated_rmse(keep_variance=True) made it, until more sums come
         self.n_prefix = self.n_total = self.passes = 0
+        self.rays = 0.0  # rays traced, over every band added
 
     def _chunks(self):
         return row_chunks(self.total.shape[1], self.total.shape[2] * self.total.shape[0] * 8)
 
-    def add_rows(self, row0, sums, first=None):
+    def add_rows(self, row0, sums, first=None, rays=0.0):
         """Add the current pass's sums for the rows [row0, row0 + len); end_pass() counts the pass. `first`:
-        the sums over the first pass's first n_first samples (first_half), the first half of the estimate."""
+        the sums over the first pass's first n_first samples (first_half), the first half of the estimate;
+        `rays`: the rays those rows' samples traced."""
         rows = slice(row0, row0 + sums.shape[1])
+        self.rays += rays
         self.kept_variance = None
         if first is None and self.n_total > 0 and _is_power_of_two(self.n_total):
             # The count is about to pass a power of two: the first half of every later estimate.
@@ -83,6 +86,10 @@ class Accumulator:
         n_first)."""
         self.add_rows(0, sums, first)
         self.end_pass(n, n_first)
+
+    def rays_traced(self):
+        """The rays traced, over every band added so far."""
+        return self.rays
 
     def _half_difference(self, rows):
         """(A - B) sqrt(nA nB) / N for `rows` (float64, planar), whose square estimates the variance of

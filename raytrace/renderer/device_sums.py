@@ -1,0 +1,151 @@
+"""A progressive render's sums kept on its device between passes (kernels/accumulate.cl), for a GPU.
+
+The host's Accumulator (progressive.py) reads every pass's output back and adds it in float64; on a GPU that
+host work outweighed the kernels (scene 0 at 512 x 512 on an H100: 6 of 8.7 ms a render). Here a pass's bands
+are added on the device as double-floats, a pass sends back only its error estimate's partial sums (a few KB),
+and the host reads the image, its variance and the ray count once, at the end. The estimate's halves, prefix
+and counts follow the Accumulator's rules exactly (the same n_prefix, the same weights), so both give the same
+images to within the roundings argued in kernels/accumulate.cl (tests/test_device_sums.py)."""
+import math
+
+import numpy as np
+import pyopencl as cl
+
+from .interface import KernelArguments
+from .program import build
+from .progressive import CHANNELS, _is_power_of_two
+
+SUM_PLANES = CHANNELS + 1  # R, G, B and the rays traced (kernels/accumulate.cl)
+PREFIX_KEEP, PREFIX_FROM_FIRST_HALF, PREFIX_FROM_TOTAL = 0, 1, 2
+BYTES_PER_PIXEL = 4 * (2 * SUM_PLANES + CHANNELS)  # the device buffers: hi and lo sums, the prefix
+ESTIMATE_ROWS = 16  # rows of a column each estimate_partials work-item sums: 32 work-items a column at 512 rows
+
+_programs = {}
+
+
+def accumulate_program(context):
+    """kernels/accumulate.cl built for `context`, once per context."""
+    if context not in _programs:
+        _programs[context], _ = build(context, '#include "accumulate.cl"\n')
+    return _programs[context]
+
+
+def device_fits(device, width, height):
+    """Whether the sums of a width x height render fit the device: every buffer within its largest allocation
+    and all of them within half its memory (the scene's tables and the band buffer need the rest)."""
+    largest = SUM_PLANES * width * height * 4
+    return (largest <= device.max_mem_alloc_size
+            and width * height * BYTES_PER_PIXEL <= device.global_mem_size // 2)
+
+
+class DeviceSums:
+    """The per-pixel sums of a progressive render on the device: the Accumulator's interface, with bands added
+    from the render kernel's output buffer (add_band) instead of host arrays."""
+
+    def __init__(self, context, queue, width, height):
+        self.queue, self.width, self.height = queue, width, height
+        program = accumulate_program(context)
+        self.kernels = {name: KernelArguments(cl.Kernel(program, name))
+                        for name in ("add_band", "estimate_partials", "resolve_images")}
+        pixels = width * height
+        self.total_hi, self.total_lo = (cl.Buffer(context, cl.mem_flags.READ_WRITE, SUM_PLANES * pixels * 4)
+                                        for _ in range(2))
+        for buffer in (self.total_hi, self.total_lo):
+            cl.enqueue_fill_buffer(queue, buffer, np.float32(0), 0, buffer.size)
+        self.prefix = cl.Buffer(context, cl.mem_flags.READ_WRITE, CHANNELS * pixels * 4)
+        self.chunks = -(-height // ESTIMATE_ROWS)
+        self.partials = np.empty((self.chunks, width, 2), np.float32)
+        self.partials_buffer = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.partials.nbytes)
+        self.nbytes = pixels * BYTES_PER_PIXEL + self.partials.nbytes  # the images' buffers come and go at the end
+        self.has_prefix = False
+        self.n_prefix = self.n_total = self.passes = 0
+        sums = {"total_hi": self.total_hi, "total_lo": self.total_lo, "prefix": self.prefix}
+        for name, args in self.kernels.items():
+            for key, buffer in sums.items():
+                args.set(key, np.empty(0, np.float32), buffer)
+            args.set("width", np.int32(width))
+            args.set("height", np.int32(height))
+
+    def add_band(self, out, row0, rows, has_first):
+        """Enqueue the addition of the render launch's output buffer `out` (the band of `rows` rows from row0;
+        with its first-half planes where has_first) into the sums; end_pass() counts the pass."""
+        if has_first:
+            prefix_from = PREFIX_FROM_FIRST_HALF
+        elif self.n_total > 0 and _is_power_of_two(self.n_total):
+            prefix_from = PREFIX_FROM_TOTAL  # the count is about to pass a power of two (progressive.py)
+        else:
+            prefix_from = PREFIX_KEEP
+        self.has_prefix |= prefix_from != PREFIX_KEEP
+        args = self.kernels["add_band"]
+        args.set("out", np.empty(0, np.float32), out)
+        args.set("row0", np.int32(row0))
+        args.set("rows", np.int32(rows))
+        args.set("prefix_from", np.int32(prefix_from))
+        args.launch(self.queue, (self.width, rows))
+
+    def end_pass(self, n, n_first=0):
+        """As Accumulator.end_pass."""
+        if n_first > 0:
+            self.n_prefix = n_first
+        elif self.n_total > 0 and _is_power_of_two(self.n_total):
+            self.n_prefix = self.n_total
+        self.n_total += n
+        self.passes += 1
+
+    def _weights(self, args):
+        """Set the half difference's weights (Accumulator._half_difference), computed in float64."""
+        n_rest = self.n_total - self.n_prefix
+        scale = math.sqrt(self.n_prefix * n_rest) / self.n_total
+        args.set("prefix_weight", np.float32(scale / self.n_prefix + scale / n_rest))
+        args.set("total_weight", np.float32(-scale / n_rest))
+
+    def estimated_rmse(self, keep_variance=False):
+        """As Accumulator.estimated_rmse: from the device's partial sums, added here in float64.
+        keep_variance is the host's economy; the device makes the variance image once, in images()."""
+        if not self.has_prefix:
+            return None, None
+        args = self.kernels["estimate_partials"]
+        self._weights(args)
+        args.set("chunks", np.int32(self.chunks))
+        args.set("partials", self.partials, self.partials_buffer)
+        args.launch(self.queue, (self.width, self.chunks))
+        cl.enqueue_copy(self.queue, self.partials, self.partials_buffer)
+        squares, values = self.partials.reshape(-1, 2).sum(axis=0, dtype=np.float64)
+        count = CHANNELS * self.width * self.height
+        rmse = math.sqrt(squares / count)
+        mean = values / count / self.n_total
+        return rmse, rmse / mean if mean > 0 else 0.0
+
+    def rays_traced(self):
+        """The rays traced, over every pass so far: the rays plane of both halves of the sums, added here."""
+        pixels = self.width * self.height
+        total = 0.0
+        for buffer in (self.total_hi, self.total_lo):
+            plane = np.empty(pixels, np.float32)
+            cl.enqueue_copy(self.queue, plane, buffer, src_offset=CHANNELS * pixels * 4)
+            total += float(plane.sum(dtype=np.float64))
+        return total
+
+    def images(self):
+        """(mean, variance or None), H x W x CHANNELS float32, as Accumulator.images; the sums are spent."""
+        shape = (self.height, self.width, CHANNELS)
+        image = np.empty(shape, np.float32)
+        variance = np.empty(shape, np.float32) if self.has_prefix else None
+        image_buffer = cl.Buffer(self.queue.context, cl.mem_flags.WRITE_ONLY, image.nbytes)
+        variance_buffer = cl.Buffer(self.queue.context, cl.mem_flags.WRITE_ONLY, image.nbytes if self.has_prefix else 4)
+        args = self.kernels["resolve_images"]
+        args.set("n", np.float32(max(self.n_total, 1)))  # exact: at most MAX_SAMPLES = 2^16
+        args.set("has_variance", np.int32(self.has_prefix))
+        if self.has_prefix:
+            self._weights(args)
+        else:
+            args.set("prefix_weight", np.float32(0))
+            args.set("total_weight", np.float32(0))
+        args.set("image", image, image_buffer)
+        args.set("variance", image, variance_buffer)
+        args.launch(self.queue, (self.width, self.height))
+        cl.enqueue_copy(self.queue, image, image_buffer)
+        if variance is not None:
+            cl.enqueue_copy(self.queue, variance, variance_buffer)
+        self.total_hi = self.total_lo = self.prefix = self.kernels = None
+        return image, variance
