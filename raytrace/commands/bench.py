@@ -151,7 +151,7 @@ def measure(scene_path, scene, repeat, kwargs, stats):
             "rays": stats.rays, "render_seconds": stats.render_seconds, "mrays_per_s": stats.mrays_per_s,
             "nominal_rays": nominal, "nominal_mrays_per_s": nominal / stats.render_seconds / 1e6,
             "wall_seconds": stats.wall_seconds, "nominal_wall_mrays_per_s": nominal / stats.wall_seconds / 1e6,
-            "scalar_render_seconds": scalar.render_seconds, "scalar_mrays_per_s": scalar.mrays_per_s,
+            "sums": stats.extra["sums"], "scalar_render_seconds": scalar.render_seconds, "scalar_mrays_per_s": scalar.mrays_per_s,
             "ratio_to_scalar": stats.mrays_per_s / scalar.mrays_per_s,
             "build_seconds_cold": cold["build_and_first_launch_seconds"],
             "build_seconds_warm": warm["build_and_first_launch_seconds"],
