@@ -3,9 +3,11 @@
  * end. The host's own sums (raytrace/renderer/progressive.py) are float64; kernels are float32 without
  * extensions, so a sum here is an unevaluated pair hi + lo of floats, a double-float (Dekker, "A floating-point
  * technique for extending the available precision", Numer. Math. 18, 1971): each addition's rounding error is
- * found exactly by Knuth's TwoSum (TAOCP vol. 2, 4.2.2) and carried in lo. Its error after N additions of
- * non-negative terms is within about N roundings of lo, N 2^-48 of the sum: 2^-32 for 65536 passes, far below
- * the float32 image it becomes, as the host's float64 sums are.
+ * found exactly by Knuth's TwoSum (TAOCP vol. 2, 4.2.2) and carried in lo. An addition's only rounding is
+ * that of lo + e, within u |lo + e| <= u (u |hi| + u |s|) <= 2 u^2 S (u = 2^-24, S the running sum of terms
+ * >= 0), so after N additions the pair is within N 2^-47 of the exact sum: 2^-31 for 65536 passes, far below
+ * the float32 image it becomes, as the host's float64 sums are. (A device that flushes subnormals loses at
+ * most 2^-126 absolute a step.)
  *
  * Layouts, planar like the host's: `total_hi`, `total_lo` hold SUM_PLANES planes of width * height floats (R,
  * G, B and the rays traced, row y at y * width); `prefix` CHANNELS planes, the float32 sum of the first
@@ -74,8 +76,9 @@ inline float half_difference(__global const float *total_hi, __global const floa
 /* Partial sums for the error estimate: work-item (x, k) sums, over the rows k, k + chunks, k + 2 chunks ...
  * of column x and its CHANNELS channels, the squared half differences and the sums' values (for the estimate
  * relative to the image's mean); the host adds the width * chunks pairs in float64. Neighbouring work-items
- * read neighbouring pixels. A float32 running sum of at most CHANNELS * height / chunks terms >= 0 is within
- * that many roundings of its value: 2^-14 relative for 48 terms, a negligible error in an error estimate. */
+ * read neighbouring pixels. A float32 running sum of n terms >= 0, n = CHANNELS * ceil(height / chunks), is
+ * within n - 1 roundings of its value: 47 u (2^-18.4) for 16 rows, under 2^-10 at most (16384 rows in 4 chunks),
+ * either way a negligible error in an error estimate. */
 __kernel void estimate_partials(__global const float *total_hi, __global const float *total_lo,
                                 __global const float *prefix, int width, int height, int chunks,
                                 float prefix_weight, float total_weight, __global float2 *partials)

@@ -15,13 +15,22 @@ from raytrace.errors import InputError
 from raytrace.options import RenderOptions
 from raytrace.render import render_progressive, resolve_all
 from raytrace.renderer.device_render import OUTPUT_PLANES, RAYS_PLANE
-from raytrace.renderer.device_sums import DeviceSums
-from raytrace.renderer.progressive import CHANNELS
+from raytrace.renderer.device_render import FIRST_HALF_PLANE
+from raytrace.renderer.device_sums import DeviceSums, estimate_chunks
+from raytrace.renderer.progressive import CHANNELS, Accumulator
 from raytrace.renderer.program import Features, build
 
 from helpers import CORNELL, ROOT, SESSION_KIND
 
 U = 2.0**-24  # float32's unit roundoff
+
+def half_difference_error(total, n_prefix, n_total):
+    """A bound on the device's error in the half difference where only the total T (float64) is known:
+    1.01 u T (5 wp + 4 |wt|) (test_device_sums_match_the_host argues it)."""
+    n_rest = n_total - n_prefix
+    w = math.sqrt(n_prefix * n_rest) / n_total
+    return 1.01 * U * total * (5 * (w / n_prefix + w / n_rest) + 4 * w / n_rest)
+
 
 ADD_ALL = """
 #include "accumulate.cl"
@@ -83,11 +92,98 @@ def test_a_constant_sample_gives_itself_back(cl_env, passes):
     image, variance = sums.images()
     assert np.array_equal(image, np.moveaxis(c, 0, -1))
     assert (variance is None) == (passes == 1)
-    if variance is not None:  # d is 0 but for the rounded weights: e of test_device_sums_match_the_host
+    if variance is not None:  # d is 0 but for its roundings: half_difference_error
         n_prefix = 1 << (passes - 1).bit_length() - 1
         scale = math.sqrt(n_prefix * (passes - n_prefix)) / passes
-        e = 3 * U * passes * c.astype(np.float64) * (scale / n_prefix + 2 * scale / (passes - n_prefix))
+        e = half_difference_error(passes * c.astype(np.float64), n_prefix, passes)
         assert np.all(variance <= np.moveaxis(e, 0, -1) ** 2)
+
+
+def _add_pass(context, host, device, sums, first, rays, bands):
+    """One pass of sums (CHANNELS x H x W float32), first-half sums or None and ray counts (H x W) added into
+    the host's Accumulator and into DeviceSums, band by band ((first row, rows) each), as a render adds them."""
+    for row0, rows in bands:
+        band = slice(row0, row0 + rows)
+        out = np.zeros((OUTPUT_PLANES, rows, sums.shape[2]), np.float32)
+        out[:CHANNELS], out[RAYS_PLANE] = sums[:, band], rays[band]
+        if first is not None:
+            out[FIRST_HALF_PLANE:FIRST_HALF_PLANE + CHANNELS] = first[:, band]
+        buffer = cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=out)
+        device.add_band(buffer, row0, rows, first is not None)
+        host.add_rows(row0, sums[:, band], None if first is None else first[:, band],
+                      float(rays[band].sum(dtype=np.float64)))
+
+
+# Passes as (samples, samples summed apart): a render's first pass sums half apart (progressive.first_half),
+# except a pass of one sample; then passes of any size, unequal ones included (a render's last).
+SCHEDULES = {"halves-then-unequal": [(4, 2), (2, 0), (2, 0), (4, 0), (8, 0), (3, 0), (7, 0)],
+             "ones": [(1, 0), (1, 0), (2, 0), (1, 0), (3, 0), (8, 0), (1, 0)],
+             "big-first": [(16, 8), (16, 0), (5, 0), (27, 0), (64, 0)]}
+
+
+@pytest.mark.parametrize("schedule", SCHEDULES.values(), ids=SCHEDULES)
+def test_device_sums_follow_the_accumulator_pass_by_pass(cl_env, schedule):
+    """Synthetic passes (per-pixel scales over 2^-6 .. 2^6, cubed uniform samples) added in two bands into
+    DeviceSums and the host's Accumulator, the estimate compared after every pass, as the time limit and the
+    target error read it:
+    - the same halves (n_prefix) and None before the second half exists;
+    - the RMSE within its rounding: with p and T the host's prefix and total and wp, wt the weights, the device's
+      half difference errs by at most e = 3 u |p| wp + 4 u |T| |wt| (a rounding each of the weights, of the pair
+      to hi, of the products and of their sum, each within u of the term it rounds or of the sum, which the
+      terms bound) plus one ulp of p times wp (its prefix, the pair rounded, may neighbour the host's float64
+      total rounded), times 1.01 for the second-order terms (2^-24 of these); the sum of squares S then errs by
+      at most 2 sqrt(S sum e^2) + sum e^2 (Cauchy-Schwarz) plus the float32 partial sums' n u S, n the terms of
+      one, and the squares' own roundings;
+    - the mean behind the relative estimate within (n + 2) u: the partial sums of hi, each within u/2 of its pair;
+    - the ray count exactly: odd counts below 2^23 a pixel a pass, past 2^24 within a few passes, so that the
+      pairs' lo parts hold part of it.
+    Skipping a prefix copy, a wrong weight, a band at the wrong row, or leaving lo out of the rays fails it."""
+    context, queue = cl_env
+    width, height = 48, 20
+    bands = [(0, 7), (7, 13)]
+    rng = np.random.default_rng(len(schedule))
+    host, device = Accumulator((CHANNELS, height, width)), DeviceSums(context, queue, width, height)
+    scale = 2.0 ** rng.uniform(-6, 6, (CHANNELS, height, width))
+    terms = CHANNELS * -(-height // device.chunks)
+    for n, n_first in schedule:
+        samples = (rng.uniform(0, 1, (n, CHANNELS, height, width)) ** 3 * scale).astype(np.float32)
+        sums = samples.astype(np.float64).sum(axis=0).astype(np.float32)
+        first = samples[:n_first].astype(np.float64).sum(axis=0).astype(np.float32) if n_first else None
+        rays = (2 * rng.integers(1 << 21, 1 << 22, (height, width)) + 1).astype(np.float32)
+        _add_pass(context, host, device, sums, first, rays, bands)
+        host.end_pass(n, n_first)
+        device.end_pass(n, n_first)
+        (rmse, relative), (d_rmse, d_relative) = host.estimated_rmse(), device.estimated_rmse()
+        assert (d_rmse is None) == (rmse is None) and device.n_prefix == host.n_prefix
+        if rmse is None:
+            continue
+        n_prefix, n_rest = host.n_prefix, host.n_total - host.n_prefix
+        w = math.sqrt(n_prefix * n_rest) / host.n_total
+        wp, wt = w / n_prefix + w / n_rest, w / n_rest
+        prefix = host.prefix.astype(np.float64)
+        e = 1.01 * (U * (3 * prefix * wp + 4 * host.total * wt) + np.spacing(host.prefix) * wp)
+        s = float(np.sum(np.square(host._half_difference(slice(None)))))
+        bound = 2 * math.sqrt(s * np.sum(e * e)) + np.sum(e * e) + (terms + 4) * U * s
+        assert abs(d_rmse**2 - rmse**2) * host.total.size <= bound  # (+ 4 u S: the squares' roundings)
+        assert abs(d_rmse / d_relative - rmse / relative) <= (terms + 2) * U * rmse / relative
+    assert device.rays_traced() == host.rays_traced()
+
+
+@pytest.mark.parametrize("bad", [np.inf, np.nan], ids=["inf", "nan"])
+def test_a_nonfinite_sum_meets_no_target(cl_env, bad):
+    """A NaN or Inf sample (a kernel bug: the image zeroes and counts it) leaves an estimate that says nothing:
+    its relative error is infinite on both sides, so no target error stops the render on it. Before, the
+    device's NaN sums made it 0, a target met."""
+    context, queue = cl_env
+    width, height = 16, 4
+    host, device = Accumulator((CHANNELS, height, width)), DeviceSums(context, queue, width, height)
+    for k in range(4):
+        sums = np.full((CHANNELS, height, width), 0.5, np.float32)
+        sums[1, 2, 3] = bad if k == 2 else 0.5
+        _add_pass(context, host, device, sums, None, np.ones((height, width), np.float32), [(0, height)])
+        host.end_pass(1)
+        device.end_pass(1)
+    assert host.estimated_rmse()[1] == device.estimated_rmse()[1] == math.inf
 
 
 SIZE = dict(width=40, height=30, sampler="sobol", progress=False)
@@ -115,12 +211,14 @@ def test_device_sums_match_the_host(name, spp):
     - Rays: equal; each pixel's count is an integer, added exactly by both.
     - Image: within 1 float32 ulp of the host's: the host rounds its float64 mean once; the device's mean_of is
       within little more than half an ulp of the pair's quotient, the pair within 2^-33 of the sum.
-    - Variance: the half difference d = p wp + T wt (prefix p <= total T, weights wp and wt rounded once from
-      float64) errs by at most 2 roundings of |p wp| + |T wt| <= T (wp + |wt|) on the device, one more where its
-      float32 prefix is the neighbour of the host's (the pair and the float64 total rounding apart): e = 3 u T
-      (wp + |wt|). Then |d'^2 - d^2| <= e (2 |d| + e), and each side's square rounds once more (u d^2).
+    - Variance: the half difference d = p wp + T wt (prefix p and total T, weights wp and wt rounded once from
+      float64) errs on the device by at most e = u (3 |p| wp + 4 |T| |wt|) plus one ulp of p times wp, as in
+      test_device_sums_follow_the_accumulator_pass_by_pass; with p <= T (the samples are >= 0) and one ulp at
+      most 2 u |p|, e <= 1.01 u T (5 wp + 4 |wt|) (half_difference_error), T from the image. Then |d'^2 - d^2|
+      <= e (2 |d| + e), and each side's square rounds once more (2 u d^2).
     - The last pass's estimated RMSE: its sum of squares S errs by sum e (2 |d| + e) <= 2 sqrt(S sum e^2) + sum
-      e^2 (Cauchy-Schwarz), plus the device's float32 partial sums of 3 * 16 terms each (48 u S).
+      e^2 (Cauchy-Schwarz), plus the device's float32 partial sums of n terms each (n u S) and the squares' own
+      roundings.
     A prefix taken at the wrong pass, a weight swapped, or a band added twice misses these by far more."""
     scene = _scene(name)
     image, variance, stats = _render(scene, spp, "host")
@@ -132,21 +230,17 @@ def test_device_sums_match_the_host(name, spp):
     ulp = np.spacing(image)
     assert np.all(np.abs(d_image.astype(np.float64) - image) <= ulp)
 
-    n_total, n_prefix = spp, 2 if spp == 4 else 16
-    n_rest = n_total - n_prefix
-    scale = math.sqrt(n_prefix * n_rest) / n_total
-    weights = scale / n_prefix + 2 * scale / n_rest  # wp + |wt|
-    total = image.astype(np.float64) * n_total
-    e = 3 * U * total * weights
+    e = half_difference_error(image.astype(np.float64) * spp, 2 if spp == 4 else 16, spp)
     d = np.sqrt(variance.astype(np.float64))
-    bound = e * (2 * d + e) + U * variance
+    bound = e * (2 * d + e) + 2 * U * variance
     assert np.all(np.abs(d_variance.astype(np.float64) - variance) <= bound)
 
     count = variance.size
     s = float(np.sum(variance, dtype=np.float64))
-    s_bound = 2 * math.sqrt(s * np.sum(e * e)) + np.sum(e * e) + 48 * U * s
+    terms = CHANNELS * -(-SIZE["height"] // estimate_chunks(SIZE["width"], SIZE["height"]))
+    s_bound = 2 * math.sqrt(s * np.sum(e * e)) + np.sum(e * e) + (terms + 4) * U * s
     rmse, d_rmse = stats.history[-1]["estimated_rmse"], d_stats.history[-1]["estimated_rmse"]
-    assert abs(d_rmse**2 - rmse**2) * count <= s_bound + 4 * U * s  # each rmse squared back, rounded
+    assert abs(d_rmse**2 - rmse**2) * count <= s_bound
     assert [h["estimated_rmse"] is None for h in d_stats.history] == [h["estimated_rmse"] is None
                                                                          for h in stats.history]
 

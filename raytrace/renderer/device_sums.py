@@ -2,8 +2,8 @@
 
 The host's Accumulator (progressive.py) reads every pass's output back and adds it in float64; on a GPU that
 host work outweighed the kernels (scene 0 at 512 x 512 on an H100: 6 of 8.7 ms a render). Here a pass's bands
-are added on the device as double-floats, a pass sends back only its error estimate's partial sums (a few KB),
-and the host reads the image, its variance and the ray count once, at the end. The estimate's halves, prefix
+are added on the device as double-floats, a pass sends back only its error estimate's partial sums (at most
+MAX_PARTIALS pairs, 512 KB), and the host reads the image, its variance and the ray count once, at the end. The estimate's halves, prefix
 and counts follow the Accumulator's rules exactly (the same n_prefix, the same weights), so both give the same
 images to within the roundings argued in kernels/accumulate.cl (tests/test_device_sums.py)."""
 import math
@@ -13,12 +13,15 @@ import pyopencl as cl
 
 from .interface import KernelArguments
 from .program import build
-from .progressive import CHANNELS, _is_power_of_two
+from .progressive import CHANNELS, _is_power_of_two, relative_rmse
 
 SUM_PLANES = CHANNELS + 1  # R, G, B and the rays traced (kernels/accumulate.cl)
 PREFIX_KEEP, PREFIX_FROM_FIRST_HALF, PREFIX_FROM_TOTAL = 0, 1, 2
-BYTES_PER_PIXEL = 4 * (2 * SUM_PLANES + CHANNELS)  # the device buffers: hi and lo sums, the prefix
-ESTIMATE_ROWS = 16  # rows of a column each estimate_partials work-item sums: 32 work-items a column at 512 rows
+# The device's bytes a pixel at the peak, images() resolving: the hi and lo sums, the prefix, the image and its
+# variance
+BYTES_PER_PIXEL = 4 * (2 * SUM_PLANES + CHANNELS + 2 * CHANNELS)
+ESTIMATE_ROWS = 16  # rows of a column each estimate_partials work-item sums: 32 work-items a column at 512 rows,
+MAX_PARTIALS = 1 << 16  # but at most this many work-items (and partial sums read back) in all
 
 _programs = {}
 
@@ -30,12 +33,18 @@ def accumulate_program(context):
     return _programs[context]
 
 
+def estimate_chunks(width, height):
+    """Work-items per column of estimate_partials: one per ESTIMATE_ROWS rows, at most MAX_PARTIALS in all."""
+    return max(1, min(-(-height // ESTIMATE_ROWS), MAX_PARTIALS // width))
+
+
 def device_fits(device, width, height):
-    """Whether the sums of a width x height render fit the device: every buffer within its largest allocation
-    and all of them within half its memory (the scene's tables and the band buffer need the rest)."""
+    """Whether a width x height render's sums and images fit the device: every buffer within its largest
+    allocation and all of them, at their peak (BYTES_PER_PIXEL), within half its memory (the scene's tables and
+    the band buffer need the rest)."""
     largest = SUM_PLANES * width * height * 4
-    return (largest <= device.max_mem_alloc_size
-            and width * height * BYTES_PER_PIXEL <= device.global_mem_size // 2)
+    needed = width * height * BYTES_PER_PIXEL + estimate_chunks(width, height) * width * 8
+    return largest <= device.max_mem_alloc_size and needed <= device.global_mem_size // 2
 
 
 class DeviceSums:
@@ -53,10 +62,10 @@ class DeviceSums:
         for buffer in (self.total_hi, self.total_lo):
             cl.enqueue_fill_buffer(queue, buffer, np.float32(0), 0, buffer.size)
         self.prefix = cl.Buffer(context, cl.mem_flags.READ_WRITE, CHANNELS * pixels * 4)
-        self.chunks = -(-height // ESTIMATE_ROWS)
+        self.chunks = estimate_chunks(width, height)
         self.partials = np.empty((self.chunks, width, 2), np.float32)
         self.partials_buffer = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.partials.nbytes)
-        self.nbytes = pixels * BYTES_PER_PIXEL + self.partials.nbytes  # the images' buffers come and go at the end
+        self.nbytes = pixels * BYTES_PER_PIXEL + self.partials.nbytes  # the images' buffers at the end included
         self.has_prefix = False
         self.n_prefix = self.n_total = self.passes = 0
         sums = {"total_hi": self.total_hi, "total_lo": self.total_lo, "prefix": self.prefix}
@@ -112,9 +121,7 @@ class DeviceSums:
         cl.enqueue_copy(self.queue, self.partials, self.partials_buffer)
         squares, values = self.partials.reshape(-1, 2).sum(axis=0, dtype=np.float64)
         count = CHANNELS * self.width * self.height
-        rmse = math.sqrt(squares / count)
-        mean = values / count / self.n_total
-        return rmse, rmse / mean if mean > 0 else 0.0
+        return relative_rmse(math.sqrt(squares / count), values / count / self.n_total)
 
     def rays_traced(self):
         """The rays traced, over every pass so far: the rays plane of both halves of the sums, added here."""

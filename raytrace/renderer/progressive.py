@@ -144,9 +144,16 @@ class Accumulator:
         else:
             squares = sum(float(np.sum(np.square(self._half_difference(rows))))  # not np.dot: BLAS threads would
                           for rows in self._chunks())                         # spin on the render's cores
-        rmse = math.sqrt(squares / self.total.size)
-        mean = float(np.mean(self.total)) / self.n_total
-        return rmse, rmse / mean if mean > 0 else 0.0  # pixels are >= 0: a zero mean is a black image, exact
+        return relative_rmse(math.sqrt(squares / self.total.size), float(np.mean(self.total)) / self.n_total)
+
+
+def relative_rmse(rmse, mean):
+    """(rmse, rmse relative to the image's mean value). Pixels are >= 0: a zero mean is a black image, exact (0).
+    A NaN or Inf in the sums (a kernel bug, zeroed in the image and counted) makes the estimate useless, so the
+    relative error is infinite and no target error stops the render on it."""
+    if not (math.isfinite(rmse) and math.isfinite(mean)):
+        return rmse, math.inf
+    return rmse, rmse / mean if mean > 0 else 0.0
 
 
 def pass_size(spp, work_per_sample, budget=PASS_WORK):
