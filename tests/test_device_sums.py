@@ -74,9 +74,9 @@ def test_double_float_sum_is_within_its_bound(cl_env):
 @pytest.mark.parametrize("passes", [1, 3, 7, 1000])
 def test_a_constant_sample_gives_itself_back(cl_env, passes):
     """Every pixel's own constant (random float32s over 2^-20 .. 2^20) added as `passes` passes of one sample:
-    the image is each constant to the bit, as the host's float64 sums give it (kernels/accumulate.cl's
-    mean_of argues why), the ray count is exact, and the variance of a constant is within the rounding of its half difference. A mean taken as hi / n or
-    as hi times 1 / n misses some pixels by an ulp at 3 and 7 passes."""
+    the image is each constant to the bit, as the host's float64 sums give it (kernels/accumulate.cl's mean_of
+    argues why), the ray count is exact, and the variance of a constant is within the rounding of its half
+    difference. A mean taken as hi / n or as hi times 1 / n misses some pixels by an ulp at 3 and 7 passes."""
     context, queue = cl_env
     width, height = 64, 16
     rng = np.random.default_rng(passes)

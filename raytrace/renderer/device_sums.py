@@ -3,9 +3,10 @@
 The host's Accumulator (progressive.py) reads every pass's output back and adds it in float64; on a GPU that
 host work outweighed the kernels (scene 0 at 512 x 512 on an H100: 6 of 8.7 ms a render). Here a pass's bands
 are added on the device as double-floats, a pass sends back only its error estimate's partial sums (at most
-MAX_PARTIALS pairs, 512 KB), and the host reads the image, its variance and the ray count once, at the end. The estimate's halves, prefix
-and counts follow the Accumulator's rules exactly (the same n_prefix, the same weights), so both give the same
-images to within the roundings argued in kernels/accumulate.cl (tests/test_device_sums.py)."""
+MAX_PARTIALS pairs, 512 KB), and the host reads the image, its variance and the ray count once, at the end.
+The estimate's halves, prefix and counts follow the Accumulator's rules exactly (the same n_prefix, the same
+weights), so both give the same images to within the roundings argued in kernels/accumulate.cl
+(tests/test_device_sums.py)."""
 import math
 
 import numpy as np
@@ -13,15 +14,15 @@ import pyopencl as cl
 
 from .interface import KernelArguments
 from .program import build
-from .progressive import CHANNELS, _is_power_of_two, relative_rmse
+from .progressive import CHANNELS, is_power_of_two, relative_rmse
 
 SUM_PLANES = CHANNELS + 1  # R, G, B and the rays traced (kernels/accumulate.cl)
 PREFIX_KEEP, PREFIX_FROM_FIRST_HALF, PREFIX_FROM_TOTAL = 0, 1, 2
 # The device's bytes a pixel at the peak, images() resolving: the hi and lo sums, the prefix, the image and its
 # variance
 BYTES_PER_PIXEL = 4 * (2 * SUM_PLANES + CHANNELS + 2 * CHANNELS)
-ESTIMATE_ROWS = 16  # rows of a column each estimate_partials work-item sums: 32 work-items a column at 512 rows,
-MAX_PARTIALS = 1 << 16  # but at most this many work-items (and partial sums read back) in all
+ESTIMATE_ROWS = 16  # rows of a column an estimate_partials work-item sums (32 work-items a column at 512 rows)
+MAX_PARTIALS = 1 << 16  # work-items of estimate_partials, and partial sums read back, at most
 
 _programs = {}
 
@@ -80,7 +81,7 @@ class DeviceSums:
         with its first-half planes where has_first) into the sums; end_pass() counts the pass."""
         if has_first:
             prefix_from = PREFIX_FROM_FIRST_HALF
-        elif self.n_total > 0 and _is_power_of_two(self.n_total):
+        elif self.n_total > 0 and is_power_of_two(self.n_total):
             prefix_from = PREFIX_FROM_TOTAL  # the count is about to pass a power of two (progressive.py)
         else:
             prefix_from = PREFIX_KEEP
@@ -96,7 +97,7 @@ class DeviceSums:
         """As Accumulator.end_pass."""
         if n_first > 0:
             self.n_prefix = n_first
-        elif self.n_total > 0 and _is_power_of_two(self.n_total):
+        elif self.n_total > 0 and is_power_of_two(self.n_total):
             self.n_prefix = self.n_total
         self.n_total += n
         self.passes += 1

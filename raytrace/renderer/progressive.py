@@ -31,7 +31,7 @@ CHUNK_BYTES = 16 << 20  # float64 temporaries of the chunked computations, per c
 PASS_WORK = 1 << 27     # work units (rays, roughly) of a pass, at most: pass_size
 
 
-def _is_power_of_two(n):
+def is_power_of_two(n):
     return n & (n - 1) == 0
 
 
@@ -62,7 +62,7 @@ class Accumulator:
         rows = slice(row0, row0 + sums.shape[1])
         self.rays += rays
         self.kept_variance = None
-        if first is None and self.n_total > 0 and _is_power_of_two(self.n_total):
+        if first is None and self.n_total > 0 and is_power_of_two(self.n_total):
             # The count is about to pass a power of two: the first half of every later estimate.
             first = self.total[:, rows]
         if first is not None:
@@ -76,7 +76,7 @@ class Accumulator:
         n_first samples where n_first > 0."""
         if n_first > 0:
             self.n_prefix = n_first
-        elif self.n_total > 0 and _is_power_of_two(self.n_total):
+        elif self.n_total > 0 and is_power_of_two(self.n_total):
             self.n_prefix = self.n_total
         self.n_total += n
         self.passes += 1
