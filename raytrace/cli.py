@@ -56,7 +56,12 @@ def _add_option(p, name, default, doc, choices=None, metavar=None):
 
 
 def _add_scheduler(p):
-    name, default, doc, _, choices, metavar = next(option for option in declared() if option[0] == "scheduler")
+    _add_declared(p, "scheduler")
+
+
+def _add_declared(p, option):
+    """render()'s option `option` alone, as _add_render_options adds them all."""
+    name, default, doc, _, choices, metavar = next(o for o in declared() if o[0] == option)
     _add_option(p, name, default, doc, choices, metavar)
 
 
@@ -98,6 +103,7 @@ def parser():
     c.add_argument("--repeats", type=int, default=1,
                    help="renders timed per sample count, the median kept (default 1; at most 100)")
     _add_scheduler(c)
+    _add_declared(c, "device")
     c.add_argument("--peer", metavar="TEMPLATE", help="also another renderer's patterns: a shell command with "
                    "{sampler}, {spp} and {out} that writes an EXR and prints JSON with median_s")
     c.add_argument("--peer-samplers", default=",".join(PEER_SAMPLERS),
@@ -209,6 +215,7 @@ def cmd_converge(args):
              reference=args.reference, width=args.width, height=args.height, light_samples=args.light_samples,
              seed=args.seed, reference_spp=args.reference_spp, montage_seconds=args.montage_seconds,
              crop=None if args.crop is None else parse_crop(args.crop), out=sys.stdout, scheduler=args.scheduler,
+             device=args.device,
              peer=args.peer, peer_samplers=[n.strip() for n in args.peer_samplers.split(",") if n.strip()],
              clamp=args.clamp, repeats=args.repeats, json_path=args.json)
 

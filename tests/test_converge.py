@@ -117,6 +117,18 @@ def test_light_pattern_fallback_said_once(tmp_path, capsys):
            [("grid", "1"), ("grid", "4"), ("grid", "16")]
 
 
+def test_device_reaches_every_render(tmp_path, monkeypatch):
+    """--device is every render's, the reference's included: each call of render_progressive gets it."""
+    from raytrace.commands import converge as module
+    devices, real = [], module.render_progressive
+    monkeypatch.setattr(module, "render_progressive",
+                        lambda scene, **kw: devices.append(kw.get("device")) or real(scene, **kw))
+    assert cli.main(["converge", str(CORNELL), "--samplers", "random", "--max-spp", "2", "--width", "8",
+                     "--height", "8", "--light-samples", "1", "--reference-spp", "4", "--device", "cpu",
+                     "--out", str(tmp_path)]) == 0
+    assert len(devices) >= 3 and set(devices) == {"cpu"}
+
+
 def test_counts_lights_and_slope():
     """The measured counts per pattern, the light pattern each pixel pattern brings, and the slope of
     exact power laws (the 1-spp row, off the line here, is left out of the fit)."""
@@ -144,6 +156,7 @@ def test_counts_lights_and_slope():
     (["--crop", "a,b"], "command line: --crop = 'a,b'"),
     (["--montage-seconds", "0"], "command line: --montage-seconds = 0"),
     (["--out", "{tmp}/file"], "command line: --out = '{tmp}/file'"),
+    (["--device", "no such device"], "command line: --device = 'no such device'"),
 ])
 def test_bad_input(tmp_path, capsys, args, needle):
     """Each bad value is found before anything renders: exit 2, one stderr line naming the key and the

@@ -39,6 +39,7 @@ from ..numerics import rmse
 from ..outputs import Outputs, scene_inputs, write_json
 from ..image_file import encode_8bit, write_image_file
 from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
+from ..renderer.device import select_device
 from ..scene import load_file
 from . import bench
 from .converge_peer import PEER_SAMPLERS, check_template, peer_rows, race, race_finals
@@ -302,7 +303,7 @@ def _number(x):
 
 def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None, height=None, light_samples=None,
              seed=0, reference_spp=None, montage_seconds=None, crop=None, out=sys.stdout, scheduler=None,
-             peer=None, peer_samplers=PEER_SAMPLERS, clamp=False, repeats=1, json_path=None):
+             peer=None, peer_samplers=PEER_SAMPLERS, clamp=False, repeats=1, json_path=None, device=None):
     """Measure, write and print as the module says; returns {"rows": [...], "reference": {...},
     "montage": [...], "paths": [...]}. Every bad input raises InputError before anything is written."""
     names = check_samplers(samplers)
@@ -314,6 +315,7 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     _check_range(repeats, "--repeats", 1, MAX_REPEATS)
     if montage_seconds is not None and not 0 < montage_seconds < math.inf:
         raise InputError(CLI, "--montage-seconds", montage_seconds, "must be a positive number of seconds")
+    select_device(device)  # a device that is not there: one line before anything is written
     scene = load_file(scene_path)
     width, height, _, light_samples, _, _ = resolve(scene, RenderOptions(
         width=width, height=height, spp=1, light_samples=light_samples, sampler="random", light_sampler="sobol",
@@ -325,7 +327,8 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         outputs.make_directory("--out", out_dir)
         files = {name: outputs.reserve("--out", Path(out_dir) / name, given=out_dir) for name in names_out}
         json_file = json_path and outputs.reserve("--json", json_path)
-        common = dict(width=width, height=height, light_samples=light_samples, progress=False, scheduler=scheduler)
+        common = dict(width=width, height=height, light_samples=light_samples, progress=False, scheduler=scheduler,
+                      device=device)
         _, _, built = render_progressive(scene, spp=1, sampler="center", light_sampler="sobol", **common)  # untimed
         reference, facts, metadata = given + (None,) if given else render_reference(
             scene, reference_spp or min(MAX_SPP, 16 * max_spp), (seed + REFERENCE_SEED_OFFSET) % 2**32, common)
