@@ -14,7 +14,7 @@ import pyopencl as cl
 
 from .interface import KernelArguments
 from .program import build
-from .progressive import CHANNELS, is_power_of_two, relative_rmse
+from .progressive import CHANNELS, Halves, relative_rmse
 
 SUM_PLANES = CHANNELS + 1  # R, G, B and the rays traced (kernels/accumulate.cl)
 PREFIX_KEEP, PREFIX_FROM_FIRST_HALF, PREFIX_FROM_TOTAL = 0, 1, 2
@@ -48,11 +48,12 @@ def device_fits(device, width, height):
     return largest <= device.max_mem_alloc_size and needed <= device.global_mem_size // 2
 
 
-class DeviceSums:
+class DeviceSums(Halves):
     """The per-pixel sums of a progressive render on the device: the Accumulator's interface, with bands added
     from the render kernel's output buffer (add_band) instead of host arrays."""
 
     def __init__(self, context, queue, width, height):
+        super().__init__()
         self.queue, self.width, self.height = queue, width, height
         program = accumulate_program(context)
         self.kernels = {name: KernelArguments(cl.Kernel(program, name))
@@ -68,7 +69,6 @@ class DeviceSums:
         self.partials_buffer = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.partials.nbytes)
         self.nbytes = pixels * BYTES_PER_PIXEL + self.partials.nbytes  # the images' buffers at the end included
         self.has_prefix = False
-        self.n_prefix = self.n_total = self.passes = 0
         sums = {"total_hi": self.total_hi, "total_lo": self.total_lo, "prefix": self.prefix}
         for name, args in self.kernels.items():
             for key, buffer in sums.items():
@@ -81,8 +81,8 @@ class DeviceSums:
         with its first-half planes where has_first) into the sums; end_pass() counts the pass."""
         if has_first:
             prefix_from = PREFIX_FROM_FIRST_HALF
-        elif self.n_total > 0 and is_power_of_two(self.n_total):
-            prefix_from = PREFIX_FROM_TOTAL  # the count is about to pass a power of two (progressive.py)
+        elif self.prefix_from_total():
+            prefix_from = PREFIX_FROM_TOTAL
         else:
             prefix_from = PREFIX_KEEP
         self.has_prefix |= prefix_from != PREFIX_KEEP
@@ -93,21 +93,11 @@ class DeviceSums:
         args.set("prefix_from", np.int32(prefix_from))
         args.launch(self.queue, (self.width, rows))
 
-    def end_pass(self, n, n_first=0):
-        """As Accumulator.end_pass."""
-        if n_first > 0:
-            self.n_prefix = n_first
-        elif self.n_total > 0 and is_power_of_two(self.n_total):
-            self.n_prefix = self.n_total
-        self.n_total += n
-        self.passes += 1
-
     def _weights(self, args):
-        """Set the half difference's weights (Accumulator._half_difference), computed in float64."""
-        n_rest = self.n_total - self.n_prefix
-        scale = math.sqrt(self.n_prefix * n_rest) / self.n_total
-        args.set("prefix_weight", np.float32(scale / self.n_prefix + scale / n_rest))
-        args.set("total_weight", np.float32(-scale / n_rest))
+        """Set the half difference's weights (Halves.weights), computed in float64 and rounded once."""
+        prefix_weight, total_weight = self.weights()
+        args.set("prefix_weight", np.float32(prefix_weight))
+        args.set("total_weight", np.float32(total_weight))
 
     def estimated_rmse(self, keep_variance=False):
         """As Accumulator.estimated_rmse: from the device's partial sums, added here in float64.

@@ -31,7 +31,7 @@ CHUNK_BYTES = 16 << 20  # float64 temporaries of the chunked computations, per c
 PASS_WORK = 1 << 27     # work units (rays, roughly) of a pass, at most: pass_size
 
 
-def is_power_of_two(n):
+def _is_power_of_two(n):
     return n & (n - 1) == 0
 
 
@@ -42,14 +42,46 @@ def row_chunks(height, row_bytes, budget=CHUNK_BYTES):
     return [slice(r, min(r + rows, height)) for r in range(0, height, rows)]
 
 
-class Accumulator:
+class Halves:
+    """The counts of a progressive render's sums and the rules of its error estimate's two halves, one place
+    for the host's Accumulator and the device's (device_sums.py): which samples the prefix holds, when it is
+    taken from the total, and the half difference's weights."""
+
+    def __init__(self):
+        self.n_prefix = self.n_total = self.passes = 0
+
+    def prefix_from_total(self):
+        """Whether the pass now being added starts by copying the total into the prefix (where it brings no
+        first half of its own): the count is about to pass a power of two, the first half of every later
+        estimate."""
+        return self.n_total > 0 and _is_power_of_two(self.n_total)
+
+    def end_pass(self, n, n_first=0):
+        """The current pass, of n samples per pixel, has been added for every row, with the sums of its first
+        n_first samples where n_first > 0."""
+        if n_first > 0:
+            self.n_prefix = n_first
+        elif self.prefix_from_total():
+            self.n_prefix = self.n_total
+        self.n_total += n
+        self.passes += 1
+
+    def weights(self):
+        """(prefix weight, total weight), float64: the half difference (A - B) sqrt(nA nB) / N, with A the mean
+        of the first n_prefix samples and B of the rest, is prefix * (1/nA + 1/nB) - total / nB, scaled."""
+        n_rest = self.n_total - self.n_prefix
+        scale = math.sqrt(self.n_prefix * n_rest) / self.n_total
+        return scale / self.n_prefix + scale / n_rest, -scale / n_rest
+
+
+class Accumulator(Halves):
     """The per-pixel sums of a progressive render, planar (CHANNELS x H x W)."""
 
     def __init__(self, shape):
+        super().__init__()
         self.total = np.zeros(shape, np.float64)
         self.prefix = None  # float32 sum of the first n_prefix samples, n_prefix a power of two
         self.kept_variance = None  # variance() as estimated_rmse(keep_variance=True) made it, until more sums come
-        self.n_prefix = self.n_total = self.passes = 0
         self.rays = 0.0  # rays traced, over every band added
 
     def _chunks(self):
@@ -62,24 +94,13 @@ class Accumulator:
         rows = slice(row0, row0 + sums.shape[1])
         self.rays += rays
         self.kept_variance = None
-        if first is None and self.n_total > 0 and is_power_of_two(self.n_total):
-            # The count is about to pass a power of two: the first half of every later estimate.
+        if first is None and self.prefix_from_total():
             first = self.total[:, rows]
         if first is not None:
             if self.prefix is None:
                 self.prefix = np.empty(self.total.shape, np.float32)
             self.prefix[:, rows] = first
         self.total[:, rows] += sums
-
-    def end_pass(self, n, n_first=0):
-        """The current pass, of n samples per pixel, has been added for every row, with the sums of its first
-        n_first samples where n_first > 0."""
-        if n_first > 0:
-            self.n_prefix = n_first
-        elif self.n_total > 0 and is_power_of_two(self.n_total):
-            self.n_prefix = self.n_total
-        self.n_total += n
-        self.passes += 1
 
     def add(self, sums, n, first=None, n_first=0):
         """Add one pass over the whole image: `sums` over its n samples per pixel (and `first` over its first
@@ -97,10 +118,9 @@ class Accumulator:
         the sums, A - B = prefix (1/nA + 1/nB) - total / nB: one temporary, where forming the rest's sum
         first took two more (the estimate's host time for a 512 x 512 render is not small beside a GPU's
         kernel time for scene 0: measured in commit 77b202d)."""
-        n_rest = self.n_total - self.n_prefix
-        scale = math.sqrt(self.n_prefix * n_rest) / self.n_total
-        d = self.total[:, rows] * (-scale / n_rest)
-        d += self.prefix[:, rows] * (scale / self.n_prefix + scale / n_rest)
+        prefix_weight, total_weight = self.weights()
+        d = self.total[:, rows] * total_weight
+        d += self.prefix[:, rows] * prefix_weight
         return d
 
     def _interleaved(self, planar_rows):
