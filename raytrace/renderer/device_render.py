@@ -190,15 +190,14 @@ class DeviceRender:
                               "visit_maps": bands.visits} if self.features.count_visits else {})}}
 
 
-def sums_on_device(device, features, accumulate, width, height):
+def sums_on_device(device, counting, accumulate, width, height):
     """Whether a render's passes add up on its device (DeviceSums) rather than on the host (Accumulator): as
     the option `accumulate` says, and where it is None on a GPU whose memory holds the sums
     (device_sums.device_fits); a measuring build (count_visits) reads its counts back each pass, so on the host.
     On a CPU the host's sums are as near as the device's: the device's memory is the host's."""
     if accumulate is None:
-        return (not device.type & cl.device_type.CPU and not features.count_visits
-                and device_fits(device, width, height))
-    if accumulate == "device" and features.count_visits:
+        return not device.type & cl.device_type.CPU and not counting and device_fits(device, width, height)
+    if accumulate == "device" and counting:
         raise InputError(API, "accumulate", accumulate, "a counting build (features.count_visits) reads "
                          'its counts back every pass: use "host"')
     if accumulate == "device" and not device_fits(device, width, height):
@@ -211,8 +210,11 @@ class LocalPasses:
     """The passes of a render on this process's device."""
 
     def __init__(self, scene, options, r):
+        # decided, and an accumulate the device cannot take refused, before the program is built
+        counting = options.features is not None and options.features.count_visits  # never from a scene
+        self.on_device = sums_on_device(select_device(options.device), counting, options.accumulate, r.width,
+                                        r.height)
         self.d, self.passes = DeviceRender(scene, options, r), r.passes
-        self.on_device = sums_on_device(self.d.device, self.d.features, options.accumulate, r.width, r.height)
         self.shape, self.sums = (CHANNELS, r.height, r.width), None
 
     def accumulator(self):
