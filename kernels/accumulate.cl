@@ -65,12 +65,13 @@ __kernel void add_band(__global const float *out, int width, int height, int row
 
 /* The value of the pixel (x, y)'s half difference in channel c, (A - B) sqrt(nA nB) / N with A the mean of the
  * first n_prefix samples and B of the rest, as one linear combination of the sums (progressive.py's
- * _half_difference): prefix * prefix_weight + total * total_weight, the weights computed by the host in float64
- * and rounded once. */
-inline float half_difference(__global const float *total_hi, __global const float *total_lo,
-                             __global const float *prefix, int at, float prefix_weight, float total_weight)
+ * Halves.weights): prefix * prefix_weight + total * total_weight, the weights computed by the host in float64
+ * and rounded once. The total is hi alone, the pair rounded (double_float_add's invariant): reading lo too
+ * would give the same float and double the total's memory traffic. */
+inline float half_difference(__global const float *total_hi, __global const float *prefix, int at,
+                             float prefix_weight, float total_weight)
 {
-    return prefix[at] * prefix_weight + (total_hi[at] + total_lo[at]) * total_weight;
+    return prefix[at] * prefix_weight + total_hi[at] * total_weight;
 }
 
 /* Partial sums for the error estimate: work-item (x, k) sums, over the rows k, k + chunks, k + 2 chunks ...
@@ -79,9 +80,9 @@ inline float half_difference(__global const float *total_hi, __global const floa
  * read neighbouring pixels. A float32 running sum of n terms >= 0, n = CHANNELS * ceil(height / chunks), is
  * within n - 1 roundings of its value: 47 u (2^-18.4) for 16 rows, under 2^-10 at most (16384 rows in 4 chunks),
  * either way a negligible error in an error estimate. */
-__kernel void estimate_partials(__global const float *total_hi, __global const float *total_lo,
-                                __global const float *prefix, int width, int height, int chunks,
-                                float prefix_weight, float total_weight, __global float2 *partials)
+__kernel void estimate_partials(__global const float *total_hi, __global const float *prefix, int width,
+                                int height, int chunks, float prefix_weight, float total_weight,
+                                __global float2 *partials)
 {
     const int x = get_global_id(0), k = get_global_id(1);
     if (x >= width || k >= chunks)
@@ -91,7 +92,7 @@ __kernel void estimate_partials(__global const float *total_hi, __global const f
     for (int y = k; y < height; y += chunks)
         for (int c = 0; c < CHANNELS; ++c) {
             const int at = c * plane + y * width + x;
-            const float d = half_difference(total_hi, total_lo, prefix, at, prefix_weight, total_weight);
+            const float d = half_difference(total_hi, prefix, at, prefix_weight, total_weight);
             squares += d * d;
             values += total_hi[at];
         }
@@ -127,7 +128,7 @@ __kernel void resolve_images(__global const float *total_hi, __global const floa
         const int at = c * plane + pixel;
         image[CHANNELS * pixel + c] = mean_of(total_hi[at], total_lo[at], n);
         if (has_variance) {
-            const float d = half_difference(total_hi, total_lo, prefix, at, prefix_weight, total_weight);
+            const float d = half_difference(total_hi, prefix, at, prefix_weight, total_weight);
             variance[CHANNELS * pixel + c] = d * d;
         }
     }
