@@ -2,7 +2,7 @@
  *
  * Embree chooses its instruction set from CPUID; a device's configuration (`isa=avx2`, Embree's API manual,
  * rtcNewDevice) is the only way to narrow it, and Mitsuba opens its device with a fixed one
- * ("threads=N,user_threads=N"). mitsuba_path.py --isa builds this file into a shared library and preloads it,
+ * ("threads=N,user_threads=N"). mitsuba_isa.py builds this file into a shared library and preloads it,
  * so the symbol below stands in front of the one in Mitsuba's libembree3.so, which it then calls. */
 #define _GNU_SOURCE
 #include <dlfcn.h>

@@ -26,28 +26,21 @@ The default, 64 (16,384 triangles), keeps the facets within 6e-4 of the axes' le
 pixel at 256 x 256 on cornell_path): finer meshes cost Mitsuba time without changing the image beyond the
 noise (cornell_path, 64 spp: 2.07 s with 256, 1.33 s with 32).
 
---isa avx2 runs Mitsuba as an AVX2 CPU would, on an AVX-512 one (the project's second CPU kind, measured
-where no AVX2 machine is lent): Dr.Jit's LLVM backend compiles for x86-64-v3 at 8 lanes
-(jit_llvm_set_target, Dr.Jit's C++ API, reached by ctypes) and Embree is opened with isa=avx2 (a device
-configuration, through the preloaded embree_config.c: the script builds it with $CC or cc and runs itself
-again). Its memory and caches stay the AVX-512 machine's. raytrace's twin is RAYTRACE_TARGET=x86-64-v3.
+--isa avx2 runs Mitsuba as an AVX2 CPU would, on an AVX-512 one (mitsuba_isa.py says how); raytrace's twin is
+RAYTRACE_TARGET=x86-64-v3.
 
 Prints one JSON line: median_s (the median of --repeats renders, after a first one that compiles), spp (the
 samples per pixel of the average written to --out), variant, and llvm_target (Dr.Jit's target CPU)."""
 import argparse
-import ctypes
-import hashlib
 import json
 import os
 import statistics
-import subprocess
-import sys
-import tempfile
 import time
 
 import numpy as np
-import drjit as dr
 import mitsuba as mi
+
+import mitsuba_isa
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 TEXTURES = os.path.join(ROOT, "assets", "textures")
@@ -186,48 +179,6 @@ def toml_scene(path, sampler, spp, max_depth, width=None, height=None, ellipsoid
     return out
 
 
-# x86-64-v3 (the psABI's AVX2 level, raytrace's own name for it), its features spelled out because Dr.Jit
-# passes the feature string as given: without -avx512f the host's AVX-512 would come back in.
-AVX2_LLVM = ("x86-64-v3", "+avx,+avx2,+bmi,+bmi2,+f16c,+fma,+lzcnt,+movbe,+popcnt,+sse4.2,-avx512f", 8)
-
-
-def _preload_embree_config(config):
-    """Run this script again with embree_config.c preloaded and appending `config` to Embree's device
-    configuration; return at once where that is already so."""
-    if os.environ.get("RAYTRACE_EMBREE_CONFIG") == config:
-        return
-    source = os.path.join(os.path.dirname(os.path.abspath(__file__)), "embree_config.c")
-    with open(source, "rb") as f:
-        digest = hashlib.sha256(f.read()).hexdigest()[:16]
-    library = os.path.join(tempfile.gettempdir(), f"raytrace-embree-config-{digest}.so")
-    if not os.path.exists(library):
-        partial = f"{library}.{os.getpid()}"
-        subprocess.run([os.environ.get("CC", "cc"), "-O2", "-shared", "-fPIC", "-o", partial, source, "-ldl"],
-                       check=True)
-        os.replace(partial, library)
-    env = dict(os.environ, RAYTRACE_EMBREE_CONFIG=config,
-               LD_PRELOAD=" ".join(filter(None, [library, os.environ.get("LD_PRELOAD")])))
-    os.execve(sys.executable, [sys.executable] + sys.argv, env)
-
-
-def _drjit_core():
-    return ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
-
-
-def set_llvm_target(cpu, features, lanes):
-    """Point Dr.Jit's LLVM backend at another CPU; kernels compiled from here on are for it (its disk cache
-    keys them by the target too). The functions are C++ ones, called by their mangled names."""
-    set_target = _drjit_core()._Z19jit_llvm_set_targetPKcS0_j
-    set_target.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
-    set_target(cpu.encode(), features.encode(), lanes)
-
-
-def llvm_target():
-    target_cpu = _drjit_core()._Z19jit_llvm_target_cpuv
-    target_cpu.restype = ctypes.c_char_p
-    return target_cpu().decode()
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--scene", choices=("cornell_box", "materials", "cornell_path", "mesh_path"), required=True)
@@ -241,16 +192,15 @@ def main():
     ap.add_argument("--width", type=int, help="the toml scenes': image width (default: the scene's)")
     ap.add_argument("--height", type=int, help="the toml scenes': image height (default: the scene's)")
     ap.add_argument("--ellipsoid-quads", type=int, default=64, help="an ellipsoid's mesh: N x 2N quads")
-    ap.add_argument("--isa", choices=("native", "avx2"), default="native",
+    ap.add_argument("--isa", choices=("native", *mitsuba_isa.LEVELS), default="native",
                     help="avx2: Dr.Jit and Embree as on an AVX2 CPU (llvm variants)")
     a = ap.parse_args()
-    if a.isa == "avx2":
-        if not a.variant.startswith("llvm_"):
-            ap.error(f"--isa avx2 needs an llvm variant, not --variant {a.variant}")
-        _preload_embree_config("isa=avx2")
-    mi.set_variant(a.variant)
-    if a.isa == "avx2":
-        set_llvm_target(*AVX2_LLVM)
+    if a.isa == "native":
+        mi.set_variant(a.variant)
+    elif not a.variant.startswith("llvm_"):
+        ap.error(f"--isa {a.isa} needs an llvm variant, not --variant {a.variant}")
+    else:
+        mitsuba_isa.restrict(a.isa, a.variant)
     if a.scene in ("cornell_box", "materials"):
         scene = {"cornell_box": cornell_box, "materials": materials}[a.scene](a.sampler, a.spp, a.max_depth)
     else:
@@ -268,7 +218,7 @@ def main():
     mi.Bitmap((total / a.chunks).astype(np.float32)).write(a.out)
     spp = scene.sensors()[0].sampler().sample_count()
     print(json.dumps({"median_s": statistics.median(times), "spp": spp * a.chunks, "variant": a.variant,
-                      "llvm_target": llvm_target() if a.variant.startswith("llvm_") else None}))
+                      "llvm_target": mitsuba_isa.llvm_target() if a.variant.startswith("llvm_") else None}))
 
 
 if __name__ == "__main__":
