@@ -51,6 +51,21 @@ def test_a_broken_anchor_fails_the_build(tmp_path):
     assert r.returncode != 0 and "there" in r.stderr
 
 
+def test_the_generated_parts_are_tables_under_headings(manual):
+    """The generated reStructuredText is parsed as such, not as the pages' Markdown, which had made a
+    paragraph and nested lists of each list-table and a code block of each ~~~ underline: no directive is
+    left as text, each key table is an HTML table, and each machine kind is a heading over its table."""
+    from raytrace_docs import current, records
+    out = manual[2]
+    for page in out.glob("*.html"):
+        assert "list-table::" not in page.read_text(), page.name
+    assert (out / "scene-format.html").read_text().count("<table") >= len(TABLES)
+    html = (out / "performance.html").read_text()
+    machines = current(records())
+    assert html.count("<table") == len(machines)
+    assert len(re.findall(r"</h2>\s*<table", html)) == len(machines)
+
+
 def test_the_scene_format_page_lists_every_key(manual):
     """The generated tables (docs/_ext/raytrace_docs.py from raytrace/scene/keys.py) name every table and key."""
     html = (manual[2] / "scene-format.html").read_text()

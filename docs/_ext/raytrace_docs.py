@@ -9,8 +9,8 @@ import math
 from pathlib import Path
 
 from docutils import nodes
-from docutils.parsers.rst import Directive
-from docutils.statemachine import StringList
+from docutils.parsers.rst import Directive, Parser
+from docutils.utils import new_document
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -123,14 +123,20 @@ def _figure(value):
 
 
 class _Generated(Directive):
-    """A directive whose body is reStructuredText made by `make()`."""
+    """A directive whose body is reStructuredText made by `make()`. The body is parsed by docutils' own
+    reStructuredText parser, not by the page's: the pages are MyST Markdown, whose parser reads a list-table
+    as a paragraph and a list, and a ~~~ underline as a code fence."""
     make = None
 
     def run(self):
-        container = nodes.container()
-        self.state.nested_parse(StringList(type(self).make(), source=f"<{self.name}>"), self.content_offset,
-                                container)
-        return container.children
+        page = self.state.document
+        body = new_document(f"<{self.name}>", page.settings)
+        body.reporter = page.reporter
+        Parser().parse("\n".join(type(self).make()), body)
+        for node in body.findall(nodes.Element):
+            if node["ids"]:
+                page.note_implicit_target(node, node)
+        return body.children
 
 
 class SceneKeys(_Generated):
