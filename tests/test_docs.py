@@ -64,6 +64,9 @@ def test_the_generated_parts_are_tables_under_headings(manual):
     machines = current(records())
     assert html.count("<table") == len(machines)
     assert len(re.findall(r"</h2>\s*<table", html)) == len(machines)
+    converged = [m[1] for recs in machines.values() for r in recs
+                 if (m := re.match(r"python -m raytrace converge scenes/(\w+)\.toml", r["command"]))]
+    assert converged and all(f"<td><p>{scene}: " in html for scene in converged)
 
 
 def test_the_scene_format_page_lists_every_key(manual):

@@ -6,6 +6,7 @@
 """
 import json
 import math
+import re
 from pathlib import Path
 
 from docutils import nodes
@@ -109,13 +110,20 @@ def performance_lines():
     for machine, recs in sorted(current(records()).items()):
         recs = sorted(recs, key=lambda r: (r["date"], r["command"]))
         lines += [machine, "~" * len(machine), ""]
-        rows = [[figure["what"], f"{_figure(figure['value'])} {figure['unit']}".strip(), f"[{k}]"]
+        rows = [[_what(r, figure), f"{_figure(figure['value'])} {figure['unit']}".strip(), f"[{k}]"]
                 for k, r in enumerate(recs, 1) for figure in r["figures"]]
         lines += list_table(["what", "figure", "run"], rows, [70, 18, 12])
         for k, r in enumerate(recs, 1):
             lines += [f"[{k}] ``{r['command']}``, {r['date']}, commit ``{r['commit'][:8]}`` "
                       f"(``benchmarks/results/{r['file']}``)", ""]
     return lines
+
+
+def _what(record, figure):
+    """A figure's name; a converge record's figures name no scene (several records share them), so the
+    scene of its command goes first."""
+    scene = re.match(r"python -m raytrace converge (\S+)\.toml", record["command"])
+    return f"{Path(scene[1]).name}: {figure['what']}" if scene else figure["what"]
 
 
 def _figure(value):
