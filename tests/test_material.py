@@ -53,16 +53,19 @@ def smooth_map(rng, channels, lo, hi, size=SIZE):
 @pytest.fixture(scope="module")
 def maps(tmp_path_factory):
     """Real files: an 8-bit sRGB colour map, an 8-bit normal map tilted up to ~35 degrees, a float height
-    map, and a float height map of half their size."""
+    map, a float height map of half their size, and one of their width and half their height (the same
+    number of levels and the same width as the others: a filter shared by shape must tell it apart)."""
     rng, folder = np.random.default_rng(8), tmp_path_factory.mktemp("maps")
     colour = np.round(smooth_map(rng, 3, 0.1, 0.9) * 255).astype(np.uint8)
     normal = np.concatenate([smooth_map(rng, 2, 0.3, 0.7), np.full((SIZE, SIZE, 1), 0.9)], axis=2)
     height = smooth_map(rng, 1, 0.0, 1.0).astype(np.float32)
     small = smooth_map(rng, 1, 0.0, 1.0, SIZE // 2).astype(np.float32)
+    short = np.ascontiguousarray(smooth_map(rng, 1, 0.0, 1.0)[::2])
     files = {}
     for name, pixels, fmt in (("colour.png", colour, "uint8"), ("normal.png", np.round(normal * 255).astype(np.uint8),
                                                                   "uint8"), ("height.exr", height, "float"),
-                              ("small_height.exr", small, "float")):
+                              ("small_height.exr", small, "float"), ("short_height.exr", short.astype(np.float32),
+                                                                     "float")):
         spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], fmt)
         out = oiio.ImageOutput.create(str(folder / name))
         assert out.open(str(folder / name), spec) and out.write_image(pixels) and out.close()
@@ -140,12 +143,13 @@ def kernel_shading(harness, scene, x, y, spp, filter_name):
 
 @pytest.mark.parametrize("shape", SHAPES)
 @pytest.mark.parametrize("filter_name", ["trilinear", "anisotropic"])
-@pytest.mark.parametrize("height", ["height", "small_height"])
+@pytest.mark.parametrize("height", ["height", "small_height", "short_height"])
 def test_shading_point_matches_reference(harness, maps, shape, filter_name, height):
     """All three maps at once, with a uv transform and mirror wrapping, on each kind of shape, at random
     pixel positions; the height map of the maps' size (the kernel finds one filter for all three,
-    material.cl) or of half their size (a filter of its own: a shared one would read the wrong levels; its
-    steps between texels double, and so does its bump's step du below, so its bound holds too). The maps are
+    material.cl) or of half their size or half their height (a filter of its own: a shared one would read the
+    wrong levels; its steps between texels double, and so does its bump's step du below, so its bound holds
+    too). The maps are
     smooth (steps between texels <= ~0.1), so the kernel's float32 rounding of uv (~1e-6 relative) and of
     the footprint (~1e-4 relative, from differences of hit points ~3 units from the camera) moves a lookup by < 1e-4 of the value range and the MIP level by < 2e-4: colour
     bound 1e-3. The bump divides differences of two such lookups by the step du ~ the footprint (>= 1/2
