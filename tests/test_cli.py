@@ -107,10 +107,14 @@ def test_bad_scene_files(tmp_path):
 
 
 def test_bad_output(tmp_path):
-    r = run("render", CORNELL, "-o", tmp_path / "x.gif")
-    assert r.returncode == 2 and "-o" in r.stderr and "x.gif" in r.stderr
-    r = run("render", CORNELL, "-o", tmp_path / "no" / "dir" / "x.png")
-    assert r.returncode == 2 and "directory" in r.stderr
+    """An image format we do not write, a directory that does not exist: one line naming -o and the path,
+    exit 2, nothing written (the checks of the whole line: the temporary path itself holds "-o")."""
+    for path, problem in ((tmp_path / "x.gif", "unsupported extension (have: .bmp, "),
+                          (tmp_path / "no" / "dir" / "x.png", "its directory does not exist")):
+        r = run("render", CORNELL, "-o", path)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        assert r.stderr.startswith(f"raytrace: error: command line: -o = '{path}': {problem}"), r.stderr
+        assert list(tmp_path.iterdir()) == []
 
 
 def test_bad_texture_files(tmp_path):
@@ -169,6 +173,27 @@ def test_stability_table_json_and_exit_status(tmp_path):
     assert len(lines) == len(data["rows"]) + 3 and data["lanes"] == 8
     for line, row in zip(lines[2:], data["rows"]):
         assert line.startswith(row["case"]) and row["measured"] in line and row["verdict"] in line
+
+
+@pytest.mark.parametrize("fails", [False, True])
+def test_stability_exits_with_1_exactly_when_a_row_fails(tmp_path, monkeypatch, fails):
+    """The table's cases replaced by two of our own, in process: one row that passes and one that fails or
+    is a known limit within its bound. Exit status 1 with the failing row, 0 without it; the JSON file
+    holds both rows either way."""
+    from raytrace import cli
+    from raytrace.commands.stability import table
+    from raytrace.commands.stability.common import Row
+
+    def within(env):
+        return [Row("a value within its bound", 1e-7, "", 1e-6, "one rounding")]
+
+    def limit(env):  # a known limit holds its bound too; beyond it, it fails
+        return [Row("a value at a stated limit", 1e-5 if fails else 1e-7, "", 1e-6, "a limit", known_limit=True)]
+
+    monkeypatch.setattr(table, "CASES", [within, limit])
+    status = cli.main(["stability", "--lanes", "8", "--json", str(tmp_path / "s.json")])
+    verdicts = [row["verdict"] for row in json.loads((tmp_path / "s.json").read_text())["rows"]]
+    assert (status, verdicts) == ((1, ["pass", "FAIL"]) if fails else (0, ["pass", "known limit"]))
 
 
 @pytest.mark.parametrize("args,needle", [
