@@ -1,8 +1,10 @@
 """The front page and the manual: the manual builds strictly (every warning an error: a broken link, a missing
 page or anchor, an unresolved reference), its generated pages hold what the code and the records say, the
 measurement records are well formed, and the README's commands and examples are the ones that work."""
+import html as html_text
 import importlib.util
 import json
+import math
 import os
 import re
 import subprocess
@@ -78,15 +80,87 @@ def test_the_scene_format_page_lists_every_key(manual):
                 (table, key.name)
 
 
+TYPOGRAPHY = {0x2019: "'", 0x201C: '"', 0x201D: '"', 0x2013: "--", 0x2014: "---"}  # Sphinx's smartquotes, undone
+
+
+def _text(fragment):
+    """An HTML fragment's text: tags dropped, entities and Sphinx's smartquotes undone, spaces joined."""
+    text = html_text.unescape(re.sub(r"<[^>]+>", "", fragment)).translate(TYPOGRAPHY)
+    return " ".join(text.split())
+
+
+def _table_rows(fragment):
+    """Each row of the HTML tables in `fragment`, as the text of its cells."""
+    return [[_text(cell) for cell in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", row, re.S)]
+            for row in re.findall(r"<tr[^>]*>(.*?)</tr>", fragment, re.S)]
+
+
 def test_the_command_line_page_lists_every_option(manual):
-    """The options come from the parser (sphinx-argparse): each option of each command is on the page."""
+    """The options come from the parser (sphinx-argparse): each command has its own section, and each of its
+    options is in that section, with the start of its help text (a whole-page search passed with the
+    sections of commands whose options all recur in others left out)."""
     from raytrace.cli import parser
-    html = (manual[2] / "cli.html").read_text()
+    page = (manual[2] / "cli.html").read_text()
     commands = next(a for a in parser()._actions if a.dest == "command").choices
+    starts = {name: page.index(f'<section id="python-m-raytrace-{name}">') for name in commands}
+    ends = sorted(starts.values()) + [len(page)]
     for name, sub in commands.items():
+        section = page[starts[name]:ends[ends.index(starts[name]) + 1]]
         for action in sub._actions:
             for option in action.option_strings:
-                assert option in html or option in ("-h", "--help"), (name, option)
+                if option not in ("-h", "--help"):
+                    assert re.search(rf"<kbd>([^<]*, )?{re.escape(option)}(, [^<]*)?</kbd>", section), (name, option)
+            if action.help and action.option_strings != ["-h", "--help"]:
+                words = " ".join(action.help.split("%")[0].split()[:4])
+                assert words in _text(section), (name, action.dest, words)
+
+
+def test_the_scene_format_tables_say_what_the_declarations_do(manual):
+    """Each key table of the scene format's page lists its keys in the declarations' order (raytrace/scene/
+    keys.py), each with the type, default and accepted values the generator derives from its declaration;
+    and a few rows written out here, so that the check is not only the generator's code run twice."""
+    from raytrace_docs import accepted, default_text
+    parts = re.split(r"<p><strong>(.*?)</strong></p>", (manual[2] / "scene-format.html").read_text())
+    tables = {_text(parts[i]): _table_rows(parts[i + 1].split("</table>")[0]) for i in range(1, len(parts), 2)}
+    unmark = lambda text: " ".join(text.replace("``", "").split())  # noqa: E731  (reStructuredText literals)
+    for table, keys in TABLES.items():
+        rows = tables[_text(table or "top level")]
+        assert rows[0] == ["key", "type", "default", "accepted", "meaning"] and len(rows) == len(keys) + 1
+        for row, key in zip(rows[1:], keys):
+            kind, values = accepted(key)
+            assert row[:4] == [key.name, kind, unmark(default_text(key)), unmark(values)], (table, row)
+    by_hand = {("camera", "fov"): ["number", "required", "(0, 180)"],
+               ("top level", "ambient"): ["3 numbers", "[0, 0, 0]", 'each >= 0; not with shading = "direct"'],
+               ("render", "max_depth"): ["integer", "-1", "[-1, 1024]"],
+               ("render", "shading"): ["string", '"phong"', "one of phong, direct, path"],
+               ("materials.NAME", "alpha"): ["number", "0.1", "(0, 1]"],
+               ('shapes[] type = "mesh", from a file or generated', "smooth"): ["true or false", "false", "any"]}
+    for (table, key), cells in by_hand.items():
+        assert next(row[1:4] for row in tables[table] if row[0] == key) == cells, (table, key)
+
+
+def test_the_performance_page_shows_each_records_figures(manual):
+    """Under each machine kind's heading, one row per figure of its current records: the figure's name, its
+    value to the page's three significant digits (so within 0.5% of the record's) with its unit, and the
+    number of the run listed below the table that names the record's file."""
+    from raytrace_docs import current, records
+    page = (manual[2] / "performance.html").read_text()
+    sections = {_text(part.split('<a class="headerlink"')[0]): part
+                for part in re.split(r'<section id="[^"]+">\s*<h2>', page)[1:]}
+    for machine, recs in current(records()).items():
+        section = sections[machine]
+        listed = _text(section.split("</table>")[-1])  # the runs, below the table
+        runs = dict(re.findall(r"\[(\d+)\] .*? \( ?benchmarks/results/(\S+\.json) ?\)", listed))
+        by_file = {record["file"]: record for record in recs}
+        assert sorted(runs.values()) == sorted(by_file), machine
+        rows = _table_rows(section)[1:]
+        assert len(rows) == sum(len(record["figures"]) for record in recs), machine
+        for what, figure, run in rows:
+            value, _, unit = figure.partition(" ")
+            record = by_file[runs[run.strip("[]")]]
+            assert any(what.endswith(f["what"]) and f["unit"] == unit
+                       and math.isclose(float(value), f["value"], rel_tol=5.01e-3) for f in record["figures"]), \
+                (machine, what, figure, run)
 
 
 @pytest.mark.parametrize("path", RECORDS, ids=[p.name for p in RECORDS])
