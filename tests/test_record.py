@@ -83,3 +83,22 @@ def test_a_record_of_a_converge_run(tmp_path):
     if final["ratio"] is not None:
         assert figures[f"our time to peer:independent's RMSE at {final['spp']} spp, against its time"] == \
             round(final["ratio"], 3)
+
+
+def test_converge_figures_of_a_race_both_sides_ran():
+    """A converge result made by hand, whose race the tiny study above cannot give (its levels go
+    unreached): a level both sides reached becomes a row, one neither reached none, and the race against
+    the peer's last render a row of its own; each pattern's RMSE at a quarter of its most samples and at
+    its most (4 significant digits), and that render's seconds."""
+    from benchmarks.record import converge_figures
+    rows = [{"sampler": "sobol", "spp": spp, "seconds": 0.01 * spp, "rmse": 0.1 / spp ** 0.5} for spp in (1, 4, 16)]
+    results = {"rows": rows,
+               "race": [{"rmse": 0.05, "ratio": 0.81234}, {"rmse": 0.001, "ratio": None}],
+               "race_finals": [{"peer": "peer:independent", "spp": 16, "ratio": 0.39012},
+                               {"peer": "peer:multijitter", "spp": 16, "ratio": None}]}
+    assert converge_figures(results) == [
+        {"what": "sobol RMSE at 4 spp", "value": 0.05, "unit": "RMSE"},
+        {"what": "sobol RMSE at 16 spp", "value": 0.025, "unit": "RMSE"},
+        {"what": "sobol seconds at 16 spp", "value": 0.16, "unit": "s"},
+        {"what": "our time to RMSE 0.05, against the peer's", "value": 0.812, "unit": "x"},
+        {"what": "our time to peer:independent's RMSE at 16 spp, against its time", "value": 0.39, "unit": "x"}]
