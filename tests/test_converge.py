@@ -90,11 +90,14 @@ def test_files_and_table(measured):
     assert result["montage"][-1]["spp"] == 1 and all(p["spp"] >= 1 for p in result["montage"])
 
 
-def test_given_reference(measured, tmp_path, capsys):
+def test_given_reference(measured, tmp_path, capsys, monkeypatch):
     """The written reference.exr, given back through the command line, gives the same rows but the
     times: every render is deterministic for a fixed seed and the EXR keeps the float32 image exactly.
     No reference is rendered or written this time, and timing each render twice (--repeats) changes only
-    the seconds."""
+    the seconds: two renders a row, after the one untimed render that builds the kernel."""
+    from raytrace.commands import converge as module
+    calls, real = [], module.render_progressive
+    monkeypatch.setattr(module, "render_progressive", lambda scene, **kw: calls.append(kw) or real(scene, **kw))
     out_dir, _, _ = measured
     out = tmp_path / "again"
     assert cli.main(["converge", str(CORNELL), "--samplers", ",".join(SAMPLERS), "--max-spp", "16", *SIZE,
@@ -105,6 +108,7 @@ def test_given_reference(measured, tmp_path, capsys):
     _, again = read_csv(out / "converge.csv")
     drop = lambda rows: [{k: v for k, v in r.items() if k != "seconds"} for r in rows]  # noqa: E731
     assert drop(again) == drop(first)
+    assert calls[0]["sampler"] == "center" and len(calls) == 1 + 2 * len(again)
     assert sorted(p.name for p in out.iterdir()) == ["converge.csv", "converge.png", "montage.png"]
 
 
@@ -158,9 +162,16 @@ def test_counts_lights_and_slope():
     (["--out", "{tmp}/file"], "command line: --out = '{tmp}/file'"),
     (["--device", "no such device"], "command line: --device = 'no such device'"),
 ])
-def test_bad_input(tmp_path, capsys, args, needle):
-    """Each bad value is found before anything renders: exit 2, one stderr line naming the key and the
-    value, no traceback, no converge.csv (the output directory is not even made)."""
+def test_bad_input(tmp_path, capsys, monkeypatch, args, needle):
+    """Each bad value is found before anything renders (a render here is an error of its own): exit 2, one
+    stderr line naming the key and the value, no traceback, no converge.csv (the output directory is not
+    even made)."""
+    from raytrace.commands import converge as module
+
+    def render_progressive(scene, **kw):
+        raise AssertionError("rendered before the input was checked")
+
+    monkeypatch.setattr(module, "render_progressive", render_progressive)
     write_image(tmp_path / "small.exr", np.zeros((16, 16, 3), np.float32))
     (tmp_path / "file").write_text("")
     base = {"--samplers": "random", "--max-spp": "4", "--out": str(tmp_path / "out")}
