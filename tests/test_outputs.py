@@ -301,6 +301,26 @@ def test_read_only_directory(tmp_path, readonly, argv, option):
 
 
 @pytest.mark.parametrize("option", ["-o", "--stats-json"])
+def test_render_refuses_a_read_only_directory_before_rendering(tmp_path, readonly, monkeypatch, capsys, option):
+    """render in process, with a render made an error of its own: the read-only directory is refused first.
+    (render prints nothing on stdout, so the test above cannot tell a refusal before the work from one
+    after it.)"""
+    import importlib
+    from raytrace import cli
+
+    def render_progressive(scene, **kw):
+        raise AssertionError("rendered before the outputs were checked")
+
+    monkeypatch.setattr(importlib.import_module("raytrace.render"), "render_progressive", render_progressive)
+    refused = readonly / ("x.png" if option == "-o" else "s.json")
+    argv = ["-o", refused] if option == "-o" else ["-o", tmp_path / "x.png", "--stats-json", refused]
+    assert cli.main(["render", str(CORNELL), *map(str, argv), *map(str, SMALL)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"command line: {option} = '{refused}'" in err, err
+    assert names(readonly) == [] and names(tmp_path) == ["ro"]
+
+
+@pytest.mark.parametrize("option", ["-o", "--stats-json"])
 def test_over_long_file_name(tmp_path, option):
     long = tmp_path / ("n" * 300 + (".png" if option == "-o" else ".json"))
     argv = ["-o", long] if option == "-o" else ["-o", tmp_path / "x.png", "--stats-json", long]
