@@ -137,6 +137,8 @@ def test_tables_lie_in_the_unit_square(name, n):
     assert p.points.shape == (n, 2) and np.all((p.points >= 0) & (p.points < 1))
     as_read = (p.table() >> np.uint32(8)) * 2.0**-24  # what the kernel makes of an unrandomised entry
     assert np.all((as_read >= 0) & (as_read < 1))
+    if p.randomize == "jitter":  # a corner as read stays in its own stratum (rounded up, not down)
+        np.testing.assert_array_equal(np.floor(as_read * p.strata), np.round(p.points * p.strata))
 
 
 def test_counts_each_pattern_allows():
@@ -168,6 +170,8 @@ def test_rotated_grids_are_the_grid_rotated_about_the_pixel_centre(n):
         expected = np.mod(g @ np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]) + 0.5, 1)
         got = samplers.pattern(name, n).points
         np.testing.assert_allclose(np.sort(got, axis=0), np.sort(expected, axis=0), atol=1e-12)
+        gap = np.linalg.norm(got[:, None, :] - expected[None, :, :], axis=-1)  # as points, not columns
+        assert gap.min(axis=0).max() < 1e-12 and gap.min(axis=1).max() < 1e-12, name
     # The course's 4-sample rotated grid: every row and every column of the pixel holds one sample.
     p = samplers.pattern("rotated-grid-cw", 4).points
     assert len(set(np.floor(p[:, 0] * 4))) == 4 and len(set(np.floor(p[:, 1] * 4))) == 4
