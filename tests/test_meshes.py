@@ -74,6 +74,17 @@ def test_obj_polygons_seams_and_degenerates(tmp_path):
     assert corners_of(mesh) == expected_corners(FACES)
 
 
+def test_degenerate_is_relative_to_the_triangle_size(tmp_path):
+    """Degenerate means twice the area at most 1e-9 of the longest edge squared (meshes.DEGENERATE), not an
+    area of 0: a sliver 10^6 long and 10^-4 thick (ratio 1e-10) and one 1 long and 10^-12 thick are dropped,
+    a well-shaped triangle of side 10^-6 (ratio 0.5) is kept."""
+    path = tmp_path / "scales.obj"
+    path.write_text("v 0 0 0\nv 1e6 0 0\nv 5e5 1e-4 0\nv 0 0 1\nv 1e-6 0 1\nv 0 1e-6 1\n"
+                    "v 0 0 2\nv 1 0 2\nv 0.5 1e-12 2\nf 1 2 3\nf 4 5 6\nf 7 8 9\n")
+    mesh, dropped = load_mesh(path)
+    assert dropped == 2 and mesh.faces.tolist() == [[3, 4, 5]]
+
+
 def test_obj_all_quads(tmp_path):
     """Faces of one size take trimesh's vectorised path, which leaves quads as quads: we fan them."""
     quads = [FACES[0], [(2, 2, 1), (5, 5, 1), (7, 3, 1), (3, 3, 1)]]
@@ -159,6 +170,9 @@ def test_unusable_file_normals_are_replaced(tmp_path):
     path.write_text(header.format(format="ascii", real="float") + "\n".join(body))
     mesh, _ = load_mesh(path)
     np.testing.assert_array_equal(mesh.normals, [[0, 0, 1]] * 3)
+    tilted = tmp_path / "tilted.ply"  # not in z = 0: the replacement is the face's normal, not +z
+    tilted.write_text(header.format(format="ascii", real="float") + "0 0 0 0 0 0\n1 0 0 0 0 2\n0 1 1 0 0 1\n3 0 1 2")
+    np.testing.assert_allclose(load_mesh(tilted)[0].normals[0], [0, -0.5**0.5, 0.5**0.5], rtol=1e-15)
 
 
 def test_vertex_normals_weight_by_area_and_position():
@@ -191,6 +205,7 @@ BAD_FILES = {
     "0 0 0\n1 0 0\n0 1 0\n",
     "inf.ply": PLY_ASCII + "0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n",
     "index_out_of_range.ply": PLY_ASCII + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+    "negative_index.ply": PLY_ASCII + "0 0 0\n1 0 0\n0 1 0\n3 0 1 -1\n",
     "garbage.ply": bytes(range(256)) * 4,
     "text.ply": "this is not a mesh\n",
     "truncated_binary.ply": PLY_ASCII.replace("ascii", "binary_little_endian").encode() + bytes(40),
