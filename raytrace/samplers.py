@@ -141,15 +141,17 @@ def progressive(points, cells):
         rank[np.floor(order[:, 1] * ny).astype(np.int64) * nx + np.floor(order[:, 0] * nx).astype(np.int64)] = \
             np.arange(nx * ny)
         return points[np.argsort(rank[iy * nx + ix], kind="stable")]
-    q = np.stack([ix * 65536 // nx, iy * 65536 // ny], axis=1).astype(np.uint64)
-    code = np.zeros(len(points), np.uint64)
-    for bit in range(16):  # interleave: x in the even bits, y in the odd bits
-        code |= ((q[:, 0] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(2 * bit)
-        code |= ((q[:, 1] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(2 * bit + 1)
-    reversed_code = np.zeros_like(code)
-    for bit in range(32):
-        reversed_code |= ((code >> np.uint64(bit)) & np.uint64(1)) << np.uint64(31 - bit)
-    return points[np.argsort(reversed_code, kind="stable")]
+    # Each cell's centre in b-bit fixed point, 2^b >= n: distinct per cell (centres lie 1/n >= 2^-b apart),
+    # and each half's first cell sits at 0 or 2^(b-1) (the first centre past 1/2 is within 1/(2n) < 2^-b).
+    bx, by = (max(1, int(n - 1).bit_length()) for n in (nx, ny))
+    qx, qy = ((2 * ix + 1) << bx) // (2 * nx), ((2 * iy + 1) << by) // (2 * ny)
+    code = np.zeros(len(points), np.int64)
+    for level in range(max(bx, by)):  # the positions' most significant bits are the code's least
+        if level < bx:
+            code |= ((qx >> (bx - 1 - level)) & 1) << (2 * level)
+        if level < by:
+            code |= ((qy >> (by - 1 - level)) & 1) << (2 * level + 1)
+    return points[np.argsort(code, kind="stable")]
 
 
 def radical_inverse(i, base):

@@ -161,6 +161,21 @@ def test_grid_is_cell_centres_in_progressive_order():
         assert len(cells) == 4**k
 
 
+@pytest.mark.parametrize("name, n", [("jittered", 6), ("jittered", 12), ("jittered", 15), ("jittered", 20),
+                                     ("jittered", 24), ("grid", 9), ("grid", 25), ("grid", 49)])
+def test_cells_of_no_power_of_two_start_in_the_four_quadrants(name, n):
+    """Cells nx x ny, not both powers of two, in bit-reversed Morton order (samplers.progressive): the first
+    four points lie in the pixel's four quadrants (a cell in the half its centre is in; a centre at 1/2 in
+    the upper one), so that a render stopped at 4 samples, and each half of the error estimate's passes,
+    covers the pixel. Reversing all 16 bits of the cells' fixed-point positions put jittered 12's and
+    20's first four in one row or one column."""
+    p = samplers.pattern(name, n)
+    nx, ny = p.strata if name == "jittered" else (round(n**0.5),) * 2
+    assert nx & (nx - 1) or ny & (ny - 1)
+    cells = np.floor(p.points[:4] * [nx, ny] + 1e-9).astype(int)
+    assert len({tuple(2 * c + 1 >= [nx, ny]) for c in cells}) == 4, cells.tolist()
+
+
 @pytest.mark.parametrize("n", [4, 9, 16, 64])
 def test_rotated_grids_are_the_grid_rotated_about_the_pixel_centre(n):
     """+-atan(1/2) about (1/2, 1/2), wrapped into [0, 1)^2; clockwise on screen (y down) is a positive angle."""
