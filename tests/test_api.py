@@ -181,8 +181,9 @@ def test_load_dict_takes_numpy_values():
 
 
 def test_parameters_edit_and_render_again():
-    """An edit is seen by the next render (the scene's packed tables are made anew), and a second render with
-    no edit in between rebuilds nothing."""
+    """An edit is seen by the next render (the scene's packed tables are made anew): its image is that of the
+    scene loaded with the edited value, to the bit; and a second render with no edit in between rebuilds
+    nothing."""
     scene = raytrace.load_file(CORNELL)
     first = np.asarray(raytrace.render(scene, **SMALL)[0]).copy()
     params = raytrace.parameters(scene)
@@ -193,6 +194,10 @@ def test_parameters_edit_and_render_again():
     assert params.update() == {"lights[0].colour"} and scene.revision == 1
     second, stats = raytrace.render(scene, **SMALL)
     assert np.asarray(second).mean() < first.mean() and stats.build_seconds < 0.5
+    text = open(CORNELL).read()  # the same scene with the edited value in its file: the same image, to the bit
+    assert text.count("colour = [1.0, 1.0, 1.0]") == 1
+    edited = raytrace.load_string(text.replace("colour = [1.0, 1.0, 1.0]", "colour = [0.5, 0.5, 0.5]"))
+    np.testing.assert_array_equal(np.asarray(second), np.asarray(raytrace.render(edited, **SMALL)[0]))
     assert raytrace.render(scene, **SMALL)[1].build_seconds == 0  # the program is kept
     with pytest.raises(KeyError):
         params["lights[3].colour"] = [1, 1, 1]  # no such light
