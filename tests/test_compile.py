@@ -47,6 +47,19 @@ def test_a_kernel_clang_rejects_fails(monkeypatch, cornell, target):
         compile_scene(dataclasses.replace(cornell), target)
 
 
+def test_the_command_exits_with_1_when_clang_rejects(monkeypatch, capsys):
+    """`python -m raytrace compile`, in process, on the kernel lanes.h refuses: exit status 1 and one line
+    naming the scene, the target and clang's error; and 0 with "ok" on the kernel as it is."""
+    from raytrace import cli
+    scene = str(ROOT / "scenes" / "cornell.toml")
+    assert cli.main(["compile", scene, "--target", "nvptx"]) == 0
+    assert capsys.readouterr().out.startswith(f"{scene}: nvptx: ok, ")
+    monkeypatch.setattr(Features, "options", lambda self: ["-DLANES=3"])
+    assert cli.main(["compile", scene, "--target", "nvptx"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"{scene}: nvptx: FAILED: ") and "LANES must be" in err, err
+
+
 @pytest.mark.parametrize("target", [t for t in GPU_TARGETS if t != "pocl"])
 def test_the_accumulation_kernels_compile(target):
     """kernels/accumulate.cl, the sums a GPU keeps between passes (renderer/device_sums.py), compiles for every
