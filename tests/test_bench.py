@@ -149,3 +149,21 @@ def test_peer_best_rate(fields, best):
     """The peer's fastest render's rate: its median rate times median_s / min_s (0.5 * 3 / 2), or its plain
     rate where the two are missing, not numbers, or out of order."""
     assert bench.peer_best_rate({"mrays_per_s": 0.5, **fields}) == pytest.approx(best)
+
+
+def test_a_failing_child_render_exits_with_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    """bench in process, its child renders (real processes) given an environment they refuse
+    (RAYTRACE_TARGET=bogus, which this process does not read): exit status 1, one error line, after bench's
+    progress, naming the scene and holding the child's own error line; and no --json file."""
+    from raytrace import cli
+    real = bench.child_env
+    monkeypatch.setattr(bench, "child_env", lambda env=None, **variables: {**real(env, **variables),
+                                                                           "RAYTRACE_TARGET": "bogus"})
+    out = tmp_path / "b.json"
+    assert cli.main(["bench", str(CORNELL), "--width", "16", "--height", "16", "--spp", "1", "--light-samples",
+                     "1", "--repeat", "1", "--json", str(out)]) == 1
+    lines = capsys.readouterr().err.splitlines()  # bench's progress lines, then the error
+    assert [line for line in lines if "error" in line] == lines[-1:], lines
+    assert lines[-1].startswith(f"raytrace: error: {CORNELL}: the child render exited with status 2: raytrace: "
+                                "error: environment: RAYTRACE_TARGET = 'bogus'"), lines
+    assert list(tmp_path.iterdir()) == []
