@@ -232,12 +232,22 @@ def test_passes_continue_the_sequence(cornell):
     order (float64 passes on the host against the kernel's compensated float32 sum: within a few float32
     roundings of a pixel's value, 1e-6 relative), for the pixel offsets and, in the direct model, for one
     light sample per pixel sample. A pass that restarted the sequence would repeat samples 0-3: that image is
-    the 4-sample one, 0.05 or more away in some pixel."""
+    the 4-sample one, 0.05 or more away in some pixel.
+    The error estimate's halves are the same too: the first 8 samples against the last 8, from the kernel's
+    first-half planes in one pass, from the prefix copied at 8 samples in four passes (the powers-of-two rule
+    with a QMC sampler over several passes): the same per-pixel estimate within the image's float32 roundings
+    (measured 1.8e-7 of the pixel's value). Halves of other samples (a first half summed apart in every pass,
+    or the prefix copied at every pass) give another estimate, off by 50% or more."""
     scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
     options = {**SMALL, "spp": 16, "light_samples": 1}
-    whole, _, one = render_progressive(scene, **options)
-    parts, _, four = render_progressive(scene, **options, max_pass_work=4 * (1 + 1) * 64 * 64)  # 4 samples a pass
+    whole, whole_variance, one = render_progressive(scene, **options)
+    parts, parts_variance, four = render_progressive(scene, **options,
+                                                     max_pass_work=4 * (1 + 1) * 64 * 64)  # 4 samples a pass
     assert (one.passes, four.passes, one.sampler, one.light_sampler) == (1, 4, "sobol", "sobol")
     np.testing.assert_allclose(parts, whole, rtol=1e-6, atol=1e-6)
+    assert np.max(np.sqrt(whole_variance)) > 0.01
+    difference = np.abs(np.sqrt(parts_variance.astype(np.float64)) - np.sqrt(whole_variance.astype(np.float64)))
+    assert np.all(difference <= 2e-6 * whole + 1e-30), np.max(difference / np.maximum(whole, 1e-30))
+    assert four.estimated_rmse == pytest.approx(one.estimated_rmse, rel=1e-6)
     fewer, _, _ = render_progressive(scene, **dict(options, spp=4))
     assert np.max(np.abs(fewer - whole)) > 0.05
