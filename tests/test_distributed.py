@@ -69,6 +69,13 @@ def test_banding_changes_nothing(cluster, scene0):
     assert_same(render_progressive(scene0, **SMALL, **ONE_ROW), render_progressive(scene0, **SMALL, client=cluster[1]))
 
 
+def test_a_short_last_band_changes_nothing(cluster, scene0):
+    """50 rows in bands of 7: the last band holds 1 row, clipped to the image (render.py's _passes); a band of 7
+    rows past the image's end fails on the worker."""
+    options = dict(SMALL, height=50, max_band_bytes=OUTPUT_PLANES * 4 * 64 * 7)
+    assert_same(render_progressive(scene0, **options), render_progressive(scene0, **options, client=cluster[1]))
+
+
 def test_a_killed_worker_changes_nothing(cluster, scene0):
     """SIGKILL to one worker while a render of 64 passes of one sample is under way: the scheduler runs its
     tasks again elsewhere (the nanny starts a new worker) and the image is still the single-process one. The
@@ -129,6 +136,9 @@ def test_missing_dask_is_one_line(monkeypatch, scene0):
 @pytest.mark.parametrize("address, problem", [
     ("local:0", f"local:N needs 1 <= N <= {os.cpu_count()} workers, the cores this machine has"),
     ("local:257", "local:N needs 1 <= N <= "),
+    (f"local:{os.cpu_count() + 1}", f"local:N needs 1 <= N <= {os.cpu_count()} workers"),  # one worker past the cores
+    ("local:1x", "must be local:N or tcp://host:port"),  # trailing junk, not a LocalCluster of 1
+    ("local:1:8786", "must be local:N or tcp://host:port"),
     ("udp://x:1", "must be local:N or tcp://host:port"),
     ("tcp://127.0.0.1:9", "cannot reach the scheduler"),
 ])
