@@ -43,7 +43,7 @@ def _add_render_options(p, scene_help=None):
     for name, default, doc, cli, choices, metavar in declared():
         if cli and name != "scheduler":
             _add_option(p, name, default, doc, choices, metavar)
-    _add_scheduler(p)
+    _add_declared(p, "scheduler")
 
 
 def _add_option(p, name, default, doc, choices=None, metavar=None):
@@ -53,10 +53,6 @@ def _add_option(p, name, default, doc, choices=None, metavar=None):
                    choices=list(parser_checks) if parser_checks else None, metavar=metavar,
                    help=doc + (f": {', '.join(choices)}" if choices and not parser_checks else "")
                    + (f" (default: {default})" if default is not None else ""))
-
-
-def _add_scheduler(p):
-    _add_declared(p, "scheduler")
 
 
 def _add_declared(p, option):
@@ -102,7 +98,7 @@ def parser():
     c.add_argument("--json", help="also write the rows, the race against the peer and the machine to this JSON file")
     c.add_argument("--repeats", type=int, default=1,
                    help="renders timed per sample count, the median kept (default 1; at most 100)")
-    _add_scheduler(c)
+    _add_declared(c, "scheduler")
     _add_declared(c, "device")
     c.add_argument("--peer", metavar="TEMPLATE", help="also another renderer's patterns: a shell command with "
                    "{sampler}, {spp} and {out} that writes an EXR and prints JSON with median_s")
