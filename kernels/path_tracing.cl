@@ -1,15 +1,24 @@
 /* Global illumination, the third shading model (`shading = "path"`; docs/global-illumination.md):
- * unidirectional path tracing from the camera (pbrt-v4's PathIntegrator, Mitsuba 3's `path`). The surfaces are
- * Lambertian, f = albedo / pi, both sides reflecting, as in the direct model; the rectangular lights emit their
- * radiance from the front face and reflect by their material where they have one.
+ * unidirectional path tracing from the camera (pbrt-v4's PathIntegrator, Mitsuba 3's `path`). A material's
+ * BSDF is its `type`, with Mitsuba's names: `diffuse`, Lambertian, f = albedo / pi, both sides reflecting, as
+ * in the direct model; `conductor`, a smooth mirror with the Fresnel reflectance of eta + i k
+ * (HAS_CONDUCTORS); `dielectric`, smooth glass that reflects or refracts by its Fresnel reflectance
+ * (HAS_DIELECTRICS); `roughconductor`, GGX microfacets of roughness alpha with the conductor's Fresnel term
+ * (HAS_ROUGH_CONDUCTORS, microfacet.cl). The rectangular lights emit their radiance from the front face and
+ * reflect by their material where they have one; an environment (HAS_ENVIRONMENT, environment.cl), constant
+ * or an image, emits along every direction in which a ray leaves the scene.
  *
  * At every vertex the lights are sampled by area (next-event estimation, light_sampling.cl) and the BSDF by
- * the cosine-weighted hemisphere; the two estimates of light reached both ways are combined by multiple
- * importance sampling with the power heuristic (Veach, "Robust Monte Carlo Methods for Light Transport
- * Simulation", 1997, section 9.2). Each light's n samples form one technique and the BSDF's single sample
- * the other: w_light = (n p_light)^2 / ((n p_light)^2 + p_bsdf^2), both densities per solid angle, p_light =
- * r^2 / (A cos(theta_l)), p_bsdf = cos(theta_s) / pi. The weights are formed from the ratio p_bsdf / (n
- * p_light), which stays finite where either density does not (a light seen edge-on).
+ * its own sample (the cosine-weighted hemisphere for diffuse, the visible normals for rough conductors); the
+ * two estimates of light reached both ways are combined by multiple importance sampling with the power
+ * heuristic (Veach, "Robust Monte Carlo Methods for Light Transport Simulation", 1997, section 9.2), and so
+ * are the environment's, sampled by its map or, constant, by the cosine about the normal. Each light's n
+ * samples form one technique and the BSDF's single sample the other: w_light = (n p_light)^2 / ((n p_light)^2
+ * + p_bsdf^2), both densities per solid angle, p_light = r^2 / (A cos(theta_l)), p_bsdf the density of the
+ * BSDF's sample (cos(theta_s) / pi for diffuse). The weights are formed from the ratio p_bsdf / (n p_light),
+ * which stays finite where either density does not (a light seen edge-on). The smooth conductor and the
+ * dielectric are delta BSDFs, one direction each, which no light sample can meet: their vertices sample
+ * that direction alone (sample_specular), and light it reaches counts whole.
  *
  * Depth follows Mitsuba's convention: max_depth 1 shows the emitters seen directly, 2 adds direct light, -1
  * is unbounded. From vertex rr_depth on (Mitsuba's default 5), after the vertex's light samples, Russian
@@ -28,8 +37,9 @@
 #define LIGHT_VALUE_VEC3 HAS_ROUGH_CONDUCTORS
 #ifndef LIGHT_SOLID_ANGLE
 /* Lights are sampled by area. A build with 1 samples them by the solid angle they subtend where that is
- * accurate (spherical_rectangle.cl): on the Cornell box its images are 3% less noisy at the same samples but
- * take 15% longer (docs/global-illumination.md), so the renderer leaves it off; the tests keep it correct. */
+ * accurate (spherical_rectangle.cl): its images are less noisy at the same samples, but each sample costs
+ * more, and to the same error it took longer (measured in docs/global-illumination.md, from the records in
+ * benchmarks/results/solid-angle/), so the renderer leaves it off; the tests keep it correct. */
 #define LIGHT_SOLID_ANGLE 0
 #endif
 
@@ -38,7 +48,8 @@
 #endif
 #ifndef PATH_SAMPLING
 /* How light reaching a vertex is sampled: 0, both ways combined by MIS (the renderer's only choice); tests
- * (tests/test_path_tracing.py) build 1, the lights alone, and 2, the BSDF alone, which must agree with it. */
+ * (tests/test_path_integrator.py and the BSDFs' own) build 1, the lights alone, and 2, the BSDF alone, which
+ * must agree with it. */
 #define PATH_SAMPLING 0
 #endif
 #define RR_MAX_Q 0.95f /* a path always has a chance to end there, however bright its throughput */

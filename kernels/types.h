@@ -81,7 +81,7 @@ typedef struct {
     int bsdf;                        /* BSDF_*: the path model's; the other models are Lambertian or Phong */
     Vec3f eta, k;                    /* BSDF_CONDUCTOR: eta + i k per channel (0, 0: a perfect mirror);
                                       * BSDF_DIELECTRIC: eta.x = int_ior / ext_ior */
-    float alpha;                     /* BSDF_ROUGH_CONDUCTOR: the GGX roughness (microfacet.cl) */
+    float alpha;                     /* BSDF_ROUGHCONDUCTOR: the GGX roughness (microfacet.cl) */
 } Material;
 
 #define BSDF_DIFFUSE 0

@@ -28,10 +28,10 @@ WORK_PER_LAUNCH = 1 << 23     # work units (rays, roughly) of one launch on a CP
 def work_per_launch(device):
     """Work units (rays, roughly) of one launch at most: WORK_PER_LAUNCH on a CPU (scene 0's 512 x 512 in 9
     launches of 60 rows, each a short launch: measured in commit 18becbe); on a GPU a whole pass
-    (progressive.PASS_WORK), so that a launch holds enough work-items to keep every core busy to its end. The
-    H100 holds 270,336 resident work-items (132 multiprocessors of 2048): a band of 60 rows is 30,720, and
-    scene 0's and mesh_cornell's kernels took less time in one launch than in bands (measured in commit
-    77b202d)."""
+    (progressive.PASS_WORK), so that a launch holds enough work-items to keep every core busy to its end. A
+    large GPU holds many times more resident work-items than a band of 60 rows of a 512-pixel image (30,720):
+    most of it would wait for each band's tail (docs/gpu.md). Scene 0's and mesh_cornell's kernels took less
+    time in one launch than in bands (measured in commit 77b202d)."""
     return WORK_PER_LAUNCH if device.type & cl.device_type.CPU else PASS_WORK
 
 
@@ -50,7 +50,7 @@ GPU_WORK_GROUP = (16, 8)  # work-items (tiles of pixels) of a work-group on a GP
 def work_group_shape(device, kernel, lanes):
     """The launch's local size, or None for the runtime's choice.
     - CPUs, the vector kernel: one work-item per work-group: PoCL then runs no work-item loop around it, and
-      the two cores share out the small groups evenly (faster than the default on scene 0: measured in commit
+      the cores share out the small groups evenly (faster than the default on scene 0: measured in commit
       df1c824).
     - GPUs: GPU_WORK_GROUP, a block of 16 x 8 neighbouring pixels, so that a group's rays meet the same BVH
       nodes and texels in the multiprocessor's cache. On a GPU (whole-pass launches) this took less time than

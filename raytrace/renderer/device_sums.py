@@ -1,9 +1,10 @@
 """A progressive render's sums kept on its device between passes (kernels/accumulate.cl), for a GPU.
 
-The host's Accumulator (progressive.py) reads every pass's output back and adds it in float64; on a GPU that
-host work outweighed the kernels (scene 0 at 512 x 512 on an H100: 6 of 8.7 ms a render). Here a pass's bands
-are added on the device as double-floats, a pass sends back only its error estimate's partial sums (at most
-MAX_PARTIALS pairs, 512 KB), and the host reads the image, its variance and the ray count once, at the end.
+The host's Accumulator (progressive.py) reads every pass's output back and adds it in float64; on a GPU, whose
+kernels are fast, that host work outweighed them (docs/gpu.md, from the record
+benchmarks/results/2026-11-26-h100-ci-gpu.json). Here a pass's bands are added on the device as double-floats,
+a pass sends back only its error estimate's partial sums (at most MAX_PARTIALS pairs, 512 KB), and the host
+reads the image, its variance and the ray count once, at the end.
 The estimate's halves, prefix and counts follow the Accumulator's rules exactly (the same n_prefix, the same
 weights), so both give the same images to within the roundings argued in kernels/accumulate.cl
 (tests/test_device_sums.py)."""
