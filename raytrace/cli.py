@@ -19,7 +19,7 @@ from .errors import InputError, interrupted_line
 from .outputs import (Interrupted, Outputs, committed, handle_signals, raise_pending, scene_inputs,
                       write_json)
 from .image import metadata
-from .image_file import FORMATS, write_image_file
+from .image_file import FORMATS, check_extension, write_image_file
 from .options import API, command_line_name, declared, option_type
 from .commands.converge_peer import PEER_SAMPLERS
 
@@ -132,8 +132,7 @@ def cmd_render(args):
     from .render import render_progressive
     from .scene import load_file
 
-    if Path(args.output).suffix.lower() not in FORMATS:
-        raise InputError("command line", "-o", args.output, f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
+    check_extension(args.output, "command line", "-o")
     with Outputs(inputs=[args.scene]) as outputs:
         image_file = outputs.reserve("-o", args.output)
         stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)

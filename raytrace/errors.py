@@ -5,6 +5,7 @@ import signal
 
 
 API = "render()"  # the source an error names for a keyword argument of render() (the command line renames it)
+POSITIVE_SECONDS = "must be a positive number of seconds"  # render()'s time_limit, converge's --montage-seconds
 
 
 class InputError(Exception):

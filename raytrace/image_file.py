@@ -103,13 +103,18 @@ def write_image_file(path, image, metadata=None, variance=None):
         raise OSError(errno.EIO, message.splitlines()[0].strip(), path)
 
 
+def check_extension(path, source, key):
+    """Refuse an image path whose extension names no format it can be written in."""
+    if os.path.splitext(str(path))[1].lower() not in FORMATS:
+        raise InputError(source, key, str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
+
+
 def write_image(path, image, metadata=None, variance=None, key="path", source="write_image()"):
     """Write H x W x 3 linear float `image` to `path` as the command line does (write_image_file: the format
     from the extension, `metadata` as the file's attributes, an EXR with the `variance` channels), atomically:
     a temporary file beside `path` renamed into place, so a failed write leaves no partial file. Bad paths and
     failed writes raise InputError naming `source`, `key` and `path`."""
-    if os.path.splitext(str(path))[1].lower() not in FORMATS:
-        raise InputError(source, key, str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
+    check_extension(path, source, key)
     with Outputs(source=source) as outputs:
         tmp = outputs.reserve(key, path)
         with outputs.writing(tmp):

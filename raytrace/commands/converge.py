@@ -34,11 +34,12 @@ import numpy as np
 import OpenImageIO as oiio
 
 from .. import samplers
-from ..errors import InputError
+from ..errors import POSITIVE_SECONDS, InputError
 from ..numerics import rmse
 from ..outputs import Outputs, scene_inputs, write_json
 from ..image_file import encode_8bit, write_image_file
-from ..render import MAX_SPP, RenderOptions, render_progressive, resolve
+from ..render import RenderOptions, render_progressive, resolve
+from ..scene.ranges import MAX_SAMPLES as MAX_SPP
 from ..renderer.device import select_device
 from ..scene import load_file
 from . import bench
@@ -63,7 +64,7 @@ def check_samplers(names):
     names = list(dict.fromkeys(names))
     for name in names:
         if name not in samplers.SAMPLERS:
-            raise InputError(CLI, "--samplers", name, f"unknown sampler (have: {', '.join(samplers.SAMPLERS)})")
+            raise InputError(CLI, "--samplers", name, samplers.count_problem(name, 1))
     if not names:
         raise InputError(CLI, "--samplers", "", "names no sampler")
     return names
@@ -314,7 +315,7 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
     _check_range(reference_spp, "--reference-spp", 1, MAX_SPP)
     _check_range(repeats, "--repeats", 1, MAX_REPEATS)
     if montage_seconds is not None and not 0 < montage_seconds < math.inf:
-        raise InputError(CLI, "--montage-seconds", montage_seconds, "must be a positive number of seconds")
+        raise InputError(CLI, "--montage-seconds", montage_seconds, POSITIVE_SECONDS)
     select_device(device)  # a device that is not there: one line before anything is written
     scene = load_file(scene_path)
     width, height, _, light_samples, _, _ = resolve(scene, RenderOptions(

@@ -93,17 +93,18 @@ def lanes_for(vector_bits, default):
                          f"must be one of {', '.join(map(str, allowed))}")
     lanes = int(override)
     if vector_bits is not None and lanes * 32 > vector_bits:
-        raise InputError("environment", "RAYTRACE_LANES", override,
-                         f"wider than the target's {vector_bits}-bit vectors ({ISA_OF_BITS[vector_bits]}): "
-                         f"at most {vector_bits // 32} lanes")
+        raise InputError("environment", "RAYTRACE_LANES", override, _too_wide(vector_bits, ISA_OF_BITS[vector_bits]))
     return lanes
 
 
 def check_lanes(target, lanes, source, key):
     """Refuse `lanes` (given at `source`'s `key`) wider than the Target's vectors; None targets take any."""
     if target is not None and lanes * 32 > target.vector_bits:
-        raise InputError(source, key, lanes, f"wider than the target's {target.vector_bits}-bit vectors "
-                         f"({target.llvm_cpu}, {target.isa}): at most {target.lanes_max} lanes")
+        raise InputError(source, key, lanes, _too_wide(target.vector_bits, f"{target.llvm_cpu}, {target.isa}"))
+
+
+def _too_wide(vector_bits, isa):
+    return f"wider than the target's {vector_bits}-bit vectors ({isa}): at most {vector_bits // 32} lanes"
 
 
 def choose_target(pocl_cpu, flags):

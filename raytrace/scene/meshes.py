@@ -27,6 +27,7 @@ logging.getLogger("trimesh").addHandler(logging.NullHandler())
 # Twice the area over the longest edge squared: at or below this a triangle has no usable plane
 # (raytrace.scene refuses triangles written in a scene file by the same ratio).
 DEGENERATE = 1e-9
+NO_FACES = "the file has no faces"  # a mesh file's error, whatever its format
 
 
 @dataclass

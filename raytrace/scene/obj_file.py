@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX
-from .meshes import fan, quiet, value_problem, why
+from .meshes import NO_FACES, fan, quiet, value_problem, why
 
 
 def read_obj(path, data):
@@ -34,7 +34,7 @@ def read_obj(path, data):
                InputError(path, "file", None, f"cannot be read as OBJ ({why(e)})")) from None
     parts = [p for p in parts.values() if len(p.get("faces", ()))]
     if not parts:
-        raise InputError(path, "f", None, "the file has no faces")
+        raise InputError(path, "f", None, NO_FACES)
     uvs = [_uv_pairs(getattr(p.get("visual"), "uv", None)) for p in parts]
     normals = [p.get("vertex_normals") for p in parts]
     for key, refs, got, what in (("vt", r"\d/-?\d", uvs, "texture coordinates"),

@@ -17,7 +17,7 @@ import struct
 import numpy as np
 
 from ..errors import InputError
-from .meshes import fan, quiet, why
+from .meshes import NO_FACES, fan, quiet, why
 
 
 def read_ply(path, data):
@@ -39,7 +39,7 @@ def read_ply(path, data):
         return _read_binary_ply(path, endian, elements, body)
     faces = read.get("faces")
     if faces is None or not len(faces):
-        raise InputError(path, "face", None, "the file has no faces")
+        raise InputError(path, "face", None, NO_FACES)
     return read["vertices"], fan(np.asarray(faces)), read.get("vertex_normals"), \
         getattr(read.get("visual"), "uv", None)
 
@@ -160,7 +160,7 @@ def _check_ply_elements(path, elements):
         raise InputError(path, "vertex", None, "the header declares no vertex element with x, y and z properties")
     counts = {name: count for name, count, _ in elements}
     if not counts.get("face"):
-        raise InputError(path, "face", None, "the file has no faces")
+        raise InputError(path, "face", None, NO_FACES)
     if not any(p[0] == "list" and p[3] in PLY_INDEX_NAMES for p in table["face"]):
         raise InputError(path, "face", None, "the face element has no vertex_indices list")
 
@@ -179,18 +179,17 @@ def _check_ply_size(path, endian, elements, body):
     """Refuse a body too short for the header's counts (a truncated file, or an absurd count that trimesh
     would try to allocate): in binary, at least each record's scalars and list counts; in ascii, a line
     per record."""
-    declared = ", ".join(f"element {name} {count}" for name, count, _ in elements)
+    truncated = "is truncated: its header declares " + ", ".join(f"element {n} {count}" for n, count, _ in elements)
     if endian:
         fixed = [count * sum(struct.calcsize(PLY_TYPES[p[1] if p[0] == "list" else p[0]]) for p in properties)
                  for _, count, properties in elements]
         if len(body) < sum(fixed):
-            raise InputError(path, "file", None, f"is truncated: its header declares {declared}, at least "
-                             f"{sum(fixed)} bytes, and {len(body)} bytes follow it")
+            raise InputError(path, "file", None, f"{truncated}, at least {sum(fixed)} bytes, and {len(body)} bytes "
+                             "follow it")
     else:
         lines = body.count(b"\n") + (bool(body) and not body.endswith(b"\n"))
         if lines < sum(count for _, count, _ in elements):
-            raise InputError(path, "file", None, f"is truncated: its header declares {declared}, a line each, "
-                             f"and {lines} lines follow it")
+            raise InputError(path, "file", None, f"{truncated}, a line each, and {lines} lines follow it")
 
 
 def _read_binary_ply(path, endian, elements, body):
