@@ -15,10 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import samplers, structs
-from .errors import InputError
+from .errors import POSITIVE_SECONDS, InputError
 from .memory import available_memory
-from .scene.model import MAX_DEPTH, RADIOMETRIC, SHADINGS
-from .scene.ranges import MAX_IMAGE_SIDE, MAX_SAMPLES as MAX_SPP
 from .renderer.cpu_target import lanes_for
 from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
@@ -26,7 +24,7 @@ from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_
                                    first_half, pass_size, row_chunks)
 from .options import API, MAX_BAND_BYTES, RenderOptions  # noqa: F401 (MAX_BAND_BYTES: for the renderer's callers)
 from .image import Image
-from .scene.model_check import ensure_checked
+from .scene.model_check import check_value, ensure_checked
 
 HEADROOM_BYTES = 512 << 20    # besides the sums and images: the runtime, the program, the band buffers
 
@@ -76,45 +74,48 @@ def _option(value, source, key, check, problem):
     return value
 
 
-def _pick(scene, given, scene_key, option, low, high):
-    """A count from the caller (`option`) or else the scene's (`scene_key`), checked against one set of
-    limits and reported against where it came from."""
-    source, key, value = (API, option, given) if given is not None else (
-        scene.path, scene_key, getattr(scene, scene_key.split(".")[-1]))
-    ok = isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
-    return _option(value, source, key, lambda v: ok, f"must be an integer in [{low}, {high}]")
+# render()'s options that override a value of the scene, with the table of keys.py that declares that value.
+OVERRIDES = {"width": "image", "height": "image", "spp": "render", "light_samples": "render", "sampler": "render",
+             "light_sampler": "render", "shading": "render", "max_depth": "render"}
 
 
-def _pattern(name, n, key, count_key):
-    problem = samplers.count_problem(name, n)
-    if problem and name in samplers.SAMPLERS:
-        raise InputError(API, count_key, n, f"{problem} (or choose another {key})")
-    if problem:
-        raise InputError(API, key, name, problem)
-    return samplers.pattern(name, n)
+def final_model(scene, options):
+    """The model a render renders: `scene` with the options that override its values (OVERRIDES), each checked
+    as its key is in a scene file, then the whole checked as one (scene/rules.py's rules hold between the
+    scene's values and the options' alike). A broken rule names the scene's value as its file does (the same
+    line whether `shading = "phong"` is in the file or given as an option); a value changed in Python behind
+    the checks is named as render()'s."""
+    ensure_checked(scene, API)
+    given = {name: check_value(API, table, name, getattr(options, name))
+             for name, table in OVERRIDES.items() if getattr(options, name) is not None}
+    if not given:
+        return scene
+    final = dataclasses.replace(scene, **given)
+    ensure_checked(final, scene.path)
+    return final
 
 
-def resolve(scene, options):
-    """Command-line overrides on top of the scene's own settings, validated: (width, height, spp,
-    light samples, pixel pattern, light pattern)."""
-    pick = lambda value, default: default if value is None else value  # noqa: E731
-    width = _pick(scene, options.width, "image.width", "width", 1, MAX_IMAGE_SIDE)
-    height = _pick(scene, options.height, "image.height", "height", 1, MAX_IMAGE_SIDE)
-    spp = _pick(scene, options.spp, "render.spp", "spp", 1, MAX_SPP)
-    nl = _pick(scene, options.light_samples, "render.light_samples", "light_samples", 1, MAX_SPP)
-    pixel = _pattern(pick(options.sampler, scene.sampler), spp, "sampler", "spp")
-    light = _pattern(pick(options.light_sampler, scene.light_sampler), nl, "light_sampler", "light_samples")
-    problem = samplers.light_problem(light.name, nl, scene.shading)
-    if problem:
-        raise InputError(API, "light_sampler", light.name, problem)
+def _options(options):
+    """The options that are not the scene's values."""
     _option(options.texture_filter, API, "texture_filter", lambda v: v in structs.FILTERS,
             f"unknown filter (have: {', '.join(structs.FILTERS)})")
     _option(options.seed, API, "seed", lambda v: _integer(v) and 0 <= v < 2**32, "must be an integer in [0, 2^32)")
     _option(options.time_limit, API, "time_limit", lambda v: v is None or _number(v) and 0 < v < float("inf"),
-            "must be a positive number of seconds")
+            POSITIVE_SECONDS)
     _option(options.target_error, API, "target_error", lambda v: v is None or _number(v) and 0 < v < float("inf"),
             "must be a positive relative RMSE")
-    return width, height, spp, nl, pixel, light
+
+
+def resolve(scene, options):
+    """The final model's settings (final_model): (width, height, spp, light samples, pixel pattern, light
+    pattern)."""
+    final = final_model(scene, options)
+    return _settings(final)
+
+
+def _settings(final):
+    return (final.width, final.height, final.spp, final.light_samples, samplers.pattern(final.sampler, final.spp),
+            samplers.pattern(final.light_sampler, final.light_samples))
 
 
 def check_memory(width, height):
@@ -236,10 +237,12 @@ def path_vertices(scene):
     return max(1, min(8, scene.max_depth - 1 if scene.max_depth >= 0 else 8))
 
 
-def resolve_all(scene, options):
-    """resolve(), and the passes: their sizes follow from the options alone, so every device agrees on them."""
-    width, height, spp, n_light, pixel, light = resolve(scene, options)
-    work = (1 + len(scene.lights) * n_light) * path_vertices(scene)
+def resolve_all(final, options):
+    """The final model's settings and the passes: their sizes follow from the model and the options alone, so
+    every device agrees on them."""
+    _options(options)
+    width, height, spp, n_light, pixel, light = _settings(final)
+    work = (1 + len(final.lights) * n_light) * path_vertices(final)
     stoppable = options.time_limit is not None or options.target_error is not None
     per_pass = pass_size(spp, width * height * work, options.max_pass_work // (2 if stoppable else 1))
     sizes = [(s, min(per_pass, spp - s)) for s in range(0, spp, per_pass)]
@@ -264,25 +267,17 @@ def render_progressive(scene, **kwargs):
     linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats). The
     keyword arguments are render()'s (raytrace/options.py); the command line calls this."""
     options = RenderOptions(**kwargs)  # a TypeError for an unknown keyword
-    ensure_checked(scene, API)
-    if options.shading is not None:
-        _option(options.shading, API, "shading", lambda v: v in SHADINGS, f"must be one of: {', '.join(SHADINGS)}")
-        if options.shading in RADIOMETRIC and np.any(scene.ambient):
-            raise InputError(API, "shading", options.shading, f"the scene's ambient {scene.ambient.tolist()} is the "
-                             f"Phong model's, and the {options.shading} model has none: remove it from the scene")
-        scene = dataclasses.replace(scene, shading=options.shading)
-    if options.max_depth is not None:
-        _option(options.max_depth, API, "max_depth", lambda v: _integer(v) and -1 <= v <= MAX_DEPTH,
-                f"must be an integer in [-1, {MAX_DEPTH}]")
-        _option(options.max_depth, API, "max_depth", lambda v: scene.shading == "path",
-                f'is the path model\'s, and this render\'s shading is "{scene.shading}"')
-        scene = dataclasses.replace(scene, max_depth=options.max_depth)
+    final = final_model(scene, options)
+    # The kernel reads a model's shading and max_depth, the rest of the settings from `r`: when the options leave
+    # those two as they are, the passes render the scene itself, whose packed geometry is kept between renders.
+    if (final.shading, final.max_depth) != (scene.shading, scene.max_depth):
+        scene = final
     _option(options.accumulate, API, "accumulate", lambda v: v in (None, "device", "host"),
             'must be "device" or "host"')
     if options.accumulate == "device" and (options.scheduler is not None or options.client is not None):
         raise InputError(API, "accumulate", options.accumulate, "a Dask render adds its bands on the client: "
                          'use "host" or None')
-    r = resolve_all(scene, options)
+    r = resolve_all(final, options)
     check_memory(r.width, r.height)
     passes = _passes(scene, options, r)
     acc, render_seconds, history = passes.accumulator(), 0.0, []

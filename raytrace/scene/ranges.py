@@ -1,5 +1,5 @@
 """The ranges a scene's values keep, so that the kernel's float32 arithmetic stays finite. One rule, applied by
-scene_file.py to every value with its key:
+scene_file.py and rules.py to every value with its key:
 
 1. Every number is a finite float32, |x| <= FLOAT32_MAX (checked as each value is read).
 2. Every point the kernel computes with (the camera and what it looks at, the corners of rectangles and lights,
@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
-from .model import Camera, Ellipsoid, MeshShape, Rectangle, Triangle
+from .model import RADIOMETRIC, Camera, Ellipsoid, MeshShape, Rectangle, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
 MAX_SAMPLES = 1 << 16   # pixel samples and light samples
@@ -138,7 +138,7 @@ def _check_brightness(scene, material_readers, light_readers, scene_reader):
     brightest_material = int(np.argmax(albedos))
     material_key = "texture" if scene.materials[brightest_material].colour_map >= 0 else "colour"
     terms = {(scene_reader, "ambient"): float(scene.ambient.max()),
-             (light_readers[int(np.argmax(lights))], "radiance" if scene.shading == "direct" else "colour"): max(lights),
+             (light_readers[int(np.argmax(lights))], "radiance" if scene.shading in RADIOMETRIC else "colour"): max(lights),
              (material_readers[brightest_material], material_key): max(albedos)}
     reader, key = max(terms, key=terms.get)
     reader.fail(key, reader.raw(key), f"makes a pixel as bright as {value:.4g}, beyond the "

@@ -9,15 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
-from . import environment_map, keys, mesh_file, meshes, meshgen, ranges
+from . import environment_map, keys, mesh_file, meshes, meshgen, ranges, rules
 from ..errors import InputError
 from .. import samplers
 from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     Triangle, normalize)
-
-LIGHTS_SPEC = "lights[] (direct, path)"  # keys.py's table of a radiometric model's lights
 from .textures import TextureCache
 from .transform import mesh_matrix
+
+LIGHTS_SPEC = "lights[] (direct, path)"  # keys.py's table of a radiometric model's lights
 
 FLOAT32_TINY, FLOAT32_MAX = float(np.finfo(np.float32).tiny), float(np.finfo(np.float32).max)
 
@@ -161,6 +161,27 @@ def _rectangle_fields(r):
     return dict(center=r.vector("center"), size=size, normal=normal, tangent=tangent)
 
 
+def check_axes(r, axes):
+    """An ellipsoid's axes span space."""
+    if not abs(np.linalg.det(axes)) > 1e-6 * np.prod(np.linalg.norm(axes, axis=1)):
+        r.fail("axes", axes.tolist(), "singular ellipsoid: the three axes must be linearly independent")
+
+
+def material_named(r, key, material_index):
+    """The index of the material that key `key` names."""
+    name = r.string(key)
+    if name not in material_index:
+        r.fail(key, name, f"no such material (defined: {', '.join(material_index)})")
+    return material_index[name]
+
+
+def own_keys(r, kind, own, every):
+    """Refuse the keys of `every` that a table of type `kind` does not take (it takes `own`)."""
+    for key in every:
+        if r.has(key) and key not in own:
+            r.fail(key, r.raw(key), f'is not a parameter of type = "{kind}"')
+
+
 def check_triangle(r, key, vertices):
     area2 = np.linalg.norm(np.cross(vertices[1] - vertices[0], vertices[2] - vertices[0]))
     scale = max(np.linalg.norm(vertices[1] - vertices[0]), np.linalg.norm(vertices[2] - vertices[0])) ** 2
@@ -177,10 +198,7 @@ def _load_shape(scene, r, material_index):
 
 def _add_shape(scene, r, material_index):
     kind = r.string("type")
-    name = r.string("material")
-    if name not in material_index:
-        r.fail("material", name, f"no such material (defined: {', '.join(material_index)})")
-    m = material_index[name]
+    m = material_named(r, "material", material_index)
     spec = {"mesh": 'shapes[] type = "mesh", from a file or generated'} if r.has("file") or r.has("generate") else {}
     r = Reader(r.path, r.table, r.prefix, spec.get(kind, f'shapes[] type = "{kind}"'))
     r.spec = {**keys.table("shapes[]"), **r.spec}
@@ -207,9 +225,7 @@ def _add_shape(scene, r, material_index):
             scene.triangles.append(Triangle(vertices[face], m))
     else:
         axes = r.vectors("axes")
-        norms = np.prod(np.linalg.norm(axes, axis=1))
-        if not abs(np.linalg.det(axes)) > 1e-6 * norms:
-            r.fail("axes", axes.tolist(), "singular ellipsoid: the three axes must be linearly independent")
+        check_axes(r, axes)
         scene.ellipsoids.append(Ellipsoid(r.vector("center"), axes, m))
 
 
@@ -287,16 +303,12 @@ def _mesh_shape(r, material):
                      source)
 
 
-def _bsdf(r, shading):
+def _bsdf(r):
     """The material's BSDF fields: its type, and the parameters of that type only."""
     bsdf = r.string("type")
-    if bsdf != "diffuse" and shading != "path":
-        r.fail("type", bsdf, 'is the path model\'s: only with shading = "path"')
     own = {"diffuse": (), "conductor": ("eta", "k"), "dielectric": ("int_ior", "ext_ior"),
            "roughconductor": ("eta", "k", "alpha")}[bsdf]
-    for key in ("eta", "k", "int_ior", "ext_ior", "alpha"):
-        if r.has(key) and key not in own:
-            r.fail(key, r.raw(key), f'is not a parameter of type = "{bsdf}"')
+    own_keys(r, bsdf, own, ("eta", "k", "int_ior", "ext_ior", "alpha"))
     return dict(bsdf=bsdf, eta=tuple(_rgb(r, "eta")), k=tuple(_rgb(r, "k")), int_ior=r.number("int_ior"),
                 ext_ior=r.number("ext_ior"), alpha=r.number("alpha"))
 
@@ -307,9 +319,7 @@ def _environment(e, base_dir):
     e.check_keys()
     kind = e.string("type")
     own = {"constant": ("radiance",), "envmap": ("filename", "scale", "up", "forward")}[kind]
-    for key in ("radiance", "filename", "scale", "up", "forward"):
-        if e.has(key) and key not in own:
-            e.fail(key, e.raw(key), f'is not a parameter of type = "{kind}"')
+    own_keys(e, kind, own, ("radiance", "filename", "scale", "up", "forward"))
     if kind == "constant":
         return _rgb(e, "radiance"), None
     scale, up, forward = map_placement(e)
@@ -326,10 +336,10 @@ def map_placement(e):
     return e.number("scale"), up, forward
 
 
-def _material(r, name, textures, shading="phong"):
+def _material(r, name, textures):
     """A material table; texture paths are relative to the scene file and read here."""
     r.check_keys()
-    bsdf = _bsdf(r, shading)
+    bsdf = _bsdf(r)
     maps = {}
     for key, role in (("texture", "colour"), ("normal_map", "normal"), ("height_map", "height")):
         if r.has(key):
@@ -361,14 +371,8 @@ def parse_scene(table, path="<scene>"):
 
     c = r.sub("camera")
     c.check_keys()
-    position = c.vector("position")
-    look_at = c.vector("look_at")
-    ref_up = c.vector("up")
-    if np.linalg.norm(look_at - position) == 0:
-        c.fail("look_at", look_at.tolist(), "must differ from camera.position")
-    if np.linalg.norm(np.cross(normalize(look_at - position), normalize(ref_up))) < 1e-6:
-        c.fail("up", ref_up.tolist(), "must not be parallel to the view direction")
-    camera = Camera(position, look_at, ref_up, c.number("fov"), c.number("focal_length"))
+    camera = Camera(c.vector("position"), c.vector("look_at"), c.vector("up"), c.number("fov"),
+                    c.number("focal_length"))
 
     img = r.sub("image")
     img.check_keys()
@@ -377,11 +381,7 @@ def parse_scene(table, path="<scene>"):
     render = r.sub("render") if r.has("render") else Reader(path, {}, "render.", "render")
     render.check_keys()
     shading = render.string("shading")
-    if shading in RADIOMETRIC and r.has("ambient"):
-        r.fail("ambient", r.raw("ambient"), f'is the Phong model\'s: shading = "{shading}" has no ambient term')
     max_depth = render.integer("max_depth")
-    if max_depth != -1 and shading != "path":
-        render.fail("max_depth", max_depth, 'is the path model\'s: only with shading = "path"')
 
     mats = r.raw("materials")
     if not isinstance(mats, dict) or not mats:
@@ -391,22 +391,13 @@ def parse_scene(table, path="<scene>"):
     for name in mats:
         material_index[name] = len(materials)
         material_readers.append(Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
-        materials.append(_material(material_readers[-1], name, textures, shading))
+        materials.append(_material(material_readers[-1], name, textures))
 
     spp, light_samples = render.integer("spp"), render.integer("light_samples")
-    sampler, light_sampler = (render.string(key, choices=()) if render.has(key) else samplers.default_pattern(shading)
+    sampler, light_sampler = (render.string(key) if render.has(key) else samplers.default_pattern(shading)
                               for key in ("sampler", "light_sampler"))
-    for key, name, n in (("sampler", sampler, spp), ("light_sampler", light_sampler, light_samples)):
-        problem = samplers.count_problem(name, n)
-        if problem:
-            render.fail(key, name, problem)
-    problem = samplers.light_problem(light_sampler, light_samples, shading)
-    if problem:
-        render.fail("light_sampler", light_sampler, problem)
     environment, environment_map = None, None
     if r.has("environment"):
-        if shading != "path":
-            r.fail("environment", r.raw("environment"), 'is the path model\'s: only with shading = "path"')
         environment, environment_map = _environment(r.sub("environment"), Path(path).parent)
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
@@ -416,30 +407,22 @@ def parse_scene(table, path="<scene>"):
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:
         r.fail("lights", lights, "must be a non-empty array of [[lights]] tables")
-    places, light_readers = [(c, camera)], []
+    light_readers = []
     for i, light in enumerate(lights):
         lr = Reader(path, light, f"lights[{i}].", LIGHTS_SPEC if shading in RADIOMETRIC else "lights[]")
         emission = "radiance" if shading in RADIOMETRIC else "colour"  # what the light's one colour means
         lr.check_keys()
-        material = -1
-        if lr.has("material"):
-            if shading != "path":
-                lr.fail("material", lr.raw("material"), 'a light reflects only in the path model (shading = "path")')
-            name = lr.string("material")
-            if name not in material_index:
-                lr.fail("material", name, f"no such material (defined: {', '.join(material_index)})")
-            material = material_index[name]
+        material = material_named(lr, "material", material_index) if lr.has("material") else -1
         scene.lights.append(Light(colour=_rgb(lr, emission), material=material, **_rectangle_fields(lr)))
-        places.append((lr, scene.lights[-1]))
         light_readers.append(lr)
 
-    shapes = r.raw("shapes", [])  # keys.py declares its default: no shapes
-    if not isinstance(shapes, list):
-        r.fail("shapes", shapes, "must be an array of [[shapes]] tables")
-    for i, shape in enumerate(shapes):
+    tables, shapes = r.raw("shapes", []), []  # keys.py declares its default: no shapes
+    if not isinstance(tables, list):
+        r.fail("shapes", tables, "must be an array of [[shapes]] tables")
+    for i, shape in enumerate(tables):
         sr = Reader(path, shape, f"shapes[{i}].", "shapes[]")
-        places.extend((sr, added) for added in _load_shape(scene, sr, material_index))
-    ranges.check_scene(scene, places, material_readers, light_readers, r)
+        shapes.extend((sr, added) for added in _load_shape(scene, sr, material_index))
+    rules.check(scene, rules.Places(r, render, c, material_readers, light_readers, shapes))
     scene.source, scene.checked = source, fingerprint(scene)
     return scene
 

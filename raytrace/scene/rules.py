@@ -1,0 +1,100 @@
+"""The rules that hold between a scene's values, each stated here and nowhere else.
+
+A key's own type, default and range are keys.py's, checked by the reader of its table (scene_file.Reader). What
+holds between values is here: between keys of one table (a camera's look_at apart from its position), between a
+value and the shading model (a mirror is the path model's, an ambient term the Phong model's), between a sample
+pattern and its count, and the float32 ranges of the scene as a whole (ranges.py). They run once on the final
+model, whatever made it:
+
+- a scene file, a dict or a string (scene_file.parse_scene), and so a parameter edit (parameters.py re-reads
+  the edited table);
+- a model changed in Python, behind the reader's checks (model_check.py reads its values back first);
+- render()'s and the command line's overrides (width, height, spp, light_samples, sampler, light_sampler,
+  shading, max_depth), which render.py applies to the model before the model is checked.
+
+Each rule fails through the reader of the table its value lives in (a Places), which names the source and the
+key as the scene file spells it: the same bad combination gives the same line from every entry, e.g.
+`materials.gold.type = 'conductor': is the path model's: only with shading = "path", not "phong"`.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import ranges
+from .. import samplers
+from .model import RADIOMETRIC, normalize
+
+
+@dataclass
+class Places:
+    """The readers (scene_file.Reader) that name each part of a scene: the top-level table (ambient,
+    environment), the render and camera tables, the materials and the lights (in the model's order), and the
+    shapes as (reader, shape) pairs."""
+    top: object
+    render: object
+    camera: object
+    materials: list
+    lights: list
+    shapes: list = field(default_factory=list)
+
+
+def value(x):
+    """A model value as a scene file would show it: numpy arrays and scalars as Python lists and numbers."""
+    return x.tolist() if isinstance(x, np.ndarray) else x.item() if isinstance(x, np.generic) else x
+
+
+def _path_only(reader, key, shown, shading):
+    """What only the path model renders (a BSDF other than diffuse, an environment, a bounded depth, a light that
+    reflects), in a scene of another shading model."""
+    if shading != "path":
+        reader.fail(key, value(shown), f'is the path model\'s: only with shading = "path", not "{shading}"')
+
+
+def _shading(scene, places):
+    """The values that belong to one shading model."""
+    if scene.shading in RADIOMETRIC and np.any(scene.ambient):
+        places.top.fail("ambient", value(scene.ambient),
+                        f'is the Phong model\'s: shading = "{scene.shading}" has no ambient term')
+    if scene.max_depth != -1:
+        _path_only(places.render, "max_depth", scene.max_depth, scene.shading)
+    if scene.environment is not None and scene.environment_map is not None:
+        places.top.fail("environment", value(scene.environment), "a constant radiance and an envmap cannot both be set")
+    if scene.environment is not None or scene.environment_map is not None:
+        shown = scene.environment if scene.environment is not None else scene.environment_map.path
+        _path_only(places.top, "environment", shown, scene.shading)
+    for material, reader in zip(scene.materials, places.materials):
+        if material.bsdf != "diffuse":
+            _path_only(reader, "type", material.bsdf, scene.shading)
+    for light, reader in zip(scene.lights, places.lights):
+        if light.material != -1:
+            _path_only(reader, "material", scene.materials[light.material].name, scene.shading)
+
+
+def _patterns(scene, render):
+    """Each pattern takes the sample count it is given (the grids a square), and a radiometric model's light
+    samples are not one fixed point."""
+    for key, count in (("sampler", "spp"), ("light_sampler", "light_samples")):
+        problem = samplers.count_problem(getattr(scene, key), getattr(scene, count))
+        if problem:
+            render.fail(key, getattr(scene, key), f"{problem}, not {count} = {getattr(scene, count)}")
+    problem = samplers.light_problem(scene.light_sampler, scene.light_samples, scene.shading)
+    if problem:
+        render.fail("light_sampler", scene.light_sampler, problem)
+
+
+def _camera(camera, reader):
+    """A view direction, and an up direction off it."""
+    view = np.asarray(camera.look_at, np.float64) - np.asarray(camera.position, np.float64)
+    if not np.any(view):
+        reader.fail("look_at", value(camera.look_at), "must differ from camera.position")
+    if np.linalg.norm(np.cross(normalize(view), normalize(np.asarray(camera.ref_up, np.float64)))) < 1e-6:
+        reader.fail("up", value(camera.ref_up), "must not be parallel to the view direction")
+
+
+def check(scene, places):
+    """Raise InputError, through the reader of the value's table, at the first rule `scene` breaks."""
+    _camera(scene.camera, places.camera)
+    _shading(scene, places)
+    _patterns(scene, places.render)
+    located = [(places.camera, scene.camera), *zip(places.lights, scene.lights), *places.shapes]
+    ranges.check_scene(scene, located, places.materials, places.lights, places.top)
