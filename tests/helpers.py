@@ -1,6 +1,9 @@
 """Helpers the test modules share: the checkout's paths, the command line run as a user runs it, the
-planar layout of the test kernels' arrays, kernels that report the device's constants, and texture lookups in the kernel, in OpenImageIO and as the
-device stores the levels. Fixtures are in conftest.py."""
+planar layout of the test kernels' arrays, kernels that report the device's constants, texture lookups in the
+kernel, in OpenImageIO and as the device stores the levels, a Phong scene without its ambient term, mounts, a
+stand-in peer renderer and the check of a measurement record. Fixtures are in conftest.py."""
+import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -10,6 +13,7 @@ import OpenImageIO as oiio
 import pyopencl as cl
 import pytest
 
+import raytrace
 from raytrace import structs
 from raytrace.renderer import packing
 from raytrace.renderer.cpu_target import is_pocl_cpu
@@ -59,6 +63,46 @@ def run(*args, env=None, module="raytrace", **kwargs):
     (default: this process's environment); kwargs go to subprocess.run (cwd, preexec_fn)."""
     return subprocess.run([sys.executable, "-m", module, *map(str, args)], capture_output=True, text=True,
                           env=child_env(env), **kwargs)
+
+
+def without_ambient(path):
+    """The scene of `path` with its Phong ambient term removed (raytrace.parameters): direct lighting has none,
+    and render(shading="direct") refuses a scene that has one."""
+    scene = raytrace.load_file(path)
+    params = raytrace.parameters(scene)
+    del params["ambient"]
+    params.update()
+    return scene
+
+
+def mount(*args):
+    """`mount ARGS`, or skip the test where this user may not mount."""
+    r = subprocess.run(["mount", *map(str, args)], capture_output=True, text=True)
+    if r.returncode:
+        pytest.skip(f"mount not permitted here: {r.stderr.strip()}")
+
+
+# A stand-in for another renderer, as converge --peer runs one: `peer.py SAMPLER SPP OUT` writes an 8 x 8 image
+# of 0.3 plus noise that falls with spp (at least 4, as Mitsuba's ldsampler) and prints its timing.
+FAKE_PEER = """
+import json, sys
+import numpy as np, OpenImageIO as oiio
+sampler, spp, out = sys.argv[1], max(4, int(sys.argv[2])), sys.argv[3]
+noise = np.random.default_rng(spp).normal(0, 0.2 / spp ** 0.5, (8, 8, 3)).astype(np.float32)
+oiio.ImageBuf(np.ascontiguousarray(0.3 + noise)).write(out)
+print("\\x1b[0m" + json.dumps({"sampler": sampler, "spp": spp, "median_s": 0.01 * spp}))  # after colour codes, as Mitsuba
+"""
+
+
+def assert_record_well_formed(path):
+    """A measurement record (docs/performance.md) says on which machine, at which commit, by which command its
+    figures were measured, and each figure is a number with a unit."""
+    record = json.loads(path.read_text())
+    assert set(record) == {"machine", "date", "commit", "command", "figures"}, path
+    assert re.fullmatch(r"\d{4}-\d{2}-\d{2}", record["date"]) and re.fullmatch(r"[0-9a-f]{7,40}", record["commit"])
+    assert record["command"].startswith(("python -m ", ".ci/")) and record["figures"]
+    for figure in record["figures"]:
+        assert set(figure) == {"what", "value", "unit"} and isinstance(figure["value"], (int, float)), figure
 
 
 LOOKUP = """

@@ -7,19 +7,10 @@ import sys
 import numpy as np
 import pytest
 
-from helpers import CORNELL
+from helpers import CORNELL, FAKE_PEER
 from raytrace.errors import InputError
 from raytrace.commands.converge import clamped_rmse, converge, rmse
 from raytrace.commands.converge_peer import race, race_finals, time_to_reach
-
-FAKE_PEER = """
-import json, sys
-import numpy as np, OpenImageIO as oiio
-sampler, spp, out = sys.argv[1], max(4, int(sys.argv[2])), sys.argv[3]
-noise = np.random.default_rng(spp).normal(0, 0.2 / spp ** 0.5, (8, 8, 3)).astype(np.float32)
-oiio.ImageBuf(np.ascontiguousarray(0.3 + noise)).write(out)
-print("\\x1b[0m" + json.dumps({"sampler": sampler, "spp": spp, "median_s": 0.01 * spp}))  # after colour codes, as Mitsuba
-"""
 
 
 def test_peer_rows_beside_ours(tmp_path):

@@ -16,7 +16,7 @@ import pytest
 
 import raytrace
 from raytrace import samplers
-from helpers import SURFACE_POINT, run
+from helpers import SURFACE_POINT, run, without_ambient
 from raytrace.errors import InputError
 from raytrace.renderer.program import Features
 from raytrace.scene import Camera, Light, Material, Scene, parse_scene
@@ -205,16 +205,6 @@ def test_radiance_as_three_numbers(cornell):
     text = open(cornell.path.replace("cornell.toml", "cornell_direct.toml")).read()
     scene = parse_scene(tomllib.loads(text.replace("radiance = 60.0", "radiance = [1.0, 2.0, 3.0]")))
     assert scene.lights[0].colour.tolist() == [1.0, 2.0, 3.0]
-
-
-def without_ambient(path):
-    """The scene of `path` with its Phong ambient term removed (raytrace.parameters): direct lighting has none,
-    and render(shading="direct") refuses a scene that has one."""
-    scene = raytrace.load_file(path)
-    params = raytrace.parameters(scene)
-    del params["ambient"]
-    params.update()
-    return scene
 
 
 def test_shading_from_the_command_line(cornell):

@@ -15,7 +15,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from helpers import CORNELL, ROOT, child_env, run
+from helpers import CORNELL, ROOT, child_env, mount, run
 from raytrace.errors import InputError
 from raytrace.scene import load_file
 
@@ -205,7 +205,6 @@ def test_12_bench_scaling_on_a_full_disk_leaves_nothing(tmp_path):
     """Found: on a full disk, `bench --scaling DIR` exited 2 but left scaling.csv, scaling.png and a truncated
     visits.png. A full disk here is a 40 KiB tmpfs (root only: skipped where mount is not permitted; not a file
     size limit, under which PoCL's LLVM aborts): the CSV and scaling.png fit, visits.png does not."""
-    from test_outputs import mount
     disk = tmp_path / "full"
     disk.mkdir()
     mount("-t", "tmpfs", "-o", "size=40k", "tmpfs", disk)

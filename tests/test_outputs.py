@@ -15,7 +15,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from helpers import CORNELL, ROOT, run
+from helpers import CORNELL, ROOT, mount, run
 from raytrace.errors import InputError
 from raytrace.outputs import Outputs
 from raytrace.image_file import write_image_file
@@ -42,13 +42,6 @@ def read(path):
     spec, pixels = image.spec(), image.read_image(image.spec().format)
     image.close()
     return spec, pixels
-
-
-def mount(*args):
-    """`mount ARGS`, or skip the test where this user may not mount."""
-    r = subprocess.run(["mount", *map(str, args)], capture_output=True, text=True)
-    if r.returncode:
-        pytest.skip(f"mount not permitted here: {r.stderr.strip()}")
 
 
 @pytest.fixture

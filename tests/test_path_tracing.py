@@ -20,8 +20,7 @@ from raytrace.renderer.program import Features
 from raytrace.commands.stability.probe import planar, scene_args
 
 from devtools.chi_square import SIGNIFICANCE, chi_square
-from helpers import ROOT, SURFACE_POINT
-from test_direct_lighting import without_ambient
+from helpers import ROOT, SURFACE_POINT, without_ambient
 
 FACES = [([1, 0, 0], [0, 1, 0]), ([-1, 0, 0], [0, 1, 0]), ([0, 1, 0], [0, 0, 1]), ([0, -1, 0], [0, 0, 1]),
          ([0, 0, 1], [1, 0, 0]), ([0, 0, -1], [1, 0, 0])]

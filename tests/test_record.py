@@ -1,13 +1,12 @@
 """benchmarks/record.py: a real, tiny bench run of two scenes beside a stand-in peer, turned into a measurement
-record by the rig's command line. The record is one the performance page takes (test_docs.py's check), and its
+record by the rig's command line. The record is one the performance page takes (helpers.py's check, as test_docs.py runs it), and its
 figures are the bench file's own values, scene by scene."""
 import json
 import sys
 
 import pytest
 
-from helpers import CORNELL, ROOT, run
-from test_docs import test_every_measurement_record_is_well_formed as well_formed
+from helpers import CORNELL, FAKE_PEER, ROOT, assert_record_well_formed, run
 
 TINY = ["--width", 16, "--height", 16, "--spp", 1, "--light-samples", 1, "--repeat", 1]
 COMMAND = "python -m raytrace bench scenes/cornell.toml scenes/grid_floor.toml --json bench.json"
@@ -27,7 +26,7 @@ def test_a_record_of_a_bench_run(bench_json, tmp_path):
     assert r.returncode == 0, r.stderr
     (path,) = tmp_path.iterdir()
     assert r.stdout.strip() == str(path) and path.name.endswith("-bench.json")
-    well_formed(path)
+    assert_record_well_formed(path)
     record, bench = json.loads(path.read_text()), json.loads(bench_json.read_text())
     assert record["command"] == COMMAND and bench["machine"]["cpu"] in record["machine"]
     figures = {f["what"]: f["value"] for f in record["figures"]}
@@ -54,7 +53,6 @@ def test_bad_input_is_one_line(bench_json, tmp_path, case):
 def test_a_record_of_a_converge_run(tmp_path):
     """converge --json (a tiny study beside a stand-in peer) turned into a record: each pattern's last render
     and the race against each of the peer's patterns, the values converge computed."""
-    from test_converge_peer import FAKE_PEER
     script = tmp_path / "peer.py"
     script.write_text(FAKE_PEER)
     out = tmp_path / "converge.json"
@@ -72,7 +70,7 @@ def test_a_record_of_a_converge_run(tmp_path):
     assert r.returncode == 0, r.stderr
     (path,) = records.iterdir()
     assert path.name.endswith("-converge.json")
-    well_formed(path)
+    assert_record_well_formed(path)
     figures = {f["what"]: f["value"] for f in json.loads(path.read_text())["figures"]}
     last = [row for row in study["rows"] if row["sampler"] == "sobol"][-1]
     assert figures["sobol RMSE at 4 spp"] == float(f"{last['rmse']:.4g}")
