@@ -1,7 +1,8 @@
 """Helpers the test modules share: the checkout's paths, the command line run as a user runs it, the
 planar layout of the test kernels' arrays, kernels that report the device's constants, texture lookups in the
 kernel, in OpenImageIO and as the device stores the levels, a Phong scene without its ambient term, mounts, a
-stand-in peer renderer and the check of a measurement record. Fixtures are in conftest.py."""
+stand-in peer renderer and the check of a measurement record. Fixtures are in conftest.py; what the path
+model's tests share is in path_support.py. No test module imports another (tests/test_layout.py)."""
 import json
 import re
 import subprocess
@@ -35,7 +36,7 @@ needs_a_cpu_device = pytest.mark.skipif(not any(d.type & cl.device_type.CPU for 
                                         reason="needs an OpenCL CPU device (PoCL); this machine has none")
 
 
-# The test kernels' surface point (test_direct_lighting.py, test_path_tracing.py): a hit at `at` with the unit
+# The test kernels' surface point (test_direct_lighting.py, path_support.py): a hit at `at` with the unit
 # normal `normal` and material 0, seen by the ray r from one unit above it; `white`, the same point as a white
 # Lambertian shading point. Paste it into a kernel source after the includes.
 SURFACE_POINT = """

@@ -20,7 +20,7 @@ from raytrace.scene.scene_file import parse_scene
 from raytrace.commands.stability.probe import planar, scene_args
 
 from helpers import ROOT
-from test_path_tracing import assert_mean, assert_techniques_agree, environment_scene, traced
+from path_support import assert_mean, assert_techniques_agree, environment_scene, traced
 
 ENVIRONMENT = """
 #include "environment.cl"

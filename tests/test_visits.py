@@ -16,6 +16,7 @@ from raytrace.renderer.progressive import pass_size
 from raytrace.structs import samples_at_once, tile_shape
 from raytrace.commands.visits import node_visits, pixels_with_half
 from helpers import ROOT, planar, run_int_kernel, values_kernel
+from path_support import furnace
 from raytrace.commands.stability.probe import scene_args
 
 # 11 x 7 pixels: the tiles of 4 x 2, 2 x 2 and 2 x 1 pixels (kernels/tile.h, with 16, 8 and 4 lanes holding 2
@@ -247,7 +248,6 @@ def test_path_lanes_busy():
     iteration is busy (exactly 1); in mi.cornell_box(), open at the front and with roulette, paths end at
     different depths and a packet bounces as often as its longest one (measured 0.4 to 0.6 at 16 lanes); the
     other models have no bounce loop (None)."""
-    from test_path_tracing import furnace
     closed = node_visits(furnace(0.5, max_depth=4), width=16, height=16, spp=4, light_samples=1)
     assert closed["path_lanes_busy"] == 1.0
     box = node_visits(load_file(ROOT / "scenes" / "cornell_box.toml"), width=32, height=32, spp=4, light_samples=1)
