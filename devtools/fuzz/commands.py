@@ -21,7 +21,7 @@ NUMERIC_OPTIONS = ("--width", "--height", "--spp", "--light-samples", "--seed", 
 TEXT_OPTIONS = ("--sampler", "--light-sampler", "--texture-filter", "--device", "--scheduler")
 # Scheduler addresses that must each be one line, and none of which starts a cluster (that takes seconds):
 # bad forms, TLS, ports nothing listens on (the probe's refusal; servers that misbehave are
-# tests/test_hostile_round2.py's).
+# tests/test_hostile_commands.py's).
 HOSTILE_SCHEDULERS = ("", " ", "local:0", "local:257", "local:", "local:x", "local:-1", "local:１", "tls://127.0.0.1:1",
                       "tcp://127.0.0.1:1", "tcp://127.0.0.1:", "tcp://:1", "tcp://[::1]:1", "udp://x:1", "tcp://a b:1",
                       "inproc://x", "local:99999999999999999999")

@@ -1,6 +1,9 @@
-"""The second hostile round (issue 43): each broken promise it found, reproduced as the user met it, through
-the command line in a child process where the user used one. The promise: bad input ends in one line naming
-the file or option, the key and the value, exit status 2, and nothing left behind."""
+"""Hostile use of the commands: the broken promises a hostile run of the command line found (issue 43; each
+test's docstring names its item), each reproduced as the user met it, through the command line in a child
+process where the user used one: empty and bad option values, bad environment variables, scheduler addresses
+that do not answer as Dask, peers that write bad images, a full disk, Ctrl-C while the modules load, during a
+build and during a cluster's render, and odd mesh files. The promise: bad input ends in one line naming the
+file or option, the key and the value, exit status 2, and nothing left behind."""
 import os
 import signal
 import socket
@@ -32,8 +35,8 @@ def one_line(r, starts, progress=False):
     assert progress or r.stdout == ""
 
 
-def test_7_a_direct_lights_radiance_beyond_the_brightness_limit_is_named_as_radiance(tmp_path):
-    """Found: `lights[0].colour: missing` for a direct-mode light, which has no colour but a radiance."""
+def test_a_direct_lights_radiance_beyond_the_brightness_limit_is_named_as_radiance(tmp_path):
+    """Found (item 7): `lights[0].colour: missing` for a direct-mode light, which has no colour but a radiance."""
     text = DIRECT.read_text()
     assert "\nradiance = 60.0\n" in text
     for value in ("1e19", "3.4e38", "10000000000000000000000"):
@@ -46,16 +49,16 @@ def test_7_a_direct_lights_radiance_beyond_the_brightness_limit_is_named_as_radi
         assert error.value.key == "lights[0].radiance" and "2^62" in error.value.problem, str(error.value)
 
 
-def test_3_a_peer_template_may_hold_other_braces(tmp_path):
-    """Found: `... | awk '{print}'` in a --peer template ended in KeyError: 'print'. Only {sampler}, {spp} and
+def test_a_peer_template_may_hold_other_braces(tmp_path):
+    """Found (item 3): `... | awk '{print}'` in a --peer template ended in KeyError: 'print'. Only {sampler}, {spp} and
     {out} are placeholders; any other brace is the shell's."""
     from raytrace.commands.converge_peer import fill
     command = fill("peer --sampler {sampler} --spp {spp} --out {out} | awk '{print}' {x}", "sobol", 4, "a b.exr")
     assert command == "peer --sampler sobol --spp 4 --out 'a b.exr' | awk '{print}' {x}"
 
 
-def test_10_bench_scaling_into_an_existing_file_is_named(tmp_path):
-    """Found: `bench --scaling FILE` ended in `FILE: File exists`, naming no option."""
+def test_bench_scaling_into_an_existing_file_is_named(tmp_path):
+    """Found (item 10): `bench --scaling FILE` ended in `FILE: File exists`, naming no option."""
     file = tmp_path / "results"
     file.write_text("mine")
     r = run("bench", "--scaling", file, "--max-triangles", 100)
@@ -73,23 +76,23 @@ def test_10_bench_scaling_into_an_existing_file_is_named(tmp_path):
     (["converge", str(CORNELL), "--samplers", "grid", "--max-spp", 1, "--out", ""], "--out"),
     (["render", "", "-o", "x.png"], "scene"),
 ])
-def test_15_an_empty_value_is_refused(tmp_path, argv, option):
-    """Found: empty paths and commands were taken silently: `bench --scaling ''` ran the whole bench,
+def test_an_empty_value_is_refused(tmp_path, argv, option):
+    """Found (item 15): empty paths and commands were taken silently: `bench --scaling ''` ran the whole bench,
     `converge --out ''` wrote into the working directory, `--json ''` and `--peer ''` were ignored."""
     r = run(*argv, cwd=tmp_path)
     one_line(r, f"raytrace: error: command line: {option} = '': must not be empty")
     assert list(tmp_path.iterdir()) == []
 
 
-def test_15_an_empty_raytrace_device_is_refused(tmp_path):
-    """Found: RAYTRACE_DEVICE='' picked the first device."""
+def test_an_empty_raytrace_device_is_refused(tmp_path):
+    """Found (item 15): RAYTRACE_DEVICE='' picked the first device."""
     r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, env={**os.environ, "RAYTRACE_DEVICE": ""})
     one_line(r, "raytrace: error: environment: RAYTRACE_DEVICE = '': must name a device")
     assert list(tmp_path.iterdir()) == []
 
 
-def test_1_an_obj_with_one_component_uvs_renders(tmp_path):
-    """Found: `vt u` lines (legal OBJ; trimesh opens the file) ended in a ValueError packing the triangles.
+def test_an_obj_with_one_component_uvs_renders(tmp_path):
+    """Found (item 1): `vt u` lines (legal OBJ; trimesh opens the file) ended in a ValueError packing the triangles.
     v is then 0, as the format has it; the image is finite and the uvs are those of the file."""
     obj = tmp_path / "one.obj"
     obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5\nvt 0.25\nvt 0.75\nf 1/1 2/2 3/3\n")
@@ -133,10 +136,10 @@ class _Server:
 
 @pytest.mark.parametrize("behaviour, problem", [("silent", "no Dask scheduler answered in 1 s"),
                                                 ("junk", "answered 64 bytes that are no Dask handshake")])
-def test_6_8_a_scheduler_address_that_does_not_answer_as_dask_is_one_line_in_time(monkeypatch, behaviour, problem):
-    """Found: a port that accepts and never answers hung past 400 s, though the message promises 10 s; one
-    that answers junk ended in 'out of memory: try a smaller --width/--height'. Here with the promise made
-    1 s (the same code path as its 10 s)."""
+def test_a_scheduler_address_that_does_not_answer_as_dask_is_one_line_in_time(monkeypatch, behaviour, problem):
+    """Found (items 6 and 8): a port that accepts and never answers hung past 400 s, though the message
+    promises 10 s; one that answers junk ended in 'out of memory: try a smaller --width/--height'. Here with
+    the promise made 1 s (the same code path as its 10 s)."""
     from raytrace.renderer import distributed
     monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
     server = _Server(behaviour)
@@ -152,8 +155,8 @@ def test_6_8_a_scheduler_address_that_does_not_answer_as_dask_is_one_line_in_tim
     assert problem in error.value.problem
 
 
-def test_2_a_tls_scheduler_is_one_line(tmp_path):
-    """Found: --scheduler tls://127.0.0.1:1 ended in `TypeError: TLS expects a ssl_context`."""
+def test_a_tls_scheduler_is_one_line(tmp_path):
+    """Found (item 2): --scheduler tls://127.0.0.1:1 ended in `TypeError: TLS expects a ssl_context`."""
     r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, "--scheduler", "tls://127.0.0.1:1")
     one_line(r, "raytrace: error: command line: --scheduler = 'tls://127.0.0.1:1': TLS needs the cluster's")
     assert list(tmp_path.iterdir()) == []
@@ -176,8 +179,8 @@ print(json.dumps({"median_s": 0.01}))
 
 @pytest.mark.parametrize("what, problem", [("missing", "cannot read"), ("empty", "cannot read"),
                                            ("size", "is 5 x 3"), ("nan", "holds NaN or Inf")])
-def test_9_a_peers_bad_image_names_the_peer(tmp_path, what, problem):
-    """Found: a converge --peer whose EXR is missing, empty, the wrong size or holds NaN was reported as
+def test_a_peers_bad_image_names_the_peer(tmp_path, what, problem):
+    """Found (item 9): a converge --peer whose EXR is missing, empty, the wrong size or holds NaN was reported as
     `--reference = '<a temporary file>'`, naming an option the user did not give."""
     script = tmp_path / "peer.py"
     script.write_text(BAD_PEER)
@@ -201,8 +204,8 @@ def test_a_gamma_encoded_reference_is_refused(tmp_path):
     one_line(r, f"raytrace: error: command line: --reference = '{png}': must be a linear float image")
 
 
-def test_12_bench_scaling_on_a_full_disk_leaves_nothing(tmp_path):
-    """Found: on a full disk, `bench --scaling DIR` exited 2 but left scaling.csv, scaling.png and a truncated
+def test_bench_scaling_on_a_full_disk_leaves_nothing(tmp_path):
+    """Found (item 12): on a full disk, `bench --scaling DIR` exited 2 but left scaling.csv, scaling.png and a truncated
     visits.png. A full disk here is a 40 KiB tmpfs (root only: skipped where mount is not permitted; not a file
     size limit, under which PoCL's LLVM aborts): the CSV and scaling.png fit, visits.png does not."""
     disk = tmp_path / "full"
@@ -218,16 +221,16 @@ def test_12_bench_scaling_on_a_full_disk_leaves_nothing(tmp_path):
         subprocess.run(["umount", str(disk)], check=True)
 
 
-def test_13_bench_scaling_with_an_unusable_scheduler_leaves_no_directory(tmp_path):
-    """Found: `bench --scaling DIR --scheduler tcp://127.0.0.1:1` exited 2 and left the empty DIR."""
+def test_bench_scaling_with_an_unusable_scheduler_leaves_no_directory(tmp_path):
+    """Found (item 13): `bench --scaling DIR --scheduler tcp://127.0.0.1:1` exited 2 and left the empty DIR."""
     out = tmp_path / "out"
     r = run("bench", "--scaling", out, "--max-triangles", 100, "--scheduler", "tcp://127.0.0.1:1")
     one_line(r, "raytrace: error: command line: --scheduler = 'tcp://127.0.0.1:1': cannot reach the scheduler")
     assert list(tmp_path.iterdir()) == []
 
 
-def test_14_a_local_cluster_leaves_nothing_in_the_temporary_directory(tmp_path):
-    """Found: every `--scheduler local:N` left dask-scratch-space/{global,purge}.lock in the temporary
+def test_a_local_cluster_leaves_nothing_in_the_temporary_directory(tmp_path):
+    """Found (item 14): every `--scheduler local:N` left dask-scratch-space/{global,purge}.lock in the temporary
     directory."""
     temporary = tmp_path / "tmp"
     temporary.mkdir()
@@ -237,16 +240,17 @@ def test_14_a_local_cluster_leaves_nothing_in_the_temporary_directory(tmp_path):
     assert list(temporary.iterdir()) == []
 
 
-def test_11_a_bad_raytrace_lanes_with_a_local_cluster_is_one_line(tmp_path):
-    """Found: RAYTRACE_LANES=3 with --scheduler local:1 exited 2 with 8 lines (Dask's "Compute Failed" log)."""
+def test_a_bad_raytrace_lanes_with_a_local_cluster_is_one_line(tmp_path):
+    """Found (item 11): RAYTRACE_LANES=3 with --scheduler local:1 exited 2 with 8 lines (Dask's "Compute
+    Failed" log)."""
     r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, "--scheduler", "local:1",
             env={**os.environ, "RAYTRACE_LANES": "3"})
     one_line(r, "raytrace: error: environment: RAYTRACE_LANES = '3': must be one of 1, 4, 8, 16")
     assert list(tmp_path.iterdir()) == []
 
 
-def test_17_spirv_prefers_the_clang_that_has_its_backend(tmp_path):
-    """Found: with Debian's clang 14 on the PATH, `compile --target spirv` failed: "unknown argument:
+def test_spirv_prefers_the_clang_that_has_its_backend(tmp_path):
+    """Found (item 17): with Debian's clang 14 on the PATH, `compile --target spirv` failed: "unknown argument:
     '-fintegrated-objemitter'" (the flag is newer). Here a stand-in clang on the PATH refuses that flag as
     clang 14 does; SPIR-V is built by PyPI's clang all the same (the test extra's ziglang)."""
     pytest.importorskip("ziglang")
@@ -259,8 +263,8 @@ def test_17_spirv_prefers_the_clang_that_has_its_backend(tmp_path):
 
 
 @pytest.mark.parametrize("delay", [0.08, 0.15, 0.25])
-def test_5_ctrl_c_while_the_modules_load_is_one_line(tmp_path, delay):
-    """Found: Ctrl-C in the first ~0.35 s of `python -m raytrace` (numpy, pyopencl and OpenImageIO loading)
+def test_ctrl_c_while_the_modules_load_is_one_line(tmp_path, delay):
+    """Found (item 5): Ctrl-C in the first ~0.35 s of `python -m raytrace` (numpy, pyopencl and OpenImageIO loading)
     gave a KeyboardInterrupt traceback. Sent at moments within that span (on a faster machine a later one may
     fall into the command itself: the same line). The interpreter's own start, before the package's first
     line runs (tens of milliseconds), is not covered."""
@@ -273,8 +277,8 @@ def test_5_ctrl_c_while_the_modules_load_is_one_line(tmp_path, delay):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_4_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
-    """Found: Ctrl-C during a --scheduler local:2 render printed 68 lines, four workers' KeyboardInterrupt
+def test_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
+    """Found (item 4): Ctrl-C during a --scheduler local:2 render printed 68 lines, four workers' KeyboardInterrupt
     tracebacks. A terminal's Ctrl-C reaches the whole process group: sent so here, once the cluster is up."""
     argv = [sys.executable, "-m", "raytrace", "render", str(CORNELL), "-o", str(tmp_path / "x.png"), "--width", 1024,
             "--height", 1024, "--spp", 64, "--scheduler", "local:2", "--no-progress"]
@@ -295,7 +299,7 @@ def test_4_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
 
 
 def test_a_binary_ply_face_claiming_more_indices_than_it_holds_is_refused(tmp_path):
-    """Also seen in the round: a binary PLY face claiming 255 indices but holding 3 was read silently (trimesh's
+    """Also seen (issue 43): a binary PLY face claiming 255 indices but holding 3 was read silently (trimesh's
     binary reader takes every face to have the first face's count). Decided: the faces are read record by
     record when their counts differ, and bytes left after the last element, beyond a closing newline, mean a
     count that does not match its data: refused, naming the file."""
@@ -329,7 +333,7 @@ sys.exit(main(sys.argv[1:]))
 
 
 @pytest.mark.parametrize("after", [0.005, 0.01, 0.015, 0.02, 0.03])
-def test_5_ctrl_c_during_the_kernels_first_build_is_one_line(tmp_path, after):
+def test_ctrl_c_during_the_kernels_first_build_is_one_line(tmp_path, after):
     """Found with item 5: a signal early in PoCL's build of the kernel (an empty kernel cache) made its clang
     print "1 error generated." before the command's line (here reproduced 10-20 ms into the build, which
     the child times itself: the command line's own main, a timer started as the build starts)."""

@@ -1,6 +1,7 @@
-"""The environment as hostile input: RAYTRACE_LANES, RAYTRACE_TARGET, POCL_CACHE_DIR and POCL_DEVICES get one
-line naming the variable and its value, exit status 2, and no output; and the code-generation target and lane
-width come from the CPU's own features (raytrace/renderer/cpu_target.py)."""
+"""The process's environment, the CPU and the variables a user sets: the code-generation target and lane width
+come from the CPU's own features (raytrace/renderer/cpu_target.py); RAYTRACE_LANES, RAYTRACE_TARGET,
+RAYTRACE_DEVICE, POCL_CACHE_DIR and POCL_DEVICES as hostile input get one line naming the variable and its
+value, exit status 2, and no output."""
 import os
 import subprocess
 
