@@ -1,6 +1,6 @@
 """The shape of the repository: imports run one way through the package's layers, the installed package holds
-no developer rig and imports no test-only dependency, and every repository path the code, the tests and the
-manual name exists. Each test reads the source as text (ast, regular expressions): nothing here can pass by
+no developer rig and imports no test-only dependency, no test module imports another, and every repository
+path the code, the tests and the manual name exists. Each test reads the source as text (ast, regular expressions): nothing here can pass by
 importing less."""
 import ast
 import configparser
@@ -111,6 +111,54 @@ def test_the_checker_sees_arrows_and_cycles(tmp_path, monkeypatch):
 def test_the_installed_package_imports_no_test_only_dependency():
     found = {(name, dep) for name in MODULES for dep in imports(name)[1] if dep in TEST_ONLY}
     assert found == set()
+
+
+def imports_of_test_modules(files):
+    """(importer, imported) for every import of a test module (one whose name starts with test_) in `files`, at
+    the top level or inside a function: `import test_x`, `from test_x import y`, `from tests.test_x import y`,
+    `from tests import test_x`, `from . import test_x` and importlib.import_module or __import__ of such a name;
+    the importer as a path under the checkout."""
+    def is_test_module(name):
+        return any(part.startswith("test_") for part in name.split("."))
+    found = []
+    for path in map(Path, files):
+        importer = str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = "." * node.level + (node.module or "")
+                names = [base] if is_test_module(base) else [
+                    f"{base}.{alias.name}" if node.module else base + alias.name for alias in node.names]
+            elif (isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", None)) in
+                  ("import_module", "__import__") and node.args and isinstance(node.args[0], ast.Constant)):
+                names = [str(node.args[0].value)]
+            else:
+                continue
+            found += [(importer, name) for name in names if is_test_module(name)]
+    return found
+
+
+def test_no_test_module_imports_another():
+    """A test module imports no other test module, at the top level or inside a function: what tests share is
+    in helpers.py, path_support.py or conftest.py (none named test_*), and a test runs only in its own module,
+    so that each module can be read, moved and renamed alone and no test is collected twice. It failed on six
+    imports: test_environment_map.py and test_visits.py took test_path_tracing.py's helpers, test_record.py ran
+    a test of test_docs.py as its check, among them."""
+    found = imports_of_test_modules(sorted((ROOT / "tests").rglob("*.py")))
+    assert found == [], "; ".join(f"{importer} imports {imported}" for importer, imported in found)
+
+
+def test_the_checker_sees_test_module_imports(tmp_path):
+    """The test above can fail: every form of import of a test module planted in a file, one inside a
+    function; helpers and path_support pass."""
+    planted = tmp_path / "test_planted.py"
+    planted.write_text("import os\nfrom helpers import ROOT\nfrom path_support import traced\nimport test_a\n"
+                       "from tests.test_b import x\nfrom tests import test_c\nfrom . import test_d\n"
+                       "from .test_e import y\n\n\ndef f():\n    from test_f import furnace as g\n"
+                       "    importlib.import_module('test_g')\n")
+    assert sorted(imports_of_test_modules([planted])) == [(str(planted), name) for name in (
+        ".test_d", ".test_e", "test_a", "test_f", "test_g", "tests.test_b", "tests.test_c")]
 
 
 def test_setup_installs_every_package_of_raytrace_and_nothing_else():
