@@ -319,7 +319,7 @@ def test_one_light_sample_at_one_point_is_refused(cornell, tmp_path, pattern):
         parse_scene(tomllib.loads(text.replace("light_samples = 16", f'light_samples = 1\nlight_sampler = '
                                                                      f'"{pattern}"')), "x.toml")
     scene = raytrace.load_file(path)
-    with pytest.raises(InputError, match=re.escape(f"render(): light_sampler = '{pattern}': with 1 light")):
+    with pytest.raises(InputError, match=re.escape(f"{path}: render.light_sampler = '{pattern}': with 1 light")):
         raytrace.render(scene, width=8, height=8, light_samples=1, light_sampler=pattern)
     params = raytrace.parameters(scene)
     params["render.light_samples"], params["render.light_sampler"] = 1, pattern

@@ -12,14 +12,18 @@ from raytrace.errors import InputError
 @pytest.mark.parametrize("change, message", [
     (dict(max_depth=-2), "render(): max_depth = -2: must be an integer in [-1, 1024]"),
     (dict(max_depth=1.5), "render(): max_depth = 1.5"),
-    (dict(max_depth=3, shading="direct"), 'render(): max_depth = 3: is the path model\'s, and this render\'s '
-                                          'shading is "direct"'),
+    (dict(max_depth=3, shading="direct"), 'render.max_depth = 3: is the path model\'s: only with shading = "path", '
+                                          'not "direct"'),
 ])
 def test_bad_render_options_are_one_line(cornell, change, message):
-    scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
+    """A bad option's own value names the option (render(): max_depth); a rule it breaks with the scene's
+    values names the scene's value, where it was written (scene/rules.py)."""
+    path = cornell.path.replace("cornell.toml", "cornell_direct.toml")
+    scene = raytrace.load_file(path)
     with pytest.raises(InputError) as e:
         raytrace.render(scene, **{"shading": "path", "width": 8, "height": 8, **change})
-    assert str(e.value).startswith(message) and "\n" not in str(e.value)
+    expected = message if message.startswith("render()") else f"{path}: {message}"
+    assert str(e.value).startswith(expected) and "\n" not in str(e.value)
 
 
 def test_bad_scene_keys_are_one_line():
@@ -30,7 +34,7 @@ def test_bad_scene_keys_are_one_line():
                     "radiance": 1.0, "material": "grey"}]}
     cases = [(dict(shading="path", max_depth=-3), "render.max_depth = -3: must be"),
              (dict(shading="path", max_depth=2000), "render.max_depth = 2000: must be"),
-             (dict(shading="direct"), "lights[0].material = 'grey': a light reflects only in the path model"),
+             (dict(shading="direct"), "lights[0].material = 'grey': is the path model's: only with shading"),
              (dict(shading="direct", max_depth=3), "render.max_depth = 3: is the path model's")]
     for render, message in cases:
         with pytest.raises(InputError, match=re.escape(message)):
@@ -73,7 +77,7 @@ def test_environment_keys_are_checked():
             "image": {"width": 8, "height": 8}, "materials": {"m": {"colour": [0.5] * 3}},
             "lights": [{"center": [0, 0, 2], "size": [1, 1], "normal": [0, 0, -1], "tangent": [1, 0, 0],
                         "radiance": 1.0}]}
-    cases = [({"shading": "direct"}, {"type": "constant", "radiance": 1.0}, "environment = {'type': 'constant'"),
+    cases = [({"shading": "direct"}, {"type": "constant", "radiance": 1.0}, "environment = [1.0, 1.0, 1.0]: is the path model's"),
              ({"shading": "path"}, {"type": "sky", "radiance": 1.0}, "environment.type = 'sky': must be one of"),
              ({"shading": "path"}, {"type": "constant", "radiance": -1.0}, "environment.radiance = -1.0"),
              ({"shading": "path"}, {"type": "constant"}, "environment.radiance"),
