@@ -3,10 +3,8 @@ LANES-wide inputs so every kernel function is checked at both widths the rendere
 that are not fixtures are in helpers.py)."""
 import pytest
 
-from helpers import ROOT
-from raytrace.renderer.cpu_target import apply_target
+from helpers import ROOT, lane_id, runnable_lane_widths
 from raytrace.renderer.device import context_for, select_device
-from raytrace.structs import LANE_WIDTHS
 from raytrace.scene import load_file
 from raytrace.commands.stability.probe import Probe
 
@@ -26,14 +24,7 @@ def cornell():
     return load_file(ROOT / "scenes" / "cornell.toml")
 
 
-def runnable_lane_widths():
-    """Every lane width the kernel accepts that this machine's target runs (cpu_target.py): 1, 4, 8 and, on
-    AVX-512, 16."""
-    target = apply_target(select_device(None))
-    return [n for n in LANE_WIDTHS if n > 0 and (target is None or n <= target.lanes_max)]
-
-
-@pytest.fixture(params=runnable_lane_widths(), ids=lambda n: f"lanes{n}")
+@pytest.fixture(params=runnable_lane_widths(), ids=lane_id)
 def lanes(request):
     return request.param
 

@@ -16,8 +16,9 @@ import pytest
 
 import raytrace
 from raytrace import structs
+from raytrace.structs import LANE_WIDTHS
 from raytrace.renderer import packing
-from raytrace.renderer.cpu_target import is_pocl_cpu
+from raytrace.renderer.cpu_target import apply_target, is_pocl_cpu
 from raytrace.renderer.device import describe, list_devices, select_device
 from raytrace.renderer.program import build
 from raytrace.scene import mipmap
@@ -32,6 +33,27 @@ _session = select_device(None)
 SESSION_DEVICE, SESSION_KIND = describe(_session), "cpu" if _session.type & cl.device_type.CPU else "gpu"
 on_pocl = pytest.mark.skipif(not is_pocl_cpu(_session), reason=f"about PoCL's CPU device; this session's is "
                                                                  f"{SESSION_DEVICE}")
+
+
+def runnable_lane_widths():
+    """Every lane width the kernel accepts that this machine's target runs (cpu_target.py): 1, 4, 8 and, on
+    AVX-512, 16."""
+    target = apply_target(_session)
+    return [n for n in LANE_WIDTHS if n > 0 and (target is None or n <= target.lanes_max)]
+
+
+def lane_id(n):
+    return f"lanes{n}"
+
+
+# The scalar width and the widest: for the tests that run a whole path through the kernel and compare estimators
+# statistically (means over 1024 lanes). What differs by lane width is the code that handles a packet (select on
+# vector masks against scalar comparisons, vloadn/vstoren, lanes leaving a loop at different times): 1 runs the
+# scalar forms, the widest the vector ones, and 4 and 8 the same vector code as the widest with fewer lanes.
+# The functions such a test composes are each tested at every width by their own tests (conftest's `lanes`),
+# and the path loop's packet handling by test_path_regeneration.py and test_tiles.py, at every width.
+LANE_ENDS = sorted({runnable_lane_widths()[0], runnable_lane_widths()[-1]})
+at_lane_ends = pytest.mark.parametrize("lanes", LANE_ENDS, ids=lane_id)
 needs_a_cpu_device = pytest.mark.skipif(not any(d.type & cl.device_type.CPU for _, d in list_devices()),
                                         reason="needs an OpenCL CPU device (PoCL); this machine has none")
 

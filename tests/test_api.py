@@ -18,7 +18,7 @@ import OpenImageIO as oiio
 import pytest
 
 import raytrace
-from helpers import ROOT, run
+from helpers import ROOT
 from raytrace.cli import parser
 from raytrace.options import RenderOptions, declared
 from raytrace.parameters import FeaturesChanged

@@ -6,6 +6,7 @@ import pytest
 
 import raytrace
 
+from helpers import at_lane_ends
 from path_support import assert_mean, assert_techniques_agree, environment_scene, traced
 
 
@@ -24,6 +25,7 @@ def test_environment_furnace(material, expected):
     assert_mean(np.asarray(image)[20:44, 20:44], 2.0 * expected)
 
 
+@at_lane_ends
 def test_environment_techniques_agree(harness, cornell):
     """The environment seen through the open front of scene 0's room: sampling lights and environment alone,
     the BSDF alone, and MIS agree at a floor point near the opening, one deep in the room, and one on a

@@ -19,7 +19,7 @@ from raytrace.scene.model import EnvironmentMap
 from raytrace.scene.scene_file import parse_scene
 from raytrace.commands.stability.probe import planar, scene_args
 
-from helpers import ROOT
+from helpers import ROOT, at_lane_ends
 from path_support import assert_mean, assert_techniques_agree, environment_scene, traced
 
 ENVIRONMENT = """
@@ -226,6 +226,7 @@ def test_a_uniform_map_is_the_constant_environment():
         assert_mean(np.asarray(image)[20:44, 20:44], 2.0 * expected)
 
 
+@at_lane_ends
 def test_techniques_agree_under_the_sky(harness):
     """The materials scene under its sky with a sun: sampling the lights and the map alone, the BSDF alone,
     and both by MIS agree (5 standard errors of each difference) at a floor point in the open, one in the

@@ -8,13 +8,12 @@ import pytest
 import raytrace
 import reference
 import reference_textures as ref
-from helpers import ROOT
+from helpers import ROOT, at_lane_ends, stored_levels
 from raytrace.renderer.program import Features
 from raytrace.scene import parse_scene
 from raytrace.numerics import U
 from raytrace.renderer.packing import texture_tables
 from raytrace.renderer.scene_tables import scene_tables
-from helpers import stored_levels
 
 SOURCE = """
 #include "camera.cl"
@@ -197,6 +196,7 @@ def flat_maps(tmp_path):
     return str(tmp_path / "flat.exr"), str(tmp_path / "zero.exr")
 
 
+@at_lane_ends
 def test_flat_normal_map_and_zero_height_change_nothing(tmp_path, lanes):
     """A flat normal map gives the frame's normal, which is the geometric normal up to its float32
     rounding (a few 1e-7); a height map of zeros tilts nothing (its differences are exactly 0) and

@@ -12,7 +12,7 @@ import pytest
 
 import raytrace
 
-from helpers import without_ambient
+from helpers import at_lane_ends, without_ambient
 from path_support import assert_mean, assert_techniques_agree, furnace, traced
 
 
@@ -75,6 +75,7 @@ LIGHT_NORMALS = np.array([[0, 0, 1.0], [0, 0, 1.0], [-1.0, 0, 0], [0.6, -0.6, -0
 LIGHT_NORMALS /= np.linalg.norm(LIGHT_NORMALS, axis=1, keepdims=True)
 
 
+@at_lane_ends
 def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
     """Sampling the lights alone, the BSDF alone, and both combined by MIS are three unbiased estimators of the
     same radiance: at points of scene 0's direct variant (a lit floor point, one in the ellipsoid's penumbra,
@@ -108,6 +109,7 @@ def test_roulette_comes_after_the_light_samples(harness, cornell):
         assert np.all(np.isfinite(with_roulette)) and np.all(with_roulette >= 0)
 
 
+@at_lane_ends
 def test_lights_sampled_by_solid_angle(harness, cornell):
     """The same three estimators with the lights sampled by solid angle (kernels/spherical_rectangle.cl, a
     build option the renderer leaves off: docs/global-illumination.md measures it) agree with each other and

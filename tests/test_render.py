@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import reference
-from conftest import runnable_lane_widths
+from helpers import runnable_lane_widths
 import raytrace
 from raytrace import samplers
 from raytrace.renderer.program import Features

@@ -5,9 +5,11 @@ import numpy as np
 
 import raytrace
 
+from helpers import at_lane_ends
 from path_support import assert_techniques_agree, traced
 
 
+@at_lane_ends
 def test_rough_conductor_techniques_agree(harness, cornell):
     """A rough gold conductor (alpha 0.3, Fresnel per channel) on every white surface of scene 0's direct
     variant: the BSDF's value in the lights' samples (pi F D G2 / (4 cos_o) per channel, light_sampling.cl
