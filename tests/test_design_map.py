@@ -169,3 +169,40 @@ def test_the_parsers_see_what_is_there():
     assert "microfacet.cl" not in kernel_map(cut)
     row = "\n".join(line for line in OPTIONS.splitlines() if not line.startswith("| `HAS_ENVIRONMENT_MAP`"))
     assert "HAS_ENVIRONMENT_MAP" not in {n for r in tables(row)[HOST_HEADER] for n in r}
+
+
+def package_map(text):
+    """The module file names the map of the installed package names: the `.py` names in the first column of
+    its code block (an entry's names before the first gap of two spaces or more), and the stability suite's
+    case modules, which one entry lists after "a module per family:"."""
+    block = re.search(r"```\n(raytrace[/].*?)```", section(text, "The installed package"), re.S).group(1)
+    names = set()
+    for line in block.splitlines():
+        entry = re.match(r" {2,}(\S.*?)(?:\s{2,}|$)", line)
+        if entry:
+            names |= set(re.findall(r"[\w]+\.py\b", entry.group(1)))
+    family = re.search(r"a module per family: ([\w,\s]+)", block).group(1)
+    return names | {f"{name}.py" for name in re.findall(r"\w+", family)}
+
+
+def package_modules():
+    """The base names of the package's modules, a subpackage's __init__.py aside (the top level's is the API)."""
+    package = ROOT / "raytrace"
+    return {p.name for p in package.rglob("*.py") if p.name != "__init__.py" or p.parent == package}
+
+
+def test_the_package_map_lists_every_module():
+    """Every module of raytrace/ is on the map, and every module the map names exists: a module added or
+    renamed without its line fails here (scene/rules.py was one)."""
+    named, modules = package_map(PAGE), package_modules()
+    assert modules - named == set(), f"modules not on design.md's map: {sorted(modules - named)}"
+    assert named - modules == set(), f"on design.md's map, not in raytrace/: {sorted(named - modules)}"
+
+
+def test_the_package_map_parser_sees_what_is_there():
+    """The parser finds the map's entries (rules.py, a name in a pair, a stability family), and a page without
+    an entry loses that name."""
+    named = package_map(PAGE)
+    assert {"rules.py", "meshgen.py", "ply_file.py", "degenerate_input.py", "__main__.py"} <= named
+    cut = "\n".join(line for line in PAGE.splitlines() if not line.lstrip().startswith("rules.py"))
+    assert "rules.py" not in package_map(cut)
