@@ -1,6 +1,7 @@
 """The front page and the manual: the manual builds strictly (every warning an error: a broken link, a missing
-page or anchor, an unresolved reference), its generated pages hold what the code and the records say, the
-measurement records are well formed, and the README's commands and examples are the ones that work."""
+page or anchor, an unresolved reference), its generated parts hold what the code and the records say (the
+tables made from the code are written into the Markdown, and are current), the measurement records are well
+formed, and the README's commands and examples are the ones that work."""
 import html as html_text
 import importlib.util
 import math
@@ -12,6 +13,8 @@ import tomllib
 
 import pytest
 
+from devtools import docs_tables
+from devtools.docs_tables import accepted, default_text
 from helpers import ROOT, assert_record_well_formed
 from raytrace.scene import parse_scene
 from raytrace.scene.keys import TABLES
@@ -71,12 +74,45 @@ def test_the_generated_parts_are_tables_under_headings(manual):
 
 
 def test_the_scene_format_page_lists_every_key(manual):
-    """The generated tables (docs/_ext/raytrace_docs.py from raytrace/scene/keys.py) name every table and key."""
+    """The generated tables (devtools/docs_tables.py from raytrace/scene/keys.py) name every table and key."""
     html = (manual[2] / "scene-format.html").read_text()
     for table, keys in TABLES.items():
         for key in keys:
             assert f"<code class=\"docutils literal notranslate\"><span class=\"pre\">{key.name}</span></code>" in html, \
                 (table, key.name)
+
+
+def test_the_generated_tables_in_the_markdown_are_current():
+    """The tables made from the code are written into the Markdown pages (devtools/docs_tables.py), so that they
+    show on a repository's web page, where a Sphinx directive shows nothing; each generated part equals what
+    the code makes now. A key added to raytrace/scene/keys.py and not written into the page fails here."""
+    parts = {path.name: [name for name, _ in docs_tables.regions(path.read_text())] for path in docs_tables.pages()}
+    assert parts["scene-format.md"] == ["scene-keys"]
+    for path in docs_tables.pages():
+        text = path.read_text()
+        assert "```{scene-keys}" not in text, path.name
+        for name, body in docs_tables.regions(text):
+            assert body == docs_tables.generated(name), (
+                f"docs/{path.name}: the {name} tables differ from {docs_tables.GENERATORS[name][1]}: "
+                f"run `{docs_tables.COMMAND}` and commit the page")
+        assert docs_tables.refreshed(text) == text, \
+            f"docs/{path.name}: a generated part's marker is out of date: run `{docs_tables.COMMAND}`"
+
+
+def test_a_stale_generated_table_is_found(tmp_path):
+    """The check above can fail: one cell of the scene format's tables edited, a key dropped from a copy of the
+    page, each is stale, and the rewrite restores the page; the command's --check passes on the checkout."""
+    page = (ROOT / "docs" / "scene-format.md").read_text()
+    for edit in (("| `fov` | number | required | (0, 180) |", "| `fov` | number | required | (0, 90) |"),
+                 ("| `smooth` | true or false | false | any |", "")):
+        assert edit[0] in page
+        copy = tmp_path / "scene-format.md"
+        copy.write_text(page.replace(*edit))
+        assert docs_tables.stale([copy]) == [copy]
+        assert docs_tables.refreshed(copy.read_text()) == page
+    r = subprocess.run([sys.executable, "-m", "devtools.docs_tables", "--check"], capture_output=True, text=True,
+                       cwd=ROOT)
+    assert r.returncode == 0 and r.stderr == "", r.stderr
 
 
 TYPOGRAPHY = {0x2019: "'", 0x201C: '"', 0x201D: '"', 0x2013: "--", 0x2014: "---"}  # Sphinx's smartquotes, undone
@@ -118,10 +154,9 @@ def test_the_scene_format_tables_say_what_the_declarations_do(manual):
     """Each key table of the scene format's page lists its keys in the declarations' order (raytrace/scene/
     keys.py), each with the type, default and accepted values the generator derives from its declaration;
     and a few rows written out here, so that the check is not only the generator's code run twice."""
-    from raytrace_docs import accepted, default_text
     parts = re.split(r"<p><strong>(.*?)</strong></p>", (manual[2] / "scene-format.html").read_text())
     tables = {_text(parts[i]): _table_rows(parts[i + 1].split("</table>")[0]) for i in range(1, len(parts), 2)}
-    unmark = lambda text: " ".join(text.replace("``", "").split())  # noqa: E731  (reStructuredText literals)
+    unmark = lambda text: " ".join(text.replace("`", "").split())  # noqa: E731  (Markdown's code spans)
     for table, keys in TABLES.items():
         rows = tables[_text(table or "top level")]
         assert rows[0] == ["key", "type", "default", "accepted", "meaning"] and len(rows) == len(keys) + 1

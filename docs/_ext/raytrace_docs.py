@@ -1,11 +1,11 @@
-"""Parts of the manual generated from the code and the data, so that the two cannot drift apart:
+"""The part of the manual generated from the data when the manual is built, so that the two cannot drift apart:
+`{performance-tables}`, the current figures per machine kind, from benchmarks/results/*.json.
 
-- `{scene-keys}`: every key of a scene file, from raytrace/scene/keys.py (the declarations the reader checks
-  values against);
-- `{performance-tables}`: the current figures per machine kind, from benchmarks/results/*.json.
+The tables generated from the code (every key of a scene file, from raytrace/scene/keys.py) are written into
+the Markdown pages themselves by `python -m devtools.docs_tables`, so that a page shows them on a repository's
+web page too, where a directive shows nothing; tests/test_docs.py checks that they are current.
 """
 import json
-import math
 import re
 from pathlib import Path
 
@@ -16,75 +16,12 @@ from docutils.utils import new_document
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _number(x):
-    if x == math.inf:
-        return "inf"
-    if isinstance(x, float) and (abs(x) >= 1e6 or 0 < abs(x) < 1e-3):
-        return f"{x:.6g}"
-    return f"{x:g}" if isinstance(x, float) else str(x)
-
-
-def _range(key):
-    low, high = key.low > -math.inf, key.high < math.inf
-    if low and high:
-        return f"{'(' if key.open_low else '['}{_number(key.low)}, {_number(key.high)}{')' if key.open_high else ']'}"
-    if low:
-        return f"{'>' if key.open_low else '>='} {_number(key.low)}"
-    return f"{'<' if key.open_high else '<='} {_number(key.high)}" if high else ""
-
-
-def accepted(key):
-    """(its type, what it accepts) in words, from a key's declaration alone."""
-    kind = {"number": "number", "integer": "integer", "string": "string", "boolean": "true or false",
-            "path": "file path", "table": "table", "tables": "array of tables", "named-tables": "table of tables",
-            "faces": "list of index triples", "vector": f"{key.length} numbers",
-            "number-or-vector": f"number or {key.length} numbers",
-            "vectors": f"{key.count} vectors of {key.length} numbers" if key.count
-            else f"one or more vectors of {key.length} numbers"}[key.kind]
-    bounds = [_range(key)] if _range(key) else []
-    if bounds and key.kind in ("vector", "vectors", "number-or-vector"):
-        bounds = [("each in " if bounds[0][0] in "[(" else "each ") + bounds[0]]
-    if key.choices:
-        bounds.append("one of " + ", ".join(f"``{c}``" for c in key.choices))
-    if key.nonzero:
-        bounds.append("not all 0")
-    if key.also:
-        bounds.append(key.also)
-    return kind, "; ".join(bounds) or "any"
-
-
-def default_text(key):
-    from raytrace.scene.keys import REQUIRED
-    if key.default is REQUIRED:
-        return "required"
-    if key.default is None or key.default == {} or key.default == ():
-        return "none"
-    if isinstance(key.default, tuple):
-        return "[" + ", ".join(_number(x) for x in key.default) + "]"
-    if isinstance(key.default, str):
-        return f'``"{key.default}"``'
-    if isinstance(key.default, bool):
-        return str(key.default).lower()
-    return _number(key.default)
-
-
 def list_table(header, rows, widths):
     lines = [".. list-table::", "   :header-rows: 1", f"   :widths: {' '.join(map(str, widths))}", ""]
     for row in [header, *rows]:
         lines.append(f"   * - {row[0]}")
         lines.extend(f"     - {cell}" for cell in row[1:])
     return lines + [""]
-
-
-def scene_key_lines():
-    from raytrace.scene.keys import TABLES
-    lines = []
-    for table, keys in TABLES.items():
-        title = table or "top level"
-        lines += [f"**{title}**", ""]
-        rows = [[f"``{key.name}``", accepted(key)[0], default_text(key), accepted(key)[1], key.doc] for key in keys]
-        lines += list_table(["key", "type", "default", "accepted", "meaning"], rows, [14, 16, 12, 28, 30])
-    return lines
 
 
 def records():
@@ -147,15 +84,10 @@ class _Generated(Directive):
         return body.children
 
 
-class SceneKeys(_Generated):
-    make = staticmethod(scene_key_lines)
-
-
 class PerformanceTables(_Generated):
     make = staticmethod(performance_lines)
 
 
 def setup(app):
-    app.add_directive("scene-keys", SceneKeys)
     app.add_directive("performance-tables", PerformanceTables)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -1,0 +1,159 @@
+"""`python -m devtools.docs_tables [--check]`: the manual's tables that are made from the code, written into the
+Markdown pages themselves, so that a page reads the same on a repository's web page as in the built manual
+(a Sphinx directive shows nothing there).
+
+A generated part lies between two marker comments, which Markdown readers do not show:
+
+    <!-- scene-keys:begin ... -->
+    ...
+    <!-- scene-keys:end -->
+
+The command rewrites what is between them in every page of docs/ from the code; `--check` writes nothing and
+exits with status 1, naming the pages, when a page differs from what the code makes now. tests/test_docs.py
+fails the same way, so a key declared in raytrace/scene/keys.py and not regenerated into the page is caught.
+
+Generated parts, by marker name:
+
+- `scene-keys`: every key of a scene file, one table per table of the file, from raytrace/scene/keys.py (the
+  declarations the reader checks each value against): its type, default, accepted values and meaning.
+"""
+import argparse
+import math
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+COMMAND = "python -m devtools.docs_tables"
+REGION = re.compile(r"(<!-- ([\w-]+):begin[^\n]*?-->\n)(.*?)(<!-- \2:end -->)", re.S)
+
+
+def _number(x):
+    if x == math.inf:
+        return "inf"
+    if isinstance(x, float) and (abs(x) >= 1e6 or 0 < abs(x) < 1e-3):
+        return f"{x:.6g}"
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+def _range(key):
+    low, high = key.low > -math.inf, key.high < math.inf
+    if low and high:
+        return f"{'(' if key.open_low else '['}{_number(key.low)}, {_number(key.high)}{')' if key.open_high else ']'}"
+    if low:
+        return f"{'>' if key.open_low else '>='} {_number(key.low)}"
+    return f"{'<' if key.open_high else '<='} {_number(key.high)}" if high else ""
+
+
+def accepted(key):
+    """(its type, what it accepts) in words, from a key's declaration alone; names of values as Markdown code."""
+    kind = {"number": "number", "integer": "integer", "string": "string", "boolean": "true or false",
+            "path": "file path", "table": "table", "tables": "array of tables", "named-tables": "table of tables",
+            "faces": "list of index triples", "vector": f"{key.length} numbers",
+            "number-or-vector": f"number or {key.length} numbers",
+            "vectors": f"{key.count} vectors of {key.length} numbers" if key.count
+            else f"one or more vectors of {key.length} numbers"}[key.kind]
+    bounds = [_range(key)] if _range(key) else []
+    if bounds and key.kind in ("vector", "vectors", "number-or-vector"):
+        bounds = [("each in " if bounds[0][0] in "[(" else "each ") + bounds[0]]
+    if key.choices:
+        bounds.append("one of " + ", ".join(f"`{c}`" for c in key.choices))
+    if key.nonzero:
+        bounds.append("not all 0")
+    if key.also:
+        bounds.append(key.also)
+    return kind, "; ".join(bounds) or "any"
+
+
+def default_text(key):
+    """A key's default as the table shows it: "required", "none", a number, a list, `"text"` or true/false."""
+    from raytrace.scene.keys import REQUIRED
+    if key.default is REQUIRED:
+        return "required"
+    if key.default is None or key.default == {} or key.default == ():
+        return "none"
+    if isinstance(key.default, tuple):
+        return "[" + ", ".join(_number(x) for x in key.default) + "]"
+    if isinstance(key.default, str):
+        return f'`"{key.default}"`'
+    if isinstance(key.default, bool):
+        return str(key.default).lower()
+    return _number(key.default)
+
+
+def markdown_table(header, rows):
+    """A Markdown pipe table (GitHub's and MyST's): a | inside a cell is escaped."""
+    def line(cells):
+        return "| " + " | ".join(str(cell).replace("|", r"\|") for cell in cells) + " |"
+    return [line(header), "|" + "---|" * len(header), *map(line, rows)]
+
+
+def scene_keys():
+    """Every table of a scene file, in keys.py's order: its name in bold, then its keys' table."""
+    from raytrace.scene.keys import TABLES
+    lines = []
+    for table, keys in TABLES.items():
+        rows = []
+        for key in keys:
+            kind, values = accepted(key)
+            rows.append([f"`{key.name}`", kind, default_text(key), values, key.doc])
+        lines += [f"**{table or 'top level'}**", "",
+                  *markdown_table(["key", "type", "default", "accepted", "meaning"], rows), ""]
+    return lines
+
+
+GENERATORS = {"scene-keys": (scene_keys, "raytrace/scene/keys.py")}
+
+
+def begin_marker(name):
+    """The comment that opens a generated part: what it is made from, and the command that remakes it."""
+    return f"<!-- {name}:begin: generated from {GENERATORS[name][1]} by `{COMMAND}`; edit that, not this -->"
+
+
+def regions(text):
+    """(marker name, the text between the markers) of each generated part of a page."""
+    return [(m[2], m[3]) for m in REGION.finditer(text)]
+
+
+def generated(name):
+    """The text that belongs between the markers of `name`: a blank line, the lines, and the blank line left."""
+    if name not in GENERATORS:
+        raise KeyError(f"unknown generated part {name!r}: known are {', '.join(GENERATORS)}")
+    lines = GENERATORS[name][0]()
+    while lines and not lines[-1]:
+        lines.pop()
+    return "\n" + "\n".join(lines) + "\n\n"
+
+
+def refreshed(text):
+    """A page's text with every generated part made anew from the code (the begin marker too)."""
+    return REGION.sub(lambda m: f"{begin_marker(m[2])}\n{generated(m[2])}{m[4]}", text)
+
+
+def pages():
+    return sorted(DOCS.glob("*.md"))
+
+
+def stale(paths):
+    """The pages among `paths` whose generated parts differ from what the code makes now."""
+    return [path for path in paths if refreshed(path.read_text()) != path.read_text()]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog=COMMAND, description=__doc__.split("\n\n")[0])
+    parser.add_argument("--check", action="store_true",
+                        help="write nothing; exit with status 1 if a page differs from what the code makes")
+    args = parser.parse_args(argv)
+    found = stale(pages())
+    for path in found:
+        if args.check:
+            print(f"{path.relative_to(ROOT)}: generated tables out of date: run `{COMMAND}`", file=sys.stderr)
+        else:
+            path.write_text(refreshed(path.read_text()))
+            print(f"rewrote {path.relative_to(ROOT)}")
+    return 1 if args.check and found else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
