@@ -1,7 +1,7 @@
 """The front page and the manual: the manual builds strictly (every warning an error: a broken link, a missing
 page or anchor, an unresolved reference), its generated parts hold what the code and the records say (the
 tables made from the code are written into the Markdown, and are current), the measurement records are well
-formed, and the README's commands and examples are the ones that work."""
+formed, and the README's commands, examples and error line are the ones that work."""
 import html as html_text
 import importlib.util
 import math
@@ -13,6 +13,7 @@ import tomllib
 
 import pytest
 
+import raytrace
 from devtools import docs_tables
 from devtools.docs_tables import accepted, default_text
 from helpers import ROOT, assert_record_well_formed
@@ -245,6 +246,29 @@ def test_ci_runs_the_readmes_test_command():
 def test_the_readmes_scene_loads():
     (scene,) = blocks("toml")
     parse_scene(tomllib.loads(scene), str(ROOT / "scenes" / "readme.toml"))
+
+
+def test_the_readmes_error_line_is_the_one_every_entry_gives(tmp_path, monkeypatch):
+    """The README's example of a broken rule (raytrace/scene/rules.py) is the command line's line, word for
+    word, and render()'s, and a file's that breaks the same rule (scene 0 in the direct model, its light given
+    a radiance): the errors' format on the front page is the one the code has."""
+    (line,) = (b.strip() for b in blocks("text"))
+    r = subprocess.run([sys.executable, "-m", "raytrace", "render", "scenes/cornell.toml", "-o",
+                        str(tmp_path / "out.png"), "--shading", "direct", "--no-progress"],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 2 and r.stderr.strip() == line, r.stderr
+    monkeypatch.chdir(ROOT)
+    scene = raytrace.load_file("scenes/cornell.toml")
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.render(scene, shading="direct")
+    assert f"raytrace: error: {error.value}" == line
+    text = (ROOT / "scenes" / "cornell.toml").read_text().replace("[render]", '[render]\nshading = "direct"')
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "scenes" / "cornell.toml").write_text(text.replace("colour = [1.0, 1.0, 1.0]", "radiance = 1.0"))
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.load_file("scenes/cornell.toml")
+    assert f"raytrace: error: {error.value}" == line
 
 
 def test_the_readmes_python_runs(tmp_path):
