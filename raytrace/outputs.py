@@ -293,9 +293,12 @@ class Outputs:
 
 
 def scene_inputs(scene):
-    """The files a loaded scene was read from: its own, its textures' and its meshes'."""
+    """Every file a loaded scene was read from: its own, its textures' (colour, normal and height maps), its
+    meshes' and its environment map's. Outputs resolves them through symbolic links and hard links."""
     paths = [scene.path] + [texture.path for texture in scene.textures] + [mesh.source for mesh in scene.meshes]
-    return [str(path) for path in paths if os.path.isfile(path)]
+    if scene.environment_map is not None:
+        paths.append(scene.environment_map.path)
+    return [str(path) for path in paths if path and os.path.isfile(path)]
 
 
 def write_json(path, data):

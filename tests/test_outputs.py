@@ -319,3 +319,50 @@ def test_over_long_file_name(tmp_path, option):
     argv = ["-o", long] if option == "-o" else ["-o", tmp_path / "x.png", "--stats-json", long]
     one_error(run("render", CORNELL, *argv, *SMALL), f"command line: {option} = '{long}'", "file name is longer")
     assert names(tmp_path) == []
+
+
+# --- issue 55, item 3: every file the scene reads is an input, its environment map too ---------------------
+
+def envmap_scene(tmp_path):
+    """scenes/materials.toml in tmp_path reading its own copy of the sky (sky.exr), and a link to that copy
+    (link.exr); the floor's texture stays the checkout's."""
+    (tmp_path / "sky.exr").write_bytes((ROOT / "assets" / "textures" / "sky.exr").read_bytes())
+    (tmp_path / "link.exr").symlink_to("sky.exr")
+    scene = tmp_path / "scene.toml"
+    scene.write_text((ROOT / "scenes" / "materials.toml").read_text()
+                     .replace('"../assets/textures/sky.exr"', '"sky.exr"')
+                     .replace('"../assets/textures/grid.png"', f'"{ROOT / "assets" / "textures" / "grid.png"}"'))
+    return scene
+
+
+@pytest.mark.parametrize("command, option, name", [
+    ("render", "-o", "sky.exr"), ("render", "-o", "link.exr"),
+    ("render", "--stats-json", "sky.exr"), ("render", "--stats-json", "link.exr"),
+    ("bench", "--json", "sky.exr"), ("bench", "--json", "link.exr"),
+])
+def test_output_naming_the_environment_map(tmp_path, command, option, name):
+    """The environment map, named or through a link, is an input like a texture: refused with one line,
+    exit 2, the map's bytes as they were, no file left. (It was left out of the inputs, and the render
+    replaced the map.)"""
+    scene = envmap_scene(tmp_path)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    path = tmp_path / name
+    if command == "render":
+        argv = ["-o", path] if option == "-o" else ["-o", tmp_path / "x.png", "--stats-json", path]
+        r = run("render", scene, *argv, *SMALL)
+    else:
+        r = run("bench", scene, "--width", 8, "--height", 8, "--spp", 1, "--repeat", 1, "--json", path)
+    # the path's middle may be shortened in the line (raytrace.errors): its start and its name stay
+    one_error(r, f"command line: {option} = '", f"{name}': is an input of this run ({tmp_path / 'sky.exr'})")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    assert (tmp_path / "link.exr").is_symlink()
+
+
+def test_scene_inputs_lists_every_file_read(tmp_path):
+    """The scene file, its textures, its meshes and its environment map."""
+    from raytrace.outputs import scene_inputs
+    from raytrace.scene import load_file
+    scene = envmap_scene(tmp_path)
+    assert scene_inputs(load_file(scene)) == [str(scene), str(ROOT / "assets" / "textures" / "grid.png"),
+                                              str(tmp_path / "sky.exr")]
+
