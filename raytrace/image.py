@@ -1,5 +1,6 @@
 """What render() returns: the image as a numpy array that also knows how it was made, saves itself the way
 the command line saves it, and shows itself in Jupyter."""
+import math
 import os
 import tempfile
 
@@ -10,11 +11,12 @@ from .image_file import write_image
 
 def metadata(stats, scene_path):
     """The attributes an image file carries (docs/cli.md): the samples, patterns, filter, seed, seconds,
-    device and scene, and with two pixel samples or more the estimated RMSE."""
+    device and scene, and with two pixel samples or more the estimated RMSE (where it is finite: a NaN or Inf
+    is written into no file)."""
     data = {"spp": stats.spp, "light_samples": stats.light_samples, "sampler": stats.sampler,
             "light_sampler": stats.light_sampler, "texture_filter": stats.texture_filter, "seed": stats.seed,
             "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(scene_path)}
-    if stats.estimated_rmse is not None:
+    if stats.estimated_rmse is not None and math.isfinite(stats.estimated_rmse):
         data["estimated_rmse"] = float(stats.estimated_rmse)
     return data
 

@@ -8,7 +8,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from .errors import InputError
-from .outputs import Outputs
+from .outputs import Outputs, finite_json
 from .renderer.progressive import row_chunks
 
 EIGHT_BIT = {".png", ".jpg", ".jpeg", ".bmp", ".tga"}
@@ -74,7 +74,7 @@ def _spec(ext, width, height, metadata, variance):
         # data". We have no Exif data. TIFF keeps no custom attributes, so the description carries them.
         spec.attribute("tiff:write_exif", 0)
         described = {f"raytrace:{key}": _plain(value) for key, value in (metadata or {}).items()}
-        spec.attribute("ImageDescription", json.dumps(described))
+        spec.attribute("ImageDescription", json.dumps(finite_json(described), allow_nan=False))
     return spec
 
 

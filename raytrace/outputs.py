@@ -17,12 +17,15 @@ into Interrupted, raised in the main thread, so that clean-up runs; the creation
 files are never cut in half by one (a signal arriving then is raised right after)."""
 import contextlib
 import json
+import math
 import os
 import signal
 import stat
 import sys
 import tempfile
 import threading
+
+import numpy as np
 
 from .errors import InputError
 
@@ -301,8 +304,28 @@ def scene_inputs(scene):
     return [str(path) for path in paths if path and os.path.isfile(path)]
 
 
+def finite_json(value):
+    """`value` with every number that is not finite (NaN, Inf; float or numpy) replaced by None, and numpy
+    scalars and arrays made Python's: JSON has no NaN or Infinity (json.dump would write them as the
+    JavaScript words, which strict parsers refuse). docs/cli.md says what a null means."""
+    if isinstance(value, dict):
+        return {key: finite_json(v) for key, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite_json(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return finite_json(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def write_json(path, data):
-    """`data` as indented JSON into `path` (a reserved temporary)."""
+    """`data` as indented JSON into `path` (a reserved temporary); a number that is not finite is written as
+    null (finite_json), and anything else JSON cannot hold raises (TypeError; allow_nan=False makes a NaN that
+    got past finite_json a ValueError), so the temporary is discarded, never renamed into a file that is not
+    JSON."""
     with open(path, "w") as f:
-        json.dump(data, f, indent=2)
+        json.dump(finite_json(data), f, indent=2, allow_nan=False)
         f.write("\n")

@@ -366,3 +366,60 @@ def test_scene_inputs_lists_every_file_read(tmp_path):
     assert scene_inputs(load_file(scene)) == [str(scene), str(ROOT / "assets" / "textures" / "grid.png"),
                                               str(tmp_path / "sky.exr")]
 
+
+# --- issue 55, item 2: JSON never holds NaN or Infinity ------------------------------------------------
+
+def strict_json(text):
+    """json.loads refusing NaN, Infinity and -Infinity, which Python's json reads by default but JSON has not."""
+    def refuse(word):
+        raise ValueError(f"not JSON: {word}")
+    return json.loads(text, parse_constant=refuse)
+
+
+NONFINITE_RENDER = """
+import importlib
+import sys
+from raytrace import cli
+module = importlib.import_module("raytrace.render")  # the package's attribute `render` is the function
+real = module.render_progressive
+def render_progressive(scene, **kwargs):  # as a render whose sums held a NaN or an Inf would report it
+    image, variance, stats = real(scene, **kwargs)
+    stats.estimated_rmse, stats.estimated_relative_rmse = float("nan"), float("inf")
+    stats.history[-1].update(estimated_rmse=float("nan"), estimated_relative_rmse=float("inf"))
+    stats.extra["device_bytes"] = float("-inf")
+    return image, variance, stats
+module.render_progressive = render_progressive
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def test_stats_json_writes_nonfinite_numbers_as_null(tmp_path):
+    """A render whose error estimate is not finite (its sums held a NaN or an Inf) wrote NaN and Infinity
+    into --stats-json, which no strict JSON parser reads, and the NaN into the EXR's raytrace:estimated_rmse;
+    now they are null (docs/cli.md), the attribute absent, the rest as it was."""
+    r = subprocess.run([sys.executable, "-c", NONFINITE_RENDER, "render", str(CORNELL), "-o", str(tmp_path / "x.exr"),
+                        "--stats-json", str(tmp_path / "s.json"), *map(str, SMALL)],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    text = (tmp_path / "s.json").read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    stats = strict_json(text)
+    assert stats["estimated_rmse"] is None and stats["estimated_relative_rmse"] is None
+    assert stats["history"][-1]["estimated_rmse"] is None and stats["extra"]["device_bytes"] is None
+    assert stats["spp"] == 1 and stats["width"] == 16 and stats["render_seconds"] > 0
+    spec, pixels = read(tmp_path / "x.exr")  # the image's attributes leave the estimate out, as after one pass
+    assert spec.getattribute("raytrace:estimated_rmse") is None and spec.getattribute("raytrace:spp") == 1
+    assert np.isfinite(pixels).all()
+
+
+def test_write_json_never_writes_nan(tmp_path):
+    """write_json, every command's JSON writer: non-finite numbers (floats and numpy's) as null, numpy
+    numbers and arrays as JSON's, and anything else JSON cannot hold an error, never a file that is not JSON."""
+    from raytrace.outputs import write_json
+    path = tmp_path / "x.json"
+    write_json(path, {"a": float("nan"), "b": [1.5, float("inf"), np.float32(-np.inf)], "c": (np.int64(3),),
+                      "d": np.array([0.5, np.nan]), "e": {"f": np.float64(2.0), "g": None, "h": "NaN"}})
+    assert strict_json(path.read_text()) == {"a": None, "b": [1.5, None, None], "c": [3], "d": [0.5, None],
+                                             "e": {"f": 2.0, "g": None, "h": "NaN"}}
+    with pytest.raises(TypeError):
+        write_json(path, {"a": object()})
