@@ -6,6 +6,7 @@ import tempfile
 
 import numpy as np
 
+from .errors import InputError
 from .image_file import write_image
 
 
@@ -46,15 +47,20 @@ class Image(np.ndarray):
         self.variance, self.stats, self.metadata = None, None, {}
 
     def write(self, path):
-        """Write the image to `path` atomically (a temporary file renamed into place); InputError names `path`
-        for an unknown extension or a failed write."""
+        """Write the image to `path` (a str or os.PathLike) atomically (a temporary file renamed into place).
+        InputError, and nothing written, for a path that is no str, an unknown extension, an array that is not
+        H x W x 3 real numbers, a value that is not a finite float32 (NaN, Inf, or a float64 beyond
+        +-3.4e38; the error says how many), in an .hdr a negative value or one of 2^127 or more (RGBE cannot
+        hold them), or a failed write."""
         write_image(path, np.asarray(self), self.metadata, self.variance, key="path", source="Image.write()")
 
     def _repr_png_(self):
-        if self.ndim != 3 or self.shape[2] != 3:
-            return None
+        """The 8-bit PNG, or None (Jupyter then shows the text) for an array write() refuses."""
         with tempfile.TemporaryDirectory() as folder:
             path = os.path.join(folder, "image.png")
-            write_image(path, np.asarray(self), key="path", source="Image._repr_png_()")
+            try:
+                write_image(path, np.asarray(self), key="path", source="Image._repr_png_()")
+            except InputError:
+                return None
             with open(path, "rb") as f:
                 return f.read()

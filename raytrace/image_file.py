@@ -1,5 +1,7 @@
 """Writing images with OpenImageIO: 8-bit formats encoded as the course does, float formats linear; written in
-bands of rows, so an image of any size is written with little more memory than it takes."""
+bands of rows, so an image of any size is written with little more memory than it takes. Nothing that is not a
+finite float32 is ever written (checked after the cast to float32: a float64 beyond +-3.4e38 becomes Inf), nor
+a value an .hdr file cannot hold."""
 import errno
 import json
 import os
@@ -16,6 +18,10 @@ FLOAT = {".exr", ".hdr"}
 SIXTEEN_BIT = {".tif", ".tiff"}
 FORMATS = EIGHT_BIT | FLOAT | SIXTEEN_BIT
 BAND_BYTES = 16 << 20  # rows of the float image encoded and written at a time
+# Radiance HDR's RGBE stores a pixel as three 8-bit mantissas under one exponent, with no sign: OpenImageIO 3.2's
+# float2rgbe wraps the exponent byte of a pixel whose largest channel is 2^127 or more (the pixel reads back as
+# 0) and makes garbage of a negative channel (0.5, -0.1, 0.25 read back as 0.5, 0.902, 0.25): measured.
+HDR_LIMIT = 2.0 ** 127
 
 
 def encode_8bit(image):
@@ -29,8 +35,44 @@ def _row_bands(image):
     return row_chunks(image.shape[0], max(1, image[0].nbytes), BAND_BYTES)
 
 
-def _finite(image):
-    return all(np.isfinite(image[rows]).all() for rows in _row_bands(image))
+def _not_finite_float32(image):
+    """How many values of `image` are not finite once cast to float32 (NaN, Inf, or beyond +-3.4e38)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return sum(int(np.count_nonzero(~np.isfinite(np.asarray(image[rows], dtype=np.float32))))
+                   for rows in _row_bands(image))
+
+
+def _beyond_hdr(image):
+    """How many values of `image` an .hdr file cannot hold: negative ones, and those of 2^127 or more."""
+    def bad(band):
+        band = np.asarray(band, dtype=np.float32)  # as written: a float64 just below 2^127 may round up to it
+        return int(np.count_nonzero((band < 0) | (band >= HDR_LIMIT)))
+    return sum(bad(image[rows]) for rows in _row_bands(image))
+
+
+def _plural(n, one, many):
+    return f"{n} {one if n == 1 else many}"
+
+
+def pixel_problem(ext, image, variance=None):
+    """Why the H x W x 3 arrays `image` (and `variance`, for an .exr) cannot be written in the format of
+    extension `ext`, or None: a value that is not a finite float32, in any format (the render's NaN and Inf are
+    never written; a float64 beyond float32's range would be written as Inf); in an .hdr, a value RGBE cannot
+    hold (HDR_LIMIT)."""
+    for name, array in (("the image", image), ("its variance", variance)):
+        if array is None:
+            continue
+        bad = _not_finite_float32(array)
+        if bad:
+            them = "it" if bad == 1 else "them"
+            return (f"{name} holds {_plural(bad, 'value that is', 'values that are')} not finite as float32 (NaN, "
+                    f"Inf, or beyond +-{np.finfo(np.float32).max:.7g}): refusing to write {them}")
+    if ext == ".hdr":
+        bad = _beyond_hdr(image)
+        if bad:
+            return (f"the image holds {_plural(bad, 'value', 'values')} an .hdr file cannot store (RGBE: from 0 to "
+                    f"below 2^127 = {HDR_LIMIT:.4g}; OpenImageIO would write 0 or garbage): write an .exr")
+    return None
 
 
 def _pixels(ext, image, variance):
@@ -88,14 +130,22 @@ def write_image_file(path, image, metadata=None, variance=None):
     raytrace.outputs.Outputs, which renames it into place), in the format of its extension; OSError when
     the writer fails (a full disk, a file too large). An EXR file also carries `variance` (H x W x 3, the
     estimated variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B.
-    Encoded and written in bands of rows, so that a large image needs no full-size copies."""
+    Encoded and written in bands of rows, so that a large image needs no full-size copies. ValueError for an
+    extension of no format and for pixels pixel_problem() refuses: the callers check their input first
+    (write_image() with InputError); this is the last guard, never a file with NaN or Inf."""
     path = str(path)
     ext = os.path.splitext(path)[1].lower()
     if ext not in FORMATS:
         raise ValueError(f"{path}: unsupported extension (have: {', '.join(sorted(FORMATS))})")
     variance = variance if ext == ".exr" else None
-    if not _finite(image) or (variance is not None and not _finite(variance)):
-        raise ValueError("refusing to write NaN or Inf into an image")
+    problem = pixel_problem(ext, image, variance)
+    if problem:
+        raise ValueError(f"{path}: {problem}")
+    _write_file(path, ext, image, metadata, variance)
+
+
+def _write_file(path, ext, image, metadata, variance):
+    """write_image_file's writing, its input checked."""
     spec = _spec(ext, image.shape[1], image.shape[0], metadata, variance)
     out = oiio.ImageOutput.create(path)
     if not _write(out, path, spec, ext, image, variance):
@@ -109,14 +159,51 @@ def check_extension(path, source, key):
         raise InputError(source, key, str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
 
 
+def check_path(path, source, key):
+    """`path` as a str: a str or an os.PathLike that gives one (bytes are refused, not shown as "b'x.exr'" and
+    called an unknown extension), with no NUL character."""
+    fspath = os.fspath(path) if isinstance(path, (str, os.PathLike)) else None
+    if not isinstance(fspath, str):
+        raise InputError(source, key, path, "must be a str or os.PathLike path")
+    if "\0" in fspath:
+        raise InputError(source, key, fspath, "holds a NUL character, which no file name can")
+    return fspath
+
+
+def check_array(array, source, key, shape=None):
+    """`array` as a numpy array of H x W x 3 real numbers (H, W >= 1; of `shape` where given); InputError
+    naming `key` otherwise."""
+    try:
+        array = np.asarray(array)
+    except (TypeError, ValueError) as e:  # a ragged nested list
+        raise InputError(source, key, type(array).__name__, f"is no array: {e}") from None
+    if array.ndim != 3 or array.shape[2] != 3 or 0 in array.shape:
+        raise InputError(source, f"{key}.shape", array.shape, "must be an H x W x 3 array (RGB; H, W >= 1)")
+    if shape is not None and array.shape != shape:
+        raise InputError(source, f"{key}.shape", array.shape, f"must be the image's, {shape}")
+    if array.dtype.kind not in "iuf":
+        raise InputError(source, f"{key}.dtype", str(array.dtype), "must be a real number type (float, int)")
+    return array
+
+
 def write_image(path, image, metadata=None, variance=None, key="path", source="write_image()"):
     """Write H x W x 3 linear float `image` to `path` as the command line does (write_image_file: the format
     from the extension, `metadata` as the file's attributes, an EXR with the `variance` channels), atomically:
-    a temporary file beside `path` renamed into place, so a failed write leaves no partial file. Bad paths and
-    failed writes raise InputError naming `source`, `key` and `path`."""
+    a temporary file beside `path` renamed into place, so a failed write leaves no partial file. Bad paths,
+    arrays that are not H x W x 3 real numbers, pixels pixel_problem() refuses and failed writes raise
+    InputError naming `source` and `key` (the path's; "image" and "variance" for the arrays), and nothing is
+    written."""
+    path = check_path(path, source, key)
     check_extension(path, source, key)
+    ext = os.path.splitext(path)[1].lower()
+    image = check_array(image, source, "image")
+    variance = check_array(variance, source, "variance", image.shape) if variance is not None and ext == ".exr" \
+        else None
+    problem = pixel_problem(ext, image, variance)
+    if problem:
+        raise InputError(source, key, path, problem)
     with Outputs(source=source) as outputs:
         tmp = outputs.reserve(key, path)
         with outputs.writing(tmp):
-            write_image_file(tmp, image, metadata, variance)
+            _write_file(tmp, ext, image, metadata, variance)
         outputs.commit()
