@@ -9,7 +9,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from helpers import ROOT
+from helpers import ROOT, run
 from raytrace import cli
 from raytrace.commands.converge import COLUMNS, converge, fitted_slope, light_pattern, sample_counts
 from raytrace.image_file import write_image
@@ -183,3 +183,72 @@ def test_bad_input(tmp_path, capsys, monkeypatch, args, needle):
     assert captured.out == "" and captured.err.count("\n") == 1 and "Traceback" not in captured.err
     assert needle.format(tmp=tmp_path) in captured.err, captured.err
     assert not (tmp_path / "out").exists()
+
+
+# --- issue 55, item 7: a reference no render could be; an all-black scene ------------------------------
+
+def dark_scene(tmp_path):
+    """Scene 0 with no ambient term and a black light: every render of it is 0, exactly."""
+    scene = tmp_path / "dark.toml"
+    scene.write_text(CORNELL.read_text().replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.0, 0.0, 0.0]")
+                     .replace("colour = [1.0, 1.0, 1.0]", "colour = [0.0, 0.0, 0.0]"))
+    return scene
+
+
+def reference_file(path, pixels, **attributes):
+    """An EXR of `pixels` carrying `attributes` as raytrace:NAME, written with OpenImageIO itself (write_image
+    would refuse some of them)."""
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, oiio.FLOAT)
+    for name, value in attributes.items():
+        spec.attribute(f"raytrace:{name}", value)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec) and out.write_image(np.ascontiguousarray(pixels, np.float32)) and out.close()
+    return path
+
+
+def one_pixel(value):
+    pixels = np.full((8, 8, 3), 0.25, np.float32)
+    pixels[3, 5, 1] = value
+    return pixels
+
+
+@pytest.mark.parametrize("pixels, attributes, needle", [
+    (np.full((8, 8, 3), -0.5), {}, "--reference = '{ref}': holds 192 negative values of 192 (the least -0.5)"),
+    (one_pixel(-1e-3), {}, "--reference = '{ref}': holds 1 negative value of 192 (the least -0.001)"),
+    (one_pixel(np.inf), {}, "--reference = '{ref}': holds NaN or Inf"),
+    (one_pixel(0.5), {"estimated_rmse": float("nan")}, "{ref}: raytrace:estimated_rmse = nan: must be a finite"),
+    (one_pixel(0.5), {"estimated_rmse": -1.0}, "{ref}: raytrace:estimated_rmse = -1.0: must be a finite"),
+    (one_pixel(0.5), {"spp": "many"}, "{ref}: raytrace:spp = 'many': must be a sample count in [1, 65536]"),
+    (one_pixel(0.5), {"spp": 0}, "{ref}: raytrace:spp = 0: must be a sample count"),
+], ids=["all-negative", "one-negative", "inf", "rmse-nan", "rmse-negative", "spp-text", "spp-zero"])
+def test_a_reference_no_render_could_be(tmp_path, pixels, attributes, needle):
+    """Radiance is never negative, so no render makes a negative value (an all-negative EXR was taken and
+    compared); nor a sample count or an estimated error that is no number. One line, exit status 2, before
+    any render (nothing on stdout, where the reference's line comes first), no output directory."""
+    ref = reference_file(tmp_path / "ref.exr", pixels, **attributes)
+    r = run("converge", CORNELL, "--samplers", "random", "--max-spp", 2, "--width", 8, "--height", 8,
+            "--light-samples", 1, "--reference", ref, "--out", tmp_path / "out")
+    assert r.returncode == 2 and r.stdout == "", (r.stdout, r.stderr)
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
+    assert needle.format(ref=ref) in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_all_black_scene_draws_without_warnings(tmp_path):
+    """Every RMSE is 0, the reference's own estimate too: nothing can go on log axes. matplotlib warned on
+    stderr ("Data has no positive values, and therefore cannot be log-scaled", twice); now stderr is empty,
+    stdout says the renders equal the reference, and converge.png is drawn. An all-zero --reference is taken:
+    it is what a render of this scene is."""
+    scene = dark_scene(tmp_path)
+    argv = ("--samplers", "random,sobol", "--max-spp", 4, "--width", 8, "--height", 8, "--light-samples", 1)
+    r = run("converge", scene, *argv, "--reference-spp", 16, "--out", tmp_path / "rendered")
+    assert r.returncode == 0, r.stderr
+    assert "Warning" not in r.stderr and r.stderr == "", r.stderr
+    assert "note: 6 of 6 renders equal the reference (RMSE 0)" in r.stdout
+    spec, _ = read_image(tmp_path / "rendered" / "converge.png")
+    assert spec.width > 400
+    assert np.all(read_image(tmp_path / "rendered" / "reference.exr")[1] == 0)
+    zeros = reference_file(tmp_path / "zeros.exr", np.zeros((8, 8, 3)))
+    r = run("converge", scene, *argv, "--reference", zeros, "--out", tmp_path / "given")
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    assert [float(row["rmse"]) for row in read_csv(tmp_path / "given" / "converge.csv")[1]] == [0.0] * 6

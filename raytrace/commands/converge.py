@@ -118,10 +118,13 @@ def light_pattern(name, light_samples, shading="phong"):
     return "sobol", f"{name}: {light_samples} light samples do not suit {light} ({problem}); the light uses sobol"
 
 
-def read_reference(path, width, height):
+def read_reference(path, width, height, radiance=True):
     """The first three channels of a linear float image file (EXR, HDR), which must be width x height; and its
-    facts: the file,
-    and the sample count and estimated RMSE a render writes into it (None where absent)."""
+    facts: the file, and the sample count and estimated RMSE a render writes into it (None where absent).
+    Refused with one line: a value that is NaN or Inf, and with `radiance` (a --reference: what the renders are
+    judged against) one below 0 (radiance is never negative: no render makes one) and a sample count or
+    estimated RMSE in the file that no render writes. An image of zeros is taken: it is what a render of an
+    all-black scene is, exactly (tests/test_progressive.py), and so the right reference for one."""
     if Path(path).suffix.lower() not in (".exr", ".hdr"):
         raise InputError(CLI, "--reference", str(path), "must be a linear float image (.exr or .hdr): an 8-bit "
                          "or 16-bit file holds gamma-encoded values, which are no radiance to compare against")
@@ -135,8 +138,33 @@ def read_reference(path, width, height):
     image = buf.get_pixels(oiio.FLOAT)[:, :, :3]
     if not np.all(np.isfinite(image)):
         raise InputError(CLI, "--reference", str(path), "holds NaN or Inf")
-    return image, {"file": str(path), "spp": spec.getattribute("raytrace:spp"),
-                   "estimated_rmse": spec.getattribute("raytrace:estimated_rmse")}
+    facts = {"file": str(path), "spp": spec.getattribute("raytrace:spp"),
+             "estimated_rmse": spec.getattribute("raytrace:estimated_rmse")}
+    if radiance:
+        negative = int(np.count_nonzero(image < 0))
+        if negative:
+            raise InputError(CLI, "--reference", str(path), f"holds {negative} negative value"
+                             f"{'s' * (negative != 1)} of {image.size} (the least {float(image.min()):.4g}): "
+                             "radiance is never negative, so no render makes it")
+        _check_fact(path, "raytrace:spp", facts["spp"], lambda v: _integer(v) and 1 <= v <= MAX_SPP,
+                    f"must be a sample count in [1, {MAX_SPP}]")
+        _check_fact(path, "raytrace:estimated_rmse", facts["estimated_rmse"],
+                    lambda v: _real(v) and 0 <= v < math.inf, "must be a finite number >= 0")
+    return image, facts
+
+
+def _integer(value):
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _real(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _check_fact(path, key, value, check, problem):
+    """A render's attribute in a --reference file, absent (None) or as a render writes it."""
+    if value is not None and not check(value):
+        raise InputError(str(path), key, value, problem + " (as raytrace writes it), or absent")
 
 
 def render_reference(scene, spp, seed, common):
@@ -212,19 +240,37 @@ def _pyplot():
 
 
 def plot_convergence(rows, names, reference_facts, title, path, values="linear"):
+    """RMSE against seconds, log-log, one line per pattern. An RMSE of 0 (a render equal to the reference: every
+    render of an all-black scene) has no place on a log axis: those points are left out, each pattern's label
+    says how many, and with no positive RMSE at all the axes are linear and say why (matplotlib warned of
+    "no positive values" on stderr, twice, and drew empty log axes)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=100)
+    drawn = False
     for name in names:
         mine = [r for r in rows if r["sampler"] == name]
+        shown = [r for r in mine if r["seconds"] > 0 and r["rmse"] > 0]
         slope = fitted_slope(mine)
         label = name if slope is None else f"{name} (slope {slope:.2f})"
-        ax.loglog([r["seconds"] for r in mine], [r["rmse"] for r in mine], marker="o", label=label,
-                   ls="--" if name.startswith("peer:") else "-")
-    if reference_facts["estimated_rmse"] is not None:
-        bound = "" if values == "linear" else " of linear values\n(a bound on the clamped one)"
-        ax.axhline(reference_facts["estimated_rmse"], color="black", ls="--", lw=1,
-                   label=f"the reference's own estimated RMSE{bound}, {reference_facts['estimated_rmse']:.2e}\n"
+        if len(shown) < len(mine):
+            label += f" ({len(mine) - len(shown)} with RMSE 0 not drawn)"
+        ax.plot([r["seconds"] for r in shown], [r["rmse"] for r in shown], marker="o", label=label,
+                ls="--" if name.startswith("peer:") else "-")
+        drawn = drawn or bool(shown)
+    bound = reference_facts["estimated_rmse"]
+    if bound is not None and bound > 0:
+        note = "" if values == "linear" else " of linear values\n(a bound on the clamped one)"
+        ax.axhline(bound, color="black", ls="--", lw=1,
+                   label=f"the reference's own estimated RMSE{note}, {bound:.2e}\n"
                          "(two halves of passes: an overestimate for sobol)")
+    if drawn:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+    else:
+        ax.text(0.5, 0.5, "every render's RMSE is 0: each equals the reference\n(nothing to draw on log axes)",
+                ha="center", va="center", transform=ax.transAxes)
+        ax.set_xticks([])
+        ax.set_yticks([])
     ax.set_xlabel("seconds (the render's passes; kernel build excluded)")
     ax.set_ylabel(f"RMSE against the reference ({values})")
     ax.set_title(title)
@@ -339,7 +385,7 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         rows = measure(scene, names, max_spp, reference, common, box, out, error, repeats)
         if peer is not None:
             rows += peer_rows(peer, peer_samplers, max_spp, reference, box, error, flip_error,
-                              lambda path: read_reference(path, width, height)[0])
+                              lambda path: read_reference(path, width, height, radiance=False)[0])
             names = names + [f"peer:{name}" for name in peer_samplers]
         seconds = montage_seconds or montage_seconds_default(rows)
         panels = montage(names, rows, seconds)
@@ -358,6 +404,10 @@ def converge(scene_path, samplers, max_spp, out_dir, reference=None, width=None,
         outputs.commit()
     paths = [Path(out_dir) / name for name in names_out]
     print_table(rows, out)
+    exact = sum(r["rmse"] == 0 for r in rows)
+    if exact:
+        print(f"note: {exact} of {len(rows)} renders equal the reference (RMSE 0): converge.png's log axes leave "
+              f"{'it' if exact == 1 else 'them'} out", file=out)
     print(f"montage, {seconds:.3g} s each: " + ", ".join(f"{p['sampler']} {p['spp']} spp in {p['seconds']:.3f} s"
                                                        for p in panels), file=out)
     for t in table or []:
