@@ -4,6 +4,9 @@ before it takes any time to import (__init__.py)."""
 import signal
 
 
+# Characters of a value an error line shows at most: a million-item list is not a line, but a file's path is
+# what the user needs whole (a hostile megabyte-long string is still cut).
+SHOWN, SHOWN_TEXT = 80, 400
 API = "render()"  # the source an error names for a keyword argument of render() (the command line renames it)
 POSITIVE_SECONDS = "must be a positive number of seconds"  # render()'s time_limit, converge's --montage-seconds
 
@@ -16,11 +19,32 @@ class InputError(Exception):
 
     def __init__(self, source, key, value, problem):
         self.source, self.key, self.value, self.problem = str(source), key, value, problem
-        shown = "" if value is None else f" = {value!r}"
-        super().__init__(f"{printable(self.source)}: {printable(str(key))}{shown}: {printable(str(problem))}")
+        shown = "" if value is None else f" = {shortened(repr(value), SHOWN_TEXT if isinstance(value, str) else SHOWN)}"
+        super().__init__(f"{printable(self.source)}: {printable(shortened(str(key), SHOWN_TEXT))}{shown}: "
+                         f"{printable(str(problem))}")
 
     def __reduce__(self):  # raised on a Dask worker, it reaches the client whole
         return InputError, (self.source, self.key, self.value, self.problem)
+
+
+def shortened(text, limit=SHOWN):
+    """`text` cut to `limit` characters, its middle left out and marked: both ends of a value tell the most."""
+    if len(text) <= limit:
+        return text
+    head = (limit - 5) * 2 // 3
+    return f"{text[:head]} ... {text[len(text) - (limit - 5 - head):]}"
+
+
+def did_you_mean(given, known, lead=",", synonyms=None):
+    """", did you mean 'colour'?" when `given` is one of `synonyms` (another renderer's word for a name we
+    know: {given: ours}) or close to one of `known` (difflib's ratio of at least 0.6), else "": a misspelt or
+    borrowed key, name or option is the newcomer's first error."""
+    import difflib  # here, not at the top: the package binds interrupted_line before any slow import
+    if not isinstance(given, str):
+        return ""
+    close = [synonyms[given]] if given in (synonyms or {}) else difflib.get_close_matches(
+        given, [str(k) for k in known], n=1)
+    return f"{lead} did you mean {close[0]!r}?" if close else ""
 
 
 def printable(text):

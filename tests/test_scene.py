@@ -60,7 +60,7 @@ def test_missing_and_broken_files(tmp_path):
         load_file(tmp_path / "nope.toml")
     bad = tmp_path / "bad.toml"
     bad.write_text("[camera\nposition = 1")
-    with pytest.raises(InputError, match="bad.toml: toml"):
+    with pytest.raises(InputError, match="bad.toml:1:8: toml: "):
         load_file(bad)
 
 
@@ -130,3 +130,74 @@ def test_found_by_the_fuzz_suite(tmp_path):
         warnings.simplefilter("error")
         scene = parse_scene(table, "tiny.toml")
     np.testing.assert_array_equal(scene.lights[0].normal, [0, 0, -1])
+
+
+def _error(text):
+    with pytest.raises(InputError) as error:
+        load_file_text(text)
+    assert "\n" not in str(error.value)
+    return str(error.value)
+
+
+def load_file_text(text):
+    from raytrace import load_string
+    return load_string(text)
+
+
+CORNELL_TEXT = (ROOT / "scenes" / "cornell.toml").read_text()
+
+
+def test_a_toml_error_says_line_and_column(tmp_path):
+    """A newcomer's syntax error read `toml = "...": is not valid TOML`: now file:line:column, as compilers
+    write it."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[camera]\nposition = [0, 0\n")
+    with pytest.raises(InputError) as error:
+        load_file(bad)
+    assert str(error.value) == f"{bad}:3:1: toml: Unclosed array: not valid TOML"
+    bad.write_text("a = 1\nb = = 2\n")
+    with pytest.raises(InputError, match=rf"^{bad}:2:5: toml: Invalid value: not valid TOML$"):
+        load_file(bad)
+
+
+def test_a_misspelt_key_or_name_gets_a_suggestion():
+    """`color` for `colour`, `[[light]]` for `[[lights]]`, `fow`, `dielectirc`: the closest known name."""
+    assert "unknown key, did you mean 'fov'?" in _error(CORNELL_TEXT.replace("fov = 45.0", "fow = 45.0"))
+    lights = _error(CORNELL_TEXT.replace("[[lights]]", "[[light]]"))
+    assert "unknown key, did you mean 'lights'?" in lights
+    assert "unknown key, did you mean 'colour'?" in _error(CORNELL_TEXT.replace(
+        "white = { colour", "white = { color", 1))
+    path = (ROOT / "scenes" / "cornell_path.toml").read_text().replace(
+        "yellow = { colour = [1.0, 0.93, 0.6] }", 'yellow = { type = "dielectirc" }')
+    assert "roughconductor; did you mean 'dielectric'?" in _error(path)
+
+
+def test_a_long_value_is_cut_in_the_line():
+    """An unknown key holding a million-item list printed all of it (a 3 MB line): a value shows at most 80
+    characters, both ends kept; a string, a file's path say, up to 400."""
+    table = tomllib.loads(CORNELL_TEXT)
+    table["camera"]["junk"] = list(range(10**6))
+    with pytest.raises(InputError) as error:
+        parse_scene(table, "s.toml")
+    assert str(error.value).startswith("s.toml: camera.junk = [0, 1, 2, 3, ") and " ... " in str(error.value)
+    assert len(str(error.value)) < 300 and error.value.value == list(range(10**6))  # the value itself is whole
+
+
+def test_an_empty_file_name_names_no_file():
+    """environment.filename = "" reported the scene's folder as the value (the folder joined with nothing)."""
+    path = ROOT / "scenes" / "materials.toml"
+    table = tomllib.loads(path.read_text())
+    table["environment"]["filename"] = ""
+    with pytest.raises(InputError) as error:
+        parse_scene(table, str(path))
+    assert str(error.value) == f"{path}: environment.filename = '': must name a file"
+
+
+def test_a_missing_mesh_file_names_the_scene_and_the_shape(tmp_path):
+    """A missing mesh file was named by itself alone (`nope.obj: file = ...`): like a texture, it is named by
+    the scene file and its key; what is wrong inside a mesh file is still named by that file and its line."""
+    scene = tmp_path / "s.toml"
+    scene.write_text((ROOT / "scenes" / "mesh_cornell.toml").read_text().replace("../assets/torus.ply", "nope.obj"))
+    with pytest.raises(InputError) as error:
+        load_file(scene)
+    assert str(error.value) == f"{scene}: shapes[7].file = '{tmp_path / 'nope.obj'}': No such file or directory"

@@ -18,19 +18,22 @@ from . import obj_file, ply_file
 from .meshes import Mesh, degenerate_faces, value_problem, vertex_normals
 
 
-def load_mesh(path):
+def load_mesh(path, source=None, key="file"):
     """Read an OBJ or PLY file: (Mesh, number of degenerate faces dropped). Normals and uvs are the
-    file's (None if it has none); a bad file raises InputError."""
+    file's (None if it has none); a bad file raises InputError. A file that cannot be opened is named as the
+    scene names it (`source`'s `key`: the scene file and shapes[3].file); what is wrong inside it, by its
+    own name and line."""
     path = Path(path)
+    where = (path, "file") if source is None else (source, key)
     readers = {".obj": obj_file.read_obj, ".ply": ply_file.read_ply}
     if path.suffix.lower() not in readers:
-        raise InputError(path, "file", str(path), "must be an .obj or .ply file")
+        raise InputError(*where, str(path), "must be an .obj or .ply file")
     if path.exists() and not path.is_file():  # a FIFO or /dev/zero would block or never end
-        raise InputError(path, "file", str(path), "is not a regular file")
+        raise InputError(*where, str(path), "is not a regular file")
     try:
         data = path.read_bytes()
     except OSError as e:
-        raise InputError(path, "file", str(path), e.strerror or "cannot be read") from None
+        raise InputError(*where, str(path), e.strerror or "cannot be read") from None
     try:
         vertices, faces, normals, uvs = readers[path.suffix.lower()](path, data)
         return _checked(path, vertices, faces, normals, uvs)

@@ -4,13 +4,15 @@ Every check names the file, the key and the value (InputError), so a user can fi
 """
 import copy
 import math
+import os
+import re
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from . import environment_map, keys, mesh_file, meshes, meshgen, ranges, rules
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from .. import samplers
 from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     Triangle, normalize)
@@ -38,7 +40,8 @@ class Reader:
         allowed = sorted(self.spec) if allowed is None else allowed
         for key in self.table:
             if key not in allowed:
-                self.fail(key, self.table[key], f"unknown key (expected one of: {', '.join(allowed)})")
+                self.fail(key, self.table[key], f"unknown key{did_you_mean(key, allowed)} (expected one of: "
+                          f"{', '.join(allowed)})")
 
     def has(self, key):
         return key in self.table
@@ -86,9 +89,12 @@ class Reader:
         key = self.key(name, "string", "path")
         value, choices = self._given(key), key.choices if choices is None else choices
         if not isinstance(value, str) or (choices and value not in choices):
-            self.fail(name, value, f"must be one of: {', '.join(choices)}" if choices else "must be a string")
+            self.fail(name, value, f"must be one of: {', '.join(choices)}{did_you_mean(value, choices, ';')}"
+                      if choices else "must be a string")
         if key.kind == "path" and "\0" in value:  # no file system names a file so
             self.fail(name, value, "a file path cannot hold a NUL character")
+        if key.kind == "path" and not value.strip():  # it would name the scene file's own folder
+            self.fail(name, value, "must name a file")
         return value
 
     def boolean(self, name):
@@ -239,7 +245,7 @@ def _mesh_source(r):
         r.fail("file", r.raw("file", r.raw("generate")), "give exactly one of file and generate")
     if r.has("file"):
         path = Path(r.path).parent / r.string("file")
-        return (*mesh_file.load_mesh(path), str(path))
+        return (*mesh_file.load_mesh(path, r.path, r.prefix + "file"), str(path))
     g = r.sub("generate")
     g.check_keys()
     shape, triangles = g.string("shape"), g.integer("triangles")
@@ -430,6 +436,8 @@ def parse_scene(table, path="<scene>"):
 def load_file(path):
     """Read and check a TOML scene file (docs/scene-format.md); texture and mesh paths are relative to the
     file's folder. Raises InputError naming the file, the key and the value of the first bad entry."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError("load_file()", "path", type(path).__name__, "must be a str or os.PathLike naming a file")
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -452,18 +460,30 @@ def load_dict(table):
     """A scene from a dict laid out as a scene file's tables (docs/scene-format.md), through the same checks
     as load_file. Values may be numpy arrays and scalars; paths are relative to the current directory; errors
     name the source as load_dict() and the key by its path in the dict, e.g. shapes[3].center."""
+    if not isinstance(table, dict):
+        raise InputError("load_dict()", "table", type(table).__name__, "must be a dict laid out as a scene file")
     return parse_scene(plain(table), "load_dict()")
 
 
-def plain(value):
+MAX_NESTING = 32  # tables and arrays within each other: a scene needs 4 (shapes[0].generate.triangles)
+
+
+def plain(value, source="load_dict()", where="", depth=0):
     """`value` with numpy arrays and scalars as Python lists and numbers, tuples as lists, dicts copied: what
-    TOML would have given."""
+    TOML would have given. A key that is not a string, or nesting deeper than any scene's (a dict that holds
+    itself), is an InputError naming `source` and the place (`where`)."""
+    if depth > MAX_NESTING:
+        raise InputError(source, where, None, f"tables or arrays nested more than {MAX_NESTING} deep (a dict or "
+                         "list that holds itself?)")
     if isinstance(value, dict):
-        return {k: plain(v) for k, v in value.items()}
+        for k in value:
+            if not isinstance(k, str):
+                raise InputError(source, where or "table", k, "a key must be a string, as in a scene file")
+        return {k: plain(v, source, f"{where}.{k}" if where else k, depth + 1) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [plain(v) for v in value]
+        return [plain(v, source, f"{where}[{i}]", depth + 1) for i, v in enumerate(value)]
     if isinstance(value, np.ndarray):
-        return plain(value.tolist())
+        return plain(value.tolist(), source, where, depth)
     if isinstance(value, np.generic):
         return value.item()
     return value
@@ -473,7 +493,14 @@ def _parse_toml(text, path):
     try:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise InputError(path, "toml", str(e).split("\n")[0], "is not valid TOML") from None
+        reason = str(e).split("\n")[0]
+        at = re.search(r" \(at line (\d+), column (\d+)\)$", reason)
+        if at:
+            line, column = at.groups()
+        else:  # "(at end of document)"
+            line, column = text.count("\n") + 1, len(text.rsplit("\n", 1)[-1]) + 1
+        reason = re.sub(r" \(at [^)]*\)$", "", reason)
+        raise InputError(f"{path}:{line}:{column}", "toml", None, f"{reason}: not valid TOML") from None
     except RecursionError:  # tomllib parses nested arrays and tables recursively
         raise InputError(path, "toml", None, "arrays or tables nested too deeply") from None
     return parse_scene(table, path)
