@@ -13,9 +13,9 @@ returns), parameters.py (editing a loaded scene), image_file.py (writing images)
 its readers and checks), renderer/ (the host side of the kernel in kernels/), commands/ (the commands that
 measure and verify the renderer: bench, converge, stability, compile, assets), cli.py.
 """
-import os
-import signal
-import sys
+import os as _os
+import signal as _signal
+import sys as _sys
 
 from .errors import interrupted_line as _interrupted_line  # no imports of its own: quick
 
@@ -23,19 +23,19 @@ from .errors import interrupted_line as _interrupted_line  # no imports of its o
 def _interrupted_while_loading(signum, frame):
     # _interrupted_line is bound before the handler goes in: imported here, from outputs.py, a signal that landed
     # while the package imported outputs.py met the half-made module (ImportError, a traceback; seen in the suite)
-    os.write(2, (_interrupted_line(signum) + "\n").encode())
-    os._exit(128 + signum)
+    _os.write(2, (_interrupted_line(signum) + "\n").encode())
+    _os._exit(128 + signum)
 
 
 # `python -m raytrace` imports this package, and with it numpy, pyopencl and OpenImageIO (a fraction of a second),
 # before __main__.py runs: a signal meanwhile ends the process with the command line's one line and status
 # 128 + its number, as one during a command does (nothing is written yet); cli.main then takes the signals over.
 # Only that process: importing raytrace anywhere else (a script, a notebook, pytest) changes no signal handler.
-_argv = getattr(sys, "orig_argv", [])
+_argv = getattr(_sys, "orig_argv", [])
 if "-m" in _argv[:-1] and _argv[_argv.index("-m") + 1] == "raytrace":
-    for _signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        if signal.getsignal(_signum) is not signal.SIG_IGN:  # nohup's ignored signals stay ignored
-            signal.signal(_signum, _interrupted_while_loading)
+    for _signum in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP):
+        if _signal.getsignal(_signum) is not _signal.SIG_IGN:  # nohup's ignored signals stay ignored
+            _signal.signal(_signum, _interrupted_while_loading)
 
 from .errors import InputError  # noqa: E402 (after the signals: these imports are what takes the time)
 from .image import Image  # noqa: E402
@@ -46,3 +46,7 @@ from .scene import Scene, load_dict, load_file, load_string  # noqa: E402
 
 __all__ = ["Features", "Image", "InputError", "RenderStats", "Scene", "SceneParameters", "load_dict", "load_file",
            "load_string", "parameters", "render"]
+
+
+def __dir__():  # the API, not the submodules and the standard library the package imported (PEP 562)
+    return sorted(__all__)

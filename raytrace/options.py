@@ -10,7 +10,7 @@ import typing
 from dataclasses import MISSING, dataclass, field, fields
 
 from . import samplers, structs
-from .errors import API  # noqa: F401 (the source of an option's errors, here with the options)
+from .errors import API, did_you_mean  # noqa: F401 (API: the source of an option's errors, here with the options)
 from .renderer.progressive import PASS_WORK
 from .scene.model import SHADINGS
 
@@ -59,6 +59,23 @@ class RenderOptions:
                                     "(default: the device on GPUs, the host on CPUs)",
                                     choices=("device", "host"))
     client: object = option(None, "a dask.distributed.Client to render on, instead of scheduler", cli=False)
+
+
+# Other renderers' words for render()'s options (Mitsuba 3's sample_count, pbrt-v4's pixelsamples, a
+# newcomer's samples), for "did you mean" in the errors of render() and the command line.
+SYNONYMS = {"samples": "spp", "sample_count": "spp", "pixel_samples": "spp", "pixelsamples": "spp",
+            "light_sample_count": "light_samples", "integrator": "shading", "maxdepth": "max_depth",
+            "filter": "texture_filter"}
+
+
+def unknown_keyword(kwargs):
+    """render()'s TypeError for a keyword it does not take, with the option the caller may have meant."""
+    names = [f.name for f in fields(RenderOptions)]
+    for given in kwargs:
+        if given not in names:
+            return TypeError(f"render() got an unexpected keyword argument {given!r}"
+                             f"{did_you_mean(given, names, ';', SYNONYMS)}")
+    return None
 
 
 def declared():

@@ -21,6 +21,7 @@ from collections.abc import MutableMapping
 
 from .errors import InputError
 from .renderer.program import Features
+from .scene.model import SCENE_EXPECTED, Scene
 from .scene.scene_file import parse_scene, plain
 
 _STEP = re.compile(r"\[(\d+)\]|([^.\[\]]+)")
@@ -59,9 +60,11 @@ class SceneParameters(MutableMapping):
     """The values of a scene loaded by load_file, load_dict or load_string, by name (see the module's text):
     params[name] reads a value (an edit once staged), params[name] = value stages an edit (a value may also be
     given for a key the scene leaves to its default), del params[name] stages its removal, update() checks
-    and applies them. Iterating gives the names of the values the scene's source holds."""
+    and applies them, discard() drops them. Iterating gives the names of the values the scene's source holds."""
 
     def __init__(self, scene):
+        if not isinstance(scene, Scene):
+            raise InputError("parameters()", "scene", type(scene).__name__, SCENE_EXPECTED)
         if scene.source is None:
             raise InputError("parameters()", "scene", type(scene).__name__, "was not read by load_file, load_dict "
                              "or load_string, so it has no source to edit")
@@ -92,7 +95,7 @@ class SceneParameters(MutableMapping):
         if steps is None:
             raise KeyError(name)
         self._parent(steps, name)
-        self._edits[_name(steps)] = plain(value)
+        self._edits[_name(steps)] = plain(value, f"parameters({self._scene.path})", name)
 
     def __delitem__(self, name):
         self[name]  # KeyError if there is no such value
@@ -109,6 +112,9 @@ class SceneParameters(MutableMapping):
                 raise KeyError(f"{name}: the scene has no {_name(steps[:steps.index(step) + 1])}") from None
         if not isinstance(node, (dict, list)) or (isinstance(node, list) and not isinstance(steps[-1], int)):
             raise KeyError(name)
+        if isinstance(node, list) and steps[-1] > len(node):  # an edit may add the next element, no further
+            raise KeyError(f"{name}: {_name(steps[:-1])} has {len(node)} elements; an edit may add "
+                           f"{_name([*steps[:-1], len(node)])}")
 
     def __iter__(self):
         names = [_name(steps) for steps, _ in _leaves(self._source())]
@@ -128,18 +134,14 @@ class SceneParameters(MutableMapping):
         if not self._edits:
             return set()
         table = copy.deepcopy(self._source())
-        for key, value in self._edits.items():
-            steps = _steps(key)
-            node = table
-            for step in steps[:-1]:
-                node = node[step]
-            if value is _DELETED:
-                del node[steps[-1]]
-            elif isinstance(node, list) and steps[-1] == len(node):
-                node.append(value)
-            else:
-                node[steps[-1]] = value
         scene = self._scene
+        for key, value in self._edits.items():
+            try:
+                _apply(table, _steps(key), value)
+            except (KeyError, IndexError, TypeError):  # its place went with another edit (del params["camera"])
+                raise InputError(f"parameters({scene.path})", key, None if value is _DELETED else value,
+                                 "has no place in the edited scene: another staged edit removed or replaced "
+                                 "what holds it (discard() drops the staged edits)") from None
         try:
             edited = parse_scene(table, scene.path)
         except InputError as e:
@@ -156,6 +158,23 @@ class SceneParameters(MutableMapping):
             warnings.warn(f"the edit changes the kernel's features ({what}): the next render builds that "
                           "variant once", FeaturesChanged, stacklevel=2)
         return changed
+
+    def discard(self):
+        """Drop every staged edit (after an update() that refused one, say); the scene is as it was."""
+        self._edits = {}
+
+
+def _apply(table, steps, value):
+    """One staged edit applied to a copy of the source table."""
+    node = table
+    for step in steps[:-1]:
+        node = node[step]
+    if value is _DELETED:
+        del node[steps[-1]]
+    elif isinstance(node, list) and steps[-1] == len(node):
+        node.append(value)
+    else:
+        node[steps[-1]] = value
 
 
 def parameters(scene):

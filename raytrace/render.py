@@ -7,9 +7,10 @@ Renders of any size: a launch renders a band of whole rows into a device buffer 
 adds into its sums before the next launch, so device memory is bounded by max_band_bytes; host memory grows
 with the image (progressive.BYTES_PER_PIXEL), and a render it cannot hold is refused before any device work.
 On a GPU the sums stay on the device instead (renderer/device_sums.py), where they fit."""
+import dataclasses
+import functools
 import sys
 import time
-import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,8 +23,9 @@ from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
 from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_WORK,
                                    first_half, pass_size, row_chunks)
-from .options import API, MAX_BAND_BYTES, RenderOptions  # noqa: F401 (MAX_BAND_BYTES: for the renderer's callers)
+from .options import API, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: for the renderer's callers)
 from .image import Image
+from .scene.model import SCENE_EXPECTED, Scene
 from .scene.model_check import check_value, ensure_checked
 
 HEADROOM_BYTES = 512 << 20    # besides the sums and images: the runtime, the program, the band buffers
@@ -127,6 +129,20 @@ def check_memory(width, height):
                          f"needs about {needed / 2**30:.1f} GiB of memory, {available / 2**30:.1f} GiB available")
 
 
+def _keywords_checked(function):
+    """`function`, whose TypeError for a keyword it does not take names the option the caller may have meant
+    (render(samples=16): did you mean 'spp'?); its signature stays the function's own (inspect follows
+    __wrapped__)."""
+    @functools.wraps(function)
+    def checked(*args, **kwargs):
+        unknown = unknown_keyword({k: v for k, v in kwargs.items() if k != "scene"})
+        if unknown:
+            raise unknown
+        return function(*args, **kwargs)
+    return checked
+
+
+@_keywords_checked
 def render(scene, *, width=None, height=None, spp=None, light_samples=None, sampler=None, light_sampler=None,
            texture_filter="trilinear", shading=None, max_depth=None, seed=0, time_limit=None, target_error=None,
            device=None,
@@ -262,11 +278,14 @@ def _passes(scene, options, r):
                                                   for row0 in range(0, r.height, rows)])
 
 
+@_keywords_checked
 def render_progressive(scene, **kwargs):
     """Render `scene` in passes until its spp, time limit or target error; returns (H x W x 3 float32
     linear image, H x W x 3 float32 estimated variance of each pixel's mean or None, RenderStats). The
     keyword arguments are render()'s (raytrace/options.py); the command line calls this."""
-    options = RenderOptions(**kwargs)  # a TypeError for an unknown keyword
+    options = RenderOptions(**kwargs)
+    if not isinstance(scene, Scene):
+        raise InputError(API, "scene", type(scene).__name__, SCENE_EXPECTED)
     final = final_model(scene, options)
     # The kernel reads a model's shading and max_depth, the rest of the settings from `r`: when the options leave
     # those two as they are, the passes render the scene itself, whose packed geometry is kept between renders.

@@ -167,7 +167,7 @@ def test_the_three_loaders_give_the_same_scene():
     by_string = raytrace.load_string(text)
     assert fingerprint(by_file) == fingerprint(by_dict) == fingerprint(by_string)
     assert (by_dict.path, by_string.path) == ("load_dict()", "load_string()")
-    with pytest.raises(raytrace.InputError, match=r"^load_string\(\): toml"):
+    with pytest.raises(raytrace.InputError, match=r"^load_string\(\):1:8: toml: "):
         raytrace.load_string("[camera")
 
 
@@ -328,3 +328,89 @@ def test_the_manuals_example_session_runs(tmp_path):
     assert lines[2] == "changed: ['lights[0].colour', 'materials.yellow.shininess']"
     assert lines[3].startswith("refused: parameters(scenes/cornell.toml): lights[0].colour = [nan, -1.0, 1.0]")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["after.exr", "before.png"]
+
+
+def _one_line(call):
+    """The InputError `call` raises, checked to be one line."""
+    with pytest.raises(raytrace.InputError) as error:
+        call()
+    assert "\n" not in str(error.value)
+    return error.value
+
+
+def test_a_dict_that_no_scene_file_could_be_is_one_line():
+    """Found (issue 55, item 5): a key that is not a string (TypeError), a dict that holds itself or nests
+    deeper than any scene (RecursionError). Each is now an InputError naming the place."""
+    table = cornell_table()
+    table["camera"][3] = 1.0
+    error = _one_line(lambda: raytrace.load_dict(table))
+    assert (error.source, error.key, error.value) == ("load_dict()", "camera", 3)
+    table = cornell_table()
+    table["camera"]["itself"] = table["camera"]
+    assert "nested more than 32 deep" in str(_one_line(lambda: raytrace.load_dict(table)))
+    deep = inner = []
+    for _ in range(5000):
+        inner.append([])
+        inner = inner[0]
+    table = cornell_table()
+    table["ambient"] = deep
+    assert str(_one_line(lambda: raytrace.load_dict(table))).startswith("load_dict(): ambient[0][0]")
+    assert str(_one_line(lambda: raytrace.load_dict([1]))) == \
+        "load_dict(): table = 'list': must be a dict laid out as a scene file"
+
+
+def test_no_scene_is_one_line():
+    """Found (item 5): render(None), parameters(None) and load_file(None) raised AttributeError or TypeError."""
+    assert str(_one_line(lambda: raytrace.render(None))) == ("render(): scene = 'NoneType': must be a "
+                                                            "raytrace.scene.Scene, from load_file, load_dict or "
+                                                            "load_string")
+    assert str(_one_line(lambda: raytrace.parameters(None))).startswith("parameters(): scene = 'NoneType': ")
+    assert str(_one_line(lambda: raytrace.load_file(None))).startswith("load_file(): path = 'NoneType': ")
+
+
+@pytest.mark.parametrize("lanes", [3, 2.0, True, "8"])
+def test_a_lane_width_the_kernel_does_not_take_is_one_line(lanes):
+    """Found (item 5): render(scene, lanes=3) ended in OpenCL's multi-line build log."""
+    scene = raytrace.load_file(CORNELL)
+    error = _one_line(lambda: raytrace.render(scene, lanes=lanes, **SMALL))
+    assert str(error) == f"render(): lanes = {lanes!r}: must be one of 1, 4, 8, 16"
+
+
+def test_an_edit_with_no_place_is_one_line_and_discarded():
+    """Found (item 5): params["lights[5]"] = ... then update() raised IndexError, and every later update() again
+    (the edit stayed staged); del params["camera"] then an edit of camera.fov raised KeyError. An index past
+    the next element is now refused when it is set; an edit whose place another edit removed is one line at
+    update(), the scene unchanged; discard() drops the staged edits, and the next edit applies."""
+    scene = raytrace.load_file(CORNELL)
+    before = raytrace.scene.model.fingerprint(scene)
+    params = raytrace.parameters(scene)
+    with pytest.raises(KeyError, match=r"lights has 1 elements; an edit may add lights\[1\]"):
+        params["lights[5]"] = {"center": [0.0, 0.0, 1.0]}
+    del params["camera"]
+    params["camera.fov"] = 40.0
+    error = _one_line(params.update)
+    assert (error.key, error.value) == ("camera.fov", 40.0) and "discard()" in error.problem
+    _one_line(params.update)  # still staged: refused again, the scene as it was
+    assert raytrace.scene.model.fingerprint(scene) == before
+    params.discard()
+    params["camera.fov"] = 40.0
+    assert params.update() == {"camera.fov"} and scene.camera.fov_deg == 40.0
+
+
+def test_a_keyword_render_does_not_take_names_the_one_meant():
+    """A newcomer's render(samples=16), and a misspelt keyword: the TypeError says which option was meant
+    (Mitsuba's sample_count and pbrt's pixelsamples too), and render()'s signature is still its own."""
+    scene = raytrace.load_file(CORNELL)
+    for given, meant in (("samples", "spp"), ("sample_count", "spp"), ("light_sampels", "light_samples"),
+                         ("sead", "seed")):
+        with pytest.raises(TypeError, match=f"unexpected keyword argument '{given}'; did you mean '{meant}'"):
+            raytrace.render(scene, **{given: 16})
+    assert "spp" in inspect.signature(raytrace.render).parameters
+
+
+def test_the_package_shows_its_api():
+    """dir(raytrace) showed os, sys, signal and the submodules; print(scene) dumped every vertex."""
+    assert dir(raytrace) == sorted(raytrace.__all__)
+    scene = raytrace.load_file(ROOT / "scenes" / "mesh_cornell.toml")
+    assert repr(scene) == ("Scene('" + str(ROOT / "scenes" / "mesh_cornell.toml") + "': 512x512, phong, 1 light, "
+                           "6 materials, 5 rectangles, 1 ellipsoid, 100108 triangles, 0 textures)")

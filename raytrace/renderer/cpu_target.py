@@ -82,15 +82,17 @@ def _vector_bits(llvm_cpu):
     return 512 if llvm_cpu in AVX512_CPUS else 256 if llvm_cpu in AVX2_CPUS else 128
 
 
+LANES_ALLOWED = tuple(n for n in LANE_WIDTHS if n > 0)
+LANES_CHOICE = f"must be one of {', '.join(map(str, LANES_ALLOWED))}"
+
+
 def lanes_for(vector_bits, default):
     """RAYTRACE_LANES if set (checked against the target's vector width, where known), else `default`."""
     override = os.environ.get("RAYTRACE_LANES")
     if override is None:
         return default
-    allowed = [n for n in LANE_WIDTHS if n > 0]
-    if override.strip() not in {str(n) for n in allowed}:
-        raise InputError("environment", "RAYTRACE_LANES", override,
-                         f"must be one of {', '.join(map(str, allowed))}")
+    if override.strip() not in {str(n) for n in LANES_ALLOWED}:
+        raise InputError("environment", "RAYTRACE_LANES", override, LANES_CHOICE)
     lanes = int(override)
     if vector_bits is not None and lanes * 32 > vector_bits:
         raise InputError("environment", "RAYTRACE_LANES", override, _too_wide(vector_bits, ISA_OF_BITS[vector_bits]))
@@ -98,7 +100,10 @@ def lanes_for(vector_bits, default):
 
 
 def check_lanes(target, lanes, source, key):
-    """Refuse `lanes` (given at `source`'s `key`) wider than the Target's vectors; None targets take any."""
+    """Refuse `lanes` (given at `source`'s `key`) that the kernel does not take, or wider than the Target's
+    vectors; None targets take any the kernel takes."""
+    if not isinstance(lanes, int) or isinstance(lanes, bool) or lanes not in LANES_ALLOWED:
+        raise InputError(source, key, lanes, LANES_CHOICE)
     if target is not None and lanes * 32 > target.vector_bits:
         raise InputError(source, key, lanes, _too_wide(target.vector_bits, f"{target.llvm_cpu}, {target.isa}"))
 

@@ -29,6 +29,7 @@ ENVIRONMENTS = ("constant", "envmap")  # the path model's environment emitters, 
 DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
+SCENE_EXPECTED = "must be a raytrace.scene.Scene, from load_file, load_dict or load_string"
 
 @dataclass(frozen=True)
 class Camera:
@@ -170,6 +171,17 @@ class Scene:
     @property
     def triangle_count(self):
         return len(self.triangles) + sum(len(m.mesh.faces) for m in self.meshes)
+
+    def __repr__(self):  # one line: the dataclass's own repr prints every vertex of every mesh
+        def counted(n, word):
+            return f"{n} {word}{'s' * (n != 1)}"
+        parts = [f"{self.width}x{self.height}", self.shading, counted(len(self.lights), "light"),
+                 counted(len(self.materials), "material"), counted(len(self.rectangles), "rectangle"),
+                 counted(len(self.ellipsoids), "ellipsoid"), counted(self.triangle_count, "triangle"),
+                 counted(len(self.textures), "texture")]
+        if self.environment is not None or self.environment_map is not None:
+            parts.append("an environment")
+        return f"Scene({self.path!r}: {', '.join(parts)})"
 
 
 def fingerprint(scene):
