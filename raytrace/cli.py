@@ -15,24 +15,50 @@ import sys
 from pathlib import Path
 
 from . import samplers
-from .errors import InputError, interrupted_line
+from .errors import InputError, did_you_mean, interrupted_line
 from .outputs import (Interrupted, Outputs, committed, handle_signals, raise_pending, scene_inputs,
                       write_json)
 from .image import metadata
 from .image_file import FORMATS, check_extension, write_image_file
-from .options import API, command_line_name, declared, option_type
+from .options import API, SYNONYMS, command_line_name, declared, option_type
 from .commands.converge_peer import PEER_SAMPLERS
 
 EXIT_BAD_INPUT = 2
 
 
+DESCRIPTION = ("A ray tracer whose per-pixel pipeline is one OpenCL C kernel: render a scene, benchmark it, "
+               "measure image error against run time, compile the kernel for other devices, check the float32 "
+               "arithmetic against float64.")
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         m = re.match(r"argument ([^:]+): (.*)", message)
+        required = re.match(r"the following arguments are required: (.*)", message)
+        if required:  # a missing command or argument: named as the key, not after the program's name
+            raise InputError("command line", required.group(1), None, "is required" + (
+                f" (one of: {', '.join(_commands())})" if required.group(1) == "command" else ""))
         key = m.group(1).split("/")[-1] if m else self.prog
         value = re.search(r"(?:value|choice): (?:'([^']*)'|(\S+) \()", message)  # a number is not quoted
-        raise InputError("command line", key, value.group(1) or value.group(2) if value else None,
-                         m.group(2) if m else message)
+        value = value.group(1) or value.group(2) if value else None
+        problem = m.group(2) if m else message
+        if key == "command" and value is not None:
+            problem += did_you_mean(value, _commands(), ";")
+        raise InputError("command line", key, value, problem)
+
+
+def _commands():
+    return next(a for a in parser()._actions if a.dest == "command").choices
+
+
+def _refuse_unknown(args, extras):
+    """An argument no option of the command takes: one line, with the closest option's name."""
+    if extras:
+        names = [name for action in parser_actions(args.command) for name in action.option_strings]
+        word = extras[0].split("=")[0]
+        synonyms = {command_line_name(theirs): command_line_name(ours) for theirs, ours in SYNONYMS.items()}
+        known = did_you_mean(word, names, ";", synonyms) if word.startswith("-") else ""
+        raise InputError("command line", word, None, f"is no {args.command} option or argument{known}")
 
 
 def _add_render_options(p, scene_help=None):
@@ -62,7 +88,9 @@ def _add_declared(p, option):
 
 
 def parser():
-    p = _Parser(prog="raytrace", description=__doc__.split("\n")[0])
+    from .commands.compile import TARGETS
+    p = _Parser(prog="raytrace", description=DESCRIPTION)
+    p.add_argument("--version", action="version", version=f"raytrace {_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     r = sub.add_parser("render", help="render a scene to an image file")
     _add_render_options(r)
@@ -115,12 +143,23 @@ def parser():
     k = sub.add_parser("compile", help="compile a scene's kernel for a GPU target with clang (Debian's, else "
                        "PyPI's ziglang), or with PoCL")
     k.add_argument("scene", help="scene file (TOML)")
-    k.add_argument("--target", required=True, help="pocl, nvptx, amdgcn, spir or spirv (SPIR-V 1.0)")
+    k.add_argument("--target", required=True, help=f"{', '.join(TARGETS)} (pocl: PoCL on this CPU; spirv: SPIR-V "
+                   "1.0; the x86-64 levels: that CPU level with clang)")
+    k.add_argument("-o", "--output", help="write what the compiler made to this file (PoCL's binary, PTX text, an "
+                   "object file, SPIR or SPIR-V)")
     k.add_argument("--lanes", type=int, choices=[1, 4, 8, 16], help="lane width (default: 1, or the CPU's for pocl)")
     s = sub.add_parser("stability", help="the numerical stability suite: float32 results against float64")
     s.add_argument("--json", help="write the table's rows to this JSON file")
     s.add_argument("--lanes", type=int, choices=[1, 8], help="pixels per work-item (default: the device's)")
     return p
+
+
+def _version():
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("raytrace")
+    except PackageNotFoundError:  # a checkout on the path, not installed
+        return "(not installed)"
 
 
 def _render_kwargs(args):
@@ -159,6 +198,7 @@ def cmd_render(args):
 
 def cmd_bench(args):
     """Exit status 1 when a child render fails."""
+    from .commands import require_extra
     from .commands.bench import BenchError, benchmark, suite_scenes
     from .commands.scaling import scaling
 
@@ -171,6 +211,7 @@ def cmd_bench(args):
             raise InputError("command line", "--scaling", args.scaling, "its parent directory does not exist")
         if Path(args.scaling).exists() and not Path(args.scaling).is_dir():
             raise InputError("command line", "--scaling", args.scaling, "is a file, not a directory")
+        require_extra("bench --scaling", "analysis", "matplotlib")
         scaling((args.scene or suite_scenes())[0], args.scaling, args.max_triangles, out=sys.stdout,
                 scheduler=args.scheduler)
         return
@@ -204,7 +245,10 @@ def cmd_assets(args):
 
 
 def cmd_converge(args):
+    from .commands import require_extra
     from .commands.converge import converge, parse_crop
+
+    require_extra("converge", "analysis", "matplotlib", "flip_evaluator")
 
     converge(args.scene, [name.strip() for name in args.samplers.split(",")], args.max_spp, args.out,
              reference=args.reference, width=args.width, height=args.height, light_samples=args.light_samples,
@@ -220,13 +264,22 @@ def cmd_compile(args):
     from .commands.compile import compile_scene
     from .scene import load_file
 
-    scene = load_file(args.scene)
-    try:
-        r = compile_scene(scene, args.target, args.lanes)
-    except RuntimeError as e:
-        print(f"{args.scene}: {args.target}: FAILED: {e}", file=sys.stderr)
-        return 1
-    print(f"{args.scene}: {r['target']}: ok, {r['bytes']} bytes in {r['seconds']:.2f} s ({' '.join(r['options'])})")
+    with Outputs(inputs=[args.scene]) as outputs:
+        output = args.output and outputs.reserve("-o", args.output)
+        scene = load_file(args.scene)
+        outputs.add_inputs(scene_inputs(scene))
+        try:
+            r = compile_scene(scene, args.target, args.lanes)
+        except RuntimeError as e:
+            print(f"{args.scene}: {args.target}: FAILED: {e}", file=sys.stderr)
+            return 1
+        if output:
+            with outputs.writing(output):
+                Path(output).write_bytes(r["binary"])
+        outputs.commit()
+    written = f" -> {args.output}" if args.output else ""
+    print(f"{args.scene}: {r['target']}: ok, {r['bytes']} bytes in {r['seconds']:.2f} s ({' '.join(r['options'])})"
+          f"{written}")
 
 
 def cmd_stability(args):
@@ -282,7 +335,8 @@ def main(argv=None):
     with handle_signals(), _dask_closed():
         try:
             raise_pending()
-            args = parser().parse_args(argv)
+            args, extras = parser().parse_known_args(argv)
+            _refuse_unknown(args, extras)
             _refuse_empty(args)
             return commands[args.command](args) or 0
         except InputError as e:

@@ -240,3 +240,60 @@ def test_device_specs_that_name_no_device(tmp_path, spec, problem):
     r = run("render", CORNELL, "-o", tmp_path / "d.png", "--width", 4, "--height", 4, f"--device={spec}")
     assert r.returncode == 2 and r.stderr == f"raytrace: error: command line: --device = '{spec}': {problem}" + (
         r.stderr.split(problem, 1)[1]) and r.stderr.count("\n") == 1 and not list(tmp_path.iterdir()), r.stderr
+
+
+def test_a_bare_command_and_an_unknown_option_are_one_line():
+    """A bare `raytrace` said `command line: raytrace: the following arguments are required` (the prefix twice);
+    `--samples 16` said `unrecognized arguments`: now the missing argument is the key, and an unknown option gets
+    the option meant (Mitsuba's and pbrt's names for the sample count included)."""
+    r = run()
+    assert (r.returncode, r.stderr) == (2, "raytrace: error: command line: command: is required (one of: render, "
+                                           "bench, assets, converge, compile, stability)\n")
+    r = run("render", CORNELL, "-o", "x.png", "--samples", 16)
+    assert (r.returncode, r.stderr) == (2, "raytrace: error: command line: --samples: is no render option or "
+                                           "argument; did you mean '--spp'?\n")
+    r = run("render", CORNELL, "-o", "x.png", "--light-sampels=4")
+    assert r.stderr.endswith("; did you mean '--light-samples'?\n")
+    r = run("rendr", CORNELL)
+    assert r.returncode == 2 and r.stderr.endswith("; did you mean 'render'?\n")
+
+
+def test_version_and_help():
+    """No --version; the top-level help's description ended mid-sentence (the module docstring's first line)."""
+    r = run("--version")
+    assert r.returncode == 0 and r.stdout.startswith("raytrace ")
+    r = run("--help")
+    description = r.stdout.split("\n\n")[1].replace("\n", " ")
+    assert description.startswith("A ray tracer whose") and description.endswith("against float64.")
+
+
+def test_compile_writes_what_the_compiler_made(tmp_path):
+    """compile wrote its binary nowhere: -o writes it (PTX text here, whose header names its target), and the
+    help lists every target, the CPU levels included."""
+    out = tmp_path / "kernel.ptx"
+    r = run("compile", CORNELL, "--target", "nvptx", "-o", out)
+    assert r.returncode == 0 and r.stdout.rstrip().endswith(f"-> {out}"), r.stderr
+    text = out.read_text()
+    assert ".target sm_" in text and f"{len(text.encode())} bytes" in r.stdout
+    help_text = run("compile", "--help").stdout
+    assert "x86-64-v3" in help_text and "amdgcn" in help_text
+    before = open(CORNELL, "rb").read()
+    r = run("compile", CORNELL, "--target", "nvptx", "-o", CORNELL)  # an input is never an output
+    assert r.returncode == 2 and r.stderr.startswith("raytrace: error: command line: -o = ")
+    assert open(CORNELL, "rb").read() == before
+
+
+def test_converge_without_its_extra_is_refused_before_any_work(monkeypatch, tmp_path, capsys):
+    """A plain `pip install .` then `converge` rendered 15 s and died with ModuleNotFoundError: flip_evaluator.
+    A missing module of the analysis extra is now one line naming the extra, before any render."""
+    import importlib.util
+    from raytrace import cli
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "flip_evaluator" else real(
+        name, *a))
+    status = cli.main(["converge", CORNELL, "--samplers", "sobol", "--max-spp", "4", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert status == 2 and err == ("raytrace: error: environment: converge: needs the analysis extra (flip_evaluator "
+                                   "missing): pip install \"raytrace[analysis]\", or -e \".[analysis]\" in a "
+                                   "checkout\n")
+    assert not (tmp_path / "o").exists()

@@ -1,9 +1,21 @@
 """Tools that measure and verify the renderer: bench, scaling, converge, stability, compile, probe (small test
 kernels), figures and assets. They use the renderer; the renderer never imports them."""
+import importlib.util
 import os
 from pathlib import Path
 
+from ..errors import InputError
+
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def require_extra(command, extra, *modules):
+    """Refuse `command` before any work when a module of the package's `extra` is not installed (a plain
+    `pip install .` has none): one line naming the extra, rather than a ModuleNotFoundError after minutes."""
+    missing = [m for m in modules if importlib.util.find_spec(m) is None]
+    if missing:
+        raise InputError("environment", command, None, f"needs the {extra} extra ({', '.join(missing)} "
+                         f"missing): pip install \"raytrace[{extra}]\", or -e \".[{extra}]\" in a checkout")
 
 
 def child_env(env=None, **variables):

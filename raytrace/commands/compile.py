@@ -110,11 +110,12 @@ def _pocl(features):
     from ..renderer.device import context_for, select_device
     context, _ = context_for(select_device(None))
     program, seconds = build(context, SOURCE, features.options())
-    return sum(len(b) for b in program.binaries), seconds
+    return b"".join(program.binaries), seconds
 
 
 def compile_scene(scene, target, lanes=None):
-    """{target, lanes, options, bytes, seconds} of the scene's kernel built for `target`."""
+    """{target, lanes, options, bytes, seconds, binary} of the scene's kernel built for `target` (binary: what
+    the compiler made: PoCL's program binary, PTX text, an object file, SPIR or SPIR-V)."""
     if target not in TARGETS:
         raise InputError("command line", "--target", target, f"unknown target (have: {', '.join(TARGETS)})")
     if target == "pocl":
@@ -124,7 +125,7 @@ def compile_scene(scene, target, lanes=None):
         if lanes:
             check_lanes(apply_target(device), lanes, "command line", "--lanes")
         features = Features.of(scene, lanes or default_lanes(device))
-        size, seconds = _pocl(features)
+        output, seconds = _pocl(features)
     else:
         if target in LEVELS and (lanes or 1) * 32 > LEVELS[target][1]:
             raise InputError("command line", "--lanes", lanes, f"wider than {target}'s {LEVELS[target][1]}-bit "
@@ -133,6 +134,5 @@ def compile_scene(scene, target, lanes=None):
         output, seconds = clang_compile(features, target)
         if target == "spirv":
             check_spirv(output)
-        size = len(output)
-    return {"target": target, "lanes": features.lanes, "options": features.options(), "bytes": size,
-            "seconds": seconds}
+    return {"target": target, "lanes": features.lanes, "options": features.options(), "bytes": len(output),
+            "seconds": seconds, "binary": output}
