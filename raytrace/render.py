@@ -26,6 +26,7 @@ from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_
 from .options import API, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: for the renderer's callers)
 from .image import Image
 from .scene.model import SCENE_EXPECTED, Scene
+from .scene.ranges import MAX_SAMPLES
 from .scene.model_check import check_value, ensure_checked
 
 HEADROOM_BYTES = 512 << 20    # besides the sums and images: the runtime, the program, the band buffers
@@ -90,6 +91,13 @@ def final_model(scene, options):
     ensure_checked(scene, API)
     given = {name: check_value(API, table, name, getattr(options, name))
              for name, table in OVERRIDES.items() if getattr(options, name) is not None}
+    if options.target_error is not None and options.spp is None:  # the target, not a count, ends the render
+        sampler = given.get("sampler", scene.sampler)
+        if sampler not in samplers.EXTENDING:
+            raise InputError(API, "target_error", options.target_error, "with no spp renders until the target, "
+                             f"which only a pattern that extends can ({', '.join(samplers.EXTENDING)}); the sampler "
+                             f"is {sampler!r}: choose one of those, or give spp")
+        given["spp"] = MAX_SAMPLES
     if not given:
         return scene
     final = dataclasses.replace(scene, **given)
@@ -278,6 +286,17 @@ def _passes(scene, options, r):
                                                   for row0 in range(0, r.height, rows)])
 
 
+def _spp_from(scene, options):
+    """Where a render's pixel sample count came from: "option" (spp=), "target_error" (none given: the target
+    ends the render, MAX_SAMPLES at most), "scene" (its file's, or a model's) or "default" (its file gives none)."""
+    if options.spp is not None:
+        return "option"
+    if options.target_error is not None:
+        return "target_error"
+    given = scene.source is None or "spp" in (scene.source.get("render") or {})
+    return "scene" if given else "default"
+
+
 @_keywords_checked
 def render_progressive(scene, **kwargs):
     """Render `scene` in passes until its spp, time limit or target error; returns (H x W x 3 float32
@@ -334,5 +353,5 @@ def render_progressive(scene, **kwargs):
                         info["device"], info["build_options"], r.width, r.height, acc.n_total, r.spp, r.n_light,
                         r.pixel.name, r.light.name, options.texture_filter, options.seed, info["texture_bytes"],
                         acc.passes, stopped_by, rmse, relative, history,
-                        {**info["extra"], "nonfinite_values": nonfinite})
+                        {**info["extra"], "nonfinite_values": nonfinite, "spp_from": _spp_from(scene, options)})
     return image, variance, stats

@@ -14,6 +14,10 @@ from . import structs
 SAMPLERS = ("center", "grid", "rotated-grid-cw", "rotated-grid-ccw", "random", "jittered", "halton", "sobol")
 SQUARE_ONLY = ("grid", "rotated-grid-cw", "rotated-grid-ccw")
 FIXED = ("center",) + SQUARE_ONLY  # the course's patterns: the same points in every pixel
+# The sequences, which any number of samples continues: a render towards a target error with no sample count
+# runs them until the target (the grids and jittered strata are laid out for a count known in advance).
+EXTENDING = ("random", "halton", "sobol")
+DEFAULT_SPP = 16  # pixel samples of a scene that names none, as pbrt-v4's samplers default (1 for center)
 ROTATION = math.atan(0.5)  # the course's rotated grid: 26.57 degrees
 
 
@@ -50,6 +54,11 @@ def count_problem(name, n):
     if name in SQUARE_ONLY and not is_square(n):
         return f"the {name} sampler needs a square number (1, 4, 9, 16, ...)"
     return None
+
+
+def default_count(name):
+    """The pixel samples of a scene that gives `name` and no count."""
+    return 1 if name == "center" else DEFAULT_SPP
 
 
 def default_pattern(shading):

@@ -297,3 +297,15 @@ def test_converge_without_its_extra_is_refused_before_any_work(monkeypatch, tmp_
                                    "missing): pip install \"raytrace[analysis]\", or -e \".[analysis]\" in a "
                                    "checkout\n")
     assert not (tmp_path / "o").exists()
+
+
+def test_the_summary_says_where_the_sample_count_came_from(tmp_path):
+    """The line a render ends with names the count's source: the scene's, --spp, the default, or the target."""
+    out = tmp_path / "x.png"
+    r = run("render", CORNELL, "-o", out, "--width", 8, "--height", 8, "--light-samples", 1)
+    assert r.returncode == 0 and "16 spp (grid; the scene's spp)" in r.stderr, r.stderr
+    r = run("render", CORNELL, "-o", out, "--width", 8, "--height", 8, "--light-samples", 1, "--spp", 4)
+    assert "4 spp (grid; --spp)" in r.stderr
+    r = run("render", CORNELL, "-o", out, "--width", 64, "--height", 64, "--light-samples", 4, "--sampler", "sobol",
+            "--target-error", 0.05)
+    assert "spp (sobol; until --target-error, at most 65536)" in r.stderr and "stopped by target-error" in r.stderr

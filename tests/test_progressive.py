@@ -180,6 +180,36 @@ def test_target_error_stops_at_the_first_pass_that_meets_it(cornell, truth):
     assert 0.4 * target < relative < 2 * target
 
 
+def test_a_target_error_alone_renders_until_the_target(cornell):
+    """Found (issue 55): `--target-error 0.01` with no --spp stopped at the scene's 16 spp ("stopped by spp").
+    With no spp the target ends the render (at most 65536 spp), with a pattern that extends; the grids, laid
+    out for a count known in advance, are refused in one line. With spp given, the count still caps it."""
+    _, _, stats = render_progressive(cornell, sampler="sobol", light_sampler="sobol", target_error=0.01, **SMALL)
+    assert (stats.stopped_by, stats.max_spp, stats.extra["spp_from"]) == ("target-error", 65536, "target_error")
+    assert stats.spp > cornell.spp and stats.estimated_relative_rmse <= 0.01
+    with pytest.raises(raytrace.InputError) as error:
+        render_progressive(cornell, target_error=0.01, **SMALL)  # scene 0's grid
+    assert str(error.value).startswith("render(): target_error = 0.01: with no spp renders until the target, "
+                                       "which only a pattern that extends can (random, halton, sobol); the "
+                                       "sampler is 'grid'")
+    _, _, capped = render_progressive(cornell, spp=4, target_error=1e-9, **SMALL)
+    assert (capped.spp, capped.stopped_by, capped.extra["spp_from"]) == (4, "spp", "option")
+
+
+def test_a_scene_without_spp_takes_16(cornell):
+    """A scene that named no spp rendered 1 sample without a word: it takes 16 (pbrt-v4's default; 1 with the
+    center sampler, which takes one), and the render says where its count came from."""
+    text = open(cornell.path).read()
+    assert text.count("spp = 16\n") == 1
+    scene = raytrace.load_string(text.replace("spp = 16\n", ""))
+    assert scene.spp == 16 and raytrace.load_string(text.replace("spp = 16\n", "").replace(
+        'sampler = "grid"', 'sampler = "center"', 1)).spp == 1
+    _, _, stats = render_progressive(scene, width=8, height=8, light_samples=1, progress=False)
+    assert (stats.spp, stats.extra["spp_from"]) == (16, "default")
+    _, _, stats = render_progressive(cornell, width=8, height=8, light_samples=1, progress=False)
+    assert stats.extra["spp_from"] == "scene"
+
+
 def test_seed_changes_randomised_patterns_only(cornell):
     a, _ = raytrace.render(cornell, spp=4, sampler="sobol", light_sampler="halton", seed=1, **SMALL)
     b, _ = raytrace.render(cornell, spp=4, sampler="sobol", light_sampler="halton", seed=2, **SMALL)

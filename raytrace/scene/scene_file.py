@@ -399,9 +399,10 @@ def parse_scene(table, path="<scene>"):
         material_readers.append(Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
         materials.append(_material(material_readers[-1], name, textures))
 
-    spp, light_samples = render.integer("spp"), render.integer("light_samples")
     sampler, light_sampler = (render.string(key) if render.has(key) else samplers.default_pattern(shading)
                               for key in ("sampler", "light_sampler"))
+    spp = render.integer("spp") if render.has("spp") else samplers.default_count(sampler)
+    light_samples = render.integer("light_samples")
     environment, environment_map = None, None
     if r.has("environment"):
         environment, environment_map = _environment(r.sub("environment"), Path(path).parent)
