@@ -44,10 +44,21 @@ def test_bench_json_and_table(tmp_path):
                 "primitives_per_shadow_ray", "pixels_with_half_the_shadow_visits"):
         assert 0 < row[key] < math.inf, key  # scene 0 has a BVH
     header, line, machine = r.stdout.strip().splitlines()
-    assert header.split()[:2] == ["scene", "Mrays/s"] and line.startswith(row["scene"])
-    assert header.endswith("nodes/camera ray  nodes/shadow ray  prims/camera ray  prims/shadow ray  path lanes busy")
-    assert line.endswith(" -")  # scene 0 is Phong: no bounce loop
+    assert header.split()[:2] == ["scene", "Mrays/s"] and line.startswith("cornell.toml ")
+    assert header.endswith("render s  x first's s  build cold s  x scalar")
     assert "16x16, 1 spp x 1 light samples; best of 1" in machine and data["machine"]["cpu"] in machine
+
+
+def test_the_table_fits_100_columns():
+    """The table was some 250 columns wide (issue 55): it shows the figures one reads first and fits 100
+    characters with the suite's longest scene name and wide figures; --json holds every column."""
+    from raytrace.commands.bench import COLUMNS, TABLE, table
+    row = {"scene": "/a/long/folder/scenes/textured_shapes.toml", "mrays_per_s": 12345.67,
+           "nominal_mrays_per_s": 123456.78, "render_seconds": 123.456, "time_ratio_to_first": 123.45,
+           "ratio_to_scalar": 12.34, "build_seconds_cold": 123.45}
+    lines = table([row]).splitlines()
+    assert max(map(len, lines)) <= 100 and lines[1].startswith("textured_shapes.toml ")
+    assert set(TABLE) <= {name for name, _ in COLUMNS}
 
 
 @pytest.mark.parametrize("args", [["no/such.toml"], [CORNELL, "no/such.toml"], [CORNELL, "--repeat", 0]],
