@@ -309,3 +309,17 @@ def test_the_summary_says_where_the_sample_count_came_from(tmp_path):
     r = run("render", CORNELL, "-o", out, "--width", 64, "--height", 64, "--light-samples", 4, "--sampler", "sobol",
             "--target-error", 0.05)
     assert "spp (sobol; until --target-error, at most 65536)" in r.stderr and "stopped by target-error" in r.stderr
+
+
+def test_a_stability_row_that_measured_nan_is_null_in_its_json(tmp_path, monkeypatch):
+    """stability --json wrote with its own json.dumps, where only two fields were kept finite: it goes through
+    outputs.write_json as every command's JSON does, so a NaN anywhere is null (and fails the row)."""
+    from raytrace import cli
+    from raytrace.commands.stability import table
+    from raytrace.commands.stability.common import Row
+    monkeypatch.setattr(table, "CASES", [lambda env: [Row("not a number", float("nan"), "", float("inf"), "none")]])
+    assert cli.main(["stability", "--lanes", "8", "--json", str(tmp_path / "s.json")]) == 1
+    text = (tmp_path / "s.json").read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    [row] = json.loads(text)["rows"]
+    assert (row["error"], row["bound"], row["verdict"]) == (None, None, "FAIL")

@@ -1,12 +1,10 @@
 """Running the cases and printing the table: run_case, format_row and report (`python -m raytrace stability`)."""
 import dataclasses
-import json
 import sys
 import time
-from pathlib import Path
 
-import numpy as np
 
+from ...outputs import write_json
 from .cases import CASES
 from .common import Env
 
@@ -50,10 +48,9 @@ def report(lanes, device=None, json_path=None, out=sys.stdout):
     verdicts = [row.verdict for row in rows]
     counts = ", ".join(f"{verdicts.count(v)} {v}" for v in ("pass", "known limit", "skipped", "FAIL"))
     print(f"{len(rows)} rows: {counts}; {seconds:.1f} s", file=out)
-    if json_path:
-        finite = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731  (JSON has no NaN)
+    if json_path:  # through outputs.write_json, as every JSON file the commands write: no NaN, a non-finite null
         data = {"lanes": lanes, "device": device_name, "seconds": seconds,
-                "rows": [{**dataclasses.asdict(row), "error": finite(row.error), "bound": finite(row.bound),
+                "rows": [{**dataclasses.asdict(row), "error": float(row.error), "bound": float(row.bound),
                           "verdict": row.verdict} for row in rows]}
-        Path(json_path).write_text(json.dumps(data, indent=2) + "\n")
+        write_json(json_path, data)
     return "FAIL" not in verdicts
