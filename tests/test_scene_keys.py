@@ -1,6 +1,7 @@
 """The declarations of raytrace/scene/keys.py are what the scene reader enforces, key by key: the manual's table
-of keys is generated from them (docs/_ext/raytrace_docs.py), so each declared bound, default and key list is
-checked here against the reader's real behaviour on a scene that has every table. A bound declared but not
+of keys is generated from them (`python -m devtools.docs_tables`, checked by tests/test_docs.py), so each
+declared bound, default and key list is checked here against the reader's real behaviour on a scene that has
+every table. A bound declared but not
 enforced, enforced but not declared, or a key accepted but not declared, fails one of these tests."""
 import copy
 import math
