@@ -193,9 +193,10 @@ def cmd_render(args):
     passes = f"{stats.passes} pass{'es' * (stats.passes != 1)}"
     spp_from = {"option": "--spp", "scene": "the scene's spp", "default": "the default: the scene gives no spp",
                 "target_error": f"until --target-error, at most {stats.max_spp}"}[stats.extra["spp_from"]]
-    print(f"{Path(args.output)}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}; {spp_from}) x {stats.light_samples} "
-          f"light samples ({stats.light_sampler}) in {passes}, {stats.render_seconds:.3f} s, "
-          f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by {stats.stopped_by}", file=sys.stderr)
+    print(f"{Path(args.output)}: {stats.width}x{stats.height}, {stats.spp} spp ({stats.sampler}; {spp_from}) x "
+          f"{stats.light_samples} light samples ({stats.light_sampler}) in {passes}, {stats.render_seconds:.3f} s, "
+          f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by "
+          f"{stats.stopped_by}", file=sys.stderr)
 
 
 def cmd_bench(args):

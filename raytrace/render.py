@@ -23,7 +23,7 @@ from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
 from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_WORK,
                                    first_half, pass_size, row_chunks)
-from .options import API, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: for the renderer's callers)
+from .options import API, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: callers')
 from .image import Image
 from .scene.model import SCENE_EXPECTED, Scene
 from .scene.ranges import MAX_SAMPLES
