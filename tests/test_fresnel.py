@@ -45,3 +45,28 @@ def test_fresnel_against_float64(harness):
     assert total.sum() > 50 and np.all(out["dielectric"][total] == 1) and np.all(out["cos_t"][total] == 0)
     inside = dielectric & (sin2_t < 1 - 1e-4)
     np.testing.assert_allclose(out["cos_t"][inside], np.sqrt(1 - sin2_t[inside]), atol=2e-6)
+
+
+def test_conductor_fresnel_at_any_float32_index(harness):
+    """A conductor's index may be any float32 (issue 55: eta = k = 1e15, or either at 1e20, gave NaN from
+    eta^4, and 648 of 768 values zeroed). Beyond max(eta, k) = 2^31 the kernel scales cos, eta and k by a
+    power of two, which rounds nothing, so the formula keeps its roundings: within 2e-5 of complex float64, as
+    above, for cos_i in [2^-20, 1] and indices from 2^31 to float32's largest, alone or with the other part
+    anywhere from 0 up (the reflectance tends to 1 as the index grows). Nearer grazing, where the p part dips
+    at cos_i = 1 / |eta + i k| (the scaled formula's terms of degree 4 are taken over a2b2 s^2, normal down to
+    cos_i = 2^-62), it stays finite and in [0, 1]."""
+    rng = np.random.default_rng(55)
+    n = 4096
+    big = 2.0 ** rng.uniform(31, 127.99, n)
+    other = np.where(rng.random(n) < 0.25, 0.0, 2.0 ** rng.uniform(-20, 127.99, n))
+    swap = rng.random(n) < 0.5
+    e, kk = np.where(swap, big, other), np.where(swap, other, big)
+    e, kk = [np.asarray(x, np.float32).astype(np.float64) for x in (e, kk)]
+    c = 2.0 ** rng.uniform(-20, 0, n)
+    c = np.asarray(np.concatenate([c[:-2], [1.0, 2.0**-20]]), np.float32).astype(np.float64)
+    out = harness.run(FRESNEL, "fresnel", n, [c, e, kk], {"conductor": 1, "dielectric": 1, "cos_t": 1}, **SPECULAR)
+    np.testing.assert_allclose(out["conductor"], fresnel_reference(c, e, kk), atol=2e-5)
+    grazing = np.asarray(2.0 ** rng.uniform(-149, -20, n), np.float32).astype(np.float64)
+    out = harness.run(FRESNEL, "fresnel", n, [grazing, e, kk], {"conductor": 1, "dielectric": 1, "cos_t": 1},
+                      **SPECULAR)
+    assert np.all((out["conductor"] >= 0) & (out["conductor"] <= 1)), out["conductor"][~(out["conductor"] <= 1)]
