@@ -4,8 +4,9 @@ estimate the same radiance. The microfacet distribution itself is tests/test_mic
 import numpy as np
 
 import raytrace
+from raytrace.renderer.program import Features
 
-from helpers import at_lane_ends
+from helpers import ROOT, at_lane_ends
 from path_support import assert_techniques_agree, traced
 
 
@@ -28,3 +29,29 @@ def test_rough_conductor_techniques_agree(harness, cornell):
     est = {k: traced(harness, scene, p, n, k, shaded=True) for k in (0, 1, 2)}
     mean, _ = assert_techniques_agree(est)
     assert np.all(mean[0] > 0)
+
+
+def test_effectively_smooth_rough_conductor_is_the_smooth_one():
+    """alpha may be any number in (0, 1]. Below 2^-63 alpha^2 is subnormal, then 0, and GGX's D(h) 0 / 0 (issue
+    55: alpha 1e-30 zeroed 12 NaN values of scene 0's path variant at 16 x 16); and long before, near 1e-3,
+    float32's cos^2(theta_h) no longer resolves the lobe (raytrace/renderer/packing.py's SMOOTH_ALPHA). Below
+    1e-3 the rough conductor renders as the smooth one, as pbrt-v4's ConductorBxDF does where its distribution
+    is EffectivelySmooth: the same image bit for bit as type = "conductor" with its eta, k and colour, and
+    nothing zeroed; at 1e-3 it is the microfacet BSDF still."""
+    text = open(ROOT / "scenes" / "cornell_path.toml").read()
+    gold = 'colour = [1.0, 0.93, 0.6], eta = [0.143, 0.374, 1.442], k = [3.983, 2.385, 1.603]'
+
+    def render(material):
+        scene = raytrace.load_string(text.replace("yellow = { colour = [1.0, 0.93, 0.6] }",
+                                                  f"yellow = {{ {material}, {gold} }}"))
+        image, stats = raytrace.render(scene, width=16, height=16, spp=4, progress=False)
+        return scene, np.asarray(image), stats.extra["nonfinite_values"]
+
+    _, smooth, bad = render('type = "conductor"')
+    assert bad == 0
+    for alpha in (1e-45, 1e-30, 2.0 ** -63, 9.99e-4):
+        scene, image, bad = render(f'type = "roughconductor", alpha = {alpha!r}')
+        assert bad == 0 and np.array_equal(image, smooth), alpha
+        assert not Features.of(scene, 8).rough_conductors and Features.of(scene, 8).conductors
+    scene, image, bad = render('type = "roughconductor", alpha = 1e-3')
+    assert bad == 0 and Features.of(scene, 8).rough_conductors and not np.array_equal(image, smooth)

@@ -120,6 +120,22 @@ def light_structs(lights, rectangles=(), extent=0.0):
     return a
 
 
+# A rough conductor smoother than this renders as the smooth one (kernels/path_tracing.cl's sample_specular), as
+# pbrt-v4's ConductorBxDF does where its TrowbridgeReitzDistribution is EffectivelySmooth (section 9.6): near the
+# normal, float32 resolves cos^2(theta_h) in steps of 2^-24, of which the GGX lobe (1 - cos^2 up to about
+# alpha^2) spans 17 at this alpha and fewer below; below alpha = 2^-63, alpha^2 is subnormal, then 0, and D(h)
+# 0 / 0 (kernels/microfacet.cl). The smooth conductor is the rough one's limit as alpha goes to 0.
+SMOOTH_ALPHA = 1e-3
+
+
+def packed_bsdf(material):
+    """The BSDF the kernel renders `material` with: its own, but a rough conductor's of alpha below
+    SMOOTH_ALPHA that of the smooth conductor."""
+    if material.bsdf == "roughconductor" and material.alpha < SMOOTH_ALPHA:
+        return "conductor"
+    return material.bsdf
+
+
 def material_structs(materials):
     a = np.zeros(len(materials), structs.MATERIAL)
     for s, m in zip(a, materials):
@@ -127,7 +143,7 @@ def material_structs(materials):
         s["colour_map"], s["normal_map"], s["height_map"] = m.colour_map, m.normal_map, m.height_map
         s["wrap"], s["height_scale"] = structs.WRAP_MODES[m.wrap], m.height_scale
         s["uv_scale"], s["uv_offset"] = m.uv_scale, m.uv_offset
-        s["bsdf"] = structs.BSDFS[m.bsdf]
+        s["bsdf"] = structs.BSDFS[packed_bsdf(m)]
         s["eta"], s["k"] = (m.int_ior / m.ext_ior, 0.0, 0.0) if m.bsdf == "dielectric" else m.eta, m.k
         s["alpha"] = m.alpha
     return a

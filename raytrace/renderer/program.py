@@ -10,6 +10,7 @@ from pathlib import Path
 import pyopencl as cl
 
 from .cpu_target import current_llvm_cpu
+from .packing import packed_bsdf
 
 
 def kernel_dir():
@@ -60,9 +61,9 @@ class Features:
                    used("colour_map"), used("normal_map"), used("height_map"),
                    any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
                    scene.shading == "direct", scene.shading == "path",
-                   any(m.bsdf == "conductor" for m in scene.materials),
+                   any(packed_bsdf(m) == "conductor" for m in scene.materials),
                    any(m.bsdf == "dielectric" for m in scene.materials),
-                   any(m.bsdf == "roughconductor" for m in scene.materials),
+                   any(packed_bsdf(m) == "roughconductor" for m in scene.materials),
                    scene.environment is not None or scene.environment_map is not None,
                    scene.environment_map is not None)
 
