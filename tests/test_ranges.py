@@ -129,11 +129,14 @@ def write_texture(path, value):
 
 
 @pytest.mark.parametrize("material,key,limit", [
-    ({"texture": "t.exr"}, "texture", "2^62"),                                    # a texel of 1e20 times 1
+    ({"texture": "t.exr"}, "texture", "2^62"),                                    # a texel of 1e20
+    ({"colour": [0.0, 0.0, 0.0], "texture": "t.exr"}, "texture", "2^62"),       # the map replaces colour 0
     ({"colour": [0.5, 0.5, 0.5], "height_map": "t.exr", "height_scale": 1e3}, "height_scale", "2^60")])
 def test_maps_count_in_the_derived_ranges(tmp_path, material, key, limit):
-    """A float colour map's brightest texel multiplies the material's colour (rule 4), and a height map's
-    largest value times height_scale displaces points (rule 2): the error names the key that brings it."""
+    """A float colour map's brightest texel is the material's albedo (rule 4; the map replaces the colour, as
+    the kernel renders it: a colour of 0 let texels of 1e20 through, and infinities into the variance), and a
+    height map's largest value times height_scale displaces points (rule 2): the error names the key that
+    brings it."""
     write_texture(tmp_path / "t.exr", 1e20 if key == "texture" else 1e16)
     table = cornell_table()
     table["materials"]["white"] = material

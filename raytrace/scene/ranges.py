@@ -10,10 +10,10 @@ scene_file.py and rules.py to every value with its key:
    semi-axis (the smallest singular value of its axes) is at least 2^-60 max(1, extent), the extent being
    the largest coordinate of rule 2: its map into unit-sphere space stretches distances by at most 1 over
    that, so unit-sphere coordinates stay below 2^62 and their squares below 2^124.
-4. The brightest value a pixel can take, max(k (ambient + 2 sum L), max L) (k the largest albedo, colour maps
-   included; n.l and the specular power are each at most 1), is at most BRIGHTEST_LIMIT = 2^62: the
-   variance image holds squares of pixel values (2^124 at most), and a launch sums up to 2^16 light samples
-   in each of up to 2^16 pixel samples (2^94 at most)."""
+4. The brightest value a pixel can take, max(k (ambient + 2 sum L), max L) (k the largest albedo: a colour,
+   or a colour map's brightest texel, which replaces it; n.l and the specular power are each at most 1), is at
+   most BRIGHTEST_LIMIT = 2^62: the variance image holds squares of pixel values (2^124 at most), and a launch
+   sums up to 2^16 light samples in each of up to 2^16 pixel samples (2^94 at most)."""
 import math
 
 import numpy as np
@@ -71,9 +71,11 @@ def largest_texel(texture):
 
 
 def largest_albedo(scene, material):
-    """The material's colour times the brightest texel of its colour map."""
-    k = float(np.max(material.colour))
-    return k * largest_texel(scene.textures[material.colour_map]) if material.colour_map >= 0 else k
+    """The material's largest colour, or the brightest texel of its colour map, which replaces the colour
+    (kernels/material.cl's texture_material, docs/textures.md)."""
+    if material.colour_map >= 0:
+        return largest_texel(scene.textures[material.colour_map])
+    return float(np.max(material.colour))
 
 
 def brightest(scene):
