@@ -1,6 +1,7 @@
 """Hypothesis strategies for scenes: valid scenes from the real grammar (SceneExample: a table and the files
 it refers to), the same mutated with hostile values, scene texts that are no TOML, and valid scenes whose
-texture or mesh files are replaced by hostile ones (from files.py)."""
+texture or mesh files are replaced by hostile ones (from files.py), and path-model scenes whose values lie
+anywhere in their keys' ranges (for the path model's range rules, tests/test_path_ranges.py)."""
 import copy
 import dataclasses
 import math
@@ -10,7 +11,9 @@ import numpy as np
 from hypothesis import assume
 from hypothesis import strategies as st
 
-from .files import TETRAHEDRON, TETRAHEDRON_FACES, AssetCopy, finite, hostile_files, valid_images, \
+from raytrace.numerics import FLOAT32_MAX, FLOAT32_TINY
+
+from .files import TETRAHEDRON, TETRAHEDRON_FACES, AssetCopy, ImageFile, finite, hostile_files, valid_images, \
     valid_mesh_files, vectors
 from .toml_writer import to_toml
 
@@ -200,6 +203,85 @@ def valid_scenes(draw, max_shapes=4, min_files=0):
         del table["shapes"]
     assume(len(files) >= min_files)
     return SceneExample(table, tuple(files))
+
+
+# --- path scenes with values anywhere in their ranges --------------------------------------------------
+
+EDGES = (0.0, 1e-45, FLOAT32_TINY, 2.0**-63, 1e-3, 0.5, 0.95, 1.0, 1.5, 2.0**31, 2.0**32, 2.0**63,
+         1e15, 1e20, 1e25, FLOAT32_MAX)
+
+
+def magnitudes(low=0.0, high=FLOAT32_MAX):
+    """A number in [low, high] from anywhere in float32's range: its edges and powers of two of any exponent
+    (a float drawn uniformly would almost never be below 1e30)."""
+    powers = st.floats(-149.0, 127.99).map(lambda e: 2.0 ** e)
+    return st.one_of(st.sampled_from(EDGES), powers, finite(0.0, 1.0)).filter(lambda x: low <= x <= high)
+
+
+def number_or_vector(values):
+    return st.one_of(values, st.lists(values, min_size=3, max_size=3))
+
+
+@st.composite
+def path_materials(draw):
+    """A material of the path model of any BSDF, its parameters anywhere in their accepted ranges."""
+    bsdf = draw(st.sampled_from(["diffuse", "conductor", "dielectric", "roughconductor"]))
+    material = {"type": bsdf} if bsdf != "diffuse" or draw(st.booleans()) else {}
+    if bsdf == "diffuse" or draw(st.booleans()):
+        material["colour"] = draw(st.one_of(vectors(3, 0.0, 1.0), st.lists(magnitudes(), min_size=3, max_size=3)))
+    if bsdf in ("conductor", "roughconductor"):
+        for key in ("eta", "k"):
+            if draw(st.booleans()):
+                material[key] = draw(number_or_vector(magnitudes()))
+    if bsdf == "roughconductor" and draw(st.booleans()):
+        material["alpha"] = draw(magnitudes(1e-45, 1.0))
+    if bsdf == "dielectric":
+        for key in ("int_ior", "ext_ior"):
+            if draw(st.booleans()):
+                material[key] = draw(magnitudes(1e-45))
+    return material
+
+
+@st.composite
+def path_scenes(draw):
+    """SMALL_SCENE in the path model, 8 x 8: a floor, a sphere and a triangle of up to three materials of any
+    BSDF (the first perhaps with a float colour map), a light of any radiance (reflecting by a material or
+    not), an environment (none, constant or an envmap) of any radiance or scale and texels, any max_depth, 1
+    to 4 pixel and light samples. Most values lie anywhere
+    in their keys' ranges, so that the rules between them (raytrace/scene/ranges.py) decide."""
+    table = copy.deepcopy(SMALL_SCENE)
+    table["image"] = {"width": 8, "height": 8}
+    table["render"] = {"shading": "path", "sampler": "sobol", "light_sampler": "sobol",
+                       "spp": draw(st.integers(1, 4)), "light_samples": draw(st.integers(1, 4)),
+                       "max_depth": draw(st.one_of(st.just(-1), st.integers(0, 8), st.integers(0, 1024)))}
+    names = [f"m{i}" for i in range(draw(st.integers(1, 3)))]
+    table["materials"] = {name: draw(path_materials()) for name in names}
+    light = table["lights"][0]
+    del light["colour"]
+    light["radiance"] = draw(number_or_vector(magnitudes()))
+    if draw(st.booleans()):
+        light["material"] = draw(st.sampled_from(names))
+    pick = lambda: draw(st.sampled_from(names))  # noqa: E731
+    table["shapes"] = [{**table["shapes"][0], "material": pick()},
+                       {"type": "ellipsoid", "center": [0.0, 0.0, 0.6], "axes": [[0.4, 0, 0], [0, 0.4, 0], [0, 0, 0.4]],
+                        "material": pick()},
+                       {"type": "triangle", "vertices": [[-0.9, 0.3, 0.1], [-0.3, 0.3, 0.1], [-0.6, 0.3, 0.9]],
+                        "material": pick()}]
+    files = ()
+    if draw(st.booleans()):  # a float colour map, its texels too anywhere in float32's range
+        files += (ImageFile("colour.exr", ".exr", 2, 2, 3, "float",
+                            tuple(draw(st.lists(magnitudes(), min_size=1, max_size=4)))),)
+        table["materials"]["m0"]["texture"] = "colour.exr"
+    kind = draw(st.sampled_from(["none", "constant", "envmap"]))
+    if kind == "constant":
+        table["environment"] = {"type": "constant", "radiance": draw(number_or_vector(magnitudes()))}
+    elif kind == "envmap":
+        texels = tuple(draw(st.lists(magnitudes(), min_size=1, max_size=4)))
+        files += (ImageFile("sky.exr", ".exr", 4, 2, 3, "float", texels),)
+        table["environment"] = {"type": "envmap", "filename": "sky.exr"}
+        if draw(st.booleans()):
+            table["environment"]["scale"] = draw(magnitudes())
+    return SceneExample(table, files)
 
 
 def texture_filters():

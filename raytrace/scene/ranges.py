@@ -13,7 +13,32 @@ scene_file.py and rules.py to every value with its key:
 4. The brightest value a pixel can take, max(k (ambient + 2 sum L), max L) (k the largest albedo: a colour,
    or a colour map's brightest texel, which replaces it; n.l and the specular power are each at most 1), is at
    most BRIGHTEST_LIMIT = 2^62: the variance image holds squares of pixel values (2^124 at most), and a launch
-   sums up to 2^16 light samples in each of up to 2^16 pixel samples (2^94 at most)."""
+   sums up to 2^16 light samples in each of up to 2^16 pixel samples (2^94 at most). The Phong and direct
+   models' rule; the path model's is 5.
+5. The path model. A path's sample sums what each of its vertices gathers times the throughput there.
+   - A vertex gathers at most E + k (n sum L + E_env) / 2: what its BSDF's sample reaches, E (the brightest
+     emitter: a light's radiance, or the environment's: its constant radiance, or its scale times its
+     brightest texel), under an MIS weight of at most 1; and each of the n samples of each light of radiance
+     L, and the environment's sample, at most k L / 2 or k E_env / 2 (k the largest albedo): the power
+     heuristic weighs a sample by 1 / (1 + x^2), x the ratio of the two densities, which makes its value the
+     BSDF sample's weight f cos / p_bsdf times x / (1 + x^2) <= 1/2, and that weight is at most k for every
+     BSDF (rho, k F, k F G2 / G1; the smooth conductor and glass take no light samples).
+   - Each vertex multiplies the throughput by that weight, and a refraction by 1 / eta^2 (radiance, pbrt-v4
+     section 9.5), which along a path through closed shapes multiply to the squared ratio of two of the
+     scene's indices, at most R^2 (R the largest ratio of two of the dielectrics' int_ior and ext_ior; 1
+     without glass). With max_depth = D the throughput is then at most G = R^2 max(1, k)^(D - 1); with D = -1
+     (unbounded) k must be at most 1, and G = R^2.
+   - Russian roulette divides the throughput by the probability q <= 0.95 it continues with (or sets it back
+     to at most 1 where q is below 0.95), so after m continuations at 0.95 a vertex carries at most G 0.95^-m,
+     and all of a path's vertices together 20 G 0.95^-m (a geometric sum). Each continuation has probability
+     0.95 at most.
+   So B = (E + k (n sum L + E_env) / 2) G bounds a sample but for roulette's factor. G and B are at most
+   PATH_BRIGHTEST_LIMIT = 2^32 (G alone too: the throughput is formed, and glass squares eta, even where no
+   light is). A sample then passes rule 4's 2^62 only after 348 continuations, with probability 0.95^348 < 2^-25
+   (1.8e-8), and only where each vertex's weight keeps the throughput at 0.95 or more (an albedo of 0.95 or
+   more, or glass's 1 / eta^2); its square overflows float32 only past 2^64 (0.95^375 < 5e-9). A path that
+   leaves glass it did not enter (an open glass mesh, overlapping shapes) gains 1 / eta^2 anew, which R^2
+   does not bound: a limit of the rule."""
 import math
 
 import numpy as np
@@ -25,6 +50,7 @@ MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
 MAX_SAMPLES = 1 << 16   # pixel samples and light samples
 ELLIPSOID_AXIS_RATIO = 2.0 ** -60
 BRIGHTEST_LIMIT = 2.0 ** 62
+PATH_BRIGHTEST_LIMIT = 2.0 ** 32  # rule 5: 2^30 below BRIGHTEST_LIMIT, for Russian roulette's growth
 
 
 def float32_problem(x):
@@ -147,11 +173,108 @@ def _check_brightness(scene, material_readers, light_readers, scene_reader):
                 f"{BRIGHTEST_LIMIT:.4g} (2^62) up to which float32 sums of samples and squares of pixel values stay finite")
 
 
+def _shown(reader, key, fallback):
+    """The value of `key` (dotted: in a sub-table) as the reader's table holds it, else `fallback`, the model's
+    (a default, or a model made in Python), as a scene file would show it."""
+    node = reader.table
+    for part in key.split("."):
+        node = node.get(part) if isinstance(node, dict) else None
+    node = fallback if node is None else node
+    return node.tolist() if isinstance(node, np.ndarray) else node
+
+
+def environment_brightest(scene):
+    """E_env of rule 5: the environment's constant radiance, or its scale times its brightest texel (the
+    largest channel); 0 without one."""
+    if scene.environment is not None:
+        return float(np.max(scene.environment))
+    if scene.environment_map is not None:
+        return float(scene.environment_map.scale) * float(np.max(scene.environment_map.texels))
+    return 0.0
+
+
+def index_ratio(scene):
+    """R of rule 5: the largest ratio of two of the dielectrics' indices of refraction (1 without glass)."""
+    iors = [x for m in scene.materials if m.bsdf == "dielectric" for x in (m.int_ior, m.ext_ior)]
+    return max(iors) / min(iors) if iors else 1.0
+
+
+def path_gain(scene):
+    """G of rule 5: a bound on a path's throughput but for Russian roulette's factor; inf where there is none
+    (an albedo above 1 at unbounded depth)."""
+    k = max(largest_albedo(scene, m) for m in scene.materials)
+    if scene.max_depth < 0:
+        return index_ratio(scene) ** 2 if k <= 1 else math.inf
+    with np.errstate(over="ignore"):
+        return index_ratio(scene) ** 2 * float(np.float64(max(1.0, k)) ** max(scene.max_depth - 1, 0))
+
+
+def path_brightest(scene):
+    """B of rule 5: a bound on a path's sample but for Russian roulette's factor."""
+    k = max(largest_albedo(scene, m) for m in scene.materials)
+    lights = [float(light.colour.max()) for light in scene.lights]
+    env = environment_brightest(scene)
+    gather = max(lights + [env]) + k * (scene.light_samples * sum(lights) + env) / 2
+    return gather * path_gain(scene) if gather else 0.0
+
+
+def _log2(x):
+    return math.log2(x) if x > 0 else -math.inf
+
+
+def _path_places(scene, material_readers, light_readers, scene_reader):
+    """(log2 of its share, (reader, key, the model's value)) of rule 5's factors of G, and of B's emitter: the
+    largest albedo (raised to the depth, and once in what a vertex gathers), the dielectrics' ratio of
+    indices squared (named by the index furthest from 1), and the brightest emitter."""
+    albedos = [largest_albedo(scene, m) for m in scene.materials]
+    i = int(np.argmax(albedos))
+    material, reader = scene.materials[i], material_readers[i]
+    albedo = (reader, "texture", material.colour_map) if material.colour_map >= 0 else (reader, "colour",
+                                                                                       material.colour)
+    places = [(max(scene.max_depth, 1) * _log2(max(1.0, albedos[i])), albedo)]
+    indices = [(abs(_log2(getattr(m, key))), (r, key, getattr(m, key))) for m, r in zip(scene.materials,
+               material_readers) if m.bsdf == "dielectric" for key in ("int_ior", "ext_ior")]
+    if indices:
+        places.append((2 * _log2(index_ratio(scene)), max(indices, key=lambda x: x[0])[1]))
+    lights = [float(light.colour.max()) for light in scene.lights]
+    env, j = environment_brightest(scene), int(np.argmax(lights))
+    if env <= lights[j]:
+        emitter = (light_readers[j], "radiance", scene.lights[j].colour)
+    elif scene.environment is not None:
+        emitter = (scene_reader, "environment.radiance", scene.environment)
+    elif scene.environment_map.scale >= np.max(scene.environment_map.texels):
+        emitter = (scene_reader, "environment.scale", scene.environment_map.scale)
+    else:
+        emitter = (scene_reader, "environment.filename", scene.environment_map.path)
+    return places, (_log2(max(env, lights[j])), emitter)
+
+
+def _check_path_brightness(scene, material_readers, light_readers, scene_reader):
+    """Rule 5: an albedo above 1 at unbounded depth, the throughput's bound G, then the sample's B, each
+    naming the largest factor of the bound it passes."""
+    growth, emitter = _path_places(scene, material_readers, light_readers, scene_reader)
+    k = max(largest_albedo(scene, m) for m in scene.materials)
+    if scene.max_depth < 0 and k > 1:
+        reader, key, fallback = growth[0][1]
+        reader.fail(key, _shown(reader, key, fallback), f"reflects more light than it receives (an albedo of "
+                    f"{k:.4g}): with max_depth = -1 a path's throughput grows without bound; set render.max_depth")
+    for value, what, factors in ((path_gain(scene), "throughput as large", growth),
+                                 (path_brightest(scene), "sample as bright", growth + [emitter])):
+        if value > PATH_BRIGHTEST_LIMIT:
+            reader, key, fallback = max(factors, key=lambda factor: factor[0])[1]
+            reader.fail(key, _shown(reader, key, fallback), f"makes a path's {what} as {value:.4g}, beyond the "
+                        f"{PATH_BRIGHTEST_LIMIT:.4g} (2^32) that leaves Russian roulette a factor 2^30 below the 2^62 "
+                        "up to which float32 sums of samples and squares of pixel values stay finite")
+
+
 def check_scene(scene, places, material_readers, light_readers, scene_reader):
-    """Rules 2 to 4 for a parsed scene. `places` pairs the camera, each light and each shape with the reader
+    """Rules 2 to 5 for a parsed scene. `places` pairs the camera, each light and each shape with the reader
     of its table (whose fail(key, value, problem) names the file and the key); the other readers are those
     of the materials (in order), the lights (in order) and the whole file."""
     scale = _check_extents(places)
     _check_sizes(places, scale)
     _check_heights(scene, material_readers)
-    _check_brightness(scene, material_readers, light_readers, scene_reader)
+    if scene.shading == "path":
+        _check_path_brightness(scene, material_readers, light_readers, scene_reader)
+    else:
+        _check_brightness(scene, material_readers, light_readers, scene_reader)
