@@ -5,6 +5,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import re
 import signal
 import sys
 import tempfile
@@ -292,8 +293,9 @@ def check_refused(outcome, sources, example_text):
     prefix = "raytrace: error: "
     if not line.startswith(prefix):
         broken(WrongErrorLine, outcome, f"the line does not start with {prefix!r}", example_text)
-    elif not any(line[len(prefix):].startswith(f"{shown}: ") for source in sources
-                 for shown in (source, repr(source)[1:-1])):  # control characters may be shown escaped
+    elif not any(re.match(re.escape(shown) + r"(:\d+:\d+)?: ", line[len(prefix):]) for source in sources
+                 for shown in (source, repr(source)[1:-1])):  # control characters may be shown escaped; a TOML
+        # syntax error names the file with its line and column (file:line:column)
         broken(WrongErrorLine, outcome, f"the line names none of {sorted(sources)} as the source", example_text)
     if outcome.new_files:
         broken(FilesLeftBehind, outcome, f"exit status 2 but files left: {sorted(outcome.new_files)}", example_text)
