@@ -165,7 +165,7 @@ def test_the_scene_format_tables_say_what_the_declarations_do(manual):
             kind, values = accepted(key)
             assert row[:4] == [key.name, kind, unmark(default_text(key)), unmark(values)], (table, row)
     by_hand = {("camera", "fov"): ["number", "required", "(0, 180)"],
-               ("top level", "ambient"): ["3 numbers", "[0, 0, 0]", 'each >= 0; not with shading = "direct"'],
+               ("top level", "ambient"): ["3 numbers", "[0, 0, 0]", 'each >= 0; shading = "phong" only'],
                ("render", "max_depth"): ["integer", "-1", "[-1, 1024]"],
                ("render", "shading"): ["string", '"phong"', "one of phong, direct, path"],
                ("materials.NAME", "alpha"): ["number", "0.1", "(0, 1]"],

@@ -63,7 +63,7 @@ _LIGHT_MATERIAL = Key("material", "string", "the material the light reflects wit
 
 TABLES = {
     "": [Key("ambient", "vector", "Phong shading's ambient light, added once and never shadowed", length=3, low=0,
-             default=(0.0, 0.0, 0.0), also='not with shading = "direct"'),
+             default=(0.0, 0.0, 0.0), also='shading = "phong" only'),
          Key("camera", "table", "the camera"),
          Key("image", "table", "the image size"),
          Key("render", "table", "the render's defaults (the command line overrides them)", default={}),
@@ -113,7 +113,7 @@ TABLES = {
     "lights[]": _rectangle(_COLOUR),
     "lights[] (direct, path)": _rectangle(_RADIANCE) + [_LIGHT_MATERIAL],
     "materials.NAME": [
-        Key("colour", "vector", "ka = kd = ks, the material's colour (with a texture: its tint)", length=3, low=0,
+        Key("colour", "vector", "ka = kd = ks, the material's colour (a texture replaces it)", length=3, low=0,
             default=(1.0, 1.0, 1.0), also="required without texture for type = diffuse"),
         Key("shininess", "number", "the Phong exponent", default=DEFAULT_SHININESS, low=0, open_low=True),
         Key("texture", "path", "colour map (from the scene file's folder)", default=None),
