@@ -1,4 +1,4 @@
-"""Fuzzing the command line's promise to users with Hypothesis.
+"""Fuzzing the command line's and the Python API's promises to users with Hypothesis.
 
 The contract: every input to `raytrace render` ends in one of two ways.
 
@@ -12,7 +12,16 @@ The contract: every input to `raytrace render` ends in one of two ways.
 Anything else is a failure: another exit status, an exception escaping `raytrace.cli.main`, a traceback on
 stderr, a second line beside the error (a note, a Python warning: warnings are shown as the command line
 would print them), a line naming the wrong source, a file left behind, an image of the wrong size or with
-NaN or infinite values.
+NaN or infinite values; and, whatever the exit status, an input changed (the scene file, a texture, a mesh
+file, the environment map, a link to one: each byte for byte as before the run). An output that names an
+input (`-o`, `--stats-json`, `bench --json`; itself, by another spelling or through a link) must be refused.
+
+The Python API's contract (devtools/fuzz/api.py): `raytrace.load_dict` and the edits of
+`raytrace.parameters(scene)` return, or raise `raytrace.InputError` whose text is one line naming the source;
+a KeyError only where the Mapping protocol promises one (`params[name]` for a name that is no place in the
+scene); no Python warning but FeaturesChanged; an `update()` that refuses leaves the scene as it was (its
+fingerprint and its source) and `discard()` gives a scene that renders; a scene accepted renders (8 x 8, 1
+sample) with nothing zeroed, and `update()` gives the scene `load_dict` makes of the edited source.
 
 What is fuzzed, each example in a fresh temporary directory (the CLI runs in this process, so the kernel
 variants are built once; stderr is captured at the file-descriptor level, where C libraries write):
@@ -28,7 +37,15 @@ variants are built once; stderr is captured at the file-descriptor level, where 
 - texture and mesh files with random bytes, truncated or corrupted copies, odd but well-formed images
   (every channel count and pixel type, NaN texels, extreme sizes) and hostile OBJ and PLY files;
 - the environment: RAYTRACE_LANES, RAYTRACE_TARGET and POCL_CACHE_DIR in this process; POCL_DEVICES,
-  OCL_ICD_VENDORS and OCL_ICD_FILENAMES, which the OpenCL loader reads once, in a few child processes.
+  OCL_ICD_VENDORS and OCL_ICD_FILENAMES, which the OpenCL loader reads once, in a few child processes;
+- path-model scenes (BSDF materials with parameters anywhere in their ranges, constant and envmap
+  environments, light radiance, max_depth), their environment maps real EXR, HDR, TIFF or PNG images or
+  hostile files, some with hostile values, in this process and in a few child `python -m raytrace render`;
+- outputs that alias an input: `render -o`, `--stats-json` and `bench --json` naming the scene, its texture,
+  mesh or environment map, spelt through ./, sub/.., an absolute path, a symbolic or a hard link;
+- the Python API: load_dict on generated dicts, damaged (wrong types, keys that are not strings, deep and
+  self-referencing nesting, numpy values, objects no TOML holds, unknown keys), and parameter edits (set, get
+  and del of names made from the scene's own, well- or ill-formed, with such values, then update()).
 
 Images are tiny (at most 16 x 16 unless the fuzzed value is the size itself), so an example takes
 milliseconds once its kernel variant is built.
@@ -36,7 +53,7 @@ milliseconds once its kernel variant is built.
 Running it:
 
     python -m pytest tests/test_fuzz.py
-        # the CI budget: a fixed (derandomised) set of about 950 examples, under a minute on two cores
+        # the CI budget: a fixed (derandomised) set of about 1200 examples, about a minute on two cores
         # (two with an empty PoCL kernel cache: about 100 kernel variants get built); a failing example is
         # printed as generated (RAYTRACE_FUZZ_SHRINK=1: shrunk first, minutes more)
     RAYTRACE_FUZZ_EXAMPLES=3000 python -m pytest tests/test_fuzz.py
@@ -45,32 +62,41 @@ Running it:
         # a survey: every failing example is appended to the file (kind, argv, scene, stderr, traceback) and
         # the run goes on instead of stopping and shrinking; the tests then pass, so use it to list bugs only
 
-A failing example is printed with its scene file's text, its other files and its command line.
+A failing example is printed with its scene file's text, its other files and its command line (the API's:
+its dict, damages and edits).
 
 The parts are in devtools/fuzz/ (like the stability suite, a tool that verifies the renderer): toml_writer.py,
-scenes.py, files.py, commands.py and contract.py (the budget, the command line run in this process and the
-contract checked); here, the tests and the inputs of the failures the suite has found, kept as @example.
+scenes.py, files.py, commands.py, contract.py (the budget, the command line run in this process and the
+contract checked) and api.py (the API's damaged dicts, edits and contract); here, the tests and the inputs of
+the failures the suite has found, kept as @example.
 """
 import copy
 import dataclasses
 import math
+import os
 import subprocess
 import sys
 import tempfile
 import tomllib
 from pathlib import Path
 
-from hypothesis import assume, example, given, note
+from hypothesis import assume, event, example, given, note
 from hypothesis import strategies as st
 
+import raytrace
 from raytrace import cli
 from raytrace.commands import child_env
-from devtools.fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, outside, \
-    run_cli, write_example
-from devtools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, command_lines, environments, parsed_int
+from raytrace.scene.model import fingerprint
+from devtools.fuzz.api import Damage, DamagedDict, Edit, SceneChangedByRefusal, UpdateDisagreesWithLoad, Value, \
+    check_refusal, checked_call, costly, damages, edits, render_tiny, strings_in
+from devtools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, aliasing_command_lines, \
+    command_lines, environments, parsed_int
+from devtools.fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, \
+    outside, run_cli, snapshot, working_directory, write_example
 from devtools.fuzz.files import TextFile
 from devtools.fuzz.scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
-    scenes_with_hostile_files, texture_filters, valid_scenes
+    path_scenes, path_scenes_with_files, scenes_with_every_input, scenes_with_hostile_files, texture_filters, \
+    valid_scenes
 from devtools.fuzz.toml_writer import same_tables, to_toml
 
 
@@ -91,6 +117,12 @@ def small_scene(files=(), **changes):
 DEGENERATE_FACE_MESH = TextFile("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 2\n")  # a note: 1 dropped
 MESH_WITH_A_NOTE = small_scene([DEGENERATE_FACE_MESH], shapes=[
     *SMALL_SCENE["shapes"], {"type": "mesh", "file": "tri.obj", "material": "white"}])
+
+
+FOV_A_GENERATOR = (Damage("value", 0, value=Value("odd", odd="generator"), at=("camera", "fov")),)
+INDEX_INTO_A_TABLE = (Edit("set", "given", 0, "camera[1]", Value("plain", 5)),)  # camera is a table, not an array
+FOV_A_MAPPING_PROXY = (Edit("set", "given", 0, "camera.fov", Value("odd", odd="mapping proxy")),
+                       Edit("get", "given", 0, "camera.fov", None))
 
 
 def plain_command(*options):
@@ -174,10 +206,11 @@ def test_hostile_command_lines(command, example):
         (directory / "sub").mkdir()
         (directory / "taken.png").mkdir()
         (directory / "taken.exr").mkdir()
+        inputs = snapshot(directory)
         outcome = run_cli(cli.main, argv, directory)
         sources = ["command line", command.scene, str(Path(command.scene))] + mesh_sources(table, command.scene)
         check(outcome, directory, command.output, (width, height) if None not in (width, height) else None,
-              sources, stats or None, example_text=example.text())
+              sources, stats or None, example_text=example.text(), inputs=inputs)
 
 
 @budget(40)
@@ -208,3 +241,127 @@ def test_hostile_environment_in_a_child(env):
         new = files_in(directory) - {"scene.toml"}
         outcome = Outcome(argv, r.returncode, r.stderr.decode("utf-8", "backslashreplace"), None, new)
         check(outside(directory, outcome, env), directory, "out.png", (4, 3), ["environment"])
+
+
+# --- path materials and environment maps on the command line ---------------------------------------------
+
+@budget(60)
+@given(example=path_scenes_with_files())
+def test_path_scenes_and_environment_maps(example):
+    """Path-model scenes of every BSDF, their values anywhere in their ranges, their environment maps real EXR,
+    HDR, TIFF or PNG images or hostile files, some with hostile values: an image with nothing zeroed
+    (extra.nonfinite_values 0, no NaN or infinity in the file), or one line naming the scene file; no input
+    changed."""
+    fuzz_scene(cli.main, example.text().encode(), example.files, example.table)
+
+
+@budget(8)
+@given(example=path_scenes_with_files())
+def test_path_scenes_and_environment_maps_in_a_child(example):
+    """The same in a child `python -m raytrace render`, the command line as the user runs it."""
+    fuzz_scene(None, example.text().encode(), example.files, example.table, child_env=child_env())
+
+
+# --- the Python API: generated dicts and parameter edits ---------------------------------------------------
+
+@budget(80)
+@given(example=st.one_of(valid_scenes(max_shapes=2), path_scenes()), damaged=damages())
+@example(example=small_scene(), damaged=FOV_A_GENERATOR)  # a TypeError: copy.deepcopy cannot copy it
+def test_generated_dicts(example, damaged):
+    """raytrace.load_dict on generated scene dicts, damaged: wrong types, keys that are not strings, deep and
+    self-referencing nesting, numpy values, objects no TOML holds, unknown keys. A Scene, which renders (8 x 8,
+    1 sample) with nothing zeroed, or InputError, one line naming load_dict() (or a mesh file); nothing else."""
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as d, working_directory(d):
+        write_example(Path(d), example.text().encode(), example.files)
+        inputs = snapshot(Path(d))
+        table = DamagedDict(example.table, damaged).build()
+        assume(not costly(table))
+        scene, error = checked_call("load_dict()", lambda: raytrace.load_dict(table))
+        event("refused" if error is not None else "loaded and rendered")
+        if error is not None:
+            note(f"refused: {error}")
+            check_refusal("load_dict()", error, ["load_dict()", *strings_in(table)])
+        else:
+            render_tiny("load_dict()", scene)
+        assert snapshot(Path(d)) == inputs, "load_dict() or render() changed a file"
+
+
+@budget(60)
+@given(example=st.one_of(valid_scenes(max_shapes=2), path_scenes()), staged=edits())
+@example(example=small_scene(), staged=INDEX_INTO_A_TABLE)  # a TypeError from update()
+@example(example=small_scene(), staged=FOV_A_MAPPING_PROXY)  # a TypeError from params[name] and update()
+def test_parameter_edits(example, staged):
+    """raytrace.parameters(scene): set, get and del of names made from the scene's own (well- or ill-formed),
+    values of any kind, then update(). Only InputError (one line), or a KeyError from params[name] for a name
+    that has no place in the scene; an update() that refuses leaves the scene as it was (its fingerprint and
+    source) and discard() gives a scene that renders; one that succeeds gives the scene load_dict makes of the
+    edited source, and it renders (8 x 8, 1 sample) with nothing zeroed."""
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as d, working_directory(d):
+        write_example(Path(d), example.text().encode(), example.files)
+        scene, error = checked_call("load_dict()", lambda: raytrace.load_dict(example.table))
+        assume(error is None)  # path_scenes' beyond the bounds of rule 5
+        params = raytrace.parameters(scene)
+        names, sources = list(params), ["parameters(load_dict())", *strings_in(example.table)]
+        for edit in staged:
+            name = edit.name(names)
+            if edit.op == "get":
+                note(f"params[{name!r}]")
+                checked_call(f"params[{name!r}]", lambda name=name: params[name], (KeyError,))
+            elif edit.op == "del":
+                note(f"del params[{name!r}]")
+                checked_call(f"del params[{name!r}]", lambda name=name: params.__delitem__(name), (KeyError,))
+            else:
+                value = edit.value.make(edit.current(params, name), copy.deepcopy(scene.source))
+                assume(not costly(value, name if isinstance(name, str) else ""))
+                note(f"params[{name!r}] = {edit.value}")
+                sources += strings_in(value)
+                _, error = checked_call(f"params[{name!r}] = ...",
+                                        lambda name=name, value=value: params.__setitem__(name, value), (KeyError,))
+                if isinstance(error, raytrace.InputError):
+                    check_refusal(f"params[{name!r}] = ...", error, sources)
+        checked_call("list(params)", lambda: (list(params), len(params), repr(params)))
+        before, source, revision = fingerprint(scene), copy.deepcopy(scene.source), scene.revision
+        changed, error = checked_call("update()", params.update)
+        event("update() refused" if error is not None else "updated" if changed else "nothing staged")
+        if error is None:
+            note(f"updated: {sorted(changed)}")
+            render_tiny("update()", scene)
+            reloaded, error = checked_call("load_dict(scene.source)", lambda: raytrace.load_dict(scene.source))
+            if error is not None or fingerprint(reloaded) != fingerprint(scene):
+                raise UpdateDisagreesWithLoad(f"update() made a scene load_dict does not make of its source: {error}")
+        else:
+            note(f"refused: {error}")
+            check_refusal("update()", error, sources)
+            if fingerprint(scene) != before or not same_tables(scene.source, source) or scene.revision != revision:
+                raise SceneChangedByRefusal(f"update() refused ({error}) but changed the scene")
+            params.discard()
+            changed, error = checked_call("update() after discard()", params.update)
+            assert error is None and changed == set(), (changed, error)
+            render_tiny("update() refused, then discard()", scene)
+
+
+# --- outputs that alias inputs -----------------------------------------------------------------------------
+
+@budget(40)
+@given(scene=scenes_with_every_input(), command=aliasing_command_lines())
+def test_outputs_that_alias_inputs(scene, command):
+    """`render -o`, `--stats-json` and `bench --json` naming one of the run's inputs (the scene file, its
+    texture, its mesh file or its environment map), spelt as given, through ./ or sub/.., absolutely, or through
+    a symbolic link (to a link, from another directory) or a hard link: exit status 2 and one line naming the
+    command line, no file left, and every input (links included) byte for byte as it was."""
+    example, roles = scene
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as d:
+        directory = Path(d)
+        write_example(directory, example.text().encode(), example.files)
+        (directory / "sub").mkdir()
+        for link, target, hard in command.links(roles):
+            if hard:
+                os.link(directory / target, directory / link)
+            else:
+                os.symlink(target, directory / link)
+        argv = command.argv(roles, d)
+        note(f"argv: {argv}")
+        inputs = snapshot(directory)
+        outcome = run_cli(cli.main, argv, directory)
+        check(outcome, directory, None, None, ["command line"], example_text=example.text(), inputs=inputs,
+              must_refuse=True)

@@ -1,7 +1,7 @@
 """The fuzz suite's parts (tests/test_fuzz.py runs them; Hypothesis, from the test extra, is needed): a TOML
 writer (toml_writer.py), generators of hostile scenes (scenes.py), texture and mesh files (files.py), command
-lines and environments (commands.py), and the contract every run must keep, checked in-process
-(contract.py)."""
+lines and environments (commands.py), the contract every run must keep, checked in-process or in a child
+(contract.py), and the Python API's damaged dicts, parameter edits and contract (api.py)."""
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]  # the checkout: its assets/ hold the real files the generators damage

@@ -1,7 +1,9 @@
 """Hypothesis strategies for the renderer's command line and environment: `render` argument vectors with
-valid and hostile option values, output names and flags (CommandLine), and environment variables the
-renderer, PoCL and the OpenCL loader read, with odd values."""
+valid and hostile option values, output names and flags (CommandLine), command lines whose outputs alias an
+input (AliasingCommand), and environment variables the renderer, PoCL and the OpenCL loader read, with odd
+values."""
 import dataclasses
+import os
 
 from hypothesis import strategies as st
 
@@ -100,6 +102,78 @@ def command_lines(draw):
                                            "--bogus", "extra.toml", "--no-progress=1"]),
                           max_size=2, unique=True)) if draw(st.integers(0, 3)) == 0 else ["--no-progress"]
     return CommandLine(scene, output, options, flags)
+
+
+# --- outputs that alias an input ----------------------------------------------------------------------
+
+ALIAS_SPELLINGS = ("as given", "./", "sub/../", "absolute", "symbolic link", "link to a link", "link in sub",
+                   "absolute link", "hard link")
+LINK_EXTENSIONS = (".png", ".exr", ".hdr", ".tif", ".jpg", ".json", "")
+
+
+@dataclasses.dataclass(frozen=True)
+class AliasingCommand:
+    """A command line one of whose outputs names one of the run's inputs (`target`, a role of
+    scenes.scenes_with_every_input's: the scene, its texture, mesh or environment map), spelt some way (a
+    relative path through ./ or sub/.., an absolute one, or a symbolic or hard link made beforehand, with
+    `link_ext`): `render` with -o, --stats-json or both naming it (the other output a fresh file), or `bench`
+    with --json naming it."""
+    command: str     # render, bench
+    aliased: tuple   # the options naming the input: ("-o",), ("--stats-json",), ("-o", "--stats-json"), ("--json",)
+    target: str
+    spelling: str
+    link_ext: str
+    equals: bool     # --option=value rather than --option value
+    stats_first: bool  # --stats-json before -o (where -o alone names the input: a fresh --stats-json, first)
+
+    def links(self, roles):
+        """(link, what it points at, hard) to make in the example's directory before the run."""
+        name = roles[self.target]
+        link = "link" + self.link_ext
+        if self.spelling in ("symbolic link", "absolute link"):
+            return [(link, name, False)]
+        if self.spelling == "link to a link":
+            return [("first" + self.link_ext, name, False), (link, "first" + self.link_ext, False)]
+        if self.spelling == "link in sub":
+            return [(os.path.join("sub", link), os.path.join("..", name), False)]
+        if self.spelling == "hard link":
+            return [(link, name, True)]
+        return []
+
+    def path(self, roles, directory):
+        """The input as the output option names it."""
+        name = roles[self.target]
+        link = "link" + self.link_ext
+        return {"as given": name, "./": "./" + name, "sub/../": "sub/../" + name,
+                "absolute": os.path.join(directory, name), "symbolic link": link, "link to a link": link,
+                "link in sub": os.path.join("sub", link), "absolute link": os.path.join(directory, link),
+                "hard link": link}[self.spelling]
+
+    def argv(self, roles, directory):
+        aliased = self.path(roles, directory)
+        pairs = [(option, aliased) for option in self.aliased]
+        if self.command == "bench":
+            head = ["bench", roles["scene"], "--repeat", "1", "--spp", "1"]
+        else:
+            head = ["render", roles["scene"], "--no-progress", "--spp", "1"]
+            if "-o" not in self.aliased:
+                pairs.append(("-o", "out.exr"))
+            elif self.stats_first:  # a fresh --stats-json beside the -o that aliases
+                pairs.append(("--stats-json", "stats.json"))
+            if self.stats_first:
+                pairs.reverse()
+        return head + [a for option, value in pairs
+                       for a in ([f"{option}={value}"] if self.equals else [option, value])]
+
+
+@st.composite
+def aliasing_command_lines(draw):
+    command = draw(st.sampled_from(["render", "render", "render", "bench"]))
+    aliased = ("--json",) if command == "bench" else draw(st.sampled_from([("-o",), ("--stats-json",),
+                                                                           ("-o", "--stats-json")]))
+    return AliasingCommand(command, aliased, draw(st.sampled_from(["scene", "texture", "mesh", "environment map"])),
+                           draw(st.sampled_from(ALIAS_SPELLINGS)), draw(st.sampled_from(LINK_EXTENSIONS)),
+                           draw(st.booleans()), draw(st.booleans()))
 
 
 def parsed_int(text):

@@ -1,12 +1,14 @@
 """The fuzz suite's contract and how it is checked: the Hypothesis budget, the command line run in this
-process (stderr captured at the file-descriptor level, Python warnings as the command line prints them),
-one exception type per way of breaking the contract, and one scene example run and checked."""
+process (stderr captured at the file-descriptor level, Python warnings as the command line prints them) or in a
+child process, one exception type per way of breaking the contract (the inputs a run was given, compared byte
+for byte before and after it, among them), and one scene example run and checked."""
 import contextlib
 import dataclasses
 import json
 import os
 import re
 import signal
+import subprocess
 import sys
 import tempfile
 import traceback
@@ -15,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
-from hypothesis import HealthCheck, Phase, assume, note, settings
+from hypothesis import HealthCheck, Phase, assume, event, note, settings
 
 from .scenes import node_at, node_paths
 from . import ROOT
@@ -138,6 +140,24 @@ def run_cli(main, argv, directory, env=None):
     return Outcome(list(argv), rc, stderr[0] + "".join(shown), error, files_in(directory) - before, shown)
 
 
+WARNING_LINE = re.compile(r"^.*:\d+: \w*Warning: ", re.MULTILINE)  # warnings.formatwarning's first line
+
+
+def run_child(argv, directory, env):
+    """`python -m raytrace` on argv in a child process in `directory`, with the environment `env` (the tests hand
+    in raytrace.commands.child_env's, which puts this checkout on the path): the command line as the user runs it,
+    its exit status from the interpreter. The Python warnings it printed are picked out of its stderr."""
+    before = files_in(directory)
+    try:
+        r = subprocess.run([sys.executable, "-m", "raytrace", *argv], cwd=directory, capture_output=True, env=env,
+                           timeout=EXAMPLE_SECONDS, check=False)
+        rc, stderr, error = r.returncode, r.stderr.decode("utf-8", "backslashreplace"), None
+    except subprocess.TimeoutExpired as e:
+        rc, stderr = None, (e.stderr or b"").decode("utf-8", "backslashreplace")
+        error = ExampleTimedOut(f"the child ran for more than {EXAMPLE_SECONDS} s")
+    return Outcome(list(argv), rc, stderr, error, files_in(directory) - before, WARNING_LINE.findall(stderr))
+
+
 def read_image(path):
     """(spec, pixels) in the file's own format, as tests/test_cli.py reads them."""
     image = oiio.ImageInput.open(str(path))
@@ -197,6 +217,40 @@ class ValidInputRefused(ContractBroken):
     pass
 
 
+class InputNotProtected(ContractBroken):
+    """An output that names one of the run's inputs (itself, through another spelling or a link) was written."""
+
+
+class InputChanged(ContractBroken):
+    """A file the run was given (the scene, a texture, a mesh, the environment map, a link to one of them) is not
+    as it was: overwritten, removed, or a link replaced; whatever the exit status."""
+
+
+def snapshot(directory):
+    """Every entry under `directory` as it is now: a file's bytes, a symbolic link's target, a directory."""
+    entries = {}
+    for d, subdirectories, names in os.walk(directory):
+        for name in subdirectories + names:
+            path = os.path.join(d, name)
+            relative = os.path.relpath(path, directory)
+            if os.path.islink(path):
+                entries[relative] = ("link", os.readlink(path))
+            elif os.path.isdir(path):
+                entries[relative] = ("directory",)
+            else:
+                with open(path, "rb") as f:
+                    entries[relative] = ("file", f.read())
+    return entries
+
+
+def check_inputs(outcome, directory, inputs, example_text=None):
+    """Every entry of `inputs` (a snapshot taken before the run) still there and the same."""
+    now = snapshot(directory)
+    changed = sorted(name for name, entry in inputs.items() if now.get(name) != entry)
+    if changed:
+        broken(InputChanged, outcome, f"inputs changed by the run: {changed}", example_text)
+
+
 def broken(kind, outcome, message, example_text=None):
     """Raise `kind`, or in a survey record it and go on."""
     if SURVEY:
@@ -239,13 +293,21 @@ def escaped(outcome, example_text=None):
     raise kind(f"{message}\nargv: {outcome.argv}\n{tail}") from None
 
 
-def check(outcome, directory, output, size, sources, stats=None, must_render=False, example_text=None):
+def check(outcome, directory, output, size, sources, stats=None, must_render=False, example_text=None,
+          inputs=None, must_refuse=False):
     """The contract for one run. `output`: the image path asked for (relative to `directory`); `size`:
     (width, height) it must have, None if not known; `sources`: what an error line may name first;
-    `stats`: the --stats-json path asked for, if any."""
+    `stats`: the --stats-json path asked for, if any; `inputs`: a snapshot() of `directory` before the run,
+    every entry of which must be unchanged after it (None: not checked); `must_refuse`: the run must end in
+    exit status 2 (an output names an input)."""
+    event(f"exit status {outcome.rc!r}" if outcome.error is None else "an exception escaped")
     if outcome.error is not None:
         return escaped(outcome, example_text)
-    if outcome.rc == 0:
+    if inputs is not None:
+        check_inputs(outcome, directory, inputs, example_text)
+    if outcome.rc == 0 and must_refuse:
+        broken(InputNotProtected, outcome, "an output that names an input was written (exit status 0)", example_text)
+    elif outcome.rc == 0:
         check_rendered(outcome, directory, output, size, stats, example_text)
     elif outcome.rc == 2:
         if must_render:
@@ -343,9 +405,10 @@ def cost_flags(table):
     return ["--time-limit", "1"] if width * height * spp * (1 + ls * n_lights) > 2e6 else []
 
 
-def fuzz_scene(main, scene_bytes, files, table, must_render=False, texture_filter="trilinear"):
-    """Render (through `main`, run_cli's) `scene_bytes` (beside `files`) with a valid command line; `table` is the scene as written (None
-    when the bytes are not TOML we wrote)."""
+def fuzz_scene(main, scene_bytes, files, table, must_render=False, texture_filter="trilinear", child_env=None):
+    """Render (through `main`, run_cli's) `scene_bytes` (beside `files`) with a valid command line; `table` is the
+    scene as written (None when the bytes are not TOML we wrote). With `child_env`, in a child `python -m raytrace`
+    with that environment instead (run_child). No file the example wrote may change."""
     text = scene_bytes.decode("utf-8", "backslashreplace")
     note(f"scene.toml:\n{text[:3000]}" + (f"... ({len(text)} characters)" if len(text) > 3000 else ""))
     note(f"files: {files!r}"[:3000])
@@ -361,9 +424,11 @@ def fuzz_scene(main, scene_bytes, files, table, must_render=False, texture_filte
     with tempfile.TemporaryDirectory(prefix="fuzz-") as d:
         directory = Path(d)
         write_example(directory, scene_bytes, files)
-        outcome = run_cli(main, argv, directory)
+        inputs = snapshot(directory)
+        outcome = run_cli(main, argv, directory) if child_env is None else run_child(argv, directory, child_env)
         sources = ["scene.toml"] + (mesh_sources(table) if table is not None else [])
-        check(outcome, directory, "out" + ext, size, sources, stats, must_render, f"{text}\n# files: {files!r}")
+        check(outcome, directory, "out" + ext, size, sources, stats, must_render, f"{text}\n# files: {files!r}",
+              inputs)
 
 
 def outside(directory, outcome, env):

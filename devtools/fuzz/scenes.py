@@ -1,7 +1,9 @@
 """Hypothesis strategies for scenes: valid scenes from the real grammar (SceneExample: a table and the files
 it refers to), the same mutated with hostile values, scene texts that are no TOML, and valid scenes whose
-texture or mesh files are replaced by hostile ones (from files.py), and path-model scenes whose values lie
-anywhere in their keys' ranges (for the path model's range rules, tests/test_path_ranges.py)."""
+texture or mesh files are replaced by hostile ones (from files.py), path-model scenes whose values lie
+anywhere in their keys' ranges (for the path model's range rules, tests/test_path_ranges.py), the same with
+their environment maps written as real or hostile image files and hostile values, and a scene that reads a file
+of every kind (for outputs that alias an input)."""
 import copy
 import dataclasses
 import math
@@ -282,6 +284,72 @@ def path_scenes(draw):
         if draw(st.booleans()):
             table["environment"]["scale"] = draw(magnitudes())
     return SceneExample(table, files)
+
+
+ENVMAP_FORMATS = {".exr": ([3, 4, 1], ["float", "half"]), ".hdr": ([3], ["float"]),
+                  ".tif": ([3, 1, 4], ["float", "uint16", "uint8"]), ".png": ([3, 1, 2, 4], ["uint8", "uint16"])}
+
+
+@st.composite
+def envmap_images(draw, stem="sky"):
+    """An environment map written as a real image: mostly EXR and HDR (float radiance, texels anywhere in float32's
+    range or in [0, 1]), some 8- and 16-bit ones (sRGB-decoded); 1 to 8 texels wide, 2 to 4 high, now and then
+    1 (one row is refused)."""
+    ext = draw(st.sampled_from([".exr", ".exr", ".hdr", ".hdr", ".tif", ".png"]))
+    channels, types = ENVMAP_FORMATS[ext]
+    values = st.one_of(magnitudes(), finite(0.0, 1.0))
+    height = draw(st.sampled_from([2, 2, 3, 4, 1]))
+    return ImageFile(stem + ext, ext, draw(st.integers(1, 8)), height, draw(st.sampled_from(channels)),
+                     draw(st.sampled_from(types)), tuple(draw(st.lists(values, min_size=1, max_size=4))))
+
+
+@st.composite
+def path_scenes_with_files(draw):
+    """path_scenes for the command line: its environment map written as a real EXR, HDR, TIFF or PNG image of any
+    size and texels, or replaced by a hostile file (files.py's random, truncated, damaged or odd images,
+    directories); the map placed by up and forward or not; and in a third of them one to three of hostile_scenes'
+    Mutations (so a path material's or the environment's keys get NaN, wrong types, extreme factors...). The
+    hostile parts are drawn first, for the reason given in hostile_scenes."""
+    environment = draw(st.sampled_from(["as drawn", "envmap", "envmap", "hostile envmap"]))
+    hostile = draw(hostile_files("sky.exr")) if environment == "hostile envmap" else None
+    changes = draw(mutations()) if draw(st.sampled_from([False, False, True])) else []
+    example = draw(path_scenes())
+    table, files = copy.deepcopy(example.table), list(example.files)
+    if environment != "as drawn":
+        files = [f for f in files if f.name != "sky.exr"]
+        image = hostile if hostile is not None else draw(envmap_images())
+        files.append(image)
+        table["environment"] = {"type": "envmap", "filename": image.name}
+        if draw(st.booleans()):
+            table["environment"]["scale"] = draw(st.one_of(magnitudes(), finite(0.0, 4.0)))
+        if draw(st.booleans()):
+            up, forward = draw(frames())
+            table["environment"].update(up=up, forward=forward)
+    for change in changes:
+        change.apply(table)
+    return SceneExample(table, tuple(files))
+
+
+@st.composite
+def scenes_with_every_input(draw):
+    """(SceneExample, {role: file name}): a valid path-model scene that reads a file of each kind, a colour
+    texture, a mesh file and an environment map (formats an output can or cannot be written in), for the outputs
+    that alias an input (commands.aliasing_command_lines)."""
+    table = copy.deepcopy(SMALL_SCENE)
+    table["render"] = {"shading": "path", "max_depth": 3, "spp": 1}
+    table["lights"][0]["radiance"] = table["lights"][0].pop("colour")
+    texture = draw(st.sampled_from([AssetCopy("grid.png", "textures/grid.png"),
+                                    ImageFile("wood.exr", ".exr", 2, 2, 3, "half", (0.2, 0.5)),
+                                    ImageFile("wood.tif", ".tif", 2, 2, 3, "uint8", (0.5,))]))
+    mesh = draw(valid_mesh_files("tetra"))
+    sky = draw(st.sampled_from([AssetCopy("sky.exr", "textures/sky.exr"),
+                                ImageFile("sky.hdr", ".hdr", 4, 2, 3, "float", (0.1, 0.3, 0.2)),
+                                ImageFile("sky.png", ".png", 4, 2, 3, "uint8", (0.5,))]))
+    table["materials"]["white"]["texture"] = texture.name
+    table["shapes"].append({"type": "mesh", "file": mesh.name, "material": "white", "scale": 0.3})
+    table["environment"] = {"type": "envmap", "filename": sky.name}
+    roles = {"scene": "scene.toml", "texture": texture.name, "mesh": mesh.name, "environment map": sky.name}
+    return SceneExample(table, (texture, mesh, sky)), roles
 
 
 def texture_filters():
