@@ -110,8 +110,8 @@ class SceneParameters(MutableMapping):
                 node = node[step]
             except (KeyError, IndexError, TypeError):
                 raise KeyError(f"{name}: the scene has no {_name(steps[:steps.index(step) + 1])}") from None
-        if not isinstance(node, (dict, list)) or (isinstance(node, list) and not isinstance(steps[-1], int)):
-            raise KeyError(name)
+        if not isinstance(node, (dict, list)) or isinstance(steps[-1], int) != isinstance(node, list):
+            raise KeyError(name)  # an index into a table, a key into an array
         if isinstance(node, list) and steps[-1] > len(node):  # an edit may add the next element, no further
             raise KeyError(f"{name}: {_name(steps[:-1])} has {len(node)} elements; an edit may add "
                            f"{_name([*steps[:-1], len(node)])}")

@@ -414,3 +414,23 @@ def test_the_package_shows_its_api():
     scene = raytrace.load_file(ROOT / "scenes" / "mesh_cornell.toml")
     assert repr(scene) == ("Scene('" + str(ROOT / "scenes" / "mesh_cornell.toml") + "': 512x512, phong, 1 light, "
                            "6 materials, 5 rectangles, 1 ellipsoid, 100108 triangles, 0 textures)")
+
+
+def test_values_no_toml_file_holds():
+    """Found by the fuzz suite's dicts and edits: a generator as a value raised TypeError from deepcopy; an
+    index into a table (params["camera[1]"]) one from the key check. Any Mapping reads as a table."""
+    import types
+    table = cornell_table()
+    table["camera"]["fov"] = (x for x in [45.0])
+    error = _one_line(lambda: raytrace.load_dict(table))
+    assert (error.key, error.value) == ("camera.fov", "generator")
+    table = cornell_table()
+    table["camera"] = types.MappingProxyType(table["camera"])
+    assert raytrace.load_dict(table).camera.fov_deg == 45.0
+    params = raytrace.parameters(raytrace.load_file(CORNELL))
+    with pytest.raises(raytrace.InputError) as refused:
+        params["camera.fov"] = types.MappingProxyType({"a": 1}).values()
+    assert (refused.value.source, refused.value.key, refused.value.value) == (
+        f"parameters({CORNELL})", "camera.fov", "dict_values")
+    with pytest.raises(KeyError):
+        params["camera[1]"] = 5

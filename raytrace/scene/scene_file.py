@@ -3,9 +3,11 @@
 Every check names the file, the key and the value (InputError), so a user can fix a scene in one go.
 """
 import copy
+import datetime
 import math
 import os
 import re
+from collections.abc import Mapping
 import tomllib
 from pathlib import Path
 
@@ -467,16 +469,20 @@ def load_dict(table):
 
 
 MAX_NESTING = 32  # tables and arrays within each other: a scene needs 4 (shapes[0].generate.triangles)
+# What a TOML file's values are besides tables and arrays (a datetime is a date), and None, which a dict may hold
+# where a key is meant as absent: the keys' readers refuse it where a value is required.
+SCALARS = (str, int, float, bool, datetime.date, datetime.time, type(None))
 
 
 def plain(value, source="load_dict()", where="", depth=0):
     """`value` with numpy arrays and scalars as Python lists and numbers, tuples as lists, dicts copied: what
-    TOML would have given. A key that is not a string, or nesting deeper than any scene's (a dict that holds
-    itself), is an InputError naming `source` and the place (`where`)."""
+    TOML would have given (any Mapping as a dict). A key that is not a string, nesting deeper than any scene's (a
+    dict that holds itself), or a value no TOML file holds (a generator, an object) is an InputError naming
+    `source` and the place (`where`)."""
     if depth > MAX_NESTING:
         raise InputError(source, where, None, f"tables or arrays nested more than {MAX_NESTING} deep (a dict or "
                          "list that holds itself?)")
-    if isinstance(value, dict):
+    if isinstance(value, Mapping):
         for k in value:
             if not isinstance(k, str):
                 raise InputError(source, where or "table", k, "a key must be a string, as in a scene file")
@@ -486,7 +492,10 @@ def plain(value, source="load_dict()", where="", depth=0):
     if isinstance(value, np.ndarray):
         return plain(value.tolist(), source, where, depth)
     if isinstance(value, np.generic):
-        return value.item()
+        value = value.item()
+    if not isinstance(value, SCALARS):
+        raise InputError(source, where or "table", type(value).__name__, "is no value a scene file can hold (a "
+                         "table, an array, a string, a number or a boolean)")
     return value
 
 
