@@ -85,9 +85,10 @@ def _index(source, key, value, count):
 
 def ensure_checked(scene, source="render()"):
     """check_model(scene) unless it passed the checks (of its file or of this module) as it is now."""
-    if scene.checked != fingerprint(scene):
+    digest = fingerprint(scene)  # one digest: check_model reads the scene, never changes it
+    if scene.checked != digest:
         check_model(scene, source)
-        scene.checked = fingerprint(scene)
+        scene.checked = digest
 
 
 def check_model(scene, source="render()"):
