@@ -38,7 +38,8 @@ class RenderOptions:
                                  "(default: the scene's)", choices=SHADINGS)
     max_depth: int | None = option(None, "the path model's vertices per path: 1 the emitters seen directly, 2 "
                                    "direct light, -1 unbounded (default: the scene's)")
-    seed: int = option(0, "seed of the random sample patterns' randomisation, in [0, 2^32)")
+    seed: int | None = option(None, "seed of the random sample patterns' randomisation, in [0, 2^32) (default: the "
+                              "scene's, 0 unless it gives one)")
     time_limit: float | None = option(None, "stop before a pass that would end after this many seconds",
                                       metavar="SECONDS")
     target_error: float | None = option(None, "stop once the estimated relative RMSE of the image is at most this")

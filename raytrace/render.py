@@ -79,7 +79,7 @@ def _option(value, source, key, check, problem):
 
 # render()'s options that override a value of the scene, with the table of keys.py that declares that value.
 OVERRIDES = {"width": "image", "height": "image", "spp": "render", "light_samples": "render", "sampler": "render",
-             "light_sampler": "render", "shading": "render", "max_depth": "render"}
+             "light_sampler": "render", "shading": "render", "max_depth": "render", "seed": "render"}
 
 
 def final_model(scene, options):
@@ -109,7 +109,6 @@ def _options(options):
     """The options that are not the scene's values."""
     _option(options.texture_filter, API, "texture_filter", lambda v: v in structs.FILTERS,
             f"unknown filter (have: {', '.join(structs.FILTERS)})")
-    _option(options.seed, API, "seed", lambda v: _integer(v) and 0 <= v < 2**32, "must be an integer in [0, 2^32)")
     _option(options.time_limit, API, "time_limit", lambda v: v is None or _number(v) and 0 < v < float("inf"),
             POSITIVE_SECONDS)
     _option(options.target_error, API, "target_error", lambda v: v is None or _number(v) and 0 < v < float("inf"),
@@ -152,7 +151,7 @@ def _keywords_checked(function):
 
 @_keywords_checked
 def render(scene, *, width=None, height=None, spp=None, light_samples=None, sampler=None, light_sampler=None,
-           texture_filter="trilinear", shading=None, max_depth=None, seed=0, time_limit=None, target_error=None,
+           texture_filter="trilinear", shading=None, max_depth=None, seed=None, time_limit=None, target_error=None,
            device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
            max_pass_work=PASS_WORK, accumulate=None, client=None):
@@ -180,7 +179,7 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
             tracing, the same lights and surfaces) (None: the scene's).
         max_depth: the path model's vertices per path, in [-1, 1024], Mitsuba's convention: 1 the emitters
             seen directly, 2 direct light, -1 unbounded (None: the scene's; only with shading "path").
-        seed: the seed of the random patterns' per-pixel randomisation, in [0, 2^32).
+        seed: the seed of the random patterns' per-pixel randomisation, in [0, 2^32) (None: the scene's).
         time_limit: seconds; no pass starts that would end after it (the first always runs).
         target_error: stop once the estimated relative RMSE of the image is at most this.
         device: the OpenCL device: "cpu", "gpu", "P:D" indices or part of its name (None: the first CPU).
@@ -306,6 +305,7 @@ def render_progressive(scene, **kwargs):
     if not isinstance(scene, Scene):
         raise InputError(API, "scene", type(scene).__name__, SCENE_EXPECTED)
     final = final_model(scene, options)
+    options = dataclasses.replace(options, seed=final.seed)  # the devices read the seed from the options
     # The kernel reads a model's shading and max_depth, the rest of the settings from `r`: when the options leave
     # those two as they are, the passes render the scene itself, whose packed geometry is kept between renders.
     if (final.shading, final.max_depth) != (scene.shading, scene.max_depth):

@@ -248,7 +248,7 @@ def test_the_command_line_offers_the_declared_options():
 
 
 @pytest.mark.parametrize("keyword, value, problem", [
-    ("spp", 0, "[1, 65536]"), ("width", 0, "[1, 16384]"), ("seed", -1, "[0, 2^32)"),
+    ("spp", 0, "[1, 65536]"), ("width", 0, "[1, 16384]"), ("seed", -1, "[0, 4294967295]"),
     ("texture_filter", "cubic", "unknown filter"), ("shading", "toon", "phong, direct"),
     ("time_limit", "soon", "positive number"), ("scheduler", "nowhere", "local:N or tcp://host:port")])
 def test_errors_from_python_name_the_keyword(keyword, value, problem):

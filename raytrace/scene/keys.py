@@ -109,7 +109,9 @@ TABLES = {
                Key("shading", "string", "the shading model: the course's Phong, radiometric direct lighting, or "
                    "global illumination by path tracing", default="phong", choices=SHADINGS),
                Key("max_depth", "integer", 'shading = "path": path vertices at most, Mitsuba\'s convention (1: the '
-                   "emitters seen directly, 2: direct light, -1: unbounded)", default=-1, low=-1, high=MAX_DEPTH)],
+                   "emitters seen directly, 2: direct light, -1: unbounded)", default=-1, low=-1, high=MAX_DEPTH),
+               Key("seed", "integer", "the seed of the random patterns' per-pixel randomisation", default=0, low=0,
+                   high=2**32 - 1)],
     "lights[]": _rectangle(_COLOUR),
     "lights[] (direct, path)": _rectangle(_RADIANCE) + [_LIGHT_MATERIAL],
     "materials.NAME": [

@@ -162,6 +162,7 @@ class Scene:
     meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
     shading: str = "phong"  # one of SHADINGS
     max_depth: int = -1     # the path model's vertices per path, Mitsuba's convention (-1: unbounded)
+    seed: int = 0           # the random patterns' per-pixel randomisation
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from

@@ -29,7 +29,7 @@ MATERIAL = [("colour", "colour"), ("shininess", "shininess"), ("height_scale", "
 _value = rules.value
 # The keys of the image and render tables a model holds as attributes of the same name.
 IMAGE = ("width", "height")
-RENDER = ("spp", "light_samples", "sampler", "light_sampler", "shading", "max_depth")
+RENDER = ("spp", "light_samples", "sampler", "light_sampler", "shading", "max_depth", "seed")
 READ = {"number": "number", "integer": "integer", "string": "string", "vector": "vector", "number-or-vector": "vector",
         "vectors": "vectors"}
 

@@ -411,7 +411,7 @@ def parse_scene(table, path="<scene>"):
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
                   textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment,
-                  environment_map=environment_map)
+                  environment_map=environment_map, seed=render.integer("seed"))
 
     lights = r.raw("lights")
     if not isinstance(lights, list) or not lights:
