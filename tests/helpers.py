@@ -4,6 +4,7 @@ kernel, in OpenImageIO and as the device stores the levels, a Phong scene withou
 stand-in peer renderer and the check of a measurement record. Fixtures are in conftest.py; what the path
 model's tests share is in path_support.py. No test module imports another (tests/test_layout.py)."""
 import json
+import math
 import re
 import subprocess
 import sys
@@ -198,3 +199,16 @@ def values_kernel(expressions):
     """The source of a kernel `values` that stores each C expression's int value, in order."""
     body = "\n".join(f"    out[{i}] = {e};" for i, e in enumerate(expressions))
     return f"__kernel void values(__global int *out)\n{{\n{body}\n}}\n"
+
+
+def same_tables(a, b):
+    """Equality that counts NaN equal to NaN and tells 1 from 1.0 and -0.0 from 0.0."""
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(same_tables(a[k], b[k]) for k in a)
+    if isinstance(a, list):
+        return len(a) == len(b) and all(same_tables(x, y) for x, y in zip(a, b))
+    return a == b

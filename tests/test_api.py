@@ -22,7 +22,7 @@ from helpers import ROOT
 from raytrace.cli import parser
 from raytrace.options import RenderOptions, declared
 from raytrace.parameters import FeaturesChanged
-from devtools.fuzz.toml_writer import to_toml
+from raytrace.scene.toml_writer import to_toml
 
 CORNELL = ROOT / "scenes" / "cornell.toml"
 SMALL = dict(width=16, height=16, spp=4, light_samples=4, progress=False)

@@ -65,8 +65,8 @@ Running it:
 A failing example is printed with its scene file's text, its other files and its command line (the API's:
 its dict, damages and edits).
 
-The parts are in devtools/fuzz/ (like the stability suite, a tool that verifies the renderer): toml_writer.py,
-scenes.py, files.py, commands.py, contract.py (the budget, the command line run in this process and the
+The parts are in devtools/fuzz/ (like the stability suite, a tool that verifies the renderer; the TOML writer is
+the package's own, raytrace/scene/toml_writer.py): scenes.py, files.py, commands.py, contract.py (the budget, the command line run in this process and the
 contract checked) and api.py (the API's damaged dicts, edits and contract); here, the tests and the inputs of
 the failures the suite has found, kept as @example.
 """
@@ -97,7 +97,9 @@ from devtools.fuzz.files import TextFile
 from devtools.fuzz.scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
     path_scenes, path_scenes_with_files, scenes_with_every_input, scenes_with_hostile_files, texture_filters, \
     valid_scenes
-from devtools.fuzz.toml_writer import same_tables, to_toml
+from raytrace.scene.toml_writer import to_toml
+
+from helpers import same_tables
 
 
 # --- the failures the suite has found, kept as explicit examples -------------------------------------

@@ -1,5 +1,5 @@
-"""The fuzz suite's parts (tests/test_fuzz.py runs them; Hypothesis, from the test extra, is needed): a TOML
-writer (toml_writer.py), generators of hostile scenes (scenes.py), texture and mesh files (files.py), command
+"""The fuzz suite's parts (tests/test_fuzz.py runs them; Hypothesis, from the test extra, is needed):
+generators of hostile scenes (scenes.py), texture and mesh files (files.py), command
 lines and environments (commands.py), the contract every run must keep, checked in-process or in a child
 (contract.py), and the Python API's damaged dicts, parameter edits and contract (api.py)."""
 from pathlib import Path

@@ -17,7 +17,7 @@ from raytrace.numerics import FLOAT32_MAX, FLOAT32_TINY
 
 from .files import TETRAHEDRON, TETRAHEDRON_FACES, AssetCopy, ImageFile, finite, hostile_files, valid_images, \
     valid_mesh_files, vectors
-from .toml_writer import to_toml
+from raytrace.scene.toml_writer import to_toml
 
 
 @dataclasses.dataclass
