@@ -12,10 +12,11 @@ import dataclasses
 import re
 import signal
 import sys
+import warnings
 from pathlib import Path
 
 from . import samplers
-from .errors import InputError, did_you_mean, interrupted_line
+from .errors import InputError, UnsupportedWarning, did_you_mean, interrupted_line
 from .outputs import (Interrupted, Outputs, committed, handle_signals, raise_pending, scene_inputs,
                       write_json)
 from .image import metadata
@@ -61,11 +62,46 @@ def _refuse_unknown(args, extras):
         raise InputError("command line", word, None, f"is no {args.command} option or argument{known}")
 
 
+def _add_scene_loading(p):
+    """The options of reading a scene file: a Mitsuba XML file's parameters, and its unsupported plugins."""
+    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                   help="a Mitsuba XML scene's parameter ($NAME), as Mitsuba's -D")
+    p.add_argument("--ignore-unsupported", action="store_true", help="render a Mitsuba XML scene without what "
+                   "raytrace does not render (one warning per kind) instead of refusing it")
+
+
+def _defines(args):
+    defines = {}
+    for given in args.defines:
+        name, equals, value = given.partition("=")
+        if not equals or not name:
+            raise InputError("command line", "-D", given, "must be NAME=VALUE")
+        defines[name] = value
+    return defines
+
+
+def load_scene(args, translated=False):
+    """The scene of args.scene (TOML, or Mitsuba XML with -D and --ignore-unsupported), its warnings printed
+    as one line each; with `translated`, (scene, the mitsuba.Translation of an XML file or None)."""
+    from .scene.scene_file import load_file, load_mitsuba_file
+    xml = Path(args.scene).suffix.lower() == ".xml"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnsupportedWarning)
+        if xml:
+            scene, translation = load_mitsuba_file(args.scene, _defines(args) or None, args.ignore_unsupported)
+        else:
+            scene, translation = load_file(args.scene, _defines(args) or None), None
+    for w in caught:
+        print(f"raytrace: warning: {w.message}", file=sys.stderr)
+    return (scene, translation) if translated else scene
+
+
 def _add_render_options(p, scene_help=None):
     if scene_help:
         p.add_argument("scene", nargs="*", help=scene_help)
     else:
-        p.add_argument("scene", help="scene file (TOML)")
+        p.add_argument("scene", help="scene file (TOML, or Mitsuba 3 XML)")
+        _add_scene_loading(p)
     for name, default, doc, cli, choices, metavar in declared():
         if cli and name != "scheduler":
             _add_option(p, name, default, doc, choices, metavar)
@@ -169,13 +205,12 @@ def _render_kwargs(args):
 
 def cmd_render(args):
     from .render import render_progressive
-    from .scene import load_file
 
     check_extension(args.output, "command line", "-o")
     with Outputs(inputs=[args.scene]) as outputs:
         image_file = outputs.reserve("-o", args.output)
         stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)
-        scene = load_file(args.scene)
+        scene = load_scene(args)
         outputs.add_inputs(scene_inputs(scene))
         image, variance, stats = render_progressive(scene, **_render_kwargs(args),
                                                     progress=False if args.no_progress else None)

@@ -27,6 +27,11 @@ class InputError(Exception):
         return InputError, (self.source, self.key, self.value, self.problem)
 
 
+class UnsupportedWarning(UserWarning):
+    """What a scene asks that raytrace left out (a Mitsuba plugin it does not render, with ignore_unsupported),
+    or where raytrace's model differs from what the scene asks: one per kind, one line each."""
+
+
 def shortened(text, limit=SHOWN):
     """`text` cut to `limit` characters, its middle left out and marked: both ends of a value tell the most."""
     if len(text) <= limit:

@@ -9,17 +9,18 @@ import os
 import re
 from collections.abc import Mapping
 import tomllib
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from . import environment_map, keys, mesh_file, meshes, meshgen, ranges, rules
-from ..errors import InputError, did_you_mean
+from . import environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, ranges, rules
+from ..errors import InputError, UnsupportedWarning, did_you_mean
 from .. import samplers
 from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     Triangle, normalize)
 from .textures import TextureCache
-from .transform import mesh_matrix
+from .transform import AFFINE, mesh_matrix
 
 LIGHTS_SPEC = "lights[] (direct, path)"  # keys.py's table of a radiometric model's lights
 
@@ -265,7 +266,7 @@ def _transform(r):
                 r.fail(key, r.raw(key), "give either matrix or scale/rotate/translate")
         m = r.vectors("matrix")
         if not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
-            r.fail("matrix", m.tolist(), "must be affine (last row 0 0 0 1) and invertible")
+            r.fail("matrix", m.tolist(), AFFINE)
         return m
     scale = r.raw("scale", 1.0)
     scale = np.full(3, r.number("scale")) if isinstance(scale, (int, float)) else r.vector("scale")
@@ -436,12 +437,19 @@ def parse_scene(table, path="<scene>"):
     return scene
 
 
-def load_file(path):
-    """Read and check a TOML scene file (docs/scene-format.md); texture and mesh paths are relative to the
-    file's folder. Raises InputError naming the file, the key and the value of the first bad entry."""
+def load_file(path, defines=None, ignore_unsupported=False):
+    """Read and check a scene file: raytrace's TOML (docs/scene-format.md), or Mitsuba 3's XML (a name ending in
+    .xml; docs/mitsuba.md), whose $name parameters `defines` gives ({name: value}, as -D name=value), and whose
+    plugins raytrace does not render are refused unless `ignore_unsupported` (then each kind is left out with a
+    warning). Texture and mesh paths are relative to the file's folder. Raises InputError naming the file (and
+    line), the key and the value of the first bad entry."""
     if not isinstance(path, (str, os.PathLike)):
         raise InputError("load_file()", "path", type(path).__name__, "must be a str or os.PathLike naming a file")
     path = Path(path)
+    if path.suffix.lower() == ".xml":
+        return load_mitsuba_file(path, defines, ignore_unsupported)[0]
+    if defines:
+        raise InputError("load_file()", "defines", defines, "only a Mitsuba XML scene (.xml) takes parameters")
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as e:
@@ -459,15 +467,64 @@ def load_string(text):
     return _parse_toml(text, "load_string()")
 
 
-def load_dict(table):
-    """A scene from a dict laid out as a scene file's tables (docs/scene-format.md), through the same checks
-    as load_file. Values may be numpy arrays and scalars; paths are relative to the current directory; errors
-    name the source as load_dict() and the key by its path in the dict, e.g. shapes[3].center."""
+def load_dict(table, ignore_unsupported=False):
+    """A scene from a dict laid out as a scene file's tables (docs/scene-format.md), or in Mitsuba 3's dict form
+    ({"type": "scene", ...}, as mi.load_dict takes it; docs/mitsuba.md), through the same checks as load_file.
+    Values may be numpy arrays and scalars; paths are relative to the current directory; errors name the source
+    as load_dict() and the key by its path in the dict, e.g. shapes[3].center."""
     if not isinstance(table, dict):
         raise InputError("load_dict()", "table", type(table).__name__, "must be a dict laid out as a scene file")
+    if table.get("type") == "scene":
+        return _mitsuba(mitsuba_form(table), "load_dict()", Path(os.curdir), ignore_unsupported)[0]
     return parse_scene(plain(table), "load_dict()")
 
 
+def load_mitsuba_file(path, defines=None, ignore_unsupported=False):
+    """(Scene, mitsuba.Translation) of a Mitsuba 3 XML file: the scene, and the scene table it was read from
+    (`python -m raytrace convert` writes that table as TOML)."""
+    return _mitsuba(mitsuba_xml.read(path, _defines(defines)), str(path), Path(path).parent, ignore_unsupported)
+
+
+def _defines(defines):
+    if defines is None:
+        return {}
+    if not isinstance(defines, Mapping) or not all(isinstance(k, str) and k for k in defines):
+        raise InputError("load_file()", "defines", defines, "must be a dict of parameter names and values")
+    return {k: str(v) for k, v in defines.items()}
+
+
+def mitsuba_form(value, where="", depth=0):
+    """A copy of a Mitsuba dict-form scene: its dicts copied (with string keys), nesting no deeper than any
+    scene's; other values as they are (mitsuba.py checks them where it reads them)."""
+    if depth > MAX_NESTING:
+        raise InputError("load_dict()", where, None, f"dicts nested more than {MAX_NESTING} deep (a dict that holds "
+                         "itself?)")
+    if isinstance(value, Mapping):
+        for k in value:
+            if not isinstance(k, str):
+                raise InputError("load_dict()", where or "table", k, KEY_NOT_STRING)
+        return {k: mitsuba_form(v, f"{where}.{k}" if where else k, depth + 1) for k, v in value.items()}
+    if isinstance(value, list):
+        return [mitsuba_form(v, f"{where}[{i}]", depth + 1) for i, v in enumerate(value)]
+    return value
+
+
+def _mitsuba(node, path, folder, ignore_unsupported):
+    """The scene of a Mitsuba dict-form scene (from its XML or a dict): translated into a scene table, read and
+    checked as a file's (errors named at the XML element or dict entry each value came from), its warnings
+    issued as UnsupportedWarning; returns (Scene, mitsuba.Translation)."""
+    translation = mitsuba.translate(node, path, folder, ignore_unsupported)
+    for line in translation.warnings:
+        warnings.warn(line, UnsupportedWarning, stacklevel=3)
+    try:
+        scene = parse_scene(translation.table, path)
+    except InputError as e:
+        raise mitsuba.located(e, translation) from None
+    mitsuba.check_clip(scene, translation)
+    return scene, translation
+
+
+KEY_NOT_STRING = "a key must be a string, as in a scene file"
 MAX_NESTING = 32  # tables and arrays within each other: a scene needs 4 (shapes[0].generate.triangles)
 # What a TOML file's values are besides tables and arrays (a datetime is a date), and None, which a dict may hold
 # where a key is meant as absent: the keys' readers refuse it where a value is required.
@@ -485,7 +542,7 @@ def plain(value, source="load_dict()", where="", depth=0):
     if isinstance(value, Mapping):
         for k in value:
             if not isinstance(k, str):
-                raise InputError(source, where or "table", k, "a key must be a string, as in a scene file")
+                raise InputError(source, where or "table", k, KEY_NOT_STRING)
         return {k: plain(v, source, f"{where}.{k}" if where else k, depth + 1) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [plain(v, source, f"{where}[{i}]", depth + 1) for i, v in enumerate(value)]

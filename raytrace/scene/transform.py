@@ -40,6 +40,9 @@ def stored_back(scene, scale=1.0, offset=(0.0, 0.0, 0.0)):
                 lambda v: f32(scale * np.asarray(v)) / scale)
 
 
+AFFINE = "must be affine (last row 0 0 0 1) and invertible"  # a mesh's matrix, a Mitsuba to_world
+
+
 def mesh_matrix(scale, axis, degrees, translate):
     """4 x 4 matrix of x -> translate + R(axis, degrees) (scale * x), acting on column vectors (Rodrigues)."""
     k = np.asarray(axis, np.float64) / np.linalg.norm(axis)

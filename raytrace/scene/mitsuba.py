@@ -1,0 +1,823 @@
+"""Mitsuba 3 scenes: its dict form (from `load_dict`, or from its XML through mitsuba_xml.py) turned into raytrace's
+scene table (docs/scene-format.md), which scene_file.py then reads and checks as it reads a TOML file. Mitsuba 3's
+plugin reference is the specification of the names, parameters, defaults and conventions.
+
+Each plugin raytrace renders is declared once in PLUGINS: its parameters, Mitsuba's defaults, and the key of
+scene/keys.py each one becomes (whose type, range and doc the manual's table of the plugin shows). What has no
+place in raytrace's model is refused with one line naming the file, line, plugin and what is supported, or with
+`ignore_unsupported` left out with one warning per kind. A value the table's reader refuses is reported at the
+XML element (or dict entry) it came from: `origins` maps each key of the table back to it.
+"""
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, did_you_mean
+from . import mesh_file, named_materials, spectra
+from .mitsuba_xml import WHERE, Where
+from .transform import AFFINE
+
+# Mitsuba's samplers, and raytrace's pattern that takes the place of each: the same estimate (every sampler is
+# unbiased), with raytrace's own stratification. independent is uniform random; stratified, multijitter and
+# orthogonal stratify the pixel, as raytrace's jittered grid does (a square count: Mitsuba's stratified rounds up
+# to one, and so does this); ldsampler is a low-discrepancy sequence, raytrace's Owen-scrambled Sobol.
+SAMPLER_PATTERNS = {"independent": "random", "stratified": "jittered", "multijitter": "jittered",
+                    "orthogonal": "jittered", "ldsampler": "sobol"}
+FILE_KEYS = ("shapes[].file", "environment.filename")  # the scene table's keys that name files
+DEFAULT_DIFFUSE = 0.5  # the BSDF Mitsuba gives a shape that names none: diffuse, reflectance 0.5
+
+
+@dataclass(frozen=True)
+class Param:
+    """A parameter of a Mitsuba plugin: Mitsuba's default (None: required, or derived), the raytrace key it
+    becomes ("table key", as in keys.py's TABLES; "" where it changes nothing raytrace computes), and a note."""
+    name: str
+    default: object
+    key: str = ""
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class Plugin:
+    category: str
+    doc: str
+    params: tuple = ()
+    only_default: tuple = ()  # parameters raytrace takes at Mitsuba's default value only
+
+    def names(self):
+        return [p.name for p in self.params]
+
+
+_MATERIAL = "materials.NAME"
+_CONDUCTOR = (Param("material", "none", f"{_MATERIAL} eta", "a named metal (Mitsuba's table, in RGB), or none: a "
+                    "perfect mirror"),
+              Param("eta", None, f"{_MATERIAL} eta", "the real part of the index of refraction"),
+              Param("k", None, f"{_MATERIAL} k", "the imaginary part"),
+              Param("specular_reflectance", 1.0, f"{_MATERIAL} colour", "a factor on the reflectance"))
+_TRANSFORM = Param("to_world", "identity", "", "placement")
+PLUGINS = {
+    "diffuse": Plugin("bsdf", "Lambertian reflection", (Param("reflectance", 0.5, f"{_MATERIAL} colour"),)),
+    "conductor": Plugin("bsdf", "a smooth metal", _CONDUCTOR),
+    "roughconductor": Plugin("bsdf", "a rough metal (GGX microfacets)", _CONDUCTOR + (
+        Param("distribution", "beckmann", f"{_MATERIAL} type", "ggx only: raytrace's microfacets are GGX's"),
+        Param("alpha", 0.1, f"{_MATERIAL} alpha"),
+        Param("alpha_u", None, f"{_MATERIAL} alpha", "equal to alpha_v only (isotropic)"),
+        Param("alpha_v", None, f"{_MATERIAL} alpha", "equal to alpha_u only (isotropic)"),
+        Param("sample_visible", True, "", "noise only: raytrace samples the visible normals"))),
+    "dielectric": Plugin("bsdf", "smooth glass", (
+        Param("int_ior", "bk7", f"{_MATERIAL} int_ior", "a number or one of Mitsuba's named media"),
+        Param("ext_ior", "air", f"{_MATERIAL} ext_ior", "a number or one of Mitsuba's named media"),
+        Param("specular_reflectance", 1.0, f"{_MATERIAL} colour", "equal to specular_transmittance only"),
+        Param("specular_transmittance", 1.0, f"{_MATERIAL} colour", "equal to specular_reflectance only"))),
+    "twosided": Plugin("bsdf", "the BSDF inside on both sides (raytrace's BSDFs are two-sided: it unwraps it)",
+                       (Param("bsdf", None, "", "one BSDF (two different ones are not supported)"),)),
+    "rectangle": Plugin("shape", "[-1, 1]^2 in the plane z = 0, normal +z, under to_world", (
+        _TRANSFORM, Param("flip_normals", False, "shapes[] normal", "turns the front side"),
+        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "lights[]", "an area emitter"))),
+    "obj": Plugin("shape", "a Wavefront OBJ mesh", (
+        Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
+        _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
+                          "false: smooth (smooth = true)"),
+        Param("flip_tex_coords", True, "", "no effect: raytrace's BSDFs take no texture from Mitsuba yet"),
+        Param("bsdf", "diffuse", "shapes[] material"),
+        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
+        only_default=("flip_normals",)),
+    "ply": Plugin("shape", "a PLY mesh (ascii or binary)", (
+        Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
+        _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
+                          "false: smooth (smooth = true)"),
+        Param("bsdf", "diffuse", "shapes[] material"),
+        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
+        only_default=("flip_normals",)),
+    "sphere": Plugin("shape", "a sphere (raytrace's ellipsoid)", (
+        Param("center", (0.0, 0.0, 0.0), 'shapes[] type = "ellipsoid" center'),
+        Param("radius", 1.0, 'shapes[] type = "ellipsoid" axes'), _TRANSFORM,
+        Param("bsdf", "diffuse", "shapes[] material")), only_default=("flip_normals",)),
+    "area": Plugin("emitter", "light emitted from a shape's front side", (
+        Param("radiance", 1.0, "lights[] (direct, path) radiance", "an RGB colour or a spectrum"),)),
+    "constant": Plugin("emitter", "light from every direction", (
+        Param("radiance", 1.0, "environment radiance"),)),
+    "envmap": Plugin("emitter", "an equirectangular image of radiance around the scene", (
+        Param("filename", None, "environment filename"), Param("scale", 1.0, "environment scale"),
+        Param("to_world", "identity", "environment up", "a rotation: its y and z columns are up and forward"),
+        Param("mis_compensation", False, "", "noise only"))),
+    "perspective": Plugin("sensor", "a pinhole camera", (
+        Param("to_world", "identity", "camera position", "rigid (no scale): the eye, its local +z the view, +y up"),
+        Param("fov", None, "camera fov", "degrees along fov_axis"),
+        Param("fov_axis", "x", "camera fov", "x, y, diagonal, smaller or larger"),
+        Param("focal_length", "50mm", "camera fov", "instead of fov: a 35 mm film's focal length"),
+        Param("near_clip", 0.01, "", "only where nothing lies nearer along the view"),
+        Param("far_clip", 10000.0, "", "only where nothing lies farther along the view"),
+        Param("film", "hdrfilm", ""), Param("sampler", "independent", "")),
+        only_default=("principal_point_offset_x", "principal_point_offset_y", "srf")),
+    "hdrfilm": Plugin("film", "the image", (
+        Param("width", 768, "image width"), Param("height", 576, "image height"),
+        Param("rfilter", "gaussian", "", "box only: raytrace averages each pixel's samples"),
+        Param("file_format", "openexr", "", "the output's extension decides"),
+        Param("pixel_format", "rgb", "", "rgb, or rgba (raytrace writes RGB)"),
+        Param("component_format", "float16", "", "the output decides"),
+        Param("sample_border", False, "", "no effect with a box filter")),
+        only_default=("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")),
+    "box": Plugin("rfilter", "each pixel the average of its own samples", ()),
+    "path": Plugin("integrator", "path tracing", (
+        Param("max_depth", -1, "render max_depth"), Param("rr_depth", 5, "", "noise only: raytrace's own "
+                                                          "Russian roulette"),
+        Param("hide_emitters", False, "", "false only")), only_default=("hide_emitters",)),
+    "direct": Plugin("integrator", "direct lighting", (
+        Param("shading_samples", 1, "render light_samples", "emitter_samples' default"),
+        Param("emitter_samples", 1, "render light_samples"),
+        Param("bsdf_samples", 1, "", "noise only: raytrace samples the lights"),
+        Param("hide_emitters", False, "", "false only")), only_default=("hide_emitters",)),
+    "moment": Plugin("integrator", "a wrapper: raytrace renders the integrator inside", (
+        Param("integrator", None, "", "one integrator"),)),
+    "independent": Plugin("sampler", "uniform random samples: raytrace's random", (
+        Param("sample_count", 4, "render spp"), Param("seed", 0, "render seed"))),
+    "stratified": Plugin("sampler", "a jittered grid: raytrace's jittered", (
+        Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed"),
+        Param("jitter", True, "", "true only")), only_default=("jitter",)),
+    "multijitter": Plugin("sampler", "correlated multi-jittered samples: raytrace's jittered", (
+        Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed"),
+        Param("jitter", True, "", "true only")), only_default=("jitter",)),
+    "orthogonal": Plugin("sampler", "orthogonal arrays: raytrace's jittered", (
+        Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed"),
+        Param("jitter", True, "", "true only"), Param("strength", 2, "", "no effect")), only_default=("jitter",)),
+    "ldsampler": Plugin("sampler", "a low-discrepancy sequence: raytrace's Owen-scrambled Sobol", (
+        Param("sample_count", 4, "render spp", "rounded up to a power of two"), Param("seed", 0, "render seed"))),
+}
+CATEGORIES = ("integrator", "sensor", "film", "rfilter", "sampler", "shape", "bsdf", "emitter", "texture")
+
+
+def supported(category):
+    return [name for name, p in PLUGINS.items() if p.category == category]
+
+
+@dataclass
+class Translation:
+    """raytrace's scene table of a Mitsuba scene, where each of its keys came from ({key path: (where, the
+    Mitsuba parameter)}), the warnings of what was left out, and the camera's clip planes (checked against
+    the scene once it is built)."""
+    table: dict
+    origins: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+    clip: tuple = (0.0, math.inf, None)
+
+
+class _Translator:
+    def __init__(self, source, folder, ignore_unsupported):
+        self.source, self.folder, self.ignore = source, Path(folder), ignore_unsupported
+        self.table = {"materials": {}, "lights": [], "shapes": []}
+        self.out = Translation(self.table)
+        self.ids = {}
+        self.materials = {}  # id(BSDF dict) -> material name
+        self.warned = set()
+        self.search = []
+
+    # -- where things came from, and errors naming it
+    def where(self, node, path):
+        w = node.get(WHERE) if isinstance(node, dict) else None
+        return w if isinstance(w, Where) else Where(f"{self.source}: {path}" if path else self.source)
+
+    def fail(self, at, key, value, problem):
+        raise InputError(at, key, value, problem)
+
+    def unsupported(self, at, what, problem):
+        if not self.ignore:
+            self.fail(at, what, None, problem + " (--ignore-unsupported renders the rest)")
+        if what not in self.warned:
+            self.warned.add(what)
+            self.out.warnings.append(f"{at}: {what}: {problem}: left out")
+
+    def origin(self, key, node, path, param):
+        self.out.origins[key] = (self.where(node, path).of(param), param)
+
+    # -- values
+    def resolve(self, value, path):
+        if isinstance(value, dict) and value.get("type") == "ref":
+            ref = value.get("id")
+            if ref not in self.ids:
+                self.fail(self.where(value, path).at, f"{path}.id" if path else "id", ref,
+                          f"no object with this id{did_you_mean(ref, self.ids)}")
+            return self.ids[ref]
+        return value
+
+    def params(self, node, path, name):
+        """{parameter: value} of plugin `node` (of type `name`), refusing a parameter it does not take."""
+        plugin = PLUGINS[name]
+        where = self.where(node, path)
+        given = {k: v for k, v in node.items() if k not in ("type", "id", WHERE)}
+        for key in given:
+            if key in plugin.only_default:
+                self.unsupported(where.of(key), f"{plugin.category} {name}: {key}", f"{key} other than Mitsuba's "
+                                 "default is not supported")
+            elif key not in plugin.names() and not _is_object(given[key]):
+                self.fail(where.of(key), f"{name}.{key}", _shown(given[key]), f"is no parameter of Mitsuba's {name} "
+                          f"{plugin.category}{did_you_mean(key, plugin.names())} (it takes: "
+                          f"{', '.join(plugin.names()) or 'none'})")
+        return {k: v for k, v in given.items() if k not in plugin.only_default}
+
+    def number(self, value, node, path, param, integer=False):
+        ok = (isinstance(value, int) if integer else isinstance(value, (int, float))) and not isinstance(value, bool)
+        if not ok or (not integer and not math.isfinite(value)):
+            self.fail(self.where(node, path).of(param), f"{path}.{param}" if path else param, _shown(value),
+                      f"must be {'an integer' if integer else 'a finite number'}")
+        return value
+
+    def string(self, value, node, path, param, choices=None):
+        if not isinstance(value, str):
+            self.fail(self.where(node, path).of(param), f"{path}.{param}", _shown(value), "must be a string")
+        if choices is not None and value not in choices:
+            self.fail(self.where(node, path).of(param), f"{path}.{param}", value,
+                      f"must be one of: {', '.join(choices)}{did_you_mean(value, choices, ';')}")
+        return value
+
+    def colour(self, value, node, path, param, emission=False, unbounded=False):
+        """RGB of a Mitsuba colour: a number, an rgb or a spectrum (converted as Mitsuba's rgb variants do)."""
+        at = self.where(node, path).of(param)
+        value = self.resolve(value, path)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return [float(self.number(value, node, path, param))] * 3
+        if isinstance(value, dict) and value.get("type") == "rgb":
+            rgb = value.get("value")
+            if isinstance(rgb, (int, float)) and not isinstance(rgb, bool):
+                rgb = [rgb] * 3
+            rgb = list(np.asarray(rgb, dtype=object).ravel()) if isinstance(rgb, (list, tuple, np.ndarray)) else rgb
+            if not (isinstance(rgb, list) and len(rgb) == 3 and all(
+                    isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in rgb)):
+                self.fail(at, f"{path}.{param}", _shown(value.get("value")), "an rgb value must be 1 or 3 finite numbers")
+            return [float(c) for c in rgb]
+        if isinstance(value, dict) and value.get("type") == "spectrum":
+            try:
+                if "filename" in value:
+                    spectrum = spectra.read_spd(Path(value["filename"]))
+                else:
+                    spectrum = value.get("value")
+                    if isinstance(spectrum, (list, tuple)):
+                        spectrum = [tuple(float(x) for x in pair) for pair in spectrum]
+                return list(spectra.to_rgb(spectrum, emission, unbounded))
+            except (ValueError, TypeError) as e:
+                self.fail(at, f"{path}.{param}", _shown(value.get("value", value.get("filename"))), str(e))
+        if isinstance(value, dict) and isinstance(value.get("type"), str):
+            self.unsupported(at, f"texture {value['type']}", "textures are not supported yet (a number, rgb or "
+                             "spectrum only)")
+            return None
+        self.fail(at, f"{path}.{param}", _shown(value), "must be a number, an rgb or a spectrum")
+
+    def matrix(self, value, node, path, param):
+        """A to_world as a 4 x 4 float64 matrix: an array, nested lists, or an object with .matrix (Mitsuba's
+        ScalarTransform4f)."""
+        at = self.where(node, path).of(param)
+        value = getattr(value, "matrix", value)
+        try:
+            m = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            m = None
+        if m is None or m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            self.fail(at, f"{path}.{param}", _shown(value), "must be a 4 x 4 matrix of finite numbers")
+        if not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
+            self.fail(at, f"{path}.{param}", m.tolist(), AFFINE)
+        return m
+
+    # -- the scene
+    def scene(self, node):
+        if not isinstance(node, dict) or node.get("type") != "scene":
+            self.fail(self.source, "type", _shown(node.get("type") if isinstance(node, dict) else node),
+                      'a Mitsuba scene is a dict of type "scene"')
+        if isinstance(node.get(WHERE), Where):
+            self.search = node[WHERE].search
+        self.collect_ids(node, "")
+        groups = {c: [] for c in CATEGORIES}
+        for key, value in node.items():
+            if key in ("type", "id", WHERE):
+                continue
+            value = self.resolve(value, key)
+            category = self.category(value, key, node)
+            if category:
+                groups.setdefault(category, []).append((key, value))
+        for category in ("film", "rfilter", "sampler", "texture"):
+            for key, value in groups.get(category, []):
+                if category == "texture":
+                    continue  # textures given at the top level are used by reference
+                self.fail(self.where(value, key).at, key, value["type"], f"a {category} belongs inside a "
+                          f"{'film' if category == 'rfilter' else 'sensor'}")
+        self.integrator(groups["integrator"])
+        sensors = groups["sensor"]
+        if not sensors:
+            self.fail(self.source, "sensor", None, "missing: raytrace needs a perspective sensor (Mitsuba's default "
+                      "camera is not supported)")
+        if len(sensors) > 1:
+            self.unsupported(self.where(sensors[1][1], sensors[1][0]).at, "a second sensor",
+                             "raytrace renders one sensor")
+        self.sensor(*sensors[0])
+        for key, value in groups["shape"]:
+            self.shape(key, value)
+        environments = groups["emitter"]
+        for i, (key, value) in enumerate(environments):
+            if i:
+                self.unsupported(self.where(value, key).at, "a second environment emitter",
+                                 "raytrace takes one constant or envmap emitter")
+            else:
+                self.environment(key, value)
+        order = ("render", "camera", "image", "environment", "materials", "lights", "shapes")
+        self.out.table = {k: self.table[k] for k in order if k in self.table}
+        return self.out
+
+    def collect_ids(self, node, path):
+        for key, value in node.items():
+            if key in ("type", WHERE) or not isinstance(value, dict) or value.get("type") == "ref":
+                continue
+            ident = value.get("id", key if path == "" else None)
+            if isinstance(ident, str) and ident not in self.ids:
+                self.ids[ident] = value
+            self.collect_ids(value, f"{path}.{key}" if path else key)
+
+    def category(self, value, path, parent):
+        """The category of plugin dict `value` (None for what is not a plugin: at the top level, an error)."""
+        at = self.where(value, path).at if isinstance(value, dict) else self.where(parent, "").of(path)
+        if not isinstance(value, dict) or not isinstance(value.get("type"), str):
+            self.fail(at, path, _shown(value), "must be a plugin: a dict with a type")
+        name = value["type"]
+        tag = value[WHERE].tag if isinstance(value.get(WHERE), Where) else ""
+        if name in PLUGINS:
+            category = PLUGINS[name].category
+            if tag and tag != category:
+                self.fail(at, f"<{tag}> type", name, f"is a {category}, not a {tag}")
+            return category
+        if name in ("rgb", "spectrum"):
+            return "texture"
+        category = tag or "plugin"
+        have = supported(tag) if tag in CATEGORIES else sorted(PLUGINS)
+        self.unsupported(at, f"{category} {name}", f"not supported (raytrace renders: {', '.join(have)})")
+        return None
+
+    def integrator(self, integrators):
+        render = self.table.setdefault("render", {})
+        render["shading"] = "path"  # Mitsuba's default integrator
+        if not integrators:
+            return
+        key, node = integrators[0]
+        if len(integrators) > 1:
+            self.unsupported(self.where(integrators[1][1], integrators[1][0]).at, "a second integrator",
+                             "raytrace renders with one")
+        while node["type"] == "moment":
+            inner = [(k, v) for k, v, category in self.objects(self.params(node, key, "moment"), key, node)
+                     if category == "integrator"]
+            if len(inner) != 1:
+                self.fail(self.where(node, key).at, f"{key}.integrator", len(inner), "moment must wrap one integrator")
+            key, node = inner[0]
+        name = node["type"]
+        params = self.params(node, key, name)
+        render["shading"] = name
+        if name == "path":
+            if "max_depth" in params:
+                render["max_depth"] = self.number(params["max_depth"], node, key, "max_depth", integer=True)
+                self.origin("render.max_depth", node, key, "max_depth")
+            if "rr_depth" in params:
+                self.number(params["rr_depth"], node, key, "rr_depth", integer=True)
+        else:
+            samples = params.get("emitter_samples", params.get("shading_samples", 1))
+            param = "emitter_samples" if "emitter_samples" in params else "shading_samples"
+            render["light_samples"] = self.number(samples, node, key, param, integer=True)
+            self.origin("render.light_samples", node, key, param)
+            render["light_sampler"] = "random"  # Mitsuba's emitter samples are independent of the pixel's
+        self.out.origins["render.shading"] = (self.where(node, key).at, f"integrator {name}")
+
+    def sensor(self, key, node):
+        name = node["type"]
+        if name != "perspective":
+            self.unsupported(self.where(node, key).at, f"sensor {name}", "not supported (raytrace renders: "
+                             "perspective)")
+            return
+        params = self.params(node, key, name)
+        film, sampler = None, None
+        for path, v, category in self.objects(params, key, node):
+            if category == "film":
+                film = (path, v)
+            elif category == "sampler":
+                sampler = (path, v)
+            else:
+                self.fail(self.where(v, path).at, path, v["type"], f"a {category} does not belong in a sensor")
+        width, height = self.film(*film) if film else (768, 576)
+        self.sampler(*sampler) if sampler else self.sampler(f"{key}.sampler", {"type": "independent"})
+        m = self.matrix(params["to_world"], node, key, "to_world") if "to_world" in params else np.eye(4)
+        linear = m[:3, :3]
+        if not np.allclose(linear.T @ linear, np.eye(3), rtol=0, atol=1e-5) or np.linalg.det(linear) < 0:
+            self.fail(self.where(node, key).of("to_world"), f"{key}.to_world", m.tolist(),
+                      "must be rigid: scale factors are not allowed in a camera's to_world (as in Mitsuba)")
+        fov = self.fov(params, node, key, width / height)
+        position, forward, up = m[:3, 3], m[:3, 2], m[:3, 1]
+        self.table["camera"] = {"position": position.tolist(), "look_at": (position + forward).tolist(),
+                                "up": up.tolist(), "fov": fov}
+        for k in ("position", "look_at", "up"):
+            self.origin(f"camera.{k}", node, key, "to_world")
+        self.origin("camera.fov", node, key, "fov" if "fov" in params else "focal_length")
+        near = self.number(params.get("near_clip", 0.01), node, key, "near_clip")
+        far = self.number(params.get("far_clip", 1e4), node, key, "far_clip")
+        if not 0 < near < far:
+            self.fail(self.where(node, key).of("near_clip"), f"{key}.near_clip", near, f"must be > 0 and below far_clip ({far})")
+        self.out.clip = (near, far, self.where(node, key).of("near_clip" if "near_clip" in params else "to_world"))
+
+    def fov(self, params, node, key, aspect):
+        """The vertical field of view of Mitsuba's fov, fov_axis or focal_length (Mitsuba's parse_fov)."""
+        at = self.where(node, key)
+        if "fov" in params and "focal_length" in params:
+            self.fail(at.of("focal_length"), f"{key}.focal_length", params["focal_length"],
+                      "give either a focal length or a field of view (fov)")
+        if "fov" in params:
+            fov = self.number(params["fov"], node, key, "fov")
+            axis = self.string(params.get("fov_axis", "x"), node, key, "fov_axis",
+                               ("x", "y", "diagonal", "smaller", "larger")).lower()
+            if axis == "smaller":
+                axis = "y" if aspect > 1 else "x"
+            elif axis == "larger":
+                axis = "x" if aspect > 1 else "y"
+        else:
+            text = str(params.get("focal_length", "50mm"))
+            try:
+                f = float(text[:-2] if text.endswith("mm") else text)
+            except ValueError:
+                f = math.nan
+            if not f > 0 or not math.isfinite(f):
+                self.fail(at.of("focal_length"), f"{key}.focal_length", text, 'must be of the form "<x>mm", x > 0')
+            fov, axis = 2 * math.degrees(math.atan(math.sqrt(36 * 36 + 24 * 24) / (2 * f))), "diagonal"
+        if not 0 < fov < 180:
+            self.fail(at.of("fov"), f"{key}.fov", fov, "must be in (0, 180) degrees")
+        t = math.tan(math.radians(fov) / 2)
+        half_width = {"x": t, "y": t * aspect, "diagonal": t / math.sqrt(1 + 1 / aspect ** 2)}[axis]
+        return 2 * math.degrees(math.atan(half_width / aspect))
+
+    def film(self, key, node):
+        name = node["type"]
+        if name != "hdrfilm":
+            self.unsupported(self.where(node, key).at, f"film {name}", "not supported (raytrace renders: hdrfilm)")
+        params = self.params(node, key, "hdrfilm") if name == "hdrfilm" else {}
+        image = self.table["image"] = {}
+        for side, default in (("width", 768), ("height", 576)):
+            image[side] = self.number(params.get(side, default), node, key, side, integer=True)
+            self.origin(f"image.{side}", node, key, side)
+        for param, choices in (("pixel_format", ("rgb", "rgba")), ("component_format", ("float16", "float32")),
+                               ("file_format", ("openexr", "exr", "rgbe", "pfm"))):
+            if param in params:
+                self.string(params[param], node, key, param, choices)
+        if "sample_border" in params and not isinstance(params["sample_border"], bool):
+            self.fail(self.where(node, key).of("sample_border"), f"{key}.sample_border", _shown(params["sample_border"]),
+                      "must be a boolean")
+        rfilters = [(path, v) for path, v, category in self.objects(params, key, node) if category == "rfilter"]
+        if not rfilters:
+            self.unsupported(self.where(node, key).at, "rfilter gaussian", "hdrfilm's default reconstruction filter "
+                             "is gaussian, and raytrace has a box filter only: add <rfilter type=\"box\"/>")
+        for path, rfilter in rfilters:
+            self.params(rfilter, path, "box")
+        return image["width"], image["height"]
+
+    def objects(self, params, key, node):
+        """(path, plugin dict, category) of each plugin nested in `params` (references resolved); a plugin of a
+        category that does not belong in `node` is the caller's to refuse."""
+        found = []
+        for k, v in params.items():
+            if _is_object(v):
+                v = self.resolve(v, f"{key}.{k}")
+                category = self.category(v, f"{key}.{k}", node)
+                if category is not None:
+                    found.append((f"{key}.{k}", v, category))
+        return found
+
+    def sampler(self, key, node):
+        name = node["type"]
+        if name not in SAMPLER_PATTERNS:
+            self.unsupported(self.where(node, key).at, f"sampler {name}", "not supported (raytrace renders: "
+                             f"{', '.join(SAMPLER_PATTERNS)})")
+            name = "independent"
+        params = self.params(node, key, name) if name == node["type"] else {}
+        render = self.table.setdefault("render", {})
+        count = self.number(params.get("sample_count", 4), node, key, "sample_count", integer=True)
+        if count < 1:
+            self.fail(self.where(node, key).of("sample_count"), f"{key}.sample_count", count, "must be >= 1")
+        pattern = SAMPLER_PATTERNS[name]
+        if pattern == "jittered":
+            count = math.isqrt(count - 1) ** 2 + 2 * math.isqrt(count - 1) + 1 if count > 1 else 1
+        elif pattern == "sobol":
+            count = 1 << (count - 1).bit_length()
+        render["spp"], render["sampler"] = count, pattern
+        self.origin("render.spp", node, key, "sample_count")
+        seed = self.number(params.get("seed", 0), node, key, "seed", integer=True)
+        render["seed"] = seed
+        self.origin("render.seed", node, key, "seed")
+
+    # -- materials
+    def material(self, node, path, for_light=False):
+        """The name of raytrace's material for BSDF `node` (None: Mitsuba's default diffuse)."""
+        if node is None:
+            name = "mitsuba_default"
+            self.table["materials"].setdefault(name, {"type": "diffuse", "colour": [DEFAULT_DIFFUSE] * 3})
+            return name
+        node = self.resolve(node, path)
+        if id(node) in self.materials:
+            return self.materials[id(node)]
+        if self.category(node, path, node) != "bsdf":
+            self.fail(self.where(node, path).at, path, node["type"], "must be a bsdf")
+        inner, inner_path, two_sided = node, path, False
+        while inner["type"] == "twosided":
+            bsdfs = self.objects(self.params(inner, inner_path, "twosided"), inner_path, inner)
+            if len(bsdfs) != 1:
+                self.unsupported(self.where(inner, inner_path).at, "twosided with two BSDFs",
+                                 "raytrace's BSDFs are the same on both sides")
+            if not bsdfs or bsdfs[0][2] != "bsdf":
+                self.fail(self.where(inner, inner_path).at, inner_path, len(bsdfs), "twosided must wrap a bsdf")
+            inner_path, inner = bsdfs[0][0], bsdfs[0][1]
+            two_sided = True
+        name = node.get("id") if isinstance(node.get("id"), str) else f"bsdf_{len(self.table['materials'])}"
+        while name in self.table["materials"]:
+            name += "_"
+        kind = inner["type"]
+        if not two_sided and kind != "dielectric":
+            self.warn(self.where(node, path).at, f"bsdf {kind} outside twosided", "raytrace's BSDFs reflect on both "
+                      "sides; Mitsuba's on the front only (the back is black)")
+        params = self.params(inner, inner_path, kind)
+        material = {"type": kind}
+        prefix = f"materials.{name}"
+
+        def put(key, value, param):
+            material[key] = value
+            self.origin(f"{prefix}.{key}", inner, inner_path, param)
+
+        if kind == "diffuse":
+            colour = self.colour(params.get("reflectance", DEFAULT_DIFFUSE), inner, inner_path, "reflectance")
+            put("colour", colour or [DEFAULT_DIFFUSE] * 3, "reflectance")
+        elif kind in ("conductor", "roughconductor"):
+            self.conductor(params, inner, inner_path, put)
+            if kind == "roughconductor":
+                distribution = self.string(params.get("distribution", "beckmann"), inner, inner_path, "distribution")
+                if distribution != "ggx":
+                    self.unsupported(self.where(inner, inner_path).of("distribution"),
+                                     f"roughconductor distribution {distribution}",
+                                     "raytrace's rough metal is GGX's: give distribution = ggx")
+                alpha = params.get("alpha", 0.1)
+                if "alpha_u" in params or "alpha_v" in params:
+                    u, v = params.get("alpha_u", alpha), params.get("alpha_v", alpha)
+                    if u != v:
+                        self.unsupported(self.where(inner, inner_path).of("alpha_u"), "anisotropic roughness",
+                                         "alpha_u and alpha_v must be equal")
+                    alpha = u
+                put("alpha", self.number(self.resolve(alpha, inner_path), inner, inner_path, "alpha"), "alpha")
+        elif kind == "dielectric":
+            for param in ("int_ior", "ext_ior"):
+                value = params.get(param, "bk7" if param == "int_ior" else "air")
+                if isinstance(value, str):
+                    if value.lower() not in named_materials.IORS:
+                        self.fail(self.where(inner, inner_path).of(param), f"{inner_path}.{param}", value,
+                                  f"no such medium{did_you_mean(value.lower(), named_materials.IORS)} (Mitsuba's "
+                                  f"named media: {', '.join(named_materials.IORS)})")
+                    value = named_materials.IORS[value.lower()]
+                put(param, self.number(value, inner, inner_path, param), param)
+            reflectance = self.colour(params.get("specular_reflectance", 1.0), inner, inner_path,
+                                      "specular_reflectance")
+            transmittance = self.colour(params.get("specular_transmittance", 1.0), inner, inner_path,
+                                        "specular_transmittance")
+            if reflectance != transmittance:
+                self.unsupported(self.where(inner, inner_path).of("specular_transmittance"),
+                                 "dielectric transmittance unlike its reflectance",
+                                 "raytrace's glass has one colour for both")
+            put("colour", reflectance, "specular_reflectance")
+        self.table["materials"][name] = material
+        self.materials[id(node)] = name
+        return name
+
+    def conductor(self, params, node, path, put):
+        material = params.get("material", "none")
+        self.string(material, node, path, "material")
+        if "eta" in params or "k" in params or material == "none":
+            if material != "none":
+                self.fail(self.where(node, path).of("material"), f"{path}.material", material,
+                          "give either (eta, k) or material, not both")
+            if "eta" not in params and "k" not in params:
+                put("eta", [0.0] * 3, "material")  # none: a perfect mirror (raytrace's eta = k = 0)
+                put("k", [0.0] * 3, "material")
+            else:
+                put("eta", self.colour(params.get("eta", 0.0), node, path, "eta", unbounded=True), "eta")
+                put("k", self.colour(params.get("k", 1.0), node, path, "k", unbounded=True), "k")
+        else:
+            if material not in named_materials.CONDUCTORS:
+                self.fail(self.where(node, path).of("material"), f"{path}.material", material,
+                          f"no such metal{did_you_mean(material, named_materials.CONDUCTORS)} (Mitsuba's: "
+                          f"{', '.join(named_materials.CONDUCTORS)})")
+            eta, k = named_materials.CONDUCTORS[material]
+            put("eta", list(eta), "material")
+            put("k", list(k), "material")
+        colour = self.colour(params.get("specular_reflectance", 1.0), node, path, "specular_reflectance")
+        put("colour", colour or [1.0] * 3, "specular_reflectance")
+
+    def warn(self, at, what, problem):
+        if what not in self.warned:
+            self.warned.add(what)
+            self.out.warnings.append(f"{at}: {what}: {problem}")
+
+    # -- shapes and their emitters
+    def shape(self, key, node):
+        name = node["type"]
+        params = self.params(node, key, name)
+        bsdf, emitter = None, None
+        for path, v, category in self.objects(params, key, node):
+            if category == "bsdf":
+                bsdf = (path, v)
+            elif category == "emitter":
+                emitter = (path, v)
+            else:
+                self.unsupported(self.where(v, path).at, f"a {category} in a shape", "not supported")
+        m = self.matrix(params["to_world"], node, key, "to_world") if "to_world" in params else np.eye(4)
+        if emitter is not None:
+            return self.light(key, node, params, m, bsdf, emitter)
+        material = self.material(bsdf[1] if bsdf else None, bsdf[0] if bsdf else f"{key}.bsdf")
+        index = len(self.table["shapes"])
+        prefix = f"shapes[{index}]"
+        if name == "rectangle":
+            frame = _rectangle(m, params.get("flip_normals", False))
+            if frame is None:  # sheared: a parallelogram, two triangles
+                corners = (m @ np.array([[-1, -1, 0, 1], [1, -1, 0, 1], [1, 1, 0, 1], [-1, 1, 0, 1]]).T).T[:, :3]
+                shape = {"type": "mesh", "vertices": corners.tolist(), "faces": [[0, 1, 2], [0, 2, 3]]}
+            else:
+                shape = {"type": "rectangle", **frame}
+            for k in shape:
+                self.origin(f"{prefix}.{k}", node, key, "to_world")
+        elif name in ("obj", "ply"):
+            filename = self.string(params.get("filename"), node, key, "filename")
+            shape = {"type": "mesh", "file": self.path(filename), "matrix": m.tolist(),
+                     "smooth": not params.get("face_normals", False)}
+            self.origin(f"{prefix}.file", node, key, "filename")
+            self.origin(f"{prefix}.matrix", node, key, "to_world")
+        else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius
+            center = np.asarray(params.get("center", (0.0, 0.0, 0.0)), np.float64)
+            radius = self.number(params.get("radius", 1.0), node, key, "radius")
+            axes = (m[:3, :3] * radius).T
+            shape = {"type": "ellipsoid", "center": (m[:3, :3] @ center + m[:3, 3]).tolist(), "axes": axes.tolist()}
+            self.origin(f"{prefix}.center", node, key, "center")
+            self.origin(f"{prefix}.axes", node, key, "radius")
+        shape["material"] = material
+        self.table["shapes"].append(shape)
+
+    def path(self, filename):
+        """A file as Mitsuba finds it (in the scene's folder, then in its <path> folders), relative to the scene's
+        folder: the scene table's files are, as a scene file's are."""
+        for base in (self.folder, *self.search):
+            if Path(base, filename).exists():
+                return os.path.relpath(Path(base, filename), self.folder) if base != self.folder else filename
+        return filename
+
+    def light(self, key, node, params, m, bsdf, emitter):
+        path, em = emitter
+        if em["type"] != "area":
+            self.fail(self.where(em, path).at, path, em["type"], "a shape's emitter must be an area emitter")
+        radiance = self.colour(self.params(em, path, "area").get("radiance", 1.0), em, path, "radiance", emission=True)
+        name = node["type"]
+        if name == "rectangle":
+            frame = _rectangle(m, params.get("flip_normals", False))
+            at = self.where(node, key).of("to_world")
+        elif name in ("obj", "ply"):
+            filename = self.path(self.string(params.get("filename"), node, key, "filename"))
+            at = self.where(node, key).of("filename")
+            mesh, _ = mesh_file.load_mesh(filename, at, "filename")
+            vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
+            frame = _quad(vertices, mesh.faces)
+        else:
+            frame, at = None, self.where(node, key).at
+        if frame is None:
+            self.unsupported(at, f"area emitter on {name}", "raytrace's lights are rectangles: an area emitter "
+                             "on a rectangle, or on a mesh that is one planar rectangle")
+            return
+        light = {**frame, "radiance": radiance if radiance is not None else [1.0] * 3}
+        index = len(self.table["lights"])
+        for k in frame:
+            self.origin(f"lights[{index}].{k}", node, key, "to_world")
+        self.origin(f"lights[{index}].radiance", em, path, "radiance")
+        if self.table["render"]["shading"] == "path":
+            light["material"] = self.material(bsdf[1] if bsdf else None, bsdf[0] if bsdf else f"{key}.bsdf")
+        elif bsdf is not None:
+            self.unsupported(self.where(*reversed(bsdf)).at, "a light's bsdf with the direct integrator",
+                             "raytrace's direct model: lights reflect nothing")
+        self.table["lights"].append(light)
+
+    def environment(self, key, node):
+        name = node["type"]
+        if name == "area":
+            self.fail(self.where(node, key).at, key, name, "an area emitter belongs inside a shape")
+        if name not in ("constant", "envmap"):
+            self.unsupported(self.where(node, key).at, f"emitter {name}", "not supported (raytrace renders: area, "
+                             "constant, envmap)")
+            return
+        params = self.params(node, key, name)
+        if name == "constant":
+            env = {"type": "constant", "radiance": self.colour(params.get("radiance", 1.0), node, key, "radiance",
+                                                               emission=True)}
+            self.origin("environment.radiance", node, key, "radiance")
+        else:
+            filename = self.string(params.get("filename"), node, key, "filename")
+            m = self.matrix(params["to_world"], node, key, "to_world") if "to_world" in params else np.eye(4)
+            linear = m[:3, :3]
+            if not np.allclose(linear.T @ linear, np.eye(3), rtol=0, atol=1e-5) or np.linalg.det(linear) < 0:
+                self.fail(self.where(node, key).of("to_world"), f"{key}.to_world", m.tolist(),
+                          "an envmap's to_world must be a rotation")
+            env = {"type": "envmap", "filename": self.path(filename),
+                   "scale": self.number(params.get("scale", 1.0), node, key, "scale"),
+                   "up": linear[:, 1].tolist(), "forward": linear[:, 2].tolist()}
+            for k, param in (("filename", "filename"), ("scale", "scale"), ("up", "to_world"), ("forward", "to_world")):
+                self.origin(f"environment.{k}", node, key, param)
+        self.table["environment"] = env
+
+
+def _rectangle(m, flip):
+    """raytrace's rectangle keys of Mitsuba's [-1, 1]^2 under affine `m`, or None where m shears it. The normal
+    is Mitsuba's: +z under the inverse transpose, which for columns ex, ey is along ex x ey / det."""
+    ex, ey = m[:3, 0], m[:3, 1]
+    lx, ly = np.linalg.norm(ex), np.linalg.norm(ey)
+    if not abs(np.dot(ex, ey)) <= 1e-6 * lx * ly:
+        return None
+    normal = np.cross(ex, ey) * np.sign(np.linalg.det(m[:3, :3]))
+    normal = -normal if flip else normal
+    return {"center": m[:3, 3].tolist(), "size": [2 * float(lx), 2 * float(ly)], "normal": (normal / np.linalg.norm(normal)).tolist(),
+            "tangent": (ex / lx).tolist()}
+
+
+def _quad(vertices, faces):
+    """The rectangle a mesh of two triangles over four corners is, with its faces' normal (counter-clockwise
+    winding, as Mitsuba's), or None. The corners may be off a rectangle by float32 rounding: 16 ulps of the largest
+    coordinate, far below a pixel, and far above the rounding of a file's float32 values."""
+    used = np.unique(faces)
+    if len(faces) != 2 or len(used) != 4:
+        return None
+    v = vertices[used]
+    normal = np.cross(vertices[faces[0][1]] - vertices[faces[0][0]], vertices[faces[0][2]] - vertices[faces[0][0]])
+    if not np.linalg.norm(normal) > 0:
+        return None
+    normal = normal / np.linalg.norm(normal)
+    center = v.mean(axis=0)
+    tolerance = 16 * np.finfo(np.float32).eps * max(np.abs(vertices).max(), 1e-30)
+    # the corners' diagonals: a rectangle's bisect each other and are equally long
+    order = sorted(range(4), key=lambda i: np.linalg.norm(v[i] - v[0]))
+    a, b, c, d = v[order[0]], v[order[1]], v[order[2]], v[order[3]]  # a's farthest is d, the opposite corner
+    edge_u, edge_v = b - a, c - a
+    if (abs(np.dot(edge_u, edge_v)) > tolerance * (np.linalg.norm(edge_u) + np.linalg.norm(edge_v))
+            or np.abs(a + edge_u + edge_v - d).max() > tolerance or np.abs(np.dot(v - center, normal)).max() > tolerance):
+        return None
+    lu, lv = np.linalg.norm(edge_u), np.linalg.norm(edge_v)
+    return {"center": center.tolist(), "size": [float(lu), float(lv)], "normal": normal.tolist(), "tangent": (edge_u / lu).tolist()}
+
+
+def _is_object(value):
+    """A nested plugin or a reference (its name is free), not a value such as an rgb or a spectrum."""
+    return isinstance(value, dict) and value.get("type") not in ("rgb", "spectrum")
+
+
+def _shown(value):
+    if isinstance(value, dict):
+        return {k: v for k, v in value.items() if k != WHERE}
+    return value.tolist() if isinstance(value, np.ndarray) else value
+
+
+def translate(node, source, folder, ignore_unsupported=False):
+    """raytrace's scene table (a Translation) of Mitsuba dict-form scene `node`; files relative to `folder`;
+    errors name `source` where no XML element is known."""
+    return _Translator(source, folder, ignore_unsupported).scene(node)
+
+
+def located(error, translation):
+    """A scene table's InputError, named at the XML element or dict entry its key came from."""
+    key = str(error.key)
+    for k in (key, key.split("[")[0] if key.startswith("materials") else key):
+        if k in translation.origins:
+            at, param = translation.origins[k]
+            return InputError(at, param, error.value, error.problem)
+    base = key.split(".")[0]
+    if base in translation.origins:
+        at, param = translation.origins[base]
+        return InputError(at, param, error.value, error.problem)
+    return error
+
+
+def check_clip(scene, translation):
+    """Mitsuba's near and far clip planes cut what lies nearer or farther along the view; raytrace's camera
+    has none, so a scene renders only where no geometry lies outside them (then they change nothing)."""
+    near, far, at = translation.clip
+    if at is None:
+        return
+    forward, _, _ = scene.camera.basis()
+    depths = []
+    for r in scene.rectangles + scene.lights:
+        for sx in (-0.5, 0.5):
+            for sy in (-0.5, 0.5):
+                depths.append(np.dot(r.center + sx * r.size[0] * r.tangent + sy * r.size[1] * r.bitangent
+                                     - scene.camera.position, forward))
+    for t in scene.triangles:
+        depths.extend((t.vertices - scene.camera.position) @ forward)
+    for m in scene.meshes:
+        d = (m.mesh.vertices - scene.camera.position) @ forward
+        depths.extend((d.min(), d.max()))
+    for e in scene.ellipsoids:
+        reach = np.linalg.norm(e.axes @ forward)
+        mid = np.dot(e.center - scene.camera.position, forward)
+        depths.extend((mid - reach, mid + reach))
+    if depths and (min(depths) < near or max(depths) > far):
+        raise InputError(at, "near_clip, far_clip", [near, far], f"the scene reaches from {min(depths):.6g} to "
+                         f"{max(depths):.6g} along the view: raytrace has no clip planes, so it renders only where "
+                         "they cut nothing")
