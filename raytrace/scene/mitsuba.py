@@ -45,10 +45,10 @@ class Plugin:
     category: str
     doc: str
     params: tuple = ()
-    only_default: tuple = ()  # parameters raytrace takes at Mitsuba's default value only
+    only_default: tuple = ()  # (name, Mitsuba's default) of parameters raytrace takes at that value only
 
     def names(self):
-        return [p.name for p in self.params]
+        return [p.name for p in self.params] + [name for name, _ in self.only_default]
 
 
 _MATERIAL = "materials.NAME"
@@ -84,18 +84,18 @@ PLUGINS = {
         Param("flip_tex_coords", True, "", "no effect: raytrace's BSDFs take no texture from Mitsuba yet"),
         Param("bsdf", "diffuse", "shapes[] material"),
         Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
-        only_default=("flip_normals",)),
+        only_default=(("flip_normals", False),)),
     "ply": Plugin("shape", "a PLY mesh (ascii or binary)", (
         Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
         _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
                           "false: smooth (smooth = true)"),
         Param("bsdf", "diffuse", "shapes[] material"),
         Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
-        only_default=("flip_normals",)),
+        only_default=(("flip_normals", False),)),
     "sphere": Plugin("shape", "a sphere (raytrace's ellipsoid)", (
         Param("center", (0.0, 0.0, 0.0), 'shapes[] type = "ellipsoid" center'),
         Param("radius", 1.0, 'shapes[] type = "ellipsoid" axes'), _TRANSFORM,
-        Param("bsdf", "diffuse", "shapes[] material")), only_default=("flip_normals",)),
+        Param("bsdf", "diffuse", "shapes[] material")), only_default=(("flip_normals", False),)),
     "area": Plugin("emitter", "light emitted from a shape's front side", (
         Param("radiance", 1.0, "lights[] (direct, path) radiance", "an RGB colour or a spectrum"),)),
     "constant": Plugin("emitter", "light from every direction", (
@@ -106,44 +106,46 @@ PLUGINS = {
         Param("mis_compensation", False, "", "noise only"))),
     "perspective": Plugin("sensor", "a pinhole camera", (
         Param("to_world", "identity", "camera position", "rigid (no scale): the eye, its local +z the view, +y up"),
-        Param("fov", None, "camera fov", "degrees along fov_axis"),
+        Param("fov", "focal_length's", "camera fov", "degrees along fov_axis"),
         Param("fov_axis", "x", "camera fov", "x, y, diagonal, smaller or larger"),
         Param("focal_length", "50mm", "camera fov", "instead of fov: a 35 mm film's focal length"),
         Param("near_clip", 0.01, "", "only where nothing lies nearer along the view"),
         Param("far_clip", 10000.0, "", "only where nothing lies farther along the view"),
-        Param("film", "hdrfilm", ""), Param("sampler", "independent", "")),
-        only_default=("principal_point_offset_x", "principal_point_offset_y", "srf")),
+        Param("film", "hdrfilm", "image"), Param("sampler", "independent", "render")),
+        only_default=(("principal_point_offset_x", 0.0), ("principal_point_offset_y", 0.0))),
     "hdrfilm": Plugin("film", "the image", (
         Param("width", 768, "image width"), Param("height", 576, "image height"),
         Param("rfilter", "gaussian", "", "box only: raytrace averages each pixel's samples"),
         Param("file_format", "openexr", "", "the output's extension decides"),
         Param("pixel_format", "rgb", "", "rgb, or rgba (raytrace writes RGB)"),
         Param("component_format", "float16", "", "the output decides"),
-        Param("sample_border", False, "", "no effect with a box filter")),
-        only_default=("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")),
+        Param("sample_border", False, "", "no effect with a box filter"),
+        Param("crop_width", "width", "", "the whole film only"), Param("crop_height", "height", "",
+                                                                         "the whole film only")),
+        only_default=(("crop_offset_x", 0), ("crop_offset_y", 0))),
     "box": Plugin("rfilter", "each pixel the average of its own samples", ()),
     "path": Plugin("integrator", "path tracing", (
-        Param("max_depth", -1, "render max_depth"), Param("rr_depth", 5, "", "noise only: raytrace's own "
-                                                          "Russian roulette"),
-        Param("hide_emitters", False, "", "false only")), only_default=("hide_emitters",)),
+        Param("max_depth", -1, "render max_depth"),
+        Param("rr_depth", 5, "", "noise only: raytrace's own Russian roulette")),
+        only_default=(("hide_emitters", False),)),
     "direct": Plugin("integrator", "direct lighting", (
         Param("shading_samples", 1, "render light_samples", "emitter_samples' default"),
         Param("emitter_samples", 1, "render light_samples"),
-        Param("bsdf_samples", 1, "", "noise only: raytrace samples the lights"),
-        Param("hide_emitters", False, "", "false only")), only_default=("hide_emitters",)),
+        Param("bsdf_samples", 1, "", "noise only: raytrace samples the lights")),
+        only_default=(("hide_emitters", False),)),
     "moment": Plugin("integrator", "a wrapper: raytrace renders the integrator inside", (
         Param("integrator", None, "", "one integrator"),)),
     "independent": Plugin("sampler", "uniform random samples: raytrace's random", (
         Param("sample_count", 4, "render spp"), Param("seed", 0, "render seed"))),
     "stratified": Plugin("sampler", "a jittered grid: raytrace's jittered", (
-        Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed"),
-        Param("jitter", True, "", "true only")), only_default=("jitter",)),
+        Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed")),
+        only_default=(("jitter", True),)),
     "multijitter": Plugin("sampler", "correlated multi-jittered samples: raytrace's jittered", (
-        Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed"),
-        Param("jitter", True, "", "true only")), only_default=("jitter",)),
+        Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed")),
+        only_default=(("jitter", True),)),
     "orthogonal": Plugin("sampler", "orthogonal arrays: raytrace's jittered", (
         Param("sample_count", 4, "render spp", "rounded up to a square"), Param("seed", 0, "render seed"),
-        Param("jitter", True, "", "true only"), Param("strength", 2, "", "no effect")), only_default=("jitter",)),
+        Param("strength", 2, "", "no effect")), only_default=(("jitter", True),)),
     "ldsampler": Plugin("sampler", "a low-discrepancy sequence: raytrace's Owen-scrambled Sobol", (
         Param("sample_count", 4, "render spp", "rounded up to a power of two"), Param("seed", 0, "render seed"))),
 }
@@ -178,7 +180,7 @@ class _Translator:
     # -- where things came from, and errors naming it
     def where(self, node, path):
         w = node.get(WHERE) if isinstance(node, dict) else None
-        return w if isinstance(w, Where) else Where(f"{self.source}: {path}" if path else self.source)
+        return w if isinstance(w, Where) else Where(self.source)  # a caller's dict: the key names the entry
 
     def fail(self, at, key, value, problem):
         raise InputError(at, key, value, problem)
@@ -208,15 +210,16 @@ class _Translator:
         plugin = PLUGINS[name]
         where = self.where(node, path)
         given = {k: v for k, v in node.items() if k not in ("type", "id", WHERE)}
+        only_default = dict(plugin.only_default)
         for key in given:
-            if key in plugin.only_default:
+            if key in only_default and given[key] != only_default[key]:
                 self.unsupported(where.of(key), f"{plugin.category} {name}: {key}", f"{key} other than Mitsuba's "
-                                 "default is not supported")
+                                 f"default ({only_default[key]}) is not supported")
             elif key not in plugin.names() and not _is_object(given[key]):
                 self.fail(where.of(key), f"{name}.{key}", _shown(given[key]), f"is no parameter of Mitsuba's {name} "
                           f"{plugin.category}{did_you_mean(key, plugin.names())} (it takes: "
                           f"{', '.join(plugin.names()) or 'none'})")
-        return {k: v for k, v in given.items() if k not in plugin.only_default}
+        return {k: v for k, v in given.items() if k not in only_default}
 
     def number(self, value, node, path, param, integer=False):
         ok = (isinstance(value, int) if integer else isinstance(value, (int, float))) and not isinstance(value, bool)
@@ -461,6 +464,10 @@ class _Translator:
                                ("file_format", ("openexr", "exr", "rgbe", "pfm"))):
             if param in params:
                 self.string(params[param], node, key, param, choices)
+        for crop, side in (("crop_width", "width"), ("crop_height", "height")):
+            if crop in params and params[crop] != image[side]:
+                self.unsupported(self.where(node, key).of(crop), f"film hdrfilm: {crop}", "a crop of the film is "
+                                 "not supported (the whole film only)")
         if "sample_border" in params and not isinstance(params["sample_border"], bool):
             self.fail(self.where(node, key).of("sample_border"), f"{key}.sample_border", _shown(params["sample_border"]),
                       "must be a boolean")
@@ -650,6 +657,13 @@ class _Translator:
         else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius
             center = np.asarray(params.get("center", (0.0, 0.0, 0.0)), np.float64)
             radius = self.number(params.get("radius", 1.0), node, key, "radius")
+            linear = m[:3, :3]
+            scale = abs(np.linalg.det(linear)) ** (1 / 3)
+            if not np.allclose(linear.T @ linear, scale ** 2 * np.eye(3), rtol=0, atol=1e-6 * scale ** 2):
+                self.unsupported(self.where(node, key).of("to_world"), "sphere with a non-uniform scale",
+                                 "a sphere's to_world must be a rotation, a uniform scale and a translation (as "
+                                 "Mitsuba's sphere takes it)")
+                return
             axes = (m[:3, :3] * radius).T
             shape = {"type": "ellipsoid", "center": (m[:3, :3] @ center + m[:3, 3]).tolist(), "axes": axes.tolist()}
             self.origin(f"{prefix}.center", node, key, "center")
@@ -677,7 +691,7 @@ class _Translator:
         elif name in ("obj", "ply"):
             filename = self.path(self.string(params.get("filename"), node, key, "filename"))
             at = self.where(node, key).of("filename")
-            mesh, _ = mesh_file.load_mesh(filename, at, "filename")
+            mesh, _ = mesh_file.load_mesh(Path(self.folder, filename), at, "filename")
             vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
             frame = _quad(vertices, mesh.faces)
         else:

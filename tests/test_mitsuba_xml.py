@@ -1,0 +1,358 @@
+"""Mitsuba 3's XML and dict form (raytrace/scene/mitsuba_xml.py, raytrace/scene/mitsuba.py): every element and
+its errors, each error naming file:line; the translation of each plugin's parameters against an independent
+float64 computation (scipy's rotations, the pinhole camera's geometry); `convert` and the command line.
+
+Tolerances: transforms and camera angles are computed in float64 on both sides by different formulas, so
+they agree to a few ulps of their magnitude (1e-12 allows for the trigonometric functions); values written in
+the XML must come through exactly. Whether the renders match Mitsuba's is tests/test_mitsuba_corpus.py's
+question."""
+import math
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import raytrace
+from raytrace.errors import InputError, UnsupportedWarning
+from raytrace.scene import mitsuba_xml
+
+BOX = """<scene version="3.0.0">
+    <default name="spp" value="4"/>
+    <integrator type="path"><integer name="max_depth" value="$depth"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <string name="fov_axis" value="y"/>
+        <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="12"/><integer name="height" value="8"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+    <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>
+    <shape type="rectangle" id="light">
+        <transform name="to_world"><scale x="0.25" y="0.25"/><rotate x="1" angle="90"/><translate y="0.99"/></transform>
+        <ref id="white"/>
+        <emitter type="area"><rgb name="radiance" value="10, 9, 8"/></emitter>
+    </shape>
+    <shape type="rectangle"><transform name="to_world"><translate z="-1"/></transform><ref id="white"/></shape>
+    EXTRA
+</scene>
+"""
+
+
+def scene_text(extra="", **defaults):
+    text = BOX.replace("EXTRA", extra)
+    for name, value in defaults.items():
+        text = text.replace('<default name="spp"', f'<default name="{name}" value="{value}"/>\n    <default name="spp"')
+    return text
+
+
+def write(tmp_path, text, name="scene.xml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def load(tmp_path, extra="", defines=None, **kw):
+    return raytrace.load_file(write(tmp_path, scene_text(extra)), {"depth": 3, **(defines or {})}, **kw)
+
+
+def error_of(tmp_path, text, defines=None, name="scene.xml"):
+    with pytest.raises(InputError) as info:
+        raytrace.load_file(write(tmp_path, text, name), {"depth": 3, **(defines or {})})
+    return info.value
+
+
+def line_of(text, fragment):
+    return text[:text.index(fragment)].count("\n") + 1
+
+
+# --- the XML elements ----------------------------------------------------------------------------------------
+
+def test_properties_come_through_exactly(tmp_path):
+    node = mitsuba_xml.read(write(tmp_path, """<scene version="3.0.0"><bsdf type="x" id="b">
+        <float name="f" value="-1.5e-3"/><integer name="i" value=" -7 "/><boolean name="b" value="TRUE"/>
+        <string name="s" value="a b"/><point name="p" value="1 2 3"/><vector name="v" x="4" y="5" z="6"/>
+        <rgb name="c" value="0.1, 0.2, 0.3"/><rgb name="g" value="0.5"/><spectrum name="u" value="0.25"/>
+        <spectrum name="l" value="400:0.1, 500:0.2 600:0.3"/></bsdf></scene>"""))
+    b = node["b"]
+    assert (b["f"], b["i"], b["b"], b["s"], b["p"], b["v"]) == (-1.5e-3, -7, True, "a b", [1, 2, 3], [4, 5, 6])
+    assert b["c"] == {"type": "rgb", "value": [0.1, 0.2, 0.3]} and b["g"]["value"] == [0.5] * 3
+    assert b["u"] == {"type": "spectrum", "value": 0.25}
+    assert b["l"]["value"] == [(400, 0.1), (500, 0.2), (600, 0.3)]
+    assert b[mitsuba_xml.WHERE].of("v").endswith("scene.xml:3")
+
+
+def test_transforms_compose_in_mitsubas_order(tmp_path):
+    """Each element acts after those before it: scale, then rotate, then translate, then the matrix."""
+    node = mitsuba_xml.read(write(tmp_path, """<scene version="3.0.0"><shape type="rectangle" id="r">
+        <transform name="to_world"><scale value="2"/><scale x="1" y="3"/><rotate x="1" y="2" z="2" angle="30"/>
+        <translate x="1" y="-2" z="0.5"/><matrix value="0 -1 0 0 1 0 0 0 0 0 1 0 0 0 0 1"/>
+        <matrix value="1 0 0 0 1 0 0 0 2"/></transform></shape></scene>"""))
+    scale = np.diag([2.0, 6.0, 2.0, 1.0])
+    rotate = np.eye(4)
+    rotate[:3, :3] = Rotation.from_rotvec(np.radians(30) * np.array([1, 2, 2]) / 3).as_matrix()
+    translate = np.eye(4)
+    translate[:3, 3] = [1, -2, 0.5]
+    turn = np.array([[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+    stretch = np.diag([1, 1, 2, 1.0])
+    expected = stretch @ turn @ translate @ rotate @ scale
+    assert np.allclose(node["r"]["to_world"], expected, rtol=0, atol=1e-12)
+
+
+def test_lookat_is_mitsubas_frame(tmp_path):
+    """Columns left, up, direction, origin: x = up x direction, and up is made orthogonal to the view."""
+    node = mitsuba_xml.read(write(tmp_path, """<scene version="3.0.0"><sensor type="perspective" id="s">
+        <transform name="to_world"><lookat origin="1, 2, 3" target="1, 2, 0" up="0, 1, 0.5"/></transform>
+        </sensor></scene>"""))
+    m = node["s"]["to_world"]
+    assert np.allclose(m[:3, 3], [1, 2, 3]) and np.allclose(m[:3, 2], [0, 0, -1], atol=1e-12)
+    assert np.allclose(m[:3, 1], [0, 1, 0], atol=1e-12) and np.allclose(m[:3, 0], [-1, 0, 0], atol=1e-12)
+
+
+def test_parameters_defaults_and_escapes(tmp_path):
+    """-D beats <default>; a longer name is replaced before its prefix; \\$ is a dollar sign."""
+    text = """<scene version="3.0.0"><default name="a" value="1"/><default name="ab" value="2"/>
+        <bsdf type="x" id="b"><string name="s" value="$a-$ab-\\$a"/><string name="t" value="$c"/></bsdf></scene>"""
+    node = mitsuba_xml.read(write(tmp_path, text), {"c": "3", "a": "9"})
+    assert node["b"]["s"] == "9-2-$a" and node["b"]["t"] == "3"
+    with pytest.raises(InputError, match=r"scene.xml:2: <string> value = '\$c': undefined parameter \$c"):
+        mitsuba_xml.read(write(tmp_path, text))
+
+
+def test_include_path_ref_and_alias(tmp_path):
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "bsdfs.xml").write_text("""<scene version="3.0.0">
+        <bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.5"/></bsdf></scene>""")
+    (tmp_path / "parts" / "film.xml").write_text("""<film type="hdrfilm"><integer name="width" value="5"/></film>""")
+    node = mitsuba_xml.read(write(tmp_path, """<scene version="3.0.0"><include filename="parts/bsdfs.xml"/>
+        <alias id="grey" as="gray"/><sensor type="perspective" id="s"><include filename="parts/film.xml"/></sensor>
+        <shape type="rectangle" id="r"><ref id="gray"/></shape></scene>"""))
+    assert node["grey"]["reflectance"]["value"] == [0.5] * 3
+    assert node["s"]["_arg_0"]["width"] == 5 and node["r"]["_arg_0"] == {
+        "type": "ref", "id": "gray", mitsuba_xml.WHERE: node["r"]["_arg_0"][mitsuba_xml.WHERE]}
+    assert node["grey"][mitsuba_xml.WHERE].at.endswith("bsdfs.xml:2")
+
+
+def test_version_0_6_names_are_upgraded(tmp_path):
+    node = mitsuba_xml.read(write(tmp_path, """<scene version="0.6.0"><integrator type="path" id="i">
+        <integer name="maxDepth" value="4"/></integrator><bsdf type="dielectric" id="d"><float name="intIOR"
+        value="1.3"/></bsdf><bsdf type="diffuse" id="f"><rgb name="diffuseReflectance" value="0.2"/></bsdf>
+        </scene>"""))
+    assert node["i"]["max_depth"] == 4 and node["d"]["int_ior"] == 1.3 and "reflectance" in node["f"]
+
+
+@pytest.mark.parametrize("text, where, message", [
+    ('<scene version="3.0.0"><float name="x" value="1"></scene>', ":1:", "mismatched tag: not well-formed XML"),
+    ('<!DOCTYPE s [<!ENTITY a "b">]><scene version="3.0.0"/>', ":1", "a DOCTYPE or entity declaration"),
+    ('<scene version="3.0.0">\n<bsdf type="x"><blob name="y"/></bsdf></scene>', ":2", "<blob>: an element"),
+    ('<scene version="3.0.0">\n<float name="x" value="1" unit="m"/></scene>', ":2", "<float> unit = 'm': is no "),
+    ('<scene version="3.0.0">\n<bsdf type="x"><float name="x" value="one"/></bsdf></scene>', ":2", "could not parse"),
+    ('<scene version="3.0.0">\n<bsdf type="x"><float name="x" value="nan"/></bsdf></scene>', ":2", "must be finite"),
+    ('<scene version="3.0.0">\n<bsdf type="x"><boolean name="x" value="yes"/></bsdf></scene>', ":2", '"true" or'),
+    ('<scene version="3.0.0">\n<bsdf type="x"><rgb name="x" value="1 2"/></bsdf></scene>', ":2", "1 or 3 numbers"),
+    ('<scene version="3.0.0">\n<bsdf type="x"><integer name="x" value="1.5"/></bsdf></scene>', ":2", "an integer"),
+    ('<scene version="3.0.0">\n<bsdf type="x"><float value="1"/></bsdf></scene>', ":2", "<float> name: missing"),
+    ('<scene version="3.0.0">\n<ref id="nothing"/></scene>', ":2", "no object with this id"),
+    ('<scene version="3.0.0">\n<bsdf type="x" id="a"/><bsdf type="x" id="a"/></scene>', ":2", "duplicate id"),
+    ('<scene version="3.0.0">\n<include filename="none.xml"/></scene>', ":2", "No such file"),
+    ('<scene version="3.0.0">\n<include filename="scene.xml"/></scene>', "", "nested more than 32"),
+    ('<scene>\n</scene>', ":1", "<scene> version: missing"),
+    ('<scene version="3.0.0"><shape type="r"><transform name="to_world">\n<rotate angle="3"/></transform></shape>'
+     '</scene>', ":2", "cannot be zero"),
+    ('<scene version="3.0.0"><shape type="r"><transform name="to_world">\n<matrix value="1 2 3"/></transform>'
+     '</shape></scene>', ":2", "9 or 16 numbers"),
+    ('<scene version="3.0.0"><shape type="r"><transform name="to_world">\n<lookat origin="0 0 0" target="0 0 0"/>'
+     '</transform></shape></scene>', ":2", "invalid"),
+])
+def test_bad_xml_is_one_line_with_its_line(tmp_path, text, where, message):
+    path = write(tmp_path, text)
+    with pytest.raises(InputError) as info:
+        mitsuba_xml.read(path)
+    line = str(info.value)
+    assert "\n" not in line and f"scene.xml{where}" in line and message in line, line
+
+
+# --- the plugins ---------------------------------------------------------------------------------------------
+
+def test_a_box_translates_into_raytraces_table(tmp_path):
+    scene = load(tmp_path, defines={"spp": 9})
+    t = scene.source
+    assert t["render"] == {"shading": "path", "max_depth": 3, "spp": 9, "sampler": "random", "seed": 0}
+    assert t["image"] == {"width": 12, "height": 8} and scene.camera.fov_deg == 40
+    light = scene.lights[0]
+    assert np.allclose(light.normal, [0, -1, 0], atol=1e-15) and np.allclose(light.size, [0.5, 0.5])
+    assert np.allclose(light.center, [0, 0.99, 0]) and list(light.colour) == [10, 9, 8]
+    assert t["materials"]["white"] == {"type": "diffuse", "colour": [0.7] * 3}
+    assert t["lights"][0]["material"] == "white"
+
+
+@pytest.mark.parametrize("axis", ["x", "y", "diagonal", "smaller", "larger"])
+@pytest.mark.parametrize("size", [(12, 8), (8, 12)])
+def test_fov_axis_is_the_image_planes_extent(tmp_path, axis, size):
+    """The vertical fov raytrace renders spans, at unit distance, the image plane whose extent along `axis` the
+    given fov spans (the pinhole's geometry, not Mitsuba's formula)."""
+    text = scene_text().replace('"fov_axis" value="y"', f'"fov_axis" value="{axis}"').replace(
+        'name="width" value="12"', f'name="width" value="{size[0]}"').replace(
+        'name="height" value="8"', f'name="height" value="{size[1]}"')
+    scene = raytrace.load_file(write(tmp_path, text), {"depth": 2})
+    half_h = math.tan(math.radians(scene.camera.fov_deg) / 2)
+    half_w = half_h * size[0] / size[1]
+    resolved = {"smaller": "y" if size[0] > size[1] else "x", "larger": "x" if size[0] > size[1] else "y"}
+    extent = {"x": half_w, "y": half_h, "diagonal": math.hypot(half_w, half_h)}[resolved.get(axis, axis)]
+    assert extent == pytest.approx(math.tan(math.radians(40) / 2), rel=1e-12)
+
+
+def test_focal_length_is_a_35mm_films_diagonal(tmp_path):
+    text = scene_text().replace('<float name="fov" value="40"/>', '<string name="focal_length" value="35mm"/>')
+    scene = raytrace.load_file(write(tmp_path, text), {"depth": 2})
+    half_h = math.tan(math.radians(scene.camera.fov_deg) / 2)
+    assert math.hypot(half_h * 12 / 8, half_h) == pytest.approx(math.hypot(36, 24) / 2 / 35, rel=1e-12)
+
+
+def test_bsdfs_and_their_named_values(tmp_path):
+    scene = load(tmp_path, """
+        <shape type="rectangle"><bsdf type="dielectric"><string name="int_ior" value="water"/></bsdf></shape>
+        <shape type="rectangle"><bsdf type="twosided"><bsdf type="roughconductor"><string name="material" value="Au"/>
+            <string name="distribution" value="ggx"/><float name="alpha" value="0.3"/></bsdf></bsdf></shape>
+        <shape type="rectangle"><bsdf type="twosided"><bsdf type="conductor"/></bsdf></shape>""")
+    from raytrace.scene import named_materials
+    kinds = {m.bsdf: m for m in scene.materials}
+    assert kinds["dielectric"].int_ior == named_materials.IORS["water"]
+    assert kinds["dielectric"].ext_ior == named_materials.IORS["air"]
+    assert np.allclose(kinds["roughconductor"].eta, named_materials.CONDUCTORS["Au"][0])
+    assert kinds["roughconductor"].alpha == 0.3 and tuple(kinds["conductor"].eta) == (0, 0, 0)
+
+
+@pytest.mark.parametrize("faces, normal", [("f 1 4 3\nf 1 3 2", [0, 1, 0]), ("f 1 2 3\nf 1 3 4", [0, -1, 0])])
+def test_a_quad_mesh_light_becomes_a_rectangle(tmp_path, faces, normal):
+    """Its front is the faces' counter-clockwise side: (v4 - v1) x (v3 - v1) = (0, 4, 0) for 1 4 3."""
+    (tmp_path / "quad.obj").write_text(f"v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n{faces}\n")
+    scene = load(tmp_path, """<shape type="obj"><string name="filename" value="quad.obj"/>
+        <transform name="to_world"><scale value="0.5"/><translate y="1"/></transform>
+        <emitter type="area"><rgb name="radiance" value="3"/></emitter></shape>""")
+    light = scene.lights[1]
+    assert np.allclose(light.center, [0, 1, 0]) and np.allclose(sorted(light.size), [1, 1])
+    assert np.allclose(light.normal, normal)
+
+
+def test_a_sheared_rectangle_is_two_triangles(tmp_path):
+    scene = load(tmp_path, """<shape type="rectangle"><transform name="to_world">
+        <matrix value="1 0.5 0 0  0 1 0 0  0 0 1 -0.5  0 0 0 1"/></transform></shape>""")
+    corners = np.array([t.vertices for t in scene.triangles]).reshape(-1, 3)
+    assert np.allclose(sorted(map(tuple, np.unique(corners, axis=0))),
+                       sorted([(-1.5, -1, -0.5), (0.5, -1, -0.5), (1.5, 1, -0.5), (-0.5, 1, -0.5)]))
+
+
+@pytest.mark.parametrize("extra, where, message", [
+    ('<shape type="cube"/>', "shape cube", "not supported (raytrace renders: rectangle, obj, ply, sphere)"),
+    ('<shape type="rectangle"><bsdf type="plastic"/></shape>', "bsdf plastic", "raytrace renders: diffuse"),
+    ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
+    ('<shape type="sphere"><emitter type="area"/></shape>', "area emitter on sphere", "lights are rectangles"),
+])
+def test_what_is_not_supported_is_one_line_or_a_warning(tmp_path, extra, where, message):
+    text = scene_text(f"\n{extra}")
+    error = error_of(tmp_path, text)
+    line = str(error)
+    assert line.startswith(f"{tmp_path / 'scene.xml'}:{text.count(chr(10)) - 1}: {where}: ") and message in line
+    assert "--ignore-unsupported" in str(error)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        raytrace.load_file(tmp_path / "scene.xml", {"depth": 3}, ignore_unsupported=True)
+    assert [str(w.message).split(": ")[1] for w in caught if w.category is UnsupportedWarning] == [where]
+
+
+def test_a_bad_value_is_named_at_its_xml_line(tmp_path):
+    text = scene_text('<shape type="rectangle"><bsdf type="diffuse">\n<rgb name="reflectance" value="-1"/>'
+                      '</bsdf></shape>')
+    error = error_of(tmp_path, text)
+    line = line_of(text, 'value="-1"')
+    assert error.source.endswith(f"scene.xml:{line}") and error.key == "reflectance"
+    assert error.value == [-1.0, -1.0, -1.0]
+
+
+def test_an_unknown_parameter_gets_the_closest_name(tmp_path):
+    text = scene_text('<shape type="rectangle"><bsdf type="diffuse">\n<rgb name="reflectence" value="1"/></bsdf>'
+                      '</shape>')
+    assert "did you mean 'reflectance'?" in str(error_of(tmp_path, text))
+
+
+def test_clip_planes_that_cut_geometry_are_refused(tmp_path):
+    text = scene_text().replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/><float '
+                                'name="far_clip" value="4.5"/>')
+    assert "no clip planes" in str(error_of(tmp_path, text))
+    load(tmp_path)  # the default planes cut nothing here
+
+
+def test_the_dict_form_loads_as_the_xml(tmp_path):
+    xml = load(tmp_path)
+    m = np.eye(4)
+    m[:3, :3] = np.diag([0.25, 0.25, 1]) @ np.eye(3)
+    light_to_world = mitsuba_xml.rotation([1, 0, 0], 90) @ np.diag([0.25, 0.25, 1, 1])
+    light_to_world[1, 3] = 0.99
+    back = np.eye(4)
+    back[2, 3] = -1
+
+    class Transform:  # as Mitsuba's ScalarTransform4f: a .matrix
+        matrix = back
+
+    white = {"type": "twosided", "id": "white", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb",
+                                                                                          "value": [0.7] * 3}}}
+    scene = raytrace.load_dict({
+        "type": "scene", "integrator": {"type": "path", "max_depth": 3},
+        "sensor": {"type": "perspective", "fov": 40.0, "fov_axis": "y",
+                   "to_world": mitsuba_xml.look_at(np.array([0, 0, 4.0]), np.zeros(3), np.array([0, 1.0, 0])),
+                   "sampler": {"type": "independent", "sample_count": 4},
+                   "film": {"type": "hdrfilm", "width": 12, "height": 8, "rfilter": {"type": "box"}}},
+        "white": white,
+        "light": {"type": "rectangle", "to_world": light_to_world, "bsdf": {"type": "ref", "id": "white"},
+                  "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [10, 9, 8]}}},
+        "back": {"type": "rectangle", "to_world": Transform(), "bsdf": {"type": "ref", "id": "white"}}})
+    a, _ = raytrace.render(xml, spp=4, progress=False)
+    b, _ = raytrace.render(scene, spp=4, progress=False)
+    assert np.array_equal(a, b)
+    with pytest.raises(InputError, match=r"^load_dict\(\): sensor.fov = 'wide': must be a finite number$"):
+        raytrace.load_dict({"type": "scene", "sensor": {"type": "perspective", "fov": "wide"}})
+
+
+# --- the command line ----------------------------------------------------------------------------------------
+
+def run(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "raytrace", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd)
+
+
+def test_convert_to_toml_renders_the_same_bits(tmp_path):
+    (tmp_path / "out").mkdir()
+    (tmp_path / "quad.obj").write_text("v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n")
+    write(tmp_path, scene_text('<shape type="obj"><string name="filename" value="quad.obj"/><ref id="white"/>'
+                               '</shape>'))
+    r = run("convert", "scene.xml", "-D", "depth=4", "-o", "out/scene.toml", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert 'file = "../quad.obj"' in (tmp_path / "out" / "scene.toml").read_text()
+    for args in (("scene.xml", "-D", "depth=4"), ("out/scene.toml",)):
+        r = run("render", *args, "--spp", 4, "-o", f"{args[0]}.exr", "--no-progress", cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+    import OpenImageIO as oiio
+    a, b = (oiio.ImageBuf(str(tmp_path / f"{name}.exr")).get_pixels() for name in ("scene.xml", "out/scene.toml"))
+    assert a.shape == (8, 12, 6) and np.array_equal(a, b)
+
+
+def test_bad_input_on_the_command_line_is_exit_2_and_no_file(tmp_path):
+    write(tmp_path, scene_text('<shape type="cube"/>'))
+    cases = [(("-D", "depth"), "command line: -D = 'depth': must be NAME=VALUE"),
+             ((), "scene.xml:3: <integer> value = '$depth': undefined parameter $depth"),
+             (("-D", "depth=2"), "shape cube: not supported")]
+    for extra, message in cases:
+        r = run("render", "scene.xml", *extra, "-o", "out.exr", cwd=tmp_path)
+        assert r.returncode == 2 and message in r.stderr and r.stderr.count("\n") == 1, r.stderr
+        assert not (tmp_path / "out.exr").exists()
+    r = run("render", "scene.xml", "-D", "depth=2", "--ignore-unsupported", "--spp", 1, "-o", "out.exr",
+            "--no-progress", cwd=tmp_path)
+    assert r.returncode == 0 and "raytrace: warning:" in r.stderr and "shape cube" in r.stderr
+    assert (tmp_path / "out.exr").exists()
+
