@@ -16,6 +16,8 @@ Generated parts, by marker name:
 
 - `scene-keys`: every key of a scene file, one table per table of the file, from raytrace/scene/keys.py (the
   declarations the reader checks each value against): its type, default, accepted values and meaning.
+- `mitsuba-plugins`: every Mitsuba 3 plugin raytrace reads, from raytrace/scene/mitsuba.py's declarations: each
+  parameter, Mitsuba's default and the raytrace key it becomes, with that key's accepted values from keys.py.
 """
 import argparse
 import math
@@ -103,7 +105,50 @@ def scene_keys():
     return lines
 
 
-GENERATORS = {"scene-keys": (scene_keys, "raytrace/scene/keys.py")}
+def _raytrace_key(target):
+    """A Mitsuba parameter's raytrace key ("table key" in keys.py's terms) as the table shows it, with what that
+    key accepts; ("", "") where the parameter changes nothing raytrace computes."""
+    from raytrace.scene.keys import TABLES, table
+    if not target:
+        return "(no effect)", ""
+    if target in TABLES:
+        return f"`{target}`", ""
+    name, key = target.rsplit(" ", 1)
+    declared = table(name).get(key)
+    if declared is None:
+        return f"`{target}`", ""
+    values = accepted(declared)[1]
+    return f"`{name.split(' ')[0]}.{key}`", "" if values == "any" else values
+
+
+def mitsuba_plugins():
+    """Every Mitsuba 3 plugin raytrace reads, by category, from raytrace/scene/mitsuba.py's PLUGINS: each
+    parameter, Mitsuba's default, the raytrace key it becomes (and what that key accepts, from keys.py)."""
+    from raytrace.scene.mitsuba import CATEGORIES, PLUGINS
+    lines = []
+    for category in CATEGORIES:
+        for name, plugin in PLUGINS.items():
+            if plugin.category != category:
+                continue
+            lines += [f"**{category} `{name}`**: {plugin.doc}", ""]
+            rows = []
+            for p in plugin.params:
+                key, values = _raytrace_key(p.key)
+                default = "required" if p.default is None else (
+                    f"`{str(p.default).lower()}`" if isinstance(p.default, bool) else f"`{p.default}`")
+                rows.append([f"`{p.name}`", default, key, "; ".join(x for x in (p.note, values) if x)])
+            rows += [[f"`{name}`", f"`{str(default).lower()}`", "(Mitsuba's default only)", ""]
+                     for name, default in plugin.only_default]
+            if rows:
+                lines += markdown_table(["parameter", "Mitsuba's default", "raytrace key", "notes"], rows)
+            else:
+                lines.append("No parameters.")
+            lines.append("")
+    return lines
+
+
+GENERATORS = {"scene-keys": (scene_keys, "raytrace/scene/keys.py"),
+              "mitsuba-plugins": (mitsuba_plugins, "raytrace/scene/mitsuba.py")}
 
 
 def begin_marker(name):
