@@ -707,10 +707,23 @@ class _Translator:
         self.origin(f"lights[{index}].radiance", em, path, "radiance")
         if self.table["render"]["shading"] == "path":
             light["material"] = self.material(bsdf[1] if bsdf else None, bsdf[0] if bsdf else f"{key}.bsdf")
-        elif bsdf is not None:
+        elif bsdf is not None and not self.black(bsdf[1], bsdf[0]):
             self.unsupported(self.where(*reversed(bsdf)).at, "a light's bsdf with the direct integrator",
-                             "raytrace's direct model: lights reflect nothing")
+                             "raytrace's direct model: lights reflect nothing (a black diffuse only)")
         self.table["lights"].append(light)
+
+    def black(self, node, path):
+        """Whether BSDF `node` is a black diffuse one (twosided or not): what raytrace's direct model's lights are."""
+        node = self.resolve(node, path)
+        while isinstance(node, dict) and node.get("type") == "twosided":
+            inner = self.objects(self.params(node, path, "twosided"), path, node)
+            if len(inner) != 1:
+                return False
+            path, node = inner[0][0], inner[0][1]
+        if not isinstance(node, dict) or node.get("type") != "diffuse":
+            return False
+        reflectance = self.params(node, path, "diffuse").get("reflectance", DEFAULT_DIFFUSE)
+        return self.colour(reflectance, node, path, "reflectance") == [0.0, 0.0, 0.0]
 
     def environment(self, key, node):
         name = node["type"]
@@ -749,8 +762,9 @@ def _rectangle(m, flip):
         return None
     normal = np.cross(ex, ey) * np.sign(np.linalg.det(m[:3, :3]))
     normal = -normal if flip else normal
-    return {"center": m[:3, 3].tolist(), "size": [2 * float(lx), 2 * float(ly)], "normal": (normal / np.linalg.norm(normal)).tolist(),
-            "tangent": (ex / lx).tolist()}
+    normal = normal / np.linalg.norm(normal) + 0.0  # no -0.0: the kernel's frames test signs
+    return {"center": m[:3, 3].tolist(), "size": [2 * float(lx), 2 * float(ly)], "normal": normal.tolist(),
+            "tangent": (ex / lx + 0.0).tolist()}
 
 
 def _quad(vertices, faces):
@@ -810,28 +824,43 @@ def located(error, translation):
 
 
 def check_clip(scene, translation):
-    """Mitsuba's near and far clip planes cut what lies nearer or farther along the view; raytrace's camera
-    has none, so a scene renders only where no geometry lies outside them (then they change nothing)."""
+    """Mitsuba's clip planes: a camera ray starts on the near plane and ends on the far one, so what lies in view
+    nearer than near_clip, or farther than far_clip, along the view is cut. raytrace's camera has none, so a scene
+    renders only where they cut nothing. Near: the part of the view nearer than the near plane lies within a ball
+    of radius near * |(tan(fov_x / 2), tan(fov_y / 2), 1)| about the eye, and no primitive may reach into it (the
+    exact distance to rectangles and triangles; an ellipsoid's centre less its longest semi-axis). Far: no point
+    of a primitive lies farther along the view (its corners; an ellipsoid's extent along the view)."""
     near, far, at = translation.clip
     if at is None:
         return
+    import trimesh  # the distance to triangles (a dependency already: the mesh readers)
+    eye = scene.camera.position
     forward, _, _ = scene.camera.basis()
-    depths = []
-    for r in scene.rectangles + scene.lights:
-        for sx in (-0.5, 0.5):
-            for sy in (-0.5, 0.5):
-                depths.append(np.dot(r.center + sx * r.size[0] * r.tangent + sy * r.size[1] * r.bitangent
-                                     - scene.camera.position, forward))
-    for t in scene.triangles:
-        depths.extend((t.vertices - scene.camera.position) @ forward)
-    for m in scene.meshes:
-        d = (m.mesh.vertices - scene.camera.position) @ forward
-        depths.extend((d.min(), d.max()))
+    tan_y = math.tan(math.radians(scene.camera.fov_deg) / 2)
+    ball = near * math.sqrt(1 + tan_y ** 2 * (1 + (scene.width / scene.height) ** 2))
+    distances, depths = [np.array([math.inf])], [np.array([-math.inf])]
+    for r in scene.rectangles + scene.lights:  # the eye in the rectangle's frame, clamped to it
+        d = eye - r.center
+        u, v = np.dot(d, r.tangent), np.dot(d, r.bitangent)
+        du, dv = max(abs(u) - r.size[0] / 2, 0.0), max(abs(v) - r.size[1] / 2, 0.0)
+        distances.append(np.array([math.sqrt(np.dot(d, r.normal) ** 2 + du ** 2 + dv ** 2)]))
+        for su in (-0.5, 0.5):
+            depths.append(np.dot(r.center + su * r.size[0] * r.tangent - eye, forward)
+                          + np.array([-0.5, 0.5]) * abs(r.size[1] * np.dot(r.bitangent, forward)))
+    soups = [np.array([t.vertices for t in scene.triangles])] if scene.triangles else []
+    soups += [m.mesh.vertices[m.mesh.faces] for m in scene.meshes]
+    for corners in soups:
+        closest = trimesh.triangles.closest_point(corners, np.broadcast_to(eye, (len(corners), 3)))
+        distances.append(np.linalg.norm(closest - eye, axis=1))
+        depths.append(((corners - eye) @ forward).ravel())
     for e in scene.ellipsoids:
-        reach = np.linalg.norm(e.axes @ forward)
-        mid = np.dot(e.center - scene.camera.position, forward)
-        depths.extend((mid - reach, mid + reach))
-    if depths and (min(depths) < near or max(depths) > far):
-        raise InputError(at, "near_clip, far_clip", [near, far], f"the scene reaches from {min(depths):.6g} to "
-                         f"{max(depths):.6g} along the view: raytrace has no clip planes, so it renders only where "
-                         "they cut nothing")
+        distances.append(np.array([np.linalg.norm(e.center - eye) - np.linalg.norm(e.axes, 2)]))
+        mid, reach = np.dot(e.center - eye, forward), np.linalg.norm(e.axes @ forward)
+        depths.append(np.array([mid - reach, mid + reach]))
+    nearest, farthest = np.concatenate(distances).min(), np.concatenate(depths).max()
+    if nearest < ball:
+        raise InputError(at, "near_clip", near, f"geometry comes within {nearest:.6g} of the eye, where the near "
+                         "plane would cut it: raytrace has no clip planes (give a smaller near_clip)")
+    if farthest > far:
+        raise InputError(at, "far_clip", far, f"geometry reaches {farthest:.6g} along the view, beyond the far plane: "
+                         "raytrace has no clip planes (give a larger far_clip)")
