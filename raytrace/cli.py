@@ -184,6 +184,11 @@ def parser():
     k.add_argument("-o", "--output", help="write what the compiler made to this file (PoCL's binary, PTX text, an "
                    "object file, SPIR or SPIR-V)")
     k.add_argument("--lanes", type=int, choices=[1, 4, 8, 16], help="lane width (default: 1, or the CPU's for pocl)")
+    v = sub.add_parser("convert", help="convert a scene between raytrace's TOML and Mitsuba 3's XML")
+    v.add_argument("scene", help="scene file: Mitsuba 3 XML (.xml) or raytrace's TOML")
+    v.add_argument("-o", "--output", required=True, help="the converted scene: .toml from XML, .xml from TOML (meshes "
+                   "raytrace holds inline or generates are written beside it as PLY files)")
+    _add_scene_loading(v)
     s = sub.add_parser("stability", help="the numerical stability suite: float32 results against float64")
     s.add_argument("--json", help="write the table's rows to this JSON file")
     s.add_argument("--lanes", type=int, choices=[1, 8], help="pixels per work-item (default: the device's)")
@@ -232,6 +237,11 @@ def cmd_render(args):
           f"{stats.light_samples} light samples ({stats.light_sampler}) in {passes}, {stats.render_seconds:.3f} s, "
           f"{stats.mrays_per_s:.1f} Mrays/s on {stats.device} [{stats.extra['target']}]{error}; stopped by "
           f"{stats.stopped_by}", file=sys.stderr)
+
+
+def cmd_convert(args):
+    from .commands.convert import convert
+    convert(args.scene, args.output, *load_scene(args, translated=True))
 
 
 def cmd_bench(args):
@@ -369,7 +379,7 @@ def _dask_closed():
 
 def main(argv=None):
     commands = {"render": cmd_render, "bench": cmd_bench, "assets": cmd_assets, "converge": cmd_converge,
-                "compile": cmd_compile, "stability": cmd_stability}
+                "compile": cmd_compile, "stability": cmd_stability, "convert": cmd_convert}
     with handle_signals(), _dask_closed():
         try:
             raise_pending()

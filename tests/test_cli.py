@@ -248,7 +248,7 @@ def test_a_bare_command_and_an_unknown_option_are_one_line():
     the option meant (Mitsuba's and pbrt's names for the sample count included)."""
     r = run()
     assert (r.returncode, r.stderr) == (2, "raytrace: error: command line: command: is required (one of: render, "
-                                           "bench, assets, converge, compile, stability)\n")
+                                           "bench, assets, converge, compile, convert, stability)\n")
     r = run("render", CORNELL, "-o", "x.png", "--samples", 16)
     assert (r.returncode, r.stderr) == (2, "raytrace: error: command line: --samples: is no render option or "
                                            "argument; did you mean '--spp'?\n")

@@ -19,6 +19,8 @@ import raytrace
 from raytrace.errors import InputError, UnsupportedWarning
 from raytrace.scene import mitsuba_xml
 
+from helpers import ROOT
+
 BOX = """<scene version="3.0.0">
     <default name="spp" value="4"/>
     <integrator type="path"><integer name="max_depth" value="$depth"/></integrator>
@@ -282,10 +284,17 @@ def test_an_unknown_parameter_gets_the_closest_name(tmp_path):
 
 
 def test_clip_planes_that_cut_geometry_are_refused(tmp_path):
+    """raytrace has no clip planes: geometry in view nearer than the near plane, or farther than the far one, is
+    refused; geometry behind the eye (a wall at z = 9, the camera at z = 4 looking to -z) is not cut."""
     text = scene_text().replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/><float '
                                 'name="far_clip" value="4.5"/>')
-    assert "no clip planes" in str(error_of(tmp_path, text))
-    load(tmp_path)  # the default planes cut nothing here
+    assert "far_clip = 4.5: geometry reaches 5 along the view" in str(error_of(tmp_path, text))
+    near = scene_text('<shape type="rectangle"><transform name="to_world"><scale value="0.1"/><translate '
+                      'x="0.05" y="0.05" z="3.99"/></transform></shape>')
+    assert "near_clip = 0.01: geometry comes within 0.01 of the eye" in str(error_of(tmp_path, near))
+    text = near.replace('z="3.99"', 'z="3.98"')  # 0.02 away: beyond the near plane's ball (0.0108)
+    raytrace.load_file(write(tmp_path, text), {"depth": 3})
+    load(tmp_path, '<shape type="rectangle"><transform name="to_world"><translate z="9"/></transform></shape>')
 
 
 def test_the_dict_form_loads_as_the_xml(tmp_path):
@@ -356,3 +365,19 @@ def test_bad_input_on_the_command_line_is_exit_2_and_no_file(tmp_path):
     assert r.returncode == 0 and "raytrace: warning:" in r.stderr and "shape cube" in r.stderr
     assert (tmp_path / "out.exr").exists()
 
+
+
+def test_convert_to_xml_and_its_refusals(tmp_path):
+    """TOML -> XML through the command line: the XML loads to the TOML's model (raytrace/scene/mitsuba_writer.py
+    is tested on its own in tests/test_mitsuba_writer.py); a wrong extension or a Phong scene is exit 2."""
+    scenes = ROOT / "scenes"
+    r = run("convert", scenes / "cornell_box.toml", "-o", tmp_path / "box.xml", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    xml, toml = raytrace.load_file(tmp_path / "box.xml"), raytrace.load_file(scenes / "cornell_box.toml")
+    assert (xml.width, xml.height, xml.spp) == (toml.width, toml.height, toml.spp)
+    assert np.allclose(xml.camera.position, toml.camera.position) and len(xml.lights) == len(toml.lights)
+    for args, message in (((scenes / "cornell_box.toml", "-o", tmp_path / "box.toml"), "must end in .xml"),
+                          ((scenes / "cornell.toml", "-o", tmp_path / "c.xml"), "Phong model has no Mitsuba 3")):
+        r = run("convert", *args, cwd=tmp_path)
+        assert r.returncode == 2 and message in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert not (tmp_path / "c.xml").exists() and not (tmp_path / "box.toml").exists()
