@@ -323,6 +323,8 @@ class _Translator:
                                  "raytrace takes one constant or envmap emitter")
             else:
                 self.environment(key, value)
+        if not self.table["materials"]:  # raytrace's format names one at least; a scene of lights alone has none
+            self.material(None, "")
         order = ("render", "camera", "image", "environment", "materials", "lights", "shapes")
         self.out.table = {k: self.table[k] for k in order if k in self.table}
         return self.out
@@ -384,7 +386,6 @@ class _Translator:
             param = "emitter_samples" if "emitter_samples" in params else "shading_samples"
             render["light_samples"] = self.number(samples, node, key, param, integer=True)
             self.origin("render.light_samples", node, key, param)
-            render["light_sampler"] = "random"  # Mitsuba's emitter samples are independent of the pixel's
         self.out.origins["render.shading"] = (self.where(node, key).at, f"integrator {name}")
 
     def sensor(self, key, node):
