@@ -58,9 +58,11 @@ def performance_lines():
 
 def _what(record, figure):
     """A figure's name; a converge record's figures name no scene (several records share them), so the
-    scene of its command goes first."""
-    scene = re.match(r"python -m raytrace converge (\S+)\.toml", record["command"])
-    return f"{Path(scene[1]).name}: {figure['what']}" if scene else figure["what"]
+    scene of its command goes first: a TOML scene by its stem, a Mitsuba XML one with its suffix."""
+    scene = re.match(r"python -m raytrace converge (\S+)\.(toml|xml)\b", record["command"])
+    if not scene:
+        return figure["what"]
+    return f"{Path(scene[1]).name}{'' if scene[2] == 'toml' else '.xml'}: {figure['what']}"
 
 
 def _figure(value):
