@@ -1,13 +1,16 @@
 """Reading OBJ and PLY (raytrace.meshes): polygons triangulated, each face corner keeping the position,
 uv and normal the file gives it, degenerate faces dropped and counted, bad files refused with an
 InputError that names the file; and area-weighted vertex normals."""
+import math
 import struct
 
 import numpy as np
 import pytest
 
+import raytrace
 from raytrace.errors import InputError
 from raytrace.scene.mesh_file import load_mesh
+from raytrace.scene import meshes
 from raytrace.scene.meshes import vertex_normals
 
 # A small OBJ: a quad, a convex pentagon and a triangle (mixed sizes: trimesh's slow path), in two
@@ -281,3 +284,49 @@ def test_bad_files_say_what_is_wrong(tmp_path, capfd, name):
     assert info.value.source == str(path) and "\n" not in message
     assert all(w in message for w in words), message
     assert capfd.readouterr().err == ""
+
+
+def test_angle_weighted_normals_are_mitsubas():
+    """meshes.angle_weighted_normals against a plain loop (math.acos of each corner's angle, float64): a cube of
+    8 shared corners, its quads split along different diagonals, has the corner normals (+-1, +-1, +-1) / sqrt(3)
+    (each face meets a corner in 90 degrees, whichever way it is split), where area weights would not give them;
+    a vertex that a file splits keeps its own faces' normal (per index, not per position)."""
+    corners = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    faces = np.array([t for k, (a, b, c, d) in enumerate(quads)
+                      for t in (((a, b, c), (a, c, d)) if k % 2 else ((a, b, d), (b, c, d)))])
+    normals = meshes.angle_weighted_normals(corners, faces)
+    assert np.allclose(normals, corners / np.sqrt(3), rtol=0, atol=1e-15)
+
+    rng = np.random.default_rng(7)
+    vertices = rng.normal(size=(30, 3))
+    faces = np.array([rng.choice(30, 3, replace=False) for _ in range(60)])
+    expected = np.zeros_like(vertices)
+    for face in faces:
+        p = vertices[face]
+        n = np.cross(p[1] - p[0], p[2] - p[0])
+        n /= np.linalg.norm(n)
+        for k in range(3):
+            a, b = p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]
+            expected[face[k]] += n * math.acos(np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b))
+    used = np.linalg.norm(expected, axis=1) > 0
+    expected[used] /= np.linalg.norm(expected[used], axis=1, keepdims=True)
+    assert np.allclose(meshes.angle_weighted_normals(vertices, faces), expected, rtol=0, atol=1e-12)
+
+    split = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    n = meshes.angle_weighted_normals(split, np.array([[0, 1, 2], [3, 4, 5]]))
+    assert np.allclose(n[0], [0, 0, 1]) and np.allclose(n[3], [1, 0, 0])
+
+
+def test_vertex_normals_only_with_smooth(tmp_path):
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    table = {"camera": {"position": [0, -3, 1], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40},
+             "image": {"width": 4, "height": 4}, "materials": {"w": {"colour": [1, 1, 1]}},
+             "lights": [{"center": [0, 0, 2], "size": [1, 1], "normal": [0, 0, -1], "tangent": [1, 0, 0],
+                         "colour": [1, 1, 1]}],
+             "shapes": [{"type": "mesh", "file": str(tmp_path / "tri.obj"), "material": "w",
+                         "vertex_normals": "angle"}]}
+    with pytest.raises(InputError, match=r"shapes\[0\].vertex_normals = 'angle': only with smooth = true"):
+        raytrace.load_dict(table)
+    table["shapes"][0]["smooth"] = True
+    assert np.allclose(raytrace.load_dict(table).meshes[0].mesh.normals, [[0, 0, 1]] * 3)

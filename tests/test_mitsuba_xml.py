@@ -92,18 +92,26 @@ def test_properties_come_through_exactly(tmp_path):
 def test_transforms_compose_in_mitsubas_order(tmp_path):
     """Each element acts after those before it: scale, then rotate, then translate, then the matrix."""
     node = mitsuba_xml.read(write(tmp_path, """<scene version="3.0.0"><shape type="rectangle" id="r">
-        <transform name="to_world"><scale value="2"/><scale x="1" y="3"/><rotate x="1" y="2" z="2" angle="30"/>
+        <transform name="to_world"><scale value="2"/><scale x="1" y="3"/><rotate x="0.6" z="0.8" angle="30"/>
         <translate x="1" y="-2" z="0.5"/><matrix value="0 -1 0 0 1 0 0 0 0 0 1 0 0 0 0 1"/>
         <matrix value="1 0 0 0 1 0 0 0 2"/></transform></shape></scene>"""))
     scale = np.diag([2.0, 6.0, 2.0, 1.0])
     rotate = np.eye(4)
-    rotate[:3, :3] = Rotation.from_rotvec(np.radians(30) * np.array([1, 2, 2]) / 3).as_matrix()
+    rotate[:3, :3] = Rotation.from_rotvec(np.radians(30) * np.array([0.6, 0, 0.8])).as_matrix()
     translate = np.eye(4)
     translate[:3, 3] = [1, -2, 0.5]
     turn = np.array([[0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
     stretch = np.diag([1, 1, 2, 1.0])
     expected = stretch @ turn @ translate @ rotate @ scale
     assert np.allclose(node["r"]["to_world"], expected, rtol=0, atol=1e-12)
+
+
+def test_a_rotation_axis_is_taken_as_it_is(tmp_path):
+    """Mitsuba does not normalise a rotation's axis (3.9.1: rotate z = 2 by 90 degrees gives [[0, -2, 0], [2, 0,
+    0], [0, 0, 4]], read off mi.ScalarTransform4d().rotate), and neither does raytrace."""
+    node = mitsuba_xml.read(write(tmp_path, """<scene version="3.0.0"><shape type="rectangle" id="r">
+        <transform name="to_world"><rotate z="2" angle="90"/></transform></shape></scene>"""))
+    assert np.allclose(node["r"]["to_world"][:3, :3], [[0, -2, 0], [2, 0, 0], [0, 0, 4]], rtol=0, atol=1e-15)
 
 
 def test_lookat_is_mitsubas_frame(tmp_path):

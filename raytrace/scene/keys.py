@@ -164,7 +164,11 @@ TABLES = {
         Key("translate", "vector", "the third transform", length=3, default=(0.0, 0.0, 0.0)),
         Key("matrix", "vectors", "instead of the three: a 4 x 4 affine matrix, rows acting on columns", length=4,
             count=4, default=None, also="last row 0 0 0 1, invertible; not with scale, rotate, translate"),
-        Key("smooth", "boolean", "interpolate vertex normals (the file's, else area-weighted)", default=False)],
+        Key("smooth", "boolean", "interpolate vertex normals (the file's, else computed as vertex_normals says)",
+            default=False),
+        Key("vertex_normals", "string", "smooth = true, a file without normals: area (area-weighted over the faces "
+            "around each position: no seam where a file splits a vertex) or angle (angle-weighted over the faces "
+            "around each vertex of the file, as Mitsuba 3 computes them)", default="area", choices=("area", "angle"))],
     "generate": [Key("shape", "string", "the procedural mesh", choices=GENERATED_SHAPES),
                  Key("triangles", "integer", "about this many triangles", low=2, high=MAX_GENERATED_TRIANGLES,
                      also="within the memory there is")],

@@ -58,6 +58,25 @@ def vertex_normals(vertices, faces):
     return np.divide(total, length, out=np.zeros_like(total), where=length > 0)[position]
 
 
+def angle_weighted_normals(vertices, faces):
+    """Vertex normals as Mitsuba 3 computes them for a mesh file without normals (Mesh::recompute_vertex_normals,
+    after Thuermer and Wuethrich, "Computing Vertex Normals from Polygonal Facets", JGT 1998): each face's unit
+    normal weighted by its angle at the vertex, summed per vertex index (a vertex a file splits keeps its own
+    normal, unlike vertex_normals). Zero where the sum cancels."""
+    corners = vertices[faces]  # F x 3 x 3
+    face_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(face_normal, axis=1, keepdims=True)
+    face_normal = np.divide(face_normal, length, out=np.zeros_like(face_normal), where=length > 0)
+    total = np.zeros_like(vertices)
+    for k in range(3):
+        a = corners[:, (k + 1) % 3] - corners[:, k]
+        b = corners[:, (k + 2) % 3] - corners[:, k]
+        angle = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+        np.add.at(total, faces[:, k], face_normal * angle[:, None])
+    length = np.linalg.norm(total, axis=1, keepdims=True)
+    return np.divide(total, length, out=np.zeros_like(total), where=length > 0)
+
+
 def same_position(vertices):
     """For each vertex, an id shared by exactly the vertices at the same position (sort, compare
     neighbours: faster than np.unique(axis=0), measured in commit cd6cb18)."""

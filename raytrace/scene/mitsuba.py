@@ -323,6 +323,10 @@ class _Translator:
                                  "raytrace takes one constant or envmap emitter")
             else:
                 self.environment(key, value)
+        if not self.table["lights"]:
+            self.fail(self.source, "emitter", None, "raytrace needs one area emitter at least (on a rectangle, or on a "
+                      "mesh that is one planar rectangle): a scene lit by constant or envmap alone is not supported "
+                      "yet")
         if not self.table["materials"]:  # raytrace's format names one at least; a scene of lights alone has none
             self.material(None, "")
         order = ("render", "camera", "image", "environment", "materials", "lights", "shapes")
@@ -651,8 +655,9 @@ class _Translator:
                 self.origin(f"{prefix}.{k}", node, key, "to_world")
         elif name in ("obj", "ply"):
             filename = self.string(params.get("filename"), node, key, "filename")
-            shape = {"type": "mesh", "file": self.path(filename), "matrix": m.tolist(),
-                     "smooth": not params.get("face_normals", False)}
+            smooth = not params.get("face_normals", False)
+            shape = {"type": "mesh", "file": self.path(filename), "matrix": m.tolist(), "smooth": smooth,
+                     **({"vertex_normals": "angle"} if smooth else {})}
             self.origin(f"{prefix}.file", node, key, "filename")
             self.origin(f"{prefix}.matrix", node, key, "to_world")
         else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius
@@ -706,8 +711,9 @@ class _Translator:
         for k in frame:
             self.origin(f"lights[{index}].{k}", node, key, "to_world")
         self.origin(f"lights[{index}].radiance", em, path, "radiance")
-        if self.table["render"]["shading"] == "path":
-            light["material"] = self.material(bsdf[1] if bsdf else None, bsdf[0] if bsdf else f"{key}.bsdf")
+        # Mitsuba makes the default BSDF of a shape with an emitter black (shape.cpp), as raytrace's lights are
+        if self.table["render"]["shading"] == "path" and bsdf is not None and not self.black(bsdf[1], bsdf[0]):
+            light["material"] = self.material(bsdf[1], bsdf[0])
         elif bsdf is not None and not self.black(bsdf[1], bsdf[0]):
             self.unsupported(self.where(*reversed(bsdf)).at, "a light's bsdf with the direct integrator",
                              "raytrace's direct model: lights reflect nothing (a black diffuse only)")

@@ -302,10 +302,14 @@ def _mesh_shape(r, material):
     if np.linalg.det(m[:3, :3]) < 0:  # a mirror: keep the faces counter-clockwise seen from the front
         faces = faces[:, ::-1]
     smooth = r.boolean("smooth")
+    computed = r.string("vertex_normals")
+    if r.has("vertex_normals") and not smooth:
+        r.fail("vertex_normals", computed, "only with smooth = true")
     normals = None
     if smooth:  # normals transform by the inverse transpose
+        computed = {"area": meshes.vertex_normals, "angle": meshes.angle_weighted_normals}[computed]
         normals = (mesh.normals @ np.linalg.inv(m[:3, :3]) if mesh.normals is not None
-                   else meshes.vertex_normals(vertices, faces))
+                   else computed(vertices, faces))
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
     return MeshShape(meshes.Mesh(vertices, faces, normals, mesh.uvs), material, bool(smooth), dropped + collapsed,
