@@ -108,9 +108,9 @@ inline vec3 fresnel_conductor3(vfloat cos_i, vec3 eta, vec3 k)
 #endif
 
 /* The BSDF towards l seen along v relative to a Lambertian one of the same colour k, pi f / k (1 for the
- * diffuse lanes; a rough conductor's pi F D G2 / (4 cos(theta_o) cos(theta_l))), and *pdf, the density of the
- * BSDF's own sample of l: cos(theta_l) / pi, or GGX's G1 D / (4 cos(theta_o)). The GGX terms need only cosines
- * to the normal: they are isotropic. */
+ * diffuse lanes; a rough conductor's pi F D G2 / (4 cos(theta_o) cos(theta_l)), G2 = G1(v) G1(l) the separable
+ * form, Mitsuba's: microfacet.cl), and *pdf, the density of the BSDF's own sample of l: cos(theta_l) / pi, or
+ * GGX's G1 D / (4 cos(theta_o)). The GGX terms need only cosines to the normal: they are isotropic. */
 inline vec3 bsdf_value(ShadingPoint sp, vec3 v, vec3 l, vfloat *pdf)
 {
     vfloat cos_s = v3_dot(sp.n, l);
@@ -475,7 +475,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
     vfloat rough_pdf = 0.0f;
 #if HAS_ROUGH_CONDUCTORS
     rough = alive & (sp.bsdf == BSDF_ROUGHCONDUCTOR);
-    if (ANY(rough)) { /* a visible normal h (microfacet.cl), wo reflected about it: f cos / p = k F G2 / G1 */
+    if (ANY(rough)) { /* a visible normal h (microfacet.cl), wo reflected about it: f cos / p = k F G1(wi) */
         vec3 wo_ = v3_scale(r.d, -1.0f), t, b;
         orthonormal_frame(sp.n, &t, &b);
         vec3 lo = v3(v3_dot(wo_, t), v3_dot(wo_, b), v3_dot(wo_, sp.n));
@@ -483,8 +483,8 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
         vec3 h = v3_add(v3_add(v3_scale(t, hl.x), v3_scale(b, hl.y)), v3_scale(sp.n, hl.z));
         vec3 wr = reflected(wo_, h);
         vfloat zero = 0.0f, g1 = ggx_g1(v3(zero, zero, lo.z), sp.alpha);
-        vfloat g2 = ggx_g2(v3(zero, zero, lo.z), v3(zero, zero, v3_dot(sp.n, wr)), sp.alpha);
-        vec3 f = v3_scale(v3_mul(sp.k, fresnel_conductor3(v3_dot(wo_, h), sp.eta, sp.k_imag)), g2 / g1);
+        vfloat g = ggx_reflection_weight(v3(zero, zero, lo.z), v3(zero, zero, v3_dot(sp.n, wr)), sp.alpha);
+        vec3 f = v3_scale(v3_mul(sp.k, fresnel_conductor3(v3_dot(wo_, h), sp.eta, sp.k_imag)), g);
         rough_pdf = g1 * ggx_d(v3(zero, zero, hl.z), sp.alpha) / (4.0f * lo.z);
         wi = v3_select(wi, wr, rough);
         weight = v3_select(weight, f, rough);
