@@ -22,7 +22,7 @@ scene_file.py and rules.py to every value with its key:
      L, and the environment's sample, at most k L / 2 or k E_env / 2 (k the largest albedo): the power
      heuristic weighs a sample by 1 / (1 + x^2), x the ratio of the two densities, which makes its value the
      BSDF sample's weight f cos / p_bsdf times x / (1 + x^2) <= 1/2, and that weight is at most k for every
-     BSDF (rho, k F, k F G2 / G1; the smooth conductor and glass take no light samples).
+     BSDF (rho, k F, k F G1(wi); the smooth conductor and glass take no light samples).
    - Each vertex multiplies the throughput by that weight, and a refraction by 1 / eta^2 (radiance, pbrt-v4
      section 9.5), which along a path through closed shapes multiply to the squared ratio of two of the
      scene's indices, at most R^2 (R the largest ratio of two of the dielectrics' int_ior and ext_ior; 1
