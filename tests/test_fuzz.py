@@ -46,6 +46,14 @@ variants are built once; stderr is captured at the file-descriptor level, where 
 - the Python API: load_dict on generated dicts, damaged (wrong types, keys that are not strings, deep and
   self-referencing nesting, numpy values, objects no TOML holds, unknown keys), and parameter edits (set, get
   and del of names made from the scene's own, well- or ill-formed, with such values, then update()).
+- Mitsuba 3 scenes (devtools/fuzz/mitsuba.py): XML built from the grammar of the plugins raytrace renders (with
+  $parameters, includes, <path>, aliases, version 0.6 names), mutated (bad numbers, out-of-range values, hostile
+  transforms, wrong tags and attributes, ids missing or twice, refs to nothing, includes of missing files and of
+  themselves, nesting thousands deep, unsupported plugins with and without --ignore-unsupported, -D to hostile
+  values), its text damaged, its meshes hostile files: through load_file, `render` (in this process and in a
+  child) and `convert` to TOML, which must render the XML's bits; and its dict form, damaged, through load_dict.
+  Their errors name `file:line`; a bug found and open is set aside by mitsuba.OPEN_BUGS, its input an xfail
+  example here.
 
 Images are tiny (at most 16 x 16 unless the fuzzed value is the size itself), so an example takes
 milliseconds once its kernel variant is built.
@@ -53,7 +61,7 @@ milliseconds once its kernel variant is built.
 Running it:
 
     python -m pytest tests/test_fuzz.py
-        # the CI budget: a fixed (derandomised) set of about 1200 examples, about a minute on two cores
+        # the CI budget: a fixed (derandomised) set of about 1500 examples, a little over a minute on two cores
         # (two with an empty PoCL kernel cache: about 100 kernel variants get built); a failing example is
         # printed as generated (RAYTRACE_FUZZ_SHRINK=1: shrunk first, minutes more)
     RAYTRACE_FUZZ_EXAMPLES=3000 python -m pytest tests/test_fuzz.py
@@ -67,8 +75,8 @@ its dict, damages and edits).
 
 The parts are in devtools/fuzz/ (like the stability suite, a tool that verifies the renderer; the TOML writer is
 the package's own, raytrace/scene/toml_writer.py): scenes.py, files.py, commands.py, contract.py (the budget, the command line run in this process and the
-contract checked) and api.py (the API's damaged dicts, edits and contract); here, the tests and the inputs of
-the failures the suite has found, kept as @example.
+contract checked), api.py (the API's damaged dicts, edits and contract) and mitsuba.py (Mitsuba's XML and dict
+form); here, the tests and the inputs of the failures the suite has found, kept as @example.
 """
 import copy
 import dataclasses
@@ -78,6 +86,7 @@ import subprocess
 import sys
 import tempfile
 import tomllib
+import warnings
 from pathlib import Path
 
 from hypothesis import assume, event, example, given, note
@@ -87,12 +96,15 @@ import raytrace
 from raytrace import cli
 from raytrace.commands import child_env
 from raytrace.scene.model import fingerprint
-from devtools.fuzz.api import Damage, DamagedDict, Edit, SceneChangedByRefusal, UpdateDisagreesWithLoad, Value, \
-    check_refusal, checked_call, costly, damages, edits, render_tiny, strings_in
+from devtools.fuzz.api import Damage, DamagedDict, Edit, NotOneLineError, SceneChangedByRefusal, UnexpectedException, \
+    UpdateDisagreesWithLoad, Value, WarningFromTheAPI, check_refusal, checked_call, costly, damages, edits, \
+    render_tiny, strings_in
 from devtools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, aliasing_command_lines, \
     command_lines, environments, parsed_int
-from devtools.fuzz.contract import EXAMPLE_SECONDS, Outcome, budget, check, files_in, fuzz_scene, mesh_sources, \
-    outside, run_cli, snapshot, working_directory, write_example
+from devtools.fuzz import mitsuba
+from devtools.fuzz.contract import EXAMPLE_SECONDS, EscapedException, Outcome, ValidInputRefused, budget, check, \
+    files_in, fuzz_scene, mesh_sources, outside, read_image, run_child, run_cli, snapshot, working_directory, \
+    write_example
 from devtools.fuzz.files import TextFile
 from devtools.fuzz.scenes import SMALL_SCENE, DamagedText, SceneExample, broken_scene_texts, hostile_scenes, \
     path_scenes, path_scenes_with_files, scenes_with_every_input, scenes_with_hostile_files, texture_filters, \
@@ -367,3 +379,213 @@ def test_outputs_that_alias_inputs(scene, command):
         outcome = run_cli(cli.main, argv, directory)
         check(outcome, directory, None, None, ["command line"], example_text=example.text(), inputs=inputs,
               must_refuse=True)
+
+
+# --- Mitsuba 3 scenes: XML files, the command line, the dict form, convert -------------------------------------------
+
+def bsdf(*children, **attrs):
+    return mitsuba.el("bsdf", *children, **attrs)
+
+
+# The failures found (devtools/fuzz/mitsuba.py's OPEN_BUGS, while they are open): each minimal input.
+ALIAS = mitsuba.small_xml(bsdf(bsdf(type="diffuse"), type="twosided", id="white"),
+                          mitsuba.el("alias", id="white", **{"as": "white_alias"}),
+                          mitsuba.el("shape", mitsuba.el("ref", id="white_alias"), type="rectangle"), valid=True)
+DEEP = mitsuba.small_xml(mitsuba.nest(bsdf(type="diffuse"), "bsdf", "twosided", 1000))  # a RecursionError
+BOGUS_ENCODING = mitsuba.small_xml(damage=mitsuba.TextDamage("encoding", 0, b'encoding="bogus"'))  # a LookupError
+UTF32 = mitsuba.small_xml(damage=mitsuba.TextDamage("encoding", 0, b'encoding="utf-32"'))  # a ValueError
+NO_HEIGHT = mitsuba.small_xml(height="0")  # a ZeroDivisionError
+HUGE_AXIS = mitsuba.small_xml(mitsuba.el("shape", mitsuba.Element("transform", (("name", "to_world"),), (
+    mitsuba.el("rotate", x="1e200", y="1e200", z="1e200", angle="30"),)), type="rectangle"))  # numpy's overflow
+TWO_LINE_WARNING = dataclasses.replace(mitsuba.small_xml(mitsuba.el("shape", type="a\nb")), ignore_unsupported=True)
+HUGE_SCALE = mitsuba.DictExample(mitsuba.MitsubaScene(mitsuba.small_xml().root, (), (4, 3)), "array", (
+    mitsuba.DictDamage("to_world", 6, "huge scale"),))  # the floor's to_world: numpy's overflow warning
+COMPLEX_MATRIX = dataclasses.replace(HUGE_SCALE, damages=(  # the camera's to_world: numpy's ComplexWarning
+    mitsuba.DictDamage("to_world", 0, "complex"),))
+ARRAY_TYPE = dataclasses.replace(HUGE_SCALE, damages=(  # the sensor's type an empty numpy array: a ValueError
+    Damage("value", 0, value=Value("numpy", numpy="empty"), at=("sensor_1", "type")),))
+VOID_TYPE = dataclasses.replace(HUGE_SCALE, damages=(  # the sensor's type numpy's void: a TypeError
+    Damage("value", 0, value=Value("odd", odd="numpy void"), at=("sensor_1", "type")),))
+MASKED_RGB = mitsuba.DictExample(mitsuba.MitsubaScene(mitsuba.small_xml(mitsuba.el("shape", bsdf(mitsuba.prop(
+    "rgb", "reflectance", "0.5, 0.5, 0.5"), type="diffuse"), type="rectangle")).root, (), (4, 3)), "array", (
+    Damage("value", 0, value=Value("numpy", numpy="masked"), at=("shape_3", "bsdf_1", "reflectance", "value", 0)),))
+REPORTED = (ALIAS, DEEP, BOGUS_ENCODING, UTF32, NO_HEIGHT, HUGE_AXIS, TWO_LINE_WARNING, HUGE_SCALE, COMPLEX_MATRIX,
+            ARRAY_TYPE, VOID_TYPE, MASKED_RGB)
+
+
+def reported(example):
+    """Whether `example` is one of REPORTED (an explicit example: its failure is expected, and not set aside)."""
+    return any(example is r for r in REPORTED)
+
+
+def preloaded(example, directory):
+    """The scene of `example` (written in `directory`) as load_file reads it, or None where it does not (the run
+    itself tells how): what a render of it will cost."""
+    with working_directory(directory), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return raytrace.load_file(mitsuba.SCENE, dict(example.defines) or None, example.ignore_unsupported)
+        except Exception:  # noqa: BLE001 - the test that follows is the judge
+            return None
+
+
+def render_xml(main, example, child=None):
+    """`render scene.xml` with the example's -D and --ignore-unsupported, in this process through `main` or in a
+    child with the environment `child`; mitsuba.check_run's contract."""
+    example.note()
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as d, mitsuba.open_bugs(reported(example)):
+        directory = Path(d)
+        example.write(directory)
+        scene = preloaded(example, directory)
+        flags = []
+        if scene is not None:  # valid, and costly only for the values (a width, a sample count) mutated so
+            assume(scene.width * scene.height <= 1 << 16)
+            flags = ["--time-limit", "1"] if mitsuba.render_cost(scene) > 2e6 else []
+        ext = ".exr" if len(example.data()) % 2 else ".png"
+        argv = ["render", mitsuba.SCENE, *example.flags(), "-o", "out" + ext, "--no-progress", "--stats-json",
+                "stats.json", *flags]
+        note(f"argv: {argv}")
+        inputs = snapshot(directory)
+        outcome = run_cli(main, argv, directory) if child is None else run_child(argv, directory, child)
+        size = (scene.width, scene.height) if scene is not None else None
+        mitsuba.check_run(outcome, directory, "out" + ext, size, example.sources(), inputs, example.valid,
+                          example.text(), "stats.json")
+
+
+@budget(80)
+@given(example=mitsuba.xml_examples(), spelling=st.sampled_from(["relative", "absolute", "path"]))
+@example(example=ALIAS, spelling="relative").xfail(raises=ValidInputRefused, reason="<alias> then <ref> refused")
+@example(example=DEEP, spelling="relative").xfail(raises=UnexpectedException)
+@example(example=BOGUS_ENCODING, spelling="relative").xfail(raises=UnexpectedException)
+@example(example=UTF32, spelling="relative").xfail(raises=UnexpectedException)
+@example(example=NO_HEIGHT, spelling="relative").xfail(raises=UnexpectedException)
+@example(example=HUGE_AXIS, spelling="absolute").xfail(raises=WarningFromTheAPI)
+@example(example=TWO_LINE_WARNING, spelling="relative").xfail(raises=NotOneLineError)
+def test_mitsuba_xml_files(example, spelling):
+    """raytrace.load_file on Mitsuba XML scenes, valid (built from the grammar of the plugins raytrace renders, with
+    $parameters, includes, <path> and aliases), mutated (bad numbers, out-of-range values, hostile transforms,
+    wrong tags and attributes, ids missing or given twice, refs to nothing, includes of missing files and of
+    themselves, nesting thousands deep, unsupported plugins), their text damaged, their meshes and environment
+    maps hostile files: a Scene, which renders (8 x 8, 1 sample) with nothing zeroed, or an InputError, one line
+    naming the file (and line) at fault; UnsupportedWarning the only warning, one line each. A valid scene loads."""
+    example.note()
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as d, working_directory(d), \
+            mitsuba.open_bugs(reported(example)):
+        directory = Path(d)
+        example.write(directory)
+        inputs = snapshot(directory)
+        path = {"relative": mitsuba.SCENE, "absolute": str(directory / mitsuba.SCENE), "path": Path(mitsuba.SCENE)}
+        sources = ["load_file()", *example.sources(), *(str(directory / s) for s in example.sources())]
+        scene, error = mitsuba.checked_load("load_file()", lambda: raytrace.load_file(
+            path[spelling], dict(example.defines) or None, example.ignore_unsupported), sources)
+        event("refused" if error is not None else "loaded and rendered")
+        if error is not None:
+            note(f"refused: {error}")
+            if example.valid:
+                raise ValidInputRefused(f"a valid scene was refused: {error}")
+        else:
+            render_tiny("load_file()", scene)
+        assert snapshot(directory) == inputs, "load_file() or render() changed a file"
+
+
+@budget(100)
+@given(example=mitsuba.xml_examples())
+@example(example=ALIAS).xfail(raises=ValidInputRefused, reason="<alias> then <ref> refused")
+@example(example=DEEP).xfail(raises=EscapedException)
+@example(example=BOGUS_ENCODING).xfail(raises=EscapedException)
+@example(example=UTF32).xfail(raises=EscapedException)
+@example(example=NO_HEIGHT).xfail(raises=EscapedException)
+@example(example=TWO_LINE_WARNING).xfail(raises=mitsuba.SummaryLinesBroken, reason="a warning of two lines")
+def test_mitsuba_xml_on_the_command_line(example):
+    """`render scene.xml` with -D and --ignore-unsupported on the same scenes: an image of the film's size with
+    nothing zeroed, or exit status 2 and one line naming the scene file (or a file it includes, a mesh, the command
+    line), with its line where an element is at fault; a run that succeeds prints warnings that name their line."""
+    render_xml(cli.main, example)
+
+
+@budget(3)
+@given(example=st.one_of(mitsuba.valid_xml_scenes(), mitsuba.hostile_xml_scenes()))
+def test_mitsuba_xml_in_a_child(example):
+    """The same in a child `python -m raytrace render`, the command line as the user runs it."""
+    assume(all(s.isprintable() and "\x00" not in s for define in example.defines for s in define))
+    render_xml(None, example, child_env())
+
+
+@budget(80)
+@given(example=mitsuba.dict_examples())
+@example(example=HUGE_SCALE).xfail(raises=WarningFromTheAPI, reason="numpy's overflow warning")
+@example(example=COMPLEX_MATRIX).xfail(raises=WarningFromTheAPI, reason="numpy's ComplexWarning")
+@example(example=ARRAY_TYPE).xfail(raises=UnexpectedException, reason="a ValueError")
+@example(example=VOID_TYPE).xfail(raises=UnexpectedException, reason="a TypeError")
+@example(example=MASKED_RGB).xfail(raises=NotOneLineError, reason="the value's repr: two lines")
+def test_mitsuba_dict_form(example):
+    """raytrace.load_dict on Mitsuba's dict form of valid scenes (transforms as numpy arrays, lists or objects with
+    .matrix), damaged as the API's dicts are (numpy values, objects, itself, deep nesting) and in Mitsuba's ways (a
+    plugin that is no dict, a type that is none, an odd to_world, refs to nothing): a Scene that renders with
+    nothing zeroed, or InputError, one line naming load_dict() (or a mesh file). Undamaged, it loads as the XML of
+    the same tree does, to the same scene table."""
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as d, working_directory(d), \
+            mitsuba.open_bugs(reported(example)):
+        directory = Path(d)
+        for f in example.scene.files:
+            f.write(directory)
+        inputs = snapshot(directory)
+        table = example.build()
+        note(f"dict: {mitsuba.shown(table)}")
+        sources = ["load_dict()", *strings_in(table)]
+        scene, error = mitsuba.checked_load("load_dict()", lambda: raytrace.load_dict(
+            table, ignore_unsupported=example.ignore_unsupported), sources)
+        event("refused" if error is not None else "loaded and rendered")
+        if error is not None:
+            note(f"refused: {error}")
+            if not example.damages:
+                raise ValidInputRefused(f"the dict form of a valid scene was refused: {error}")
+        else:
+            render_tiny("load_dict()", scene)
+        if not example.damages:
+            (directory / mitsuba.SCENE).write_text(mitsuba.xml_text(example.scene.root))
+            xml, error = mitsuba.checked_load("load_file()", lambda: raytrace.load_file(mitsuba.SCENE), [mitsuba.SCENE])
+            if error is not None or not mitsuba.close_tables(xml.source, scene.source):
+                raise mitsuba.XmlAndDictDisagree(f"the XML of the tree: {error or xml.source}\nits dict form: "
+                                                 f"{scene.source}")
+            (directory / mitsuba.SCENE).unlink()
+        assert snapshot(directory) == inputs, "load_dict() or render() changed a file"
+
+
+@budget(25)
+@given(example=st.one_of(mitsuba.valid_xml_scenes(max_shapes=2), mitsuba.hostile_xml_scenes()),
+       folder=st.sampled_from(["", "out/"]))
+def test_mitsuba_convert_to_toml(example, folder):
+    """`convert scene.xml -o x.toml`: the TOML file alone, with no NaN or infinity in it, or the refusal render
+    gives the same scene (one line naming file:line, nothing written); the TOML renders to the same bits as the XML
+    (and a scene that convert refuses, render refuses)."""
+    example.note()
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as d, mitsuba.open_bugs():
+        directory = Path(d)
+        example.write(directory)
+        (directory / "out").mkdir(exist_ok=True)
+        scene = preloaded(example, directory)
+        if scene is not None:  # both are rendered whole (a time limit would make their passes differ)
+            assume(scene.width * scene.height <= 4096 and mitsuba.render_cost(scene) <= 2e5)
+        output = folder + "converted.toml"
+        inputs = snapshot(directory)
+        outcome = run_cli(cli.main, ["convert", mitsuba.SCENE, *example.flags(), "-o", output], directory)
+        mitsuba.check_convert(outcome, directory, output, example.sources(), inputs, example.valid, example.text())
+        xml = run_cli(cli.main, ["render", mitsuba.SCENE, *example.flags(), "-o", "xml.exr", "--no-progress"],
+                      directory)
+        if outcome.rc != 0:
+            event("convert refused; so did render")
+            if xml.error is not None or xml.rc != 2:
+                raise mitsuba.ConvertedRendersDifferently(f"convert refused ({outcome.stderr.strip()}) a scene that "
+                                                          f"render does not: exit status {xml.rc!r}, {xml.error!r}")
+            return
+        note(f"{output}:\n{(directory / output).read_text()}"[:4000])
+        toml = run_cli(cli.main, ["render", output, "-o", "toml.exr", "--no-progress"], directory)
+        if xml.error is not None or toml.error is not None or xml.rc != toml.rc:
+            raise mitsuba.ConvertedRendersDifferently(f"the XML's render: {xml.rc!r} {xml.error!r} {xml.stderr}\n"
+                                                      f"the TOML's: {toml.rc!r} {toml.error!r} {toml.stderr}")
+        if xml.rc == 0:
+            (_, a), (_, b) = read_image(directory / "xml.exr"), read_image(directory / "toml.exr")
+            if a.shape != b.shape or a.tobytes() != b.tobytes():
+                raise mitsuba.ConvertedRendersDifferently("the TOML renders other bits than the XML")
+            event("converted; the TOML renders the XML's bits")
