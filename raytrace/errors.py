@@ -20,7 +20,7 @@ class InputError(Exception):
     def __init__(self, source, key, value, problem):
         self.source, self.key, self.value, self.problem = str(source), key, value, problem
         shown = "" if value is None else f" = {shortened(repr(value), SHOWN_TEXT if isinstance(value, str) else SHOWN)}"
-        super().__init__(f"{printable(self.source)}: {printable(shortened(str(key), SHOWN_TEXT))}{shown}: "
+        super().__init__(f"{printable(self.source)}: {printable(shortened(str(key), SHOWN_TEXT))}{printable(shown)}: "
                          f"{printable(str(problem))}")
 
     def __reduce__(self):  # raised on a Dask worker, it reaches the client whole

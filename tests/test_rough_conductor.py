@@ -96,7 +96,7 @@ __kernel void trace(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const 
 
 
 def albedo_red(theta_o, alpha, n=500):
-    """Rough gold's red albedo at wo, the integral of F(wo.h) D(h) G1(wo) G1(wi) / (4 wo.z) over wi above the
+    """Rough gold's red albedo at wo, the integral of F(wo . h) D(h) G1(wo) G1(wi) / (4 wo.z) over wi above the
     horizon in float64 (F of eta + i k, path_support.fresnel_reference), by the midpoint rule on n x n cells
     of theta_i in [0, pi/2] and phi in [0, pi] (twice that: wo lies in the plane phi = 0); within 3e-6 of
     the rule on 4n x 4n cells at the cases below."""

@@ -1096,19 +1096,7 @@ def dict_examples():
 # example that fails so is set aside (an event, "open bug: NAME") so that the rest is fuzzed; its minimal input is
 # an explicit example in tests/test_fuzz.py marked xfail, which fails (strict) once the bug is fixed: then delete both.
 
-OPEN_BUGS = {
-    "alias": r"'\w+_alias': no object with this id",  # <alias id="a" as="b"/>, then <ref id="b"/>: refused
-    "deep nesting": r"RecursionError .*raised at (raytrace/scene/)?mitsuba(_xml)?\.py",  # 500 nested elements
-    "unknown encoding": r"LookupError .*unknown encoding",  # <?xml ... encoding="bogus"?>
-    "multi-byte encoding": r"ValueError .*multi-byte encodings are not supported",  # encoding="utf-32"
-    "film of no pixels": r"ZeroDivisionError .*raised at (raytrace/scene/)?mitsuba\.py",  # width or height 0
-    "numpy overflow": r"RuntimeWarning: overflow encountered|warning: overflow encountered",  # finite, huge values
-    "two-line warning": r"warning's text is not one line|warning continued on a second line",  # type="a&#10;b"
-    "complex matrix": r"ComplexWarning",  # load_dict: a to_world of complex numbers, cast to real with a warning
-    "array type": r"ValueError .*truth value of an (empty )?array|TypeError .*Cannot compare structured or void",
-    # load_dict: a plugin's type a numpy array or void, compared with ==
-    "numpy repr": r"InputError's text is not one line: .*(masked_array|matrix|array)\(",  # a value's repr, 2 lines
-}
+OPEN_BUGS = {}  # none open: the ten the suite found are fixed, their inputs kept as @example in tests/test_fuzz.py
 
 
 @contextlib.contextmanager

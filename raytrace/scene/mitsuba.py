@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, did_you_mean
+from ..errors import InputError, did_you_mean, printable
 from . import mesh_file, named_materials, spectra
 from .mitsuba_xml import WHERE, Where
 from .transform import AFFINE
@@ -190,14 +190,14 @@ class _Translator:
             self.fail(at, what, None, problem + " (--ignore-unsupported renders the rest)")
         if what not in self.warned:
             self.warned.add(what)
-            self.out.warnings.append(f"{at}: {what}: {problem}: left out")
+            self.out.warnings.append(printable(f"{at}: {what}: {problem}: left out"))
 
     def origin(self, key, node, path, param):
         self.out.origins[key] = (self.where(node, path).of(param), param)
 
     # -- values
     def resolve(self, value, path):
-        if isinstance(value, dict) and value.get("type") == "ref":
+        if _type(value) == "ref":
             ref = value.get("id")
             if ref not in self.ids:
                 self.fail(self.where(value, path).at, f"{path}.id" if path else "id", ref,
@@ -216,9 +216,8 @@ class _Translator:
                 self.unsupported(where.of(key), f"{plugin.category} {name}: {key}", f"{key} other than Mitsuba's "
                                  f"default ({only_default[key]}) is not supported")
             elif key not in plugin.names() and not _is_object(given[key]):
-                self.fail(where.of(key), f"{name}.{key}", _shown(given[key]), f"is no parameter of Mitsuba's {name} "
-                          f"{plugin.category}{did_you_mean(key, plugin.names())} (it takes: "
-                          f"{', '.join(plugin.names()) or 'none'})")
+                self.not_a_parameter(where.of(key), f"{name}.{key}", given[key], f"{name} {plugin.category}",
+                                     plugin.names())
         return {k: v for k, v in given.items() if k not in only_default}
 
     def number(self, value, node, path, param, integer=False):
@@ -242,7 +241,7 @@ class _Translator:
         value = self.resolve(value, path)
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return [float(self.number(value, node, path, param))] * 3
-        if isinstance(value, dict) and value.get("type") == "rgb":
+        if _type(value) == "rgb":
             rgb = value.get("value")
             if isinstance(rgb, (int, float)) and not isinstance(rgb, bool):
                 rgb = [rgb] * 3
@@ -251,7 +250,7 @@ class _Translator:
                     isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in rgb)):
                 self.fail(at, f"{path}.{param}", _shown(value.get("value")), "an rgb value must be 1 or 3 finite numbers")
             return [float(c) for c in rgb]
-        if isinstance(value, dict) and value.get("type") == "spectrum":
+        if _type(value) == "spectrum":
             try:
                 if "filename" in value:
                     spectrum = spectra.read_spd(Path(value["filename"]))
@@ -268,16 +267,21 @@ class _Translator:
             return None
         self.fail(at, f"{path}.{param}", _shown(value), "must be a number, an rgb or a spectrum")
 
+    def not_a_parameter(self, at, key, value, plugin, names):
+        self.fail(at, key, _shown(value), f"is no parameter of Mitsuba's {plugin}{did_you_mean(key.split('.')[-1], names)}"
+                  f" (it takes: {', '.join(names) or 'none'})")
+
     def matrix(self, value, node, path, param):
         """A to_world as a 4 x 4 float64 matrix: an array, nested lists, or an object with .matrix (Mitsuba's
         ScalarTransform4f)."""
         at = self.where(node, path).of(param)
         value = getattr(value, "matrix", value)
         try:
-            m = np.array(value, dtype=np.float64)
+            m = np.asarray(value)
+            m = m.astype(np.float64) if m.dtype.kind in "iuf" or (m.dtype.kind == "O" and m.size) else None
         except (TypeError, ValueError):
             m = None
-        if m is None or m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        if m is None or m.shape != (4, 4) or not np.all(np.isfinite(m)) or not np.isfinite(np.linalg.det(m[:3, :3])):
             self.fail(at, f"{path}.{param}", _shown(value), "must be a 4 x 4 matrix of finite numbers")
         if not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
             self.fail(at, f"{path}.{param}", m.tolist(), AFFINE)
@@ -285,12 +289,15 @@ class _Translator:
 
     # -- the scene
     def scene(self, node):
-        if not isinstance(node, dict) or node.get("type") != "scene":
+        if _type(node) != "scene":
             self.fail(self.source, "type", _shown(node.get("type") if isinstance(node, dict) else node),
                       'a Mitsuba scene is a dict of type "scene"')
         if isinstance(node.get(WHERE), Where):
             self.search = node[WHERE].search
         self.collect_ids(node, "")
+        if isinstance(node.get(WHERE), Where):
+            for alias, ident in node[WHERE].aliases.items():
+                self.ids.setdefault(alias, self.ids.get(ident))
         groups = {c: [] for c in CATEGORIES}
         for key, value in node.items():
             if key in ("type", "id", WHERE):
@@ -335,7 +342,7 @@ class _Translator:
 
     def collect_ids(self, node, path):
         for key, value in node.items():
-            if key in ("type", WHERE) or not isinstance(value, dict) or value.get("type") == "ref":
+            if key in ("type", WHERE) or not isinstance(value, dict) or _type(value) == "ref":
                 continue
             ident = value.get("id", key if path == "" else None)
             if isinstance(ident, str) and ident not in self.ids:
@@ -465,6 +472,8 @@ class _Translator:
         for side, default in (("width", 768), ("height", 576)):
             image[side] = self.number(params.get(side, default), node, key, side, integer=True)
             self.origin(f"image.{side}", node, key, side)
+            if image[side] < 1:  # before the fov's aspect divides by it; the range is the image table's
+                self.fail(self.where(node, key).of(side), side, image[side], "must be >= 1")
         for param, choices in (("pixel_format", ("rgb", "rgba")), ("component_format", ("float16", "float32")),
                                ("file_format", ("openexr", "exr", "rgbe", "pfm"))):
             if param in params:
@@ -624,7 +633,7 @@ class _Translator:
     def warn(self, at, what, problem):
         if what not in self.warned:
             self.warned.add(what)
-            self.out.warnings.append(f"{at}: {what}: {problem}")
+            self.out.warnings.append(printable(f"{at}: {what}: {problem}"))
 
     # -- shapes and their emitters
     def shape(self, key, node):
@@ -722,12 +731,12 @@ class _Translator:
     def black(self, node, path):
         """Whether BSDF `node` is a black diffuse one (twosided or not): what raytrace's direct model's lights are."""
         node = self.resolve(node, path)
-        while isinstance(node, dict) and node.get("type") == "twosided":
+        while _type(node) == "twosided":
             inner = self.objects(self.params(node, path, "twosided"), path, node)
             if len(inner) != 1:
                 return False
             path, node = inner[0][0], inner[0][1]
-        if not isinstance(node, dict) or node.get("type") != "diffuse":
+        if _type(node) != "diffuse":
             return False
         reflectance = self.params(node, path, "diffuse").get("reflectance", DEFAULT_DIFFUSE)
         return self.colour(reflectance, node, path, "reflectance") == [0.0, 0.0, 0.0]
@@ -799,9 +808,16 @@ def _quad(vertices, faces):
     return {"center": center.tolist(), "size": [float(lu), float(lv)], "normal": normal.tolist(), "tangent": (edge_u / lu).tolist()}
 
 
+def _type(value):
+    """The plugin type of a dict-form value: its "type" where that is a string, else None (a caller's dict may
+    hold anything there)."""
+    kind = value.get("type") if isinstance(value, dict) else None
+    return kind if isinstance(kind, str) else None
+
+
 def _is_object(value):
     """A nested plugin or a reference (its name is free), not a value such as an rgb or a spectrum."""
-    return isinstance(value, dict) and value.get("type") not in ("rgb", "spectrum")
+    return isinstance(value, dict) and _type(value) not in ("rgb", "spectrum")
 
 
 def _shown(value):
@@ -812,8 +828,10 @@ def _shown(value):
 
 def translate(node, source, folder, ignore_unsupported=False):
     """raytrace's scene table (a Translation) of Mitsuba dict-form scene `node`; files relative to `folder`;
-    errors name `source` where no XML element is known."""
-    return _Translator(source, folder, ignore_unsupported).scene(node)
+    errors name `source` where no XML element is known. Overflows make infinities, which the table's reader
+    refuses by name, not warnings."""
+    with np.errstate(all="ignore"):
+        return _Translator(source, folder, ignore_unsupported).scene(node)
 
 
 def located(error, translation):

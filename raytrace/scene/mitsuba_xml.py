@@ -25,6 +25,7 @@ PROPERTY_TAGS = ("float", "integer", "boolean", "string", "point", "vector", "rg
 OTHER_TAGS = ("include", "path", "default", "ref", "alias")
 TRANSFORM_TAGS = ("translate", "rotate", "scale", "matrix", "lookat")
 MAX_INCLUDES = 32  # include depth: a file that includes itself is refused long before
+MAX_ELEMENT_DEPTH = 64  # elements within each other in one file: a scene needs 5 (scene, shape, bsdf, bsdf, rgb)
 ONE_OR_THREE, NO_SUCH_ID = "must hold 1 or 3 numbers", "no object with this id before it"
 _PARAMETER = re.compile(r"\$([A-Za-z0-9_]*)")
 
@@ -37,6 +38,7 @@ class Where:
     tag: str = ""
     params: dict = field(default_factory=dict)
     search: list = field(default_factory=list)  # the scene's: the folders of its <path> elements
+    aliases: dict = field(default_factory=dict)  # the scene's: {alias: id} of its <alias> elements
 
     def of(self, name):
         return self.params.get(name, self.at)
@@ -68,6 +70,9 @@ def _parse(data, file):
     stack, roots = [], []
 
     def start(tag, attrs):
+        if len(stack) >= MAX_ELEMENT_DEPTH:
+            raise InputError(f"{file}:{parser.CurrentLineNumber}", f"<{tag}>", None, f"elements nested more than "
+                             f"{MAX_ELEMENT_DEPTH} deep")
         element = _Element(tag, attrs, parser.CurrentLineNumber, file)
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)
@@ -85,8 +90,8 @@ def _parse(data, file):
     except xml.parsers.expat.ExpatError as e:
         raise InputError(f"{file}:{e.lineno}:{e.offset + 1}", "xml", None,
                          f"{xml.parsers.expat.ErrorString(e.code)}: not well-formed XML") from None
-    except RecursionError:
-        raise InputError(file, "xml", None, "elements nested too deeply") from None
+    except (LookupError, ValueError) as e:  # an encoding Python lacks, or one expat cannot read (utf-32)
+        raise InputError(file, "xml", None, f"{e}: not XML raytrace can read") from None
     return roots[0]
 
 
@@ -97,6 +102,7 @@ class _Reader:
         self.parameters = dict(defines)
         self.search = []
         self.ids = {}
+        self.aliases = {}
         self.files = []
 
     def fail(self, element, key, value, problem):
@@ -198,7 +204,8 @@ class _Reader:
                 axis = np.array(self.xyz(child, 0.0))
                 if not np.any(axis):
                     self.fail(child, "<rotate> axis", axis.tolist(), "cannot be zero")
-                step = rotation(axis, self.number(child, "angle"))
+                with np.errstate(over="ignore", invalid="ignore"):
+                    step = rotation(axis, self.number(child, "angle"))
             elif tag == "matrix":
                 self.check_attributes(child, ("value",))
                 tokens = _tokens(child.attrs["value"])
@@ -212,13 +219,17 @@ class _Reader:
                 self.check_attributes(child, ("origin", "target"), ("up",))
                 origin, target = self.vector3(child, "origin"), self.vector3(child, "target")
                 up = self.vector3(child, "up") if "up" in child.attrs else np.zeros(3)
-                step = look_at(origin, target, up)
+                with np.errstate(over="ignore", invalid="ignore"):
+                    step = look_at(origin, target, up)
                 if step is None:
                     self.fail(child, "<lookat>", child.attrs, "invalid: origin equals target, or up is along the "
                               "view direction")
             else:
                 self.fail(child, f"<{tag}>", None, f"unexpected inside <transform> (have: {', '.join(TRANSFORM_TAGS)})")
-            matrix = step @ matrix
+            with np.errstate(over="ignore", invalid="ignore"):
+                matrix = step @ matrix
+            if not np.all(np.isfinite(matrix)):
+                self.fail(child, f"<{tag}>", child.attrs, "makes the transform overflow")
         return matrix
 
     def spectrum(self, element, folder):
@@ -320,6 +331,7 @@ class _Reader:
             if attrs["as"] in self.ids:
                 self.fail(child, "<alias> as", attrs["as"], "an object with this id exists")
             self.ids[attrs["as"]] = self.ids[attrs["id"]]
+            self.aliases[attrs["as"]] = attrs["id"]
         elif tag == "default":
             self.check_attributes(child, ("name", "value"))
             if not attrs["name"]:
@@ -415,13 +427,13 @@ def look_at(origin, target, up):
     left, up, direction, origin). A zero up is replaced by one orthogonal to the view, as Mitsuba's parser does;
     None where no frame exists."""
     direction = target - origin
-    if not np.linalg.norm(direction) > 0:
+    if not 0 < np.linalg.norm(direction) < math.inf:
         return None
     direction = direction / np.linalg.norm(direction)
     if not np.any(up):
         up = np.cross(direction, [1.0, 0.0, 0.0] if abs(direction[0]) < 0.9 else [0.0, 1.0, 0.0])
     left = np.cross(up, direction)
-    if not np.linalg.norm(left) > 0:
+    if not 0 < np.linalg.norm(left) < math.inf:
         return None
     left = left / np.linalg.norm(left)
     m = np.eye(4)
@@ -439,6 +451,9 @@ def read(path, defines=None, text=None):
     else:
         element = _parse(text.encode("utf-8"), str(path))
         folder = Path(os.curdir)
-    scene = reader.root(element, folder, 0)
-    scene[WHERE].search = reader.search
+    try:
+        scene = reader.root(element, folder, 0)
+    except RecursionError:  # the files are read recursively: elements deep in includes deep in includes
+        raise InputError(path, "include", None, "elements and includes nested too deeply") from None
+    scene[WHERE].search, scene[WHERE].aliases = reader.search, reader.aliases
     return scene

@@ -478,7 +478,7 @@ def load_dict(table, ignore_unsupported=False):
     as load_dict() and the key by its path in the dict, e.g. shapes[3].center."""
     if not isinstance(table, dict):
         raise InputError("load_dict()", "table", type(table).__name__, "must be a dict laid out as a scene file")
-    if table.get("type") == "scene":
+    if isinstance(table.get("type"), str) and table["type"] == "scene":
         return _mitsuba(mitsuba_form(table), "load_dict()", Path(os.curdir), ignore_unsupported)[0]
     return parse_scene(plain(table), "load_dict()")
 
