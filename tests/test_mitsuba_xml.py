@@ -238,6 +238,26 @@ def test_bsdfs_and_their_named_values(tmp_path):
     assert kinds["roughconductor"].alpha == 0.3 and tuple(kinds["conductor"].eta) == (0, 0, 0)
 
 
+def test_spectrum_plugins_as_mitsubas_rgb_variants_take_them(tmp_path):
+    """d65 (times its scale), uniform and srgb as Mitsuba 3.9.1's scalar_rgb holds them (mi.traverse: d65 of
+    scale 2 is 2, uniform 2 is 2, srgb (0.5, 0.2, 0.1) is itself, as radiance and as reflectance alike); the
+    spectral plugins its rgb variants refuse to render are refused."""
+    scene = load(tmp_path, """<shape type="rectangle"><transform name="to_world"><translate z="-0.5"/></transform>
+        <bsdf type="twosided"><bsdf type="diffuse"><spectrum type="srgb" name="reflectance">
+        <rgb name="color" value="0.5, 0.2, 0.1"/></spectrum></bsdf></bsdf>
+        <emitter type="area"><spectrum type="d65" name="radiance"><float name="scale" value="2"/></spectrum>
+        </emitter></shape>
+        <shape type="rectangle"><transform name="to_world"><translate z="-0.9"/></transform>
+        <emitter type="area"><spectrum type="uniform" name="radiance"><float name="value" value="3"/></spectrum>
+        </emitter></shape>""")
+    assert [list(light.colour) for light in scene.lights[1:]] == [[2, 2, 2], [3, 3, 3]]
+    assert list(scene.materials[scene.lights[1].material].colour) == [0.5, 0.2, 0.1]
+    error = error_of(tmp_path, scene_text('<shape type="rectangle"><emitter type="area"><spectrum type="blackbody" '
+                                          'name="radiance"><float name="temperature" value="3000"/></spectrum>'
+                                          '</emitter></shape>'))
+    assert "rgb variants do not render either" in str(error)
+
+
 @pytest.mark.parametrize("faces, normal", [("f 1 4 3\nf 1 3 2", [0, 1, 0]), ("f 1 2 3\nf 1 3 4", [0, -1, 0])])
 def test_a_quad_mesh_light_becomes_a_rectangle(tmp_path, faces, normal):
     """Its front is the faces' counter-clockwise side: (v4 - v1) x (v3 - v1) = (0, 4, 0) for 1 4 3."""

@@ -26,6 +26,7 @@ from .transform import AFFINE
 # to one, and so does this); ldsampler is a low-discrepancy sequence, raytrace's Owen-scrambled Sobol.
 SAMPLER_PATTERNS = {"independent": "random", "stratified": "jittered", "multijitter": "jittered",
                     "orthogonal": "jittered", "ldsampler": "sobol"}
+SPECTRUM_PLUGINS = {"d65": ("scale", 1.0), "uniform": ("value", 1.0), "srgb": ("color", None)}  # their parameter
 FILE_KEYS = ("shapes[].file", "environment.filename")  # the scene table's keys that name files
 DEFAULT_DIFFUSE = 0.5  # the BSDF Mitsuba gives a shape that names none: diffuse, reflectance 0.5
 
@@ -261,6 +262,11 @@ class _Translator:
                 return list(spectra.to_rgb(spectrum, emission, unbounded))
             except (ValueError, TypeError) as e:
                 self.fail(at, f"{path}.{param}", _shown(value.get("value", value.get("filename"))), str(e))
+        if _type(value) in SPECTRUM_PLUGINS:
+            return self.spectrum_plugin(value, node, path, param)
+        if _type(value) in ("blackbody", "regular", "irregular"):
+            self.fail(at, f"{path}.{param}", value["type"], "a spectral plugin that Mitsuba's rgb variants do not "
+                      "render either (they refuse it when rendering): give an rgb or a wavelength:value spectrum")
         if isinstance(value, dict) and isinstance(value.get("type"), str):
             self.unsupported(at, f"texture {value['type']}", "textures are not supported yet (a number, rgb or "
                              "spectrum only)")
@@ -270,6 +276,21 @@ class _Translator:
     def not_a_parameter(self, at, key, value, plugin, names):
         self.fail(at, key, _shown(value), f"is no parameter of Mitsuba's {plugin}{did_you_mean(key.split('.')[-1], names)}"
                   f" (it takes: {', '.join(names) or 'none'})")
+
+    def spectrum_plugin(self, value, node, path, param):
+        """The RGB of the spectrum plugins Mitsuba's rgb variants render (read off mi.traverse in scalar_rgb):
+        d65 is white times its scale, uniform its value, srgb its colour, each taken as it is."""
+        name = value["type"]
+        given = {k: v for k, v in value.items() if k not in ("type", "id", WHERE)}
+        key, default = SPECTRUM_PLUGINS[name]
+        for k in given:
+            if k != key:
+                self.not_a_parameter(self.where(value, path).of(k), f"{path}.{param}.{k}", given[k],
+                                     f"{name} spectrum", [key])
+        if name == "srgb":
+            color = given.get(key, default)
+            return self.colour(color if isinstance(color, dict) else {"type": "rgb", "value": color}, node, path, param)
+        return [float(self.number(given.get(key, default), value, path, key))] * 3
 
     def matrix(self, value, node, path, param):
         """A to_world as a 4 x 4 float64 matrix: an array, nested lists, or an object with .matrix (Mitsuba's
