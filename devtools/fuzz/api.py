@@ -340,9 +340,10 @@ def _raise_unexpected(what, e):
     raise kind(f"{type(e).__name__} from {what}, raised at {where}: {str(e)[:300]}\n{tail}") from None
 
 
-def checked_call(what, call, allowed=()):
+def checked_call(what, call, allowed=(), warned=(FeaturesChanged,), check_warning=None):
     """(result, InputError or an `allowed` exception or None) of call(); any other exception, or a Python warning
-    but FeaturesChanged, breaks the contract."""
+    of no category in `warned`, breaks the contract; `check_warning(w)`, where given, checks each warning of
+    those categories in turn (it raises where one breaks the contract)."""
     result, error = None, None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -355,10 +356,12 @@ def checked_call(what, call, allowed=()):
             error = e
         except Exception as e:  # noqa: BLE001 - the contract's very question
             _raise_unexpected(what, e)
-    shown = [w for w in caught if not issubclass(w.category, FeaturesChanged)]
-    if shown:
-        w = shown[0]
-        raise WarningFromTheAPI(f"{what} warned: {warnings.formatwarning(w.message, w.category, w.filename, w.lineno)}")
+    for w in caught:
+        if not issubclass(w.category, warned):
+            shown = warnings.formatwarning(w.message, w.category, w.filename, w.lineno)
+            raise WarningFromTheAPI(f"{what} warned: {shown}")
+        if check_warning is not None:
+            check_warning(w)
     return result, error
 
 

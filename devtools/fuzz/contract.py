@@ -345,7 +345,16 @@ def check_rendered(outcome, directory, output, size, stats, example_text):
                    f"or infinite values (zeroed before writing; docs/cli.md says always 0)", example_text)
 
 
-def check_refused(outcome, sources, example_text):
+def names_toml_source(text, sources):
+    """`text` starts with one of `sources`, as given or with control characters escaped, then `: ` (or
+    `:line:column: `, a TOML syntax error's)."""
+    return any(re.match(re.escape(shown) + r"(:\d+:\d+)?: ", text) for source in sources
+               for shown in (source, repr(source)[1:-1]))
+
+
+def check_refused(outcome, sources, example_text, names_source=names_toml_source, listed=sorted):
+    """The refusal: one line on stderr, `raytrace: error: ` then a source (`names_source(rest, sources)`: the rest
+    of the line names one; `listed(sources)`: them as a broken contract's message lists them), no file left."""
     text = outcome.stderr
     if text.count("\n") != 1 or not text.endswith("\n"):
         broken(NotOneLine, outcome, f"{text.count(chr(10))} lines on stderr, not one", example_text)
@@ -355,10 +364,8 @@ def check_refused(outcome, sources, example_text):
     prefix = "raytrace: error: "
     if not line.startswith(prefix):
         broken(WrongErrorLine, outcome, f"the line does not start with {prefix!r}", example_text)
-    elif not any(re.match(re.escape(shown) + r"(:\d+:\d+)?: ", line[len(prefix):]) for source in sources
-                 for shown in (source, repr(source)[1:-1])):  # control characters may be shown escaped; a TOML
-        # syntax error names the file with its line and column (file:line:column)
-        broken(WrongErrorLine, outcome, f"the line names none of {sorted(sources)} as the source", example_text)
+    elif not names_source(line[len(prefix):], sources):
+        broken(WrongErrorLine, outcome, f"the line names none of {listed(sources)} as the source", example_text)
     if outcome.new_files:
         broken(FilesLeftBehind, outcome, f"exit status 2 but files left: {sorted(outcome.new_files)}", example_text)
 

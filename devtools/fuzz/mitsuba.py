@@ -34,19 +34,18 @@ import os
 import re
 import reprlib
 import tomllib
-import warnings
 from pathlib import Path
 
 import numpy as np
 from hypothesis import event, note, reject
 from hypothesis import strategies as st
 
-import raytrace
 from raytrace.errors import UnsupportedWarning
 
-from .api import NotOneLineError, UnexpectedException, WarningFromTheAPI, WrongErrorSource
-from .contract import EXAMPLE_SECONDS, ContractBroken, FilesLeftBehind, NotOneLine, StrayFiles, TracebackOnStderr, \
-    ValidInputRefused, WrongErrorLine, broken, check, check_inputs, escaped, time_limit
+from . import contract
+from .api import NotOneLineError, WrongErrorSource, checked_call
+from .contract import ContractBroken, StrayFiles, TracebackOnStderr, ValidInputRefused, broken, check, \
+    check_inputs, escaped
 from .files import BytesFile, Directory, ImageFile, TextFile, finite, hostile_files, valid_mesh_files, vectors
 
 SCENE = "scene.xml"
@@ -1146,23 +1145,17 @@ def source_pattern(sources):
     return re.compile("(?:" + "|".join(re.escape(s) for s in shown) + r")(?::\d+){0,2}: ")
 
 
+def names_source(text, sources):
+    """`text` starts with one of `sources` (source_pattern's); an event says whether with a line."""
+    if not source_pattern(sources).match(text):
+        return False
+    event("the error names a line" if re.match(r"[^:]*:\d+", text) else "the error names no line")
+    return True
+
+
 def check_refused(outcome, sources, example_text):
     """contract.py's refusal (exit status 2, one line, no file left), its source a file with its line."""
-    text = outcome.stderr
-    if text.count("\n") != 1 or not text.endswith("\n"):
-        broken(NotOneLine, outcome, f"{text.count(chr(10))} lines on stderr, not one", example_text)
-    line = text.split("\n")[0]
-    if "Traceback" in text:
-        broken(TracebackOnStderr, outcome, "a traceback on stderr", example_text)
-    prefix = "raytrace: error: "
-    if not line.startswith(prefix):
-        broken(WrongErrorLine, outcome, f"the line does not start with {prefix!r}", example_text)
-    elif not source_pattern(sources).match(line[len(prefix):]):
-        broken(WrongErrorLine, outcome, f"the line names none of {sources[:20]} as the source", example_text)
-    else:
-        event("the error names a line" if re.match(r"[^:]*:\d+", line[len(prefix):]) else "the error names no line")
-    if outcome.new_files:
-        broken(FilesLeftBehind, outcome, f"exit status 2 but files left: {sorted(outcome.new_files)}", example_text)
+    contract.check_refused(outcome, sources, example_text, names_source, listed=lambda sources: sources[:20])
 
 
 SUMMARY = re.compile(r"^\S.*: \d+x\d+, .* spp .*$")
@@ -1255,41 +1248,19 @@ def leaves(value):
         yield value
 
 
-_unexpected = {}
-
-
 def checked_load(what, call, sources):
-    """(Scene or None, the InputError or None) of call(), a load: an InputError's text one line naming one of
-    `sources` (file:line); UnsupportedWarning the only warning, each one line naming one of them. Any other exception
-    or warning breaks the contract."""
-    result, error = None, None
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        for hidden in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
-            warnings.simplefilter("ignore", hidden)
-        try:
-            with time_limit(EXAMPLE_SECONDS):
-                result = call()
-        except raytrace.InputError as e:
-            error = e
-        except Exception as e:  # noqa: BLE001 - the contract's very question
-            import traceback
-            frames = traceback.extract_tb(e.__traceback__)
-            where = f"{frames[-1].filename.rsplit('/', 2)[-1]}:{frames[-1].lineno}" if frames else "?"
-            kind = _unexpected.setdefault((type(e), where), type(f"Unexpected{type(e).__name__}",
-                                                                (UnexpectedException,), {}))
-            tail = "".join(traceback.format_exception(e, limit=-10))[-4000:]
-            raise kind(f"{type(e).__name__} from {what}, raised at {where}: {str(e)[:300]}\n{tail}") from None
+    """(Scene or None, the InputError or None) of call(), a load (api.checked_call's): an InputError's text one
+    line naming one of `sources` (file:line); UnsupportedWarning the only warning, each one line naming one of
+    them. Any other exception or warning breaks the contract."""
     pattern = source_pattern(sources)
-    for w in caught:
+
+    def check_warning(w):
         text = str(w.message)
-        if not issubclass(w.category, UnsupportedWarning):
-            shown_warning = warnings.formatwarning(w.message, w.category, w.filename, w.lineno)
-            raise WarningFromTheAPI(f"{what} warned: {shown_warning}")
         if "\n" in text or "\r" in text:
             raise NotOneLineError(f"{what}: a warning's text is not one line: {text!r}")
         if not pattern.match(text):
             raise WrongErrorSource(f"{what}: the warning names none of {sources[:20]}: {text!r}")
+    result, error = checked_call(what, call, warned=(UnsupportedWarning,), check_warning=check_warning)
     if error is not None:
         text = str(error)
         if "\n" in text or "\r" in text:
