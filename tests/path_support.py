@@ -45,6 +45,21 @@ def assert_mean(image, expected):
     return mean, se
 
 
+# The end of a test kernel that traces paths from a surface point, once s, ts, r, hit and sp are made: the
+# mean of trace_path over pixel samples 0 .. samples-1 written to out (TRACE's, and the rough conductor's).
+PATH_MEAN = """    vfloat rays = 0.0f;
+    vuint key = pixel_key(AS_VUINT(I * LANES + LANE_IDS), s.params->seed);
+    vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
+    for (int i = 0; i < samples; ++i) {
+        PixelSample ps = start_pixel_sample(key, (vint)(i));
+        ps.dimension = 1;
+        sum = v3_add(sum, trace_path(&s, ts, r, hit, sp, light_samples, &ps, &rays));
+    }
+    OUT3(out, v3_scale(sum, 1.0f / (float)samples));
+}
+"""
+
+
 TRACE = """
 #include "path_tracing.cl"
 """ + SURFACE_POINT + """/* Lane i's estimate of the radiance leaving p (normal nrm, albedo 1 there) towards a viewer above it: the mean of
@@ -62,17 +77,7 @@ __kernel void trace(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const 
 #else /* a white Lambertian surface */
     ShadingPoint sp = white(at, normal);
 #endif
-    vfloat rays = 0.0f;
-    vuint key = pixel_key(AS_VUINT(I * LANES + LANE_IDS), s.params->seed);
-    vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
-    for (int i = 0; i < samples; ++i) {
-        PixelSample ps = start_pixel_sample(key, (vint)(i));
-        ps.dimension = 1;
-        sum = v3_add(sum, trace_path(&s, ts, r, hit, sp, light_samples, &ps, &rays));
-    }
-    OUT3(out, v3_scale(sum, 1.0f / (float)samples));
-}
-"""
+""" + PATH_MEAN
 
 
 def traced(harness, scene, p, n, sampling, lanes=1024, samples=16, shaded=False, solid_angle=False, **defines_too):

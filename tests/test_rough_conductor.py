@@ -14,7 +14,7 @@ from raytrace.renderer.packing import texture_tables
 from raytrace.renderer.program import Features
 
 from helpers import ROOT, SURFACE_POINT, at_lane_ends
-from path_support import assert_techniques_agree, environment_scene, fresnel_reference, traced
+from path_support import PATH_MEAN, assert_techniques_agree, environment_scene, fresnel_reference, traced
 
 
 @at_lane_ends
@@ -82,17 +82,7 @@ __kernel void trace(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const 
     r.o = v3_add(at, w);
     r.d = v3_scale(w, -1.0f);
     ShadingPoint sp = shading_point(&s, ts, r, hit);
-    vfloat rays = 0.0f;
-    vuint key = pixel_key(AS_VUINT(I * LANES + LANE_IDS), s.params->seed);
-    vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
-    for (int i = 0; i < samples; ++i) {
-        PixelSample ps = start_pixel_sample(key, (vint)(i));
-        ps.dimension = 1;
-        sum = v3_add(sum, trace_path(&s, ts, r, hit, sp, light_samples, &ps, &rays));
-    }
-    OUT3(out, v3_scale(sum, 1.0f / (float)samples));
-}
-"""
+""" + PATH_MEAN
 
 
 def albedo_red(theta_o, alpha, n=500):
