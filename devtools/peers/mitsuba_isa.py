@@ -12,7 +12,7 @@ machine is lent (raytrace's twin is RAYTRACE_TARGET=x86-64-v3). A developer rig,
 Memory and caches stay the AVX-512 machine's. Scene 0 against Mitsuba, 2-core Xeon (CPUID family 6 model
 207): 2.91x with both at this level, 3.32x native, where a real Zen 3 gave 3.09x.
 
-Used by mitsuba_path.py --isa avx2, or around any Mitsuba script:
+Used by mitsuba_path.py and mitsuba_xml_render.py --isa avx2 (select), or around any Mitsuba script:
   MTS/bin/python devtools/peers/mitsuba_isa.py avx2 SCRIPT [ARGUMENTS ...]
 """
 import ctypes
@@ -76,6 +76,18 @@ def restrict(level, variant):
     import mitsuba
     mitsuba.set_variant(variant)
     set_llvm_target(*LEVELS[level])
+
+
+def select(ap, isa, variant):
+    """Mitsuba at `variant`, Dr.Jit and Embree at `isa` (a script's --isa: "native", or a key of LEVELS through
+    restrict); ap.error where `isa` needs an llvm variant and `variant` is none."""
+    if isa == "native":
+        import mitsuba
+        mitsuba.set_variant(variant)
+    elif not variant.startswith("llvm_"):
+        ap.error(f"--isa {isa} needs an llvm variant, not --variant {variant}")
+    else:
+        restrict(isa, variant)
 
 
 def main():

@@ -195,12 +195,7 @@ def main():
     ap.add_argument("--isa", choices=("native", *mitsuba_isa.LEVELS), default="native",
                     help="avx2: Dr.Jit and Embree as on an AVX2 CPU (llvm variants)")
     a = ap.parse_args()
-    if a.isa == "native":
-        mi.set_variant(a.variant)
-    elif not a.variant.startswith("llvm_"):
-        ap.error(f"--isa {a.isa} needs an llvm variant, not --variant {a.variant}")
-    else:
-        mitsuba_isa.restrict(a.isa, a.variant)
+    mitsuba_isa.select(ap, a.isa, a.variant)
     if a.scene in ("cornell_box", "materials"):
         scene = {"cornell_box": cornell_box, "materials": materials}[a.scene](a.sampler, a.spp, a.max_depth)
     else:

@@ -124,12 +124,7 @@ def main():
     a = ap.parse_args()
     if a.spp < 1 or a.repeats < 1 or a.chunks < 1 or not 0 <= a.seed < 2**31 - 1 - max(a.repeats, a.chunks):
         ap.error("--spp, --repeats and --chunks must be at least 1, --seed at least 0 (and below 2^31 - 1)")
-    if a.isa == "native":
-        mi.set_variant(a.variant)
-    elif not a.variant.startswith("llvm_"):
-        ap.error(f"--isa {a.isa} needs an llvm variant, not --variant {a.variant}")
-    else:
-        mitsuba_isa.restrict(a.isa, a.variant)
+    mitsuba_isa.select(ap, a.isa, a.variant)
     scene = load_scene(a.scene, a.variant, a.sampler, a.spp, parse_defines(a.define), a.width, a.height)
     np.array(mi.render(scene, seed=2**31 - 1))  # compiles
     times, total = [], None
