@@ -125,14 +125,13 @@ def fresnel_reference(cos_i, eta, k):
 
 
 def environment_scene(material, radiance=1.0):
-    """One sphere of `material` in a constant environment, filling the middle of the image (the light is a
-    speck of radiance 0: a scene has one)."""
+    """One sphere of `material` in a constant environment, filling the middle of the image; no light: the
+    environment alone lights it."""
     return raytrace.load_dict({
         "camera": {"position": [0.0, -3.0, 0.0], "look_at": [0.0, 0.0, 0.0], "up": [0, 0, 1], "fov": 40.0},
         "image": {"width": 64, "height": 64}, "render": {"shading": "path"},
         "environment": {"type": "constant", "radiance": radiance},
         "materials": {"m": material},
-        "lights": [{"center": [0, 0, 50], "size": [0.01, 0.01], "normal": [0, 0, -1], "tangent": [1, 0, 0],
-                    "radiance": 0.0}],
+        "lights": [],
         "shapes": [{"type": "ellipsoid", "material": "m", "center": [0, 0, 0],
                     "axes": [[0.8, 0, 0], [0, 0.8, 0], [0, 0, 0.8]]}]})

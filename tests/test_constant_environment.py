@@ -25,6 +25,22 @@ def test_environment_furnace(material, expected):
     assert_mean(np.asarray(image)[20:44, 20:44], 2.0 * expected)
 
 
+def test_lights_only_an_environment_may_replace():
+    """No light is a scene lit by its environment alone (the furnace above has none); without an environment
+    it is one line naming the lights, from a file's table and from a model changed in Python alike."""
+    table = {"camera": {"position": [0, -3, 0], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40.0},
+             "image": {"width": 4, "height": 4}, "render": {"shading": "path"}, "materials": {"m": {"colour": [1] * 3}},
+             "lights": []}
+    problem = 'must hold one or more lights: only a scene with an [environment] (shading = "path") needs none'
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.load_dict(table)
+    assert str(error.value) == f"load_dict(): lights = []: {problem}"
+    scene = environment_scene({"colour": [0.5] * 3})
+    scene.environment = None
+    with pytest.raises(raytrace.InputError, match=r"lights = \[\]: must hold one or more lights"):
+        raytrace.render(scene, spp=1)
+
+
 @at_lane_ends
 def test_environment_techniques_agree(harness, cornell):
     """The environment seen through the open front of scene 0's room: sampling lights and environment alone,

@@ -67,7 +67,8 @@ TABLES = {
          Key("camera", "table", "the camera"),
          Key("image", "table", "the image size"),
          Key("render", "table", "the render's defaults (the command line overrides them)", default={}),
-         Key("lights", "tables", "rectangular area lights, one or more"),
+         Key("lights", "tables", "rectangular area lights", also='one or more; none only with an environment '
+             '(shading = "path")'),
          Key("materials", "named-tables", "materials by name, one or more"),
          Key("shapes", "tables", "the shapes", default=()),
          Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None)],

@@ -351,10 +351,9 @@ class _Translator:
                                  "raytrace takes one constant or envmap emitter")
             else:
                 self.environment(key, value)
-        if not self.table["lights"]:
-            self.fail(self.source, "emitter", None, "raytrace needs one area emitter at least (on a rectangle, or on a "
-                      "mesh that is one planar rectangle): a scene lit by constant or envmap alone is not supported "
-                      "yet")
+        if not self.table["lights"] and "environment" not in self.table:
+            self.fail(self.source, "emitter", None, "the scene has none that raytrace renders: an area emitter on a "
+                      "rectangle (or a mesh that is one), a constant or an envmap")
         if not self.table["materials"]:  # raytrace's format names one at least; a scene of lights alone has none
             self.material(None, "")
         order = ("render", "camera", "image", "environment", "materials", "lights", "shapes")

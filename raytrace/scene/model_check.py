@@ -125,8 +125,6 @@ def check_model(scene, source="render()"):
     emission = "radiance" if scene.shading in RADIOMETRIC else "colour"
     spec = LIGHTS_SPEC if scene.shading in RADIOMETRIC else "lights[]"
     shapes, lights = [], []
-    if not scene.lights:
-        top.fail("lights", [], "must hold one or more lights")
     for i, light in enumerate(scene.lights):
         _typed(source, f"lights[{i}].", light, Light)
         r = _reader(source, f"lights[{i}].", spec, light, RECTANGLE + [("colour", emission)])

@@ -236,9 +236,9 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
                material_readers) if m.bsdf == "dielectric" for key in ("int_ior", "ext_ior")]
     if indices:
         places.append((2 * _log2(index_ratio(scene)), max(indices, key=lambda x: x[0])[1]))
-    lights = [float(light.colour.max()) for light in scene.lights]
+    lights = [float(light.colour.max()) for light in scene.lights] or [0.0]  # none: an environment lights it
     env, j = environment_brightest(scene), int(np.argmax(lights))
-    if env <= lights[j]:
+    if env <= lights[j] and scene.lights:
         emitter = (light_readers[j], "radiance", scene.lights[j].colour)
     elif scene.environment is not None:
         emitter = (scene_reader, "environment.radiance", scene.environment)
@@ -246,7 +246,7 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
         emitter = (scene_reader, "environment.scale", scene.environment_map.scale)
     else:
         emitter = (scene_reader, "environment.filename", scene.environment_map.path)
-    return places, (_log2(max(env, lights[j])), emitter)
+    return places, (_log2(max(env, lights[j], FLOAT32_TINY)), emitter)
 
 
 def _check_path_brightness(scene, material_readers, light_readers, scene_reader):

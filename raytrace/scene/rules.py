@@ -62,6 +62,9 @@ def _shading(scene, places):
     if scene.environment is not None or scene.environment_map is not None:
         shown = scene.environment if scene.environment is not None else scene.environment_map.path
         _path_only(places.top, "environment", shown, scene.shading)
+    elif not scene.lights:  # the environment, the path model's, is the only other light
+        places.top.fail("lights", [], "must hold one or more lights: only a scene with an [environment] (shading = "
+                        '"path") needs none')
     for material, reader in zip(scene.materials, places.materials):
         if material.bsdf != "diffuse":
             _path_only(reader, "type", material.bsdf, scene.shading)

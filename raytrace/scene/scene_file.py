@@ -419,8 +419,8 @@ def parse_scene(table, path="<scene>"):
                   environment_map=environment_map, seed=render.integer("seed"))
 
     lights = r.raw("lights")
-    if not isinstance(lights, list) or not lights:
-        r.fail("lights", lights, "must be a non-empty array of [[lights]] tables")
+    if not isinstance(lights, list):  # none at all: rules.py says when that is allowed
+        r.fail("lights", lights, "must be an array of [[lights]] tables")
     light_readers = []
     for i, light in enumerate(lights):
         lr = Reader(path, light, f"lights[{i}].", LIGHTS_SPEC if shading in RADIOMETRIC else "lights[]")
