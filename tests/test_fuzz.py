@@ -96,13 +96,12 @@ import raytrace
 from raytrace import cli
 from raytrace.commands import child_env
 from raytrace.scene.model import fingerprint
-from devtools.fuzz.api import Damage, DamagedDict, Edit, NotOneLineError, SceneChangedByRefusal, UnexpectedException, \
-    UpdateDisagreesWithLoad, Value, WarningFromTheAPI, check_refusal, checked_call, costly, damages, edits, \
-    render_tiny, strings_in
+from devtools.fuzz.api import Damage, DamagedDict, Edit, SceneChangedByRefusal, UpdateDisagreesWithLoad, Value, \
+    check_refusal, checked_call, costly, damages, edits, render_tiny, strings_in
 from devtools.fuzz.commands import ENVIRONMENT_VALUES, LOADER_VALUES, CommandLine, aliasing_command_lines, \
     command_lines, environments, parsed_int
 from devtools.fuzz import mitsuba
-from devtools.fuzz.contract import EXAMPLE_SECONDS, EscapedException, Outcome, ValidInputRefused, budget, check, \
+from devtools.fuzz.contract import EXAMPLE_SECONDS, Outcome, ValidInputRefused, budget, check, \
     files_in, fuzz_scene, mesh_sources, outside, read_image, run_child, run_cli, snapshot, working_directory, \
     write_example
 from devtools.fuzz.files import TextFile
