@@ -249,7 +249,8 @@ class _Translator:
             rgb = list(np.asarray(rgb, dtype=object).ravel()) if isinstance(rgb, (list, tuple, np.ndarray)) else rgb
             if not (isinstance(rgb, list) and len(rgb) == 3 and all(
                     isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in rgb)):
-                self.fail(at, f"{path}.{param}", _shown(value.get("value")), "an rgb value must be 1 or 3 finite numbers")
+                self.fail(at, f"{path}.{param}", _shown(value.get("value")),
+                          "an rgb value must be 1 or 3 finite numbers")
             return [float(c) for c in rgb]
         if _type(value) == "spectrum":
             try:
@@ -274,7 +275,8 @@ class _Translator:
         self.fail(at, f"{path}.{param}", _shown(value), "must be a number, an rgb or a spectrum")
 
     def not_a_parameter(self, at, key, value, plugin, names):
-        self.fail(at, key, _shown(value), f"is no parameter of Mitsuba's {plugin}{did_you_mean(key.split('.')[-1], names)}"
+        closest = did_you_mean(key.split('.')[-1], names)
+        self.fail(at, key, _shown(value), f"is no parameter of Mitsuba's {plugin}{closest}"
                   f" (it takes: {', '.join(names) or 'none'})")
 
     def spectrum_plugin(self, value, node, path, param):
@@ -451,7 +453,8 @@ class _Translator:
         near = self.number(params.get("near_clip", 0.01), node, key, "near_clip")
         far = self.number(params.get("far_clip", 1e4), node, key, "far_clip")
         if not 0 < near < far:
-            self.fail(self.where(node, key).of("near_clip"), f"{key}.near_clip", near, f"must be > 0 and below far_clip ({far})")
+            self.fail(self.where(node, key).of("near_clip"), f"{key}.near_clip", near,
+                      f"must be > 0 and below far_clip ({far})")
         self.out.clip = (near, far, self.where(node, key).of("near_clip" if "near_clip" in params else "to_world"))
 
     def fov(self, params, node, key, aspect):
@@ -503,7 +506,8 @@ class _Translator:
                 self.unsupported(self.where(node, key).of(crop), f"film hdrfilm: {crop}", "a crop of the film is "
                                  "not supported (the whole film only)")
         if "sample_border" in params and not isinstance(params["sample_border"], bool):
-            self.fail(self.where(node, key).of("sample_border"), f"{key}.sample_border", _shown(params["sample_border"]),
+            self.fail(self.where(node, key).of("sample_border"), f"{key}.sample_border",
+                      _shown(params["sample_border"]),
                       "must be a boolean")
         rfilters = [(path, v) for path, v, category in self.objects(params, key, node) if category == "rfilter"]
         if not rfilters:
@@ -822,10 +826,12 @@ def _quad(vertices, faces):
     a, b, c, d = v[order[0]], v[order[1]], v[order[2]], v[order[3]]  # a's farthest is d, the opposite corner
     edge_u, edge_v = b - a, c - a
     if (abs(np.dot(edge_u, edge_v)) > tolerance * (np.linalg.norm(edge_u) + np.linalg.norm(edge_v))
-            or np.abs(a + edge_u + edge_v - d).max() > tolerance or np.abs(np.dot(v - center, normal)).max() > tolerance):
+            or np.abs(a + edge_u + edge_v - d).max() > tolerance
+            or np.abs(np.dot(v - center, normal)).max() > tolerance):
         return None
     lu, lv = np.linalg.norm(edge_u), np.linalg.norm(edge_v)
-    return {"center": center.tolist(), "size": [float(lu), float(lv)], "normal": normal.tolist(), "tangent": (edge_u / lu).tolist()}
+    return {"center": center.tolist(), "size": [float(lu), float(lv)], "normal": normal.tolist(),
+            "tangent": (edge_u / lu).tolist()}
 
 
 def _type(value):
