@@ -863,14 +863,10 @@ def translate(node, source, folder, ignore_unsupported=False):
 def located(error, translation):
     """A scene table's InputError, named at the XML element or dict entry its key came from."""
     key = str(error.key)
-    for k in (key, key.split("[")[0] if key.startswith("materials") else key):
+    for k in (key, key.split(".")[0]):  # the key itself, else its table's
         if k in translation.origins:
             at, param = translation.origins[k]
             return InputError(at, param, error.value, error.problem)
-    base = key.split(".")[0]
-    if base in translation.origins:
-        at, param = translation.origins[base]
-        return InputError(at, param, error.value, error.problem)
     return error
 
 
@@ -901,8 +897,13 @@ def check_clip(scene, translation):
     soups = [np.array([t.vertices for t in scene.triangles])] if scene.triangles else []
     soups += [m.mesh.vertices[m.mesh.faces] for m in scene.meshes]
     for corners in soups:
-        closest = trimesh.triangles.closest_point(corners, np.broadcast_to(eye, (len(corners), 3)))
-        distances.append(np.linalg.norm(closest - eye, axis=1))
+        # the distance to a triangle's box bounds the distance to it: only triangles whose box reaches into the
+        # ball need the exact distance (about 1 s per 10^6 triangles with trimesh; the boxes take 0.05 s)
+        gap = np.maximum(np.maximum(corners.min(axis=1) - eye, eye - corners.max(axis=1)), 0.0)
+        near = np.linalg.norm(gap, axis=1) < ball
+        if near.any():
+            closest = trimesh.triangles.closest_point(corners[near], np.broadcast_to(eye, (int(near.sum()), 3)))
+            distances.append(np.linalg.norm(closest - eye, axis=1))
         depths.append(((corners - eye) @ forward).ravel())
     for e in scene.ellipsoids:
         distances.append(np.array([np.linalg.norm(e.center - eye) - np.linalg.norm(e.axes, 2)]))
