@@ -320,6 +320,11 @@ def test_clip_planes_that_cut_geometry_are_refused(tmp_path):
     near = scene_text('<shape type="rectangle"><transform name="to_world"><scale value="0.1"/><translate '
                       'x="0.05" y="0.05" z="3.99"/></transform></shape>')
     assert "near_clip = 0.01: geometry comes within 0.01 of the eye" in str(error_of(tmp_path, near))
+    (tmp_path / "quad.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n")
+    mesh = near.replace('<shape type="rectangle"><transform', '<shape type="obj"><string name="filename" '
+                        'value="quad.obj"/><transform')  # the same, as triangles: their exact distance
+    error = error_of(tmp_path, mesh)
+    assert (error.key, error.value) == ("near_clip", 0.01) and "comes within 0.01 of the eye" in error.problem
     text = near.replace('z="3.99"', 'z="3.98"')  # 0.02 away: beyond the near plane's ball (0.0108)
     raytrace.load_file(write(tmp_path, text), {"depth": 3})
     load(tmp_path, '<shape type="rectangle"><transform name="to_world"><translate z="9"/></transform></shape>')

@@ -870,6 +870,30 @@ def located(error, translation):
     return error
 
 
+def _triangle_soups(scene):
+    """The scene's triangles, and each mesh's, as N x 3 x 3 corner arrays."""
+    soups = [np.array([t.vertices for t in scene.triangles])] if scene.triangles else []
+    return soups + [m.mesh.vertices[m.mesh.faces] for m in scene.meshes]
+
+
+def view_depths(scene):
+    """How far along the camera's view each primitive's extreme points lie: rectangles' and lights' corners,
+    triangles' vertices, ellipsoids' extents along the view (the clip planes' checks: check_clip, and the
+    planes mitsuba_writer.py writes)."""
+    eye = scene.camera.position
+    forward, _, _ = scene.camera.basis()
+    depths = [np.empty(0)]
+    for r in scene.rectangles + scene.lights:
+        corners = [r.center + sx * r.size[0] / 2 * r.tangent + sy * r.size[1] / 2 * r.bitangent
+                   for sx in (-1, 1) for sy in (-1, 1)]
+        depths.append((np.array(corners) - eye) @ forward)
+    depths += [((corners - eye) @ forward).ravel() for corners in _triangle_soups(scene)]
+    for e in scene.ellipsoids:
+        mid, reach = np.dot(e.center - eye, forward), np.linalg.norm(e.axes @ forward)
+        depths.append(np.array([mid - reach, mid + reach]))
+    return np.concatenate(depths)
+
+
 def check_clip(scene, translation):
     """Mitsuba's clip planes: a camera ray starts on the near plane and ends on the far one, so what lies in view
     nearer than near_clip, or farther than far_clip, along the view is cut. raytrace's camera has none, so a scene
@@ -882,34 +906,26 @@ def check_clip(scene, translation):
         return
     import trimesh  # the distance to triangles (a dependency already: the mesh readers)
     eye = scene.camera.position
-    forward, _, _ = scene.camera.basis()
     tan_y = math.tan(math.radians(scene.camera.fov_deg) / 2)
     ball = near * math.sqrt(1 + tan_y ** 2 * (1 + (scene.width / scene.height) ** 2))
-    distances, depths = [np.array([math.inf])], [np.array([-math.inf])]
+    distances = [np.array([math.inf])]
     for r in scene.rectangles + scene.lights:  # the eye in the rectangle's frame, clamped to it
         d = eye - r.center
         u, v = np.dot(d, r.tangent), np.dot(d, r.bitangent)
         du, dv = max(abs(u) - r.size[0] / 2, 0.0), max(abs(v) - r.size[1] / 2, 0.0)
         distances.append(np.array([math.sqrt(np.dot(d, r.normal) ** 2 + du ** 2 + dv ** 2)]))
-        for su in (-0.5, 0.5):
-            depths.append(np.dot(r.center + su * r.size[0] * r.tangent - eye, forward)
-                          + np.array([-0.5, 0.5]) * abs(r.size[1] * np.dot(r.bitangent, forward)))
-    soups = [np.array([t.vertices for t in scene.triangles])] if scene.triangles else []
-    soups += [m.mesh.vertices[m.mesh.faces] for m in scene.meshes]
-    for corners in soups:
+    for corners in _triangle_soups(scene):
         # the distance to a triangle's box bounds the distance to it: only triangles whose box reaches into the
         # ball need the exact distance (about 1 s per 10^6 triangles with trimesh; the boxes take 0.05 s)
         gap = np.maximum(np.maximum(corners.min(axis=1) - eye, eye - corners.max(axis=1)), 0.0)
-        near = np.linalg.norm(gap, axis=1) < ball
-        if near.any():
-            closest = trimesh.triangles.closest_point(corners[near], np.broadcast_to(eye, (int(near.sum()), 3)))
+        close = np.linalg.norm(gap, axis=1) < ball
+        if close.any():
+            closest = trimesh.triangles.closest_point(corners[close], np.broadcast_to(eye, (int(close.sum()), 3)))
             distances.append(np.linalg.norm(closest - eye, axis=1))
-        depths.append(((corners - eye) @ forward).ravel())
     for e in scene.ellipsoids:
         distances.append(np.array([np.linalg.norm(e.center - eye) - np.linalg.norm(e.axes, 2)]))
-        mid, reach = np.dot(e.center - eye, forward), np.linalg.norm(e.axes @ forward)
-        depths.append(np.array([mid - reach, mid + reach]))
-    nearest, farthest = np.concatenate(distances).min(), np.concatenate(depths).max()
+    depths = view_depths(scene)
+    nearest, farthest = np.concatenate(distances).min(), depths.max(initial=-math.inf)
     if nearest < ball:
         raise InputError(at, "near_clip", near, f"geometry comes within {nearest:.6g} of the eye, where the near "
                          "plane would cut it: raytrace has no clip planes (give a smaller near_clip)")

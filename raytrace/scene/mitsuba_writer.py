@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from .mitsuba import view_depths
 from .transform import mesh_matrix
 
 # raytrace's pixel patterns and the Mitsuba sampler written for each (mitsuba.py's SAMPLER_PATTERNS reads them
@@ -190,22 +191,7 @@ class _Writer:
     def clip(self):
         """Mitsuba's near and far clip planes, moved from its defaults where those would cut the scene (raytrace's
         camera has none): near below the nearest point in front of the eye, far beyond the farthest."""
-        scene = self.scene
-        forward, _, _ = scene.camera.basis()
-        eye = scene.camera.position
-        depths = []
-        for r in scene.rectangles + scene.lights:
-            corners = [r.center + sx * r.size[0] / 2 * r.tangent + sy * r.size[1] / 2 * r.bitangent
-                       for sx in (-1, 1) for sy in (-1, 1)]
-            depths.extend((np.array(corners) - eye) @ forward)
-        for t in scene.triangles:
-            depths.extend((t.vertices - eye) @ forward)
-        for m in scene.meshes:
-            depths.extend((m.mesh.vertices - eye) @ forward)
-        for e in scene.ellipsoids:
-            reach, middle = np.linalg.norm(e.axes @ forward), np.dot(e.center - eye, forward)
-            depths.extend((middle - reach, middle + reach))
-        depths = np.array(depths)
+        depths = view_depths(self.scene)
         front = depths[depths > 0]
         near = NEAR_CLIP if not len(front) or front.min() >= NEAR_CLIP else float(front.min()) / 2
         far = FAR_CLIP if not len(depths) or depths.max() <= FAR_CLIP else 2 * float(depths.max())
