@@ -6,6 +6,16 @@ most u of itself, n of them by at most gamma(n) = n u / (1 - n u) (Higham, "Accu
 Numerical Algorithms", section 3.1; pbrt-v4 section 6.8.1). kernels/ray.h's GAMMA(n) is the same bound."""
 import numpy as np
 
+def is_integer(value):
+    """An int as a checked value must be: a bool, though an int in Python, is no count."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def is_real(value):
+    """An int or a float as a checked value must be (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 U = 2.0**-24  # float32 unit roundoff
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32

@@ -17,6 +17,7 @@ import numpy as np
 
 from . import samplers, structs
 from .errors import POSITIVE_SECONDS, InputError
+from .numerics import is_real
 from .memory import available_memory
 from .renderer.cpu_target import lanes_for
 from .renderer.device_render import LocalPasses, band_rows
@@ -63,14 +64,6 @@ class RenderStats:
     extra: dict = field(default_factory=dict)
 
 
-def _integer(value):
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _number(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
 def _option(value, source, key, check, problem):
     if not check(value):
         raise InputError(source, key, value, problem)
@@ -109,9 +102,9 @@ def _options(options):
     """The options that are not the scene's values."""
     _option(options.texture_filter, API, "texture_filter", lambda v: v in structs.FILTERS,
             f"unknown filter (have: {', '.join(structs.FILTERS)})")
-    _option(options.time_limit, API, "time_limit", lambda v: v is None or _number(v) and 0 < v < float("inf"),
+    _option(options.time_limit, API, "time_limit", lambda v: v is None or is_real(v) and 0 < v < float("inf"),
             POSITIVE_SECONDS)
-    _option(options.target_error, API, "target_error", lambda v: v is None or _number(v) and 0 < v < float("inf"),
+    _option(options.target_error, API, "target_error", lambda v: v is None or is_real(v) and 0 < v < float("inf"),
             "must be a positive relative RMSE")
 
 

@@ -35,7 +35,7 @@ import OpenImageIO as oiio
 
 from .. import samplers
 from ..errors import POSITIVE_SECONDS, InputError
-from ..numerics import rmse
+from ..numerics import is_integer, is_real, rmse
 from ..outputs import Outputs, scene_inputs, write_json
 from ..image_file import encode_8bit, write_image_file
 from ..render import RenderOptions, render_progressive, resolve
@@ -146,19 +146,11 @@ def read_reference(path, width, height, radiance=True):
             raise InputError(CLI, "--reference", str(path), f"holds {negative} negative value"
                              f"{'s' * (negative != 1)} of {image.size} (the least {float(image.min()):.4g}): "
                              "radiance is never negative, so no render makes it")
-        _check_fact(path, "raytrace:spp", facts["spp"], lambda v: _integer(v) and 1 <= v <= MAX_SPP,
+        _check_fact(path, "raytrace:spp", facts["spp"], lambda v: is_integer(v) and 1 <= v <= MAX_SPP,
                     f"must be a sample count in [1, {MAX_SPP}]")
         _check_fact(path, "raytrace:estimated_rmse", facts["estimated_rmse"],
-                    lambda v: _real(v) and 0 <= v < math.inf, "must be a finite number >= 0")
+                    lambda v: is_real(v) and 0 <= v < math.inf, "must be a finite number >= 0")
     return image, facts
-
-
-def _integer(value):
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _real(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _check_fact(path, key, value, check, problem):
