@@ -32,6 +32,18 @@ class UnsupportedWarning(UserWarning):
     or where raytrace's model differs from what the scene asks: one per kind, one line each."""
 
 
+def check_path(path, source, key):
+    """`path` as a str: a str or an os.PathLike that gives one (bytes are refused, not shown as "b'x.exr'" and
+    called an unknown extension), with no NUL character."""
+    import os  # here, as did_you_mean's difflib: the package binds interrupted_line before any other import
+    fspath = os.fspath(path) if isinstance(path, (str, os.PathLike)) else None
+    if not isinstance(fspath, str):
+        raise InputError(source, key, path, "must be a str or os.PathLike path")
+    if "\0" in fspath:
+        raise InputError(source, key, fspath, "holds a NUL character, which no file name can")
+    return fspath
+
+
 def shortened(text, limit=SHOWN):
     """`text` cut to `limit` characters, its middle left out and marked: both ends of a value tell the most."""
     if len(text) <= limit:

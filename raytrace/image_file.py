@@ -9,7 +9,7 @@ import os
 import numpy as np
 import OpenImageIO as oiio
 
-from .errors import InputError
+from .errors import InputError, check_path
 from .outputs import Outputs, finite_json
 from .renderer.progressive import row_chunks
 
@@ -115,14 +115,9 @@ def _spec(ext, width, height, metadata, variance):
         # empty spec too), and libtiff 4.7 fails to write that: "failed TIFFWriteCustomDirectory() of the Exif
         # data". We have no Exif data. TIFF keeps no custom attributes, so the description carries them.
         spec.attribute("tiff:write_exif", 0)
-        described = {f"raytrace:{key}": _plain(value) for key, value in (metadata or {}).items()}
+        described = {f"raytrace:{key}": value for key, value in (metadata or {}).items()}  # finite_json: numpy too
         spec.attribute("ImageDescription", json.dumps(finite_json(described), allow_nan=False))
     return spec
-
-
-def _plain(value):
-    """A metadata value as JSON has it (numpy scalars as Python numbers)."""
-    return value.item() if isinstance(value, np.generic) else value
 
 
 def write_image_file(path, image, metadata=None, variance=None):
@@ -157,17 +152,6 @@ def check_extension(path, source, key):
     """Refuse an image path whose extension names no format it can be written in."""
     if os.path.splitext(str(path))[1].lower() not in FORMATS:
         raise InputError(source, key, str(path), f"unsupported extension (have: {', '.join(sorted(FORMATS))})")
-
-
-def check_path(path, source, key):
-    """`path` as a str: a str or an os.PathLike that gives one (bytes are refused, not shown as "b'x.exr'" and
-    called an unknown extension), with no NUL character."""
-    fspath = os.fspath(path) if isinstance(path, (str, os.PathLike)) else None
-    if not isinstance(fspath, str):
-        raise InputError(source, key, path, "must be a str or os.PathLike path")
-    if "\0" in fspath:
-        raise InputError(source, key, fspath, "holds a NUL character, which no file name can")
-    return fspath
 
 
 def check_array(array, source, key, shape=None):

@@ -368,6 +368,16 @@ def test_no_scene_is_one_line():
     assert str(_one_line(lambda: raytrace.load_file(None))).startswith("load_file(): path = 'NoneType': ")
 
 
+def test_a_path_no_file_can_have_is_one_line():
+    """Found in review: a NUL in the name, or a PathLike giving bytes, raised ValueError or TypeError."""
+    class BytesPath:
+        def __fspath__(self):
+            return b"scene.toml"
+
+    assert "holds a NUL character" in str(_one_line(lambda: raytrace.load_file("a\0b.toml")))
+    assert "must be a str or os.PathLike path" in str(_one_line(lambda: raytrace.load_file(BytesPath())))
+
+
 @pytest.mark.parametrize("lanes", [3, 2.0, True, "8"])
 def test_a_lane_width_the_kernel_does_not_take_is_one_line(lanes):
     """Found (item 5): render(scene, lanes=3) ended in OpenCL's multi-line build log."""

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from . import environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, ranges, rules
-from ..errors import InputError, UnsupportedWarning, did_you_mean
+from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
 from .. import samplers
 from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     Triangle, normalize)
@@ -449,7 +449,7 @@ def load_file(path, defines=None, ignore_unsupported=False):
     line), the key and the value of the first bad entry."""
     if not isinstance(path, (str, os.PathLike)):
         raise InputError("load_file()", "path", type(path).__name__, "must be a str or os.PathLike naming a file")
-    path = Path(path)
+    path = Path(check_path(path, "load_file()", "path"))  # a NUL, or a PathLike that gives bytes
     if path.suffix.lower() == ".xml":
         return load_mitsuba_file(path, defines, ignore_unsupported)[0]
     if defines:
