@@ -199,23 +199,29 @@ def index_ratio(scene):
     return max(iors) / min(iors) if iors else 1.0
 
 
-def path_gain(scene):
+def _largest_albedo(scene):
+    return max(largest_albedo(scene, m) for m in scene.materials)
+
+
+def path_gain(scene, k=None):
     """G of rule 5: a bound on a path's throughput but for Russian roulette's factor; inf where there is none
-    (an albedo above 1 at unbounded depth)."""
-    k = max(largest_albedo(scene, m) for m in scene.materials)
+    (an albedo above 1 at unbounded depth). `k`: the largest albedo, where the caller has it (a float colour
+    map's takes a pass over every level)."""
+    k = _largest_albedo(scene) if k is None else k
     if scene.max_depth < 0:
         return index_ratio(scene) ** 2 if k <= 1 else math.inf
     with np.errstate(over="ignore"):
         return index_ratio(scene) ** 2 * float(np.float64(max(1.0, k)) ** max(scene.max_depth - 1, 0))
 
 
-def path_brightest(scene):
-    """B of rule 5: a bound on a path's sample but for Russian roulette's factor."""
-    k = max(largest_albedo(scene, m) for m in scene.materials)
+def path_brightest(scene, k=None, env=None):
+    """B of rule 5: a bound on a path's sample but for Russian roulette's factor (`k`, `env`: the largest
+    albedo and E_env, where the caller has them)."""
+    k = _largest_albedo(scene) if k is None else k
     lights = [float(light.colour.max()) for light in scene.lights]
-    env = environment_brightest(scene)
+    env = environment_brightest(scene) if env is None else env
     gather = max(lights + [env]) + k * (scene.light_samples * sum(lights) + env) / 2
-    return gather * path_gain(scene) if gather else 0.0
+    return gather * path_gain(scene, k) if gather else 0.0
 
 
 def _log2(x):
@@ -251,16 +257,21 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
 
 def _check_path_brightness(scene, material_readers, light_readers, scene_reader):
     """Rule 5: an albedo above 1 at unbounded depth, the throughput's bound G, then the sample's B, each
-    naming the largest factor of the bound it passes."""
-    growth, emitter = _path_places(scene, material_readers, light_readers, scene_reader)
-    k = max(largest_albedo(scene, m) for m in scene.materials)
+    naming the largest factor of the bound it passes. The bounds' factors are found only for a broken rule: each
+    pass over a float colour map or an environment map counts on a large one."""
+    def places():
+        return _path_places(scene, material_readers, light_readers, scene_reader)
+
+    k, env = _largest_albedo(scene), environment_brightest(scene)
     if scene.max_depth < 0 and k > 1:
-        reader, key, fallback = growth[0][1]
+        reader, key, fallback = places()[0][0][1]
         reader.fail(key, _shown(reader, key, fallback), f"reflects more light than it receives (an albedo of "
                     f"{k:.4g}): with max_depth = -1 a path's throughput grows without bound; set render.max_depth")
-    for value, what, factors in ((path_gain(scene), "throughput as large", growth),
-                                 (path_brightest(scene), "sample as bright", growth + [emitter])):
+    for value, what, with_emitter in ((path_gain(scene, k), "throughput as large", False),
+                                      (path_brightest(scene, k, env), "sample as bright", True)):
         if value > PATH_BRIGHTEST_LIMIT:
+            growth, emitter = places()
+            factors = growth + [emitter] if with_emitter else growth
             reader, key, fallback = max(factors, key=lambda factor: factor[0])[1]
             reader.fail(key, _shown(reader, key, fallback), f"makes a path's {what} as {value:.4g}, beyond the "
                         f"{PATH_BRIGHTEST_LIMIT:.4g} (2^32) that leaves Russian roulette a factor 2^30 below the 2^62 "
