@@ -51,7 +51,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
 #endif
         SweptLeaves candidates = {0};
         int swept = 0; /* found at the first sample that counts: a packet facing away needs none */
-#if LIGHT_VALUE_VEC3 /* the model's sample weights are colours (path_tracing.cl's rough conductors) */
+#if LIGHT_VALUE_VEC3 /* the model's sample weights are colours (path_tracing.cl's BSDF values) */
         vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
 #else
         vfloat sum = 0.0f;
@@ -88,10 +88,10 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
                     lit[g] &= !occluded_among(s, &candidates, shadow_segment(origin, q[g], q_err, light_normal), skip,
                                               lit[g]);
 #if LIGHT_VALUE_VEC3
-                vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples SOLID_ANGLE_ARGUMENT);
+                vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples, lit[g] SOLID_ANGLE_ARGUMENT);
                 sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), weight, lit[g]));
 #else
-                vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples SOLID_ANGLE_ARGUMENT);
+                vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples, lit[g] SOLID_ANGLE_ARGUMENT);
                 sum += SELECT((vfloat)(0.0f), weight, lit[g]);
 #endif
             }

@@ -5,6 +5,9 @@
 
 #define BVH_STACK 64         /* levels of a BVH traversal's stack holds (bvh.cl): the host refuses deeper trees */
 #define CULLED_RECTANGLES 32 /* rectangles shadow rays may skip: one bit each in a uint (types.h's Light) */
+/* The entries of a roughplastic's table of its coat's transmittance (types.h's Material): Mitsuba 3's
+ * MI_ROUGH_TRANSMITTANCE_RES. */
+#define ROUGH_TRANSMITTANCE_RES 64
 /* The lane widths lanes.h accepts: pixel samples a work-item holds at once. */
 #define LANE_WIDTH_ACCEPTED(n) ((n) == 1 || (n) == 4 || (n) == 8 || (n) == 16)
 

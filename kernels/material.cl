@@ -21,12 +21,28 @@ typedef struct {
     vec3 n;            /* shading unit normal, on the side of ng */
     vec3 k;            /* the material's colour at the hit (0 where no surface was hit) */
     vfloat shininess;
-#if HAS_BSDF_PARAMETERS
-    vint bsdf;         /* BSDF_* (the path model) */
-    vec3 eta, k_imag;  /* the material's eta and k (types.h) */
-    vfloat alpha;      /* the material's roughness */
+#if HAS_BSDF_PARAMETERS /* the path model's BSDF (bsdf.cl) and its values (types.h's Material) */
+    vint bsdf;         /* BSDF_* */
+    vec3 eta, k_imag;  /* eta and k */
+    vfloat alpha;      /* the roughness (along u) */
 #endif
-#if HAS_DIELECTRICS
+#if HAS_MICROFACETS
+    vfloat alpha_v;    /* the roughness along v */
+    vint distribution; /* MICROFACET_* */
+#endif
+#if HAS_ANISOTROPIC
+    vec3 t;            /* the shading tangent, the direction of u, orthogonal to n */
+#endif
+#if HAS_COATS
+    vec3 specular;     /* the coat's specular reflectance */
+    vint nonlinear;
+    vfloat internal_reflectance, specular_weight;
+#endif
+#if HAS_ROUGH_PLASTICS
+    vint material;     /* the material's index, for its table of the coat's transmittance */
+    __global const Material *materials;
+#endif
+#if HAS_BACKFACES
     vint backface;     /* the hit is on the side the normal points away from (inside a closed shape) */
 #endif
 } ShadingPoint;
@@ -210,7 +226,20 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     float alpha[LANES];
     Lanes3 eta = v3_spill(v3_splat(0.0f, 0.0f, 0.0f)), k_imag = eta;
 #endif
-#if HAS_DIELECTRICS
+#if HAS_MICROFACETS
+    int distribution[LANES];
+    float alpha_v[LANES];
+#endif
+#if HAS_COATS
+    int nonlinear[LANES];
+    float internal_reflectance[LANES], specular_weight[LANES];
+    Lanes3 specular = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
+#endif
+#if HAS_ROUGH_PLASTICS
+    sp.material = hit.material;
+    sp.materials = s->materials;
+#endif
+#if HAS_BACKFACES
     sp.backface = hit.backface;
 #endif
 #if HAS_SMOOTH_NORMALS /* the hits' shapes and barycentrics, for interpolating normals per lane */
@@ -231,6 +260,14 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         bsdf[i] = BSDF_DIFFUSE;
         alpha[i] = 1.0f;
 #endif
+#if HAS_MICROFACETS
+        distribution[i] = MICROFACET_GGX;
+        alpha_v[i] = 1.0f;
+#endif
+#if HAS_COATS
+        nonlinear[i] = 0;
+        internal_reflectance[i] = specular_weight[i] = 0.0f;
+#endif
 #if HAS_TEXTURES
         textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
         any_textured |= textured[i];
@@ -246,6 +283,16 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         set_lane3(&eta, i, f3(mat->eta));
         set_lane3(&k_imag, i, f3(mat->k));
 #endif
+#if HAS_MICROFACETS
+        distribution[i] = mat->distribution;
+        alpha_v[i] = mat->alpha_v;
+#endif
+#if HAS_COATS
+        nonlinear[i] = mat->nonlinear;
+        internal_reflectance[i] = mat->internal_reflectance;
+        specular_weight[i] = mat->specular_weight;
+        set_lane3(&specular, i, f3(mat->specular));
+#endif
 #if HAS_SMOOTH_NORMALS
         /* a normal or height map defines its own shading normal, from the flat frame (a known limit) */
         if (kind[i] == SHAPE_TRIANGLE && mat->normal_map < 0 && mat->height_map < 0)
@@ -259,6 +306,16 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     sp.eta = v3_fill(&eta);
     sp.k_imag = v3_fill(&k_imag);
     sp.alpha = VLOAD(alpha);
+#endif
+#if HAS_MICROFACETS
+    sp.distribution = VLOAD_INT(distribution);
+    sp.alpha_v = VLOAD(alpha_v);
+#endif
+#if HAS_COATS
+    sp.nonlinear = VLOAD_INT(nonlinear);
+    sp.internal_reflectance = VLOAD(internal_reflectance);
+    sp.specular_weight = VLOAD(specular_weight);
+    sp.specular = v3_fill(&specular);
 #endif
 #if HAS_SMOOTH_NORMALS
     sp.n = v3_fill(&n);

@@ -21,7 +21,7 @@ typedef struct {
     vec3 n;        /* unit geometric normal, facing the incoming ray */
     vint material; /* -1: nothing or a light */
     vec3 emitted;  /* colour of the light hit first, else 0 */
-#if HAS_DIELECTRICS
+#if HAS_BACKFACES
     vint backface; /* the ray met the side the shape's normal points away from: it leaves a closed shape */
 #endif
 #if HAS_SURFACE_DATA /* what texturing and smooth normals need: the shape and where on it */
@@ -43,7 +43,7 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n
     hit->n = v3_select(hit->n, v3_scale(n, facing), nearer);
     hit->material = SELECT(hit->material, (vint)(material), nearer);
     hit->emitted = v3_select(hit->emitted, v3_uniform(emitted), nearer);
-#if HAS_DIELECTRICS
+#if HAS_BACKFACES
     hit->backface = SELECT(hit->backface, facing < 0.0f, nearer);
 #endif
 #if HAS_SURFACE_DATA
@@ -134,7 +134,7 @@ inline Hit no_hit(void)
     hit.p = hit.n = hit.emitted = v3_splat(0.0f, 0.0f, 0.0f);
     hit.err = 0.0f;
     hit.material = (vint)(-1);
-#if HAS_DIELECTRICS
+#if HAS_BACKFACES
     hit.backface = (vint)(0);
 #endif
 #if HAS_SURFACE_DATA

@@ -15,8 +15,13 @@
 /* Hits carry their shape and barycentrics for texturing or for interpolating smooth normals. */
 #define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING) /* path: which light was hit */
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
-#define HAS_SPECULAR (HAS_CONDUCTORS || HAS_DIELECTRICS)    /* the path model's smooth BSDFs */
-#define HAS_BSDF_PARAMETERS (HAS_SPECULAR || HAS_ROUGH_CONDUCTORS) /* shading points carry a BSDF's own values */
+/* the path model's BSDFs (bsdf.cl): with a microfacet distribution (microfacet.cl), with a coat over a diffuse
+ * base, with hits that must know whether they come from inside (the index of refraction inverts) */
+#define HAS_MICROFACETS (HAS_ROUGH_CONDUCTORS || HAS_ROUGH_DIELECTRICS || HAS_ROUGH_PLASTICS)
+#define HAS_COATS (HAS_PLASTICS || HAS_ROUGH_PLASTICS)
+#define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS)
+/* shading points carry a BSDF's own values: any BSDF besides diffuse */
+#define HAS_BSDF_PARAMETERS (HAS_CONDUCTORS || HAS_DIELECTRICS || HAS_THIN_DIELECTRICS || HAS_MICROFACETS || HAS_COATS)
 
 typedef struct {
     __global const Rectangle *rectangles;

@@ -29,7 +29,8 @@ inline vint sample_counts(ShadingPoint sp, vec3 l, vec3 light_normal)
     return (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f);
 }
 
-inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n)
+inline vfloat sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, vec3 v, float area, int n,
+                            vint active)
 {
     return phong_lobes(sp.n, l, v, sp.shininess);
 }

@@ -79,15 +79,33 @@ typedef struct {
     float height_scale;              /* scene units per unit of height */
     float uv_scale[2], uv_offset[2]; /* (u, v) -> uv_scale * (u, v) + uv_offset before every lookup */
     int bsdf;                        /* BSDF_*: the path model's; the other models are Lambertian or Phong */
-    Vec3f eta, k;                    /* BSDF_CONDUCTOR: eta + i k per channel (0, 0: a perfect mirror);
-                                      * BSDF_DIELECTRIC: eta.x = int_ior / ext_ior */
-    float alpha;                     /* BSDF_ROUGHCONDUCTOR: the GGX roughness (microfacet.cl) */
+    Vec3f eta, k;                    /* conductors: eta + i k per channel (0, 0: a perfect mirror);
+                                      * dielectrics and plastics: eta.x = int_ior / ext_ior */
+    float alpha, alpha_v;            /* the rough BSDFs' roughness along u and along v (alpha_v = alpha: isotropic) */
+    int distribution;                /* the rough BSDFs' MICROFACET_* */
+    Vec3f specular;                  /* plastic, roughplastic: the coat's specular_reflectance */
+    int nonlinear;                   /* plastic, roughplastic: Mitsuba's `nonlinear` (the colour shifts with the
+                                      * light trapped under the coat) */
+    float internal_reflectance;      /* plastic, roughplastic: the share of diffuse light the coat reflects back
+                                      * inside (raytrace/renderer/plastic_terms.py) */
+    float specular_weight;           /* plastic, roughplastic: the coat's share in choosing a lobe to sample */
+    float transmittance[ROUGH_TRANSMITTANCE_RES]; /* roughplastic: the coat's transmittance at cos(theta) = i / (RES
+                                      * - 1), i = 0 .. RES - 1 (raytrace/renderer/rough_transmittance.py) */
 } Material;
 
+/* The path model's BSDFs, one file each in kernels/bsdfs/ (bsdf.cl), numbered as raytrace/scene/model.py's BSDFS. */
 #define BSDF_DIFFUSE 0
 #define BSDF_CONDUCTOR 1
 #define BSDF_DIELECTRIC 2
 #define BSDF_ROUGHCONDUCTOR 3
+#define BSDF_THINDIELECTRIC 4
+#define BSDF_ROUGHDIELECTRIC 5
+#define BSDF_PLASTIC 6
+#define BSDF_ROUGHPLASTIC 7
+
+/* The rough BSDFs' microfacet distributions (microfacet.cl), with Mitsuba's names. */
+#define MICROFACET_GGX 0
+#define MICROFACET_BECKMANN 1
 
 /* How a texture's texels are stored in the packed buffer of 32-bit words. */
 #define TEXELS_SRGB8 0  /* RGBA8 in one word, r in the low byte, sRGB-encoded: decoded through a table */

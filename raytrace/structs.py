@@ -5,6 +5,9 @@ import numpy as np
 
 VEC3F = ("<f4", (3,))
 
+# kernels/limits.h (with the others below)
+ROUGH_TRANSMITTANCE_RES = 64  # entries of a roughplastic's transmittance table (Material.transmittance)
+
 CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F), ("up", *VEC3F),
                    ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4")])
 
@@ -30,7 +33,9 @@ LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", 
 MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
                      ("height_map", "<i4"), ("wrap", "<i4"), ("height_scale", "<f4"), ("uv_scale", "<f4", (2,)),
                      ("uv_offset", "<f4", (2,)), ("bsdf", "<i4"), ("eta", *VEC3F), ("k", *VEC3F),
-                     ("alpha", "<f4")])
+                     ("alpha", "<f4"), ("alpha_v", "<f4"), ("distribution", "<i4"), ("specular", *VEC3F),
+                     ("nonlinear", "<i4"), ("internal_reflectance", "<f4"), ("specular_weight", "<f4"),
+                     ("transmittance", "<f4", (ROUGH_TRANSMITTANCE_RES,))])
 
 TEXTURE = np.dtype([("first_level", "<i4"), ("n_levels", "<i4"), ("encoding", "<i4")])
 
@@ -45,7 +50,11 @@ FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 # kernels/types.h: BSDF_*
-BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2, "roughconductor": 3}
+BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2, "roughconductor": 3, "thindielectric": 4, "roughdielectric": 5,
+         "plastic": 6, "roughplastic": 7}
+
+# kernels/types.h: MICROFACET_*
+MICROFACETS = {"ggx": 0, "beckmann": 1}
 
 # kernels/types.h: RANDOMIZE_*
 RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "sobol": 4}

@@ -138,8 +138,8 @@ def test_every_switch_the_kernels_test_is_on_the_page():
     """A macro the kernels test is an include guard, a macro they define themselves, a build option with a
     default (in the second table, or in the first where the host passes it too, as LANES), or one the host
     alone sets (in the first table); every option the host passes is tested by the kernels, directly or through
-    a macro derived from it; and the derived switches (those defined from a host option, as HAS_SPECULAR) are
-    named in the section, so that a reader finds what `#if HAS_SPECULAR` stands for."""
+    a macro derived from it; and the derived switches (those defined from a host option, as HAS_BACKFACES) are
+    named in the section, so that a reader finds what `#if HAS_BACKFACES` stands for."""
     tested, guards, defaults, derived = kernel_switches()
     host, other = table_names(HOST_HEADER), table_names(OTHER_HEADER)
     assert other == defaults - host, (f"defaults the second table lacks: {sorted(defaults - host - other)}; "
@@ -157,14 +157,14 @@ def test_every_switch_the_kernels_test_is_on_the_page():
 def test_the_parsers_see_what_is_there():
     """The parsers find the page's parts (a test that finds nothing passes nothing): the map holds render.cl and
     path_tracing.cl, the host table LANES and HAS_PATH_TRACING, the second table PATH_SAMPLING; the kernels'
-    directives give scene.h's guard, LANES's default and scene.h's HAS_SPECULAR; and a page without a row or
+    directives give scene.h's guard, LANES's default and scene.h's HAS_BACKFACES; and a page without a row or
     a map line loses that name."""
     assert {"render.cl", "path_tracing.cl"} <= set(kernel_map(PAGE))
     assert {"LANES", "HAS_PATH_TRACING"} <= table_names(HOST_HEADER)
     assert "PATH_SAMPLING" in table_names(OTHER_HEADER)
     tested, guards, defaults, derived = kernel_switches()
     assert {"SCENE_H", "PATH_TRACING_CL"} <= guards and {"LANES", "PATH_SAMPLING"} <= defaults
-    assert "HAS_SPECULAR" in derived and "HAS_SPECULAR" in tested
+    assert "HAS_BACKFACES" in derived and "HAS_BACKFACES" in tested
     cut = "\n".join(line for line in PAGE.splitlines() if not line.startswith("  microfacet.cl"))
     assert "microfacet.cl" not in kernel_map(cut)
     row = "\n".join(line for line in OPTIONS.splitlines() if not line.startswith("| `HAS_ENVIRONMENT_MAP`"))

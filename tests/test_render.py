@@ -76,7 +76,9 @@ def test_specialised_kernel(cornell):
                                   "-DHAS_COLOUR_MAPS=0", "-DHAS_NORMAL_MAPS=0", "-DHAS_HEIGHT_MAPS=0",
                                   "-DHAS_SMOOTH_NORMALS=0", "-DHAS_BVH=1", "-DHAS_DIRECT_LIGHTING=0",
                                   "-DHAS_PATH_TRACING=0", "-DHAS_CONDUCTORS=0", "-DHAS_DIELECTRICS=0",
-                                  "-DHAS_ROUGH_CONDUCTORS=0", "-DHAS_ENVIRONMENT=0", "-DHAS_ENVIRONMENT_MAP=0"]
+                                  "-DHAS_ROUGH_CONDUCTORS=0", "-DHAS_ENVIRONMENT=0", "-DHAS_ENVIRONMENT_MAP=0",
+                                  "-DHAS_THIN_DIELECTRICS=0", "-DHAS_ROUGH_DIELECTRICS=0", "-DHAS_PLASTICS=0",
+                                  "-DHAS_ROUGH_PLASTICS=0", "-DHAS_BECKMANN=0", "-DHAS_ANISOTROPIC=0"]
     special, s1 = raytrace.render(no_ellipsoid, width=32, height=32, spp=1, light_samples=4, sampler="center")
     full, s2 = raytrace.render(no_ellipsoid, width=32, height=32, spp=1, light_samples=4, sampler="center",
                                features=Features(8))

@@ -1,5 +1,5 @@
 """The specular BSDFs, the perfect mirror (a smooth conductor) and clear glass (a smooth dielectric;
-kernels/path_tracing.cl's sample_specular): mirror reflection, refraction by Snell's law with its 1 / eta^2
+kernels/bsdfs/conductor.cl and dielectric.cl): mirror reflection, refraction by Snell's law with its 1 / eta^2
 radiance factor, total internal reflection, the choice between reflection and refraction by Fresnel, and a
 furnace through which both are lossless."""
 import numpy as np
@@ -13,21 +13,28 @@ from path_support import FACES, SPECULAR, assert_mean, fresnel_reference
 
 SCATTER = """
 #include "path_tracing.cl"
-/* The smooth BSDFs' sample at a surface of normal nrm seen along wo, u choosing reflection or refraction. */
+/* The smooth BSDFs' sample (bsdf.cl's bsdf_sample) at a surface of normal nrm seen along wo, u choosing
+ * reflection or refraction. */
 __kernel void scatter(int n, __global const float *wo_, __global const float *nrm, __global const float *eta,
                       __global const float *u, __global const int *bsdf, __global const int *backface,
-                      __global float *wi, __global float *weight, __global float *transmit)
+                      __global float *wi, __global float *weight, __global float *transmit, __global float *pdf)
 {
     vec3 normal = IN3(nrm);
-    ShadingPoint sp = {v3_splat(0.0f, 0.0f, 0.0f), (vfloat)(0.0f), normal, normal, v3_splat(1.0f, 1.0f, 1.0f),
-                       (vfloat)(1.0f), VLOAD_INT(bsdf + I * LANES), v3((vfloat)(IN(eta)), (vfloat)(0.0f), (vfloat)(0.0f)),
-                       v3_splat(0.0f, 0.0f, 0.0f), (vfloat)(0.0f), VLOAD_INT(backface + I * LANES)};
-    vec3 w = normal, f = v3_splat(0.0f, 0.0f, 0.0f);
-    vint t = (vint)(0);
-    sample_specular(sp, IN3(wo_), IN(u), sp.bsdf != BSDF_DIFFUSE, &w, &f, &t);
-    OUT3(wi, w);
-    OUT3(weight, f);
-    OUT(transmit, SELECT((vfloat)(0.0f), (vfloat)(1.0f), t != 0));
+    ShadingPoint sp;
+    sp.p = v3_splat(0.0f, 0.0f, 0.0f);
+    sp.err = 0.0f;
+    sp.ng = sp.n = normal;
+    sp.k = v3_splat(1.0f, 1.0f, 1.0f);
+    sp.bsdf = VLOAD_INT(bsdf + I * LANES);
+    sp.eta = v3((vfloat)(IN(eta)), (vfloat)(0.0f), (vfloat)(0.0f));
+    sp.k_imag = v3_splat(0.0f, 0.0f, 0.0f);
+    sp.backface = VLOAD_INT(backface + I * LANES);
+    vec2 u2 = {(vfloat)(0.5f), (vfloat)(0.5f)};
+    BSDFSample bs = bsdf_sample(sp, IN3(wo_), IN(u), u2, (vint)(-1) != 0);
+    OUT3(wi, bs.wi);
+    OUT3(weight, bs.weight);
+    OUT(transmit, SELECT((vfloat)(0.0f), (vfloat)(1.0f), bs.transmit != 0));
+    OUT(pdf, SELECT(bs.pdf, (vfloat)(-1.0f), bs.delta == 0)); /* -1: not a delta lobe's */
 }
 """
 
@@ -49,7 +56,7 @@ def test_reflection_and_refraction_directions(harness):
     bsdf = rng.choice([1, 2], m).astype(np.int32)
     backface = rng.choice([0, -1], m).astype(np.int32)
     out = harness.run(SCATTER, "scatter", m, [planar(wo), planar(normal), eta, u, bsdf, backface],
-                      {"wi": 3, "weight": 3, "transmit": 1}, **SPECULAR)
+                      {"wi": 3, "weight": 3, "transmit": 1, "pdf": 1}, **SPECULAR)
     wi, weight, transmit = out["wi"].T, out["weight"].T, out["transmit"] > 0
     cos_i = np.sum(wo * normal, axis=1)
     mirror = 2 * cos_i[:, None] * normal - wo
@@ -71,6 +78,9 @@ def test_reflection_and_refraction_directions(harness):
     f = fresnel_reference(cos_i, rel, 0 * rel)
     glass = bsdf == 2
     assert abs(transmit[glass].mean() - (1 - f[glass]).mean()) < 5 * np.sqrt(0.25 / glass.sum())
+    # both are delta lobes, chosen with probability 1 (the mirror), F (reflection) and 1 - F (refraction)
+    expected = np.where(bsdf == 1, 1.0, np.where(transmit, 1 - f, f))
+    np.testing.assert_allclose(out["pdf"], expected, atol=1e-5)
 
 
 @pytest.mark.parametrize("inside", [False, True])

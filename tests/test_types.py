@@ -67,11 +67,13 @@ def test_constants_match_device(cl_env):
     names |= {f"FILTER_{k.upper()}": v for k, v in structs.FILTERS.items()}
     names |= {f"RANDOMIZE_{k.upper()}": v for k, v in structs.RANDOMIZE.items()}
     names |= {f"BSDF_{k.upper()}": v for k, v in structs.BSDFS.items()}
+    names |= {f"MICROFACET_{k.upper()}": v for k, v in structs.MICROFACETS.items()}
     names |= {f"SHAPE_{k.upper()}": v for k, v in structs.SHAPES.items()}
     names |= {"TEXELS_SRGB8": structs.TEXELS_SRGB8, "TEXELS_UNORM8": structs.TEXELS_UNORM8,
               "TEXELS_FLOAT": structs.TEXELS_FLOAT, "TEXELS_QUAD8": structs.TEXELS_QUAD8,
               "TEXELS_QUADF": structs.TEXELS_QUADF, "TEXELS_QUAD16": structs.TEXELS_QUAD16}
-    names |= {"BVH_STACK": structs.BVH_STACK, "CULLED_RECTANGLES": structs.CULLED_RECTANGLES}
+    names |= {"BVH_STACK": structs.BVH_STACK, "CULLED_RECTANGLES": structs.CULLED_RECTANGLES,
+              "ROUGH_TRANSMITTANCE_RES": structs.ROUGH_TRANSMITTANCE_RES}
     assert run_int_kernel(cl_env, values_kernel(names), len(names)) == list(names.values())
 
 

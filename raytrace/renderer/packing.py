@@ -9,6 +9,7 @@ from .. import samplers, structs
 from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
+from . import plastic_terms, rough_transmittance
 from .culling import light_sides
 from .geometry import DEFAULT_UV
 
@@ -120,32 +121,55 @@ def light_structs(lights, rectangles=(), extent=0.0):
     return a
 
 
-# A rough conductor smoother than this renders as the smooth one (kernels/path_tracing.cl's sample_specular), as
-# pbrt-v4's ConductorBxDF does where its TrowbridgeReitzDistribution is EffectivelySmooth (section 9.6): near the
-# normal, float32 resolves cos^2(theta_h) in steps of 2^-24, of which the GGX lobe (1 - cos^2 up to about
-# alpha^2) spans 17 at this alpha and fewer below; below alpha = 2^-63, alpha^2 is subnormal, then 0, and D(h)
-# 0 / 0 (kernels/microfacet.cl). The smooth conductor is the rough one's limit as alpha goes to 0.
+# A rough conductor or dielectric smoother than this renders as the smooth one (kernels/bsdfs/conductor.cl,
+# dielectric.cl), as pbrt-v4's ConductorBxDF and DielectricBxDF do where their TrowbridgeReitzDistribution is
+# EffectivelySmooth (section 9.6): near the normal, float32 resolves cos^2(theta_h) in steps of 2^-24, of which
+# the GGX lobe (1 - cos^2 up to about alpha^2) spans 17 at this alpha and fewer below; below alpha = 2^-63,
+# alpha^2 is subnormal, then 0, and D(h) 0 / 0 (kernels/microfacet.cl). The smooth BSDF is the rough one's
+# limit as alpha goes to 0. (A rough plastic keeps its own model: rough_transmittance.py.)
 SMOOTH_ALPHA = 1e-3
+_SMOOTH = {"roughconductor": "conductor", "roughdielectric": "dielectric"}
 
 
 def packed_bsdf(material):
-    """The BSDF the kernel renders `material` with: its own, but a rough conductor's of alpha below
-    SMOOTH_ALPHA that of the smooth conductor."""
-    if material.bsdf == "roughconductor" and material.alpha < SMOOTH_ALPHA:
-        return "conductor"
+    """The BSDF the kernel renders `material` with: its own, but a rough conductor's or dielectric's of alpha
+    (and alpha_v) below SMOOTH_ALPHA that of the smooth one."""
+    alpha = max(material.alpha, material.alpha if material.alpha_v is None else material.alpha_v)
+    if material.bsdf in _SMOOTH and alpha < SMOOTH_ALPHA:
+        return _SMOOTH[material.bsdf]
     return material.bsdf
+
+
+# The BSDFs with a microfacet distribution (alpha, alpha_v, distribution).
+ROUGH_BSDFS = ("roughconductor", "roughdielectric", "roughplastic")
+# The BSDFs whose eta.x is int_ior / ext_ior (types.h's Material).
+IOR_BSDFS = ("dielectric", "thindielectric", "roughdielectric", "plastic", "roughplastic")
+
+
+# The BSDFs the host declares whose kernel file is not written yet: refused in one line rather than rendered
+# black (issue 57).
+UNBUILT_BSDFS = ("thindielectric", "roughdielectric", "plastic", "roughplastic")
 
 
 def material_structs(materials):
     a = np.zeros(len(materials), structs.MATERIAL)
     for s, m in zip(a, materials):
+        if m.bsdf in UNBUILT_BSDFS:
+            raise InputError("scene", f"materials.{m.name}.type", m.bsdf, "is declared but not built yet")
         s["colour"], s["shininess"] = m.colour, m.shininess
         s["colour_map"], s["normal_map"], s["height_map"] = m.colour_map, m.normal_map, m.height_map
         s["wrap"], s["height_scale"] = structs.WRAP_MODES[m.wrap], m.height_scale
         s["uv_scale"], s["uv_offset"] = m.uv_scale, m.uv_offset
         s["bsdf"] = structs.BSDFS[packed_bsdf(m)]
-        s["eta"], s["k"] = (m.int_ior / m.ext_ior, 0.0, 0.0) if m.bsdf == "dielectric" else m.eta, m.k
+        s["eta"], s["k"] = (m.int_ior / m.ext_ior, 0.0, 0.0) if m.bsdf in IOR_BSDFS else m.eta, m.k
         s["alpha"] = m.alpha
+        s["alpha_v"] = m.alpha if m.alpha_v is None else m.alpha_v
+        s["distribution"] = structs.MICROFACETS[m.distribution]
+        s["specular"], s["nonlinear"] = m.specular, m.nonlinear
+        if m.bsdf in ("plastic", "roughplastic"):
+            s["internal_reflectance"], s["specular_weight"] = plastic_terms.coat(m)
+        if m.bsdf == "roughplastic":
+            s["transmittance"] = rough_transmittance.table(m)
     return a
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pyopencl as cl
 
 from .cpu_target import current_llvm_cpu
-from .packing import packed_bsdf
+from .packing import ROUGH_BSDFS, packed_bsdf
 
 
 def kernel_dir():
@@ -46,6 +46,12 @@ class Features:
     rough_conductors: bool = False  # the path model's rough metals (type = "roughconductor")
     environment: bool = False      # the path model's environment emitter
     environment_map: bool = False  # the environment is an image (type = "envmap"), importance-sampled
+    thin_dielectrics: bool = False  # the path model's thin glass (type = "thindielectric")
+    rough_dielectrics: bool = False  # the path model's rough glass (type = "roughdielectric")
+    plastics: bool = False         # the path model's smooth plastic (type = "plastic")
+    rough_plastics: bool = False   # the path model's rough plastic (type = "roughplastic")
+    beckmann: bool = False         # a rough BSDF with distribution = "beckmann" (else GGX alone)
+    anisotropic: bool = False      # a rough BSDF with alpha_v other than alpha: shading points carry a tangent
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -62,10 +68,18 @@ class Features:
                    any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
                    scene.shading == "direct", scene.shading == "path",
                    any(packed_bsdf(m) == "conductor" for m in scene.materials),
-                   any(m.bsdf == "dielectric" for m in scene.materials),
+                   any(packed_bsdf(m) == "dielectric" for m in scene.materials),
                    any(packed_bsdf(m) == "roughconductor" for m in scene.materials),
                    scene.environment is not None or scene.environment_map is not None,
-                   scene.environment_map is not None)
+                   scene.environment_map is not None,
+                   **{name: any(packed_bsdf(m) == bsdf for m in scene.materials)
+                      for name, bsdf in (("thin_dielectrics", "thindielectric"),
+                                         ("rough_dielectrics", "roughdielectric"), ("plastics", "plastic"),
+                                         ("rough_plastics", "roughplastic"))},
+                   beckmann=any(packed_bsdf(m) in ROUGH_BSDFS and m.distribution == "beckmann"
+                                for m in scene.materials),
+                   anisotropic=any(packed_bsdf(m) in ROUGH_BSDFS and m.alpha_v not in (None, m.alpha)
+                                   for m in scene.materials))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -73,7 +87,9 @@ class Features:
                  "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting,
                  "PATH_TRACING": self.path_tracing, "CONDUCTORS": self.conductors, "DIELECTRICS": self.dielectrics,
                  "ROUGH_CONDUCTORS": self.rough_conductors, "ENVIRONMENT": self.environment,
-                 "ENVIRONMENT_MAP": self.environment_map}
+                 "ENVIRONMENT_MAP": self.environment_map, "THIN_DIELECTRICS": self.thin_dielectrics,
+                 "ROUGH_DIELECTRICS": self.rough_dielectrics, "PLASTICS": self.plastics,
+                 "ROUGH_PLASTICS": self.rough_plastics, "BECKMANN": self.beckmann, "ANISOTROPIC": self.anisotropic}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 
