@@ -9,7 +9,7 @@ Install Mitsuba (a venv of its own; its llvm variants need Debian's libLLVM 19):
   python3 -m venv /tmp/mts && /tmp/mts/bin/pip install mitsuba numpy
 Run from the repository's root, in raytrace's venv (Mitsuba runs in a subprocess, with --mitsuba-python):
   python -m devtools.peers.xml_check SCENE.xml [--spp N] [--ref-spp M] [--chunks K] [--out DIR]
-                                     [--define name=value ...] [--write-reference | --use-reference]
+                                     [--define name=value ...] [--write-reference [--mitsuba-only] | --use-reference]
 
 Mitsuba renders SCENE.xml with variant llvm_ad_rgb in K renders of M / K samples, seeds 0 .. K-1
 (`mi.render(scene, seed=i, spp=M // K)`): the mean of their means, and the variance of that mean, the
@@ -25,7 +25,10 @@ mean; int `spp` (the total, M) and `chunks` (K), whose K - 1 is the variance's d
 STEM.json record of how it was made: Mitsuba's version and variant, spp, chunks, seeds, defines, the command
 line, the machine (lscpu's model name), the date, raytrace's commit (git rev-parse HEAD) and the seconds.
 --use-reference judges against that reference instead of running Mitsuba, as judge_against_reference()
-does: what the tests call on each scene of the corpus, with no Mitsuba installed.
+does: what the tests call on each scene of the corpus, with no Mitsuba installed. --mitsuba-only (with
+--write-reference) writes the reference and stops: raytrace is not imported, rendered or judged, for a scene
+of a plugin raytrace does not read yet (tests/test_mitsuba_corpus.py's PENDING); it prints Mitsuba's settings
+and seconds as one JSON line.
 
 Prints one JSON line (the verdict, devtools.judge.Verdict.as_dict(), with the settings and seconds of both
 renderers) and writes DIR/STEM.json (the same) and DIR/STEM.png (raytrace | Mitsuba | the |z| map, the
@@ -272,9 +275,16 @@ def main(argv=None):
                         help="also write Mitsuba's result as references/STEM.npz and .json beside the scene")
     source.add_argument("--use-reference", action="store_true",
                         help="judge against references/STEM.npz instead of running Mitsuba")
+    ap.add_argument("--mitsuba-only", action="store_true",
+                    help="with --write-reference: write it, and neither render nor judge raytrace")
     a = ap.parse_args(argv)
-    import raytrace
-    from devtools.judge import judge, side_by_side
+    if a.mitsuba_only and not a.write_reference:
+        ap.error("--mitsuba-only needs --write-reference")
+    errors = (ValueError, RuntimeError, OSError)
+    if not a.mitsuba_only:  # raytrace is not imported where it neither renders nor is judged
+        import raytrace
+        from devtools.judge import judge, side_by_side
+        errors += (raytrace.InputError,)
     scene = Path(a.scene)
     rt_chunks = a.rt_chunks or a.chunks
     try:
@@ -292,9 +302,12 @@ def main(argv=None):
             if a.write_reference:
                 mitsuba["reference"] = _relative(write_reference(scene, ref, defines,
                                                                  ["python", "-m", "devtools.peers.xml_check", *argv]))
+            if a.mitsuba_only:
+                print(json.dumps({"scene": _relative(scene), "defines": defines, "mitsuba": mitsuba}))
+                return 0
         mean, var, rt = render_raytrace(scene, a.spp, rt_chunks, a.seed, defines)
         _shapes_match(mean, ref["mean"], scene)
-    except (ValueError, RuntimeError, OSError, raytrace.InputError) as e:
+    except errors as e:
         print(f"xml_check: error: {e}", file=sys.stderr)
         return 2
     verdict = judge(mean, var, ref["mean"], ref["var"], a.alpha, a.pass_fraction, dof=rt_chunks - 1,
