@@ -13,6 +13,9 @@
 #include "mipmap.cl"
 #include "surface.cl"
 #endif
+#if HAS_ANISOTROPIC
+#include "surface.cl" /* the shapes' dp/du */
+#endif
 
 typedef struct {
     vec3 p;            /* the shading point: the hit, displaced by a height map */
@@ -209,6 +212,47 @@ inline float3 smooth_normal(const Scene *s, int index, float b1, float b2, float
 }
 #endif
 
+#if HAS_ANISOTROPIC
+/* sp with its shading tangent t (anisotropic BSDFs' x axis): the direction of dp/du at each lane's hit made
+ * orthogonal to the shading normal, Mitsuba 3's shading frame (SurfaceInteraction::initialize_sh_frame:
+ * s = normalize(dp_du - n dot(n, dp_du)), and coordinate_system(n) where dp/du vanishes). dp/du is a
+ * rectangle's tangent (Mitsuba's rectangle: its local x axis), a triangle's from its uvs (TriangleUV.tangent:
+ * a mesh without uvs has the barycentric uvs (b1, b2), dp/du = v1 - v0, as Mitsuba's mesh without texture
+ * coordinates; degenerate uvs the face's coordinate system, as Mitsuba's), an ellipsoid's of its spherical
+ * coordinates, M (-q.y, q.x, 0) at the unit-sphere point q (Mitsuba's sphere; 0 at the poles). After the
+ * normal and height maps: the tangent follows the normal they give (Mitsuba's normalmap builds its frame
+ * from dp/du so). Lanes that hit nothing get some unit vector orthogonal to n. */
+inline ShadingPoint with_tangent(const Scene *s, Hit hit, ShadingPoint sp)
+{
+    int kind[LANES], index[LANES];
+    VSTORE(hit.kind, kind);
+    VSTORE(hit.index, index);
+    Lanes3 p = v3_spill(hit.p), dpdu = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
+    for (int i = 0; i < LANES; ++i) {
+        float3 d = (float3)(0.0f);
+        if (kind[i] == SHAPE_RECTANGLE)
+            d = f3(s->rectangles[index[i]].tangent);
+#if HAS_TRIANGLES
+        if (kind[i] == SHAPE_TRIANGLE)
+            d = f3(s->triangle_uvs[index[i]].tangent);
+#endif
+#if HAS_ELLIPSOIDS
+        if (kind[i] == SHAPE_ELLIPSOID) {
+            __global const Ellipsoid *e = &s->ellipsoids[index[i]];
+            float3 q = mat3_mul(e->world_to_unit, lane3(&p, i) - f3(e->center));
+            d = mat3_mul(e->unit_to_world, (float3)(-q.y, q.x, 0.0f));
+        }
+#endif
+        set_lane3(&dpdu, i, d);
+    }
+    vec3 d = v3_fill(&dpdu);
+    sp.t = v3_unit_or(v3_sub(d, v3_scale(sp.n, v3_dot(sp.n, d))), any_perpendicular(sp.n));
+    return sp;
+}
+#else
+#define with_tangent(s, hit, sp) (sp)
+#endif
+
 /* The shading point of each lane's hit along r: the material's per lane (a gather), then each textured
  * material's textures on the lanes that hit it, lane-parallel. */
 inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hit)
@@ -322,7 +366,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #endif
 #if HAS_TEXTURES
     if (!any_textured)
-        return sp;
+        return with_tangent(s, hit, sp);
     TexturedHits h = textured_hits(s, textured_surface(s, hit, textured), r.d, sp.p, sp.ng);
     for (int i = 0; i < LANES; ++i) {
         if (!textured[i])
@@ -335,7 +379,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
                              &sp.k, &sp.n, &sp.p, &sp.err);
     }
 #endif
-    return sp;
+    return with_tangent(s, hit, sp);
 }
 
 #endif

@@ -50,11 +50,8 @@ SPP = 1024  # raytrace's samples per pixel: 16 chunks of 64 (a square and a powe
 # The scenes of a BSDF raytrace does not build yet (issue 57), and that BSDF: their references are committed and
 # their test is skipped, naming it. Remove a scene's entry when its BSDF lands.
 PENDING = {"plastic.xml": "plastic",
-           "roughplastic.xml": "roughplastic",
            "roughdielectric.xml": "roughdielectric",
-           "thindielectric.xml": "thindielectric",
-           "roughconductor_beckmann.xml": "roughconductor (distribution beckmann)",
-           "roughconductor_anisotropic.xml": "roughconductor (alpha_u != alpha_v)"}
+           "thindielectric.xml": "thindielectric"}
 
 
 def test_every_scene_has_a_reference():
