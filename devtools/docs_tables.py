@@ -18,6 +18,8 @@ Generated parts, by marker name:
   declarations the reader checks each value against): its type, default, accepted values and meaning.
 - `mitsuba-plugins`: every Mitsuba 3 plugin raytrace reads, from raytrace/scene/mitsuba.py's declarations: each
   parameter, Mitsuba's default and the raytrace key it becomes, with that key's accepted values from keys.py.
+- `bsdfs`: the manual's page of BSDFs, from raytrace/scene/bsdfs.py's declarations: a section per BSDF with its
+  doc, its parameters (the scene file's key, type, default, Mitsuba's default, accepted values) and an example.
 """
 import argparse
 import math
@@ -51,6 +53,7 @@ def _range(key):
 def accepted(key):
     """(its type, what it accepts) in words, from a key's declaration alone; names of values as Markdown code."""
     kind = {"number": "number", "integer": "integer", "string": "string", "boolean": "true or false",
+            "number-or-name": "number or name",
             "path": "file path", "table": "table", "tables": "array of tables", "named-tables": "table of tables",
             "faces": "list of index triples", "vector": f"{key.length} numbers",
             "number-or-vector": f"number or {key.length} numbers",
@@ -59,13 +62,20 @@ def accepted(key):
     bounds = [_range(key)] if _range(key) else []
     if bounds and key.kind in ("vector", "vectors", "number-or-vector"):
         bounds = [("each in " if bounds[0][0] in "[(" else "each ") + bounds[0]]
-    if key.choices:
-        bounds.append("one of " + ", ".join(f"`{c}`" for c in key.choices))
+    names = key.choices or tuple(name for name, _ in key.named)
+    if len(names) > MANY:
+        bounds.append(f"{'or ' if key.named else ''}one of {len(names)} names: {', '.join(f'`{c}`' for c in names[:4])}"
+                      " and others (docs/bsdfs.md lists them)")
+    elif names:
+        bounds.append(f"{'or ' if key.named else ''}one of " + ", ".join(f"`{c}`" for c in names))
     if key.nonzero:
         bounds.append("not all 0")
     if key.also:
         bounds.append(key.also)
     return kind, "; ".join(bounds) or "any"
+
+
+MANY = 12  # a key's names beyond this many are listed on the BSDFs' page, not in each table's cell
 
 
 def default_text(key):
@@ -147,8 +157,50 @@ def mitsuba_plugins():
     return lines
 
 
+def _value_text(value):
+    """A default as the BSDFs' tables show it: a number, a list, `"text"`, true/false, or none."""
+    from raytrace.scene.keys import Key
+    return default_text(Key("", "", "", default=value))
+
+
+def bsdf_pages():
+    """The manual's page of BSDFs, from raytrace/scene/bsdfs.py: per BSDF (a section titled by its Mitsuba name)
+    its doc, a table of its parameters (the scene file's key, its type, the scene file's default and Mitsuba's,
+    what it accepts, its meaning; the parameters of Mitsuba's scenes only after them) and an example table; then
+    Mitsuba's named media and metals."""
+    from raytrace.scene.bsdfs import DECLARED
+    from raytrace.scene.named_materials import CONDUCTORS, IORS
+    lines = []
+    for bsdf in DECLARED:
+        lines += [f"## {bsdf.name}", "", f"**{bsdf.title[0].upper()}{bsdf.title[1:]}.** {' '.join(bsdf.doc.split())}",
+                  ""]
+        rows = []
+        for p in bsdf.parameters:
+            if p.key is not None:
+                kind, values = accepted(p.key)
+                rows.append([f"`{p.key.name}`", kind, default_text(p.key), _value_text(p.mitsuba_default), values,
+                             p.key.doc])
+        for p in bsdf.parameters:
+            if p.key is None:
+                rows.append([f"`{p.name}`", "(Mitsuba's scenes only)", "", _value_text(p.mitsuba_default), "",
+                             p.note])
+        lines += markdown_table(["key", "type", "default", "Mitsuba's default", "accepted", "meaning"], rows)
+        lines += ["", "Beside these, every material's keys (`colour`, the texture maps, ...: "
+                  "[the scene format](scene-format.md#every-key)).", "", "```toml",
+                  f"[materials.{bsdf.name}_example]", bsdf.example, "```", ""]
+    lines += ["## Named materials", "",
+              "`int_ior` and `ext_ior` take a number or one of Mitsuba's named media (in any case), at about 589 nm:",
+              "", *markdown_table(["name", "index of refraction"], [[f"`{name}`", _number(ior)]
+                                                                   for name, ior in IORS.items()]), "",
+              "A conductor's `material` is one of Mitsuba's named metals (case matters), its `eta` and `k` as "
+              "Mitsuba's rgb variants have them (`raytrace/scene/named_materials.py`): "
+              + ", ".join(f"`{name}`" for name in CONDUCTORS) + "."]
+    return lines
+
+
 GENERATORS = {"scene-keys": (scene_keys, "raytrace/scene/keys.py"),
-              "mitsuba-plugins": (mitsuba_plugins, "raytrace/scene/mitsuba.py")}
+              "mitsuba-plugins": (mitsuba_plugins, "raytrace/scene/mitsuba.py"),
+              "bsdfs": (bsdf_pages, "raytrace/scene/bsdfs.py")}
 
 
 def begin_marker(name):

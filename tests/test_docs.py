@@ -42,8 +42,8 @@ def test_the_manual_builds_strictly(manual):
     status, log, out = manual
     assert status == 0 and log.strip() == "", log
     pages = {p.stem for p in out.glob("*.html")}
-    assert {"index", "getting-started", "cli", "scene-format", "python-api", "model", "sampling", "numerics",
-            "meshes", "gpu", "dask", "design", "performance"} <= pages
+    assert {"index", "getting-started", "cli", "scene-format", "bsdfs", "mitsuba", "python-api", "model", "sampling",
+            "numerics", "meshes", "gpu", "dask", "design", "performance"} <= pages
 
 
 def test_a_broken_anchor_fails_the_build(tmp_path):
@@ -168,10 +168,39 @@ def test_the_scene_format_tables_say_what_the_declarations_do(manual):
                ("top level", "ambient"): ["3 numbers", "[0, 0, 0]", 'each >= 0; shading = "phong" only'],
                ("render", "max_depth"): ["integer", "-1", "[-1, 1024]"],
                ("render", "shading"): ["string", '"phong"', "one of phong, direct, path"],
-               ("materials.NAME", "alpha"): ["number", "0.1", "(0, 1]"],
+               ('materials.NAME type = "roughconductor"', "alpha"): ["number", "0.1",
+                                                                    "(0, 1]; not with alpha_u, alpha_v"],
+               ('materials.NAME type = "plastic"', "int_ior"): [
+                   "number or name", "1.49", "> 0; or one of 23 names: vacuum, helium, hydrogen, air and others "
+                   "(docs/bsdfs.md lists them)"],
                ('shapes[] type = "mesh", from a file or generated', "smooth"): ["true or false", "false", "any"]}
     for (table, key), cells in by_hand.items():
         assert next(row[1:4] for row in tables[table] if row[0] == key) == cells, (table, key)
+
+
+def test_the_bsdf_page_has_a_section_per_declaration(manual):
+    """docs/bsdfs.md (made by devtools/docs_tables.py from raytrace/scene/bsdfs.py) has a section per declared BSDF,
+    in model.BSDFS's order, titled by its Mitsuba name: its doc, a table of its scene file keys in declaration order
+    (then the parameters of Mitsuba's scenes only) with the type, default, Mitsuba's default and accepted values
+    the generator derives, and its example; the page is linked from the manual's contents."""
+    from raytrace.scene import bsdfs, model
+    html = (manual[2] / "bsdfs.html").read_text()
+    sections = re.findall(r'<section id="([\w-]+)">', html)
+    assert [s for s in sections if s in bsdfs.BY_NAME] == list(model.BSDFS) and "named-materials" in sections
+    unmark = lambda text: " ".join(text.replace("`", "").split())  # noqa: E731
+    for bsdf in bsdfs.DECLARED:
+        section = html.split(f'<section id="{bsdf.name}">')[1].split("</section>")[0]
+        assert " ".join(bsdf.doc.split()[:6]) in _text(section)
+        rows = _table_rows(section)
+        keys = [p for p in bsdf.parameters if p.key is not None]
+        others = [p for p in bsdf.parameters if p.key is None]
+        assert rows[0] == ["key", "type", "default", "Mitsuba's default", "accepted", "meaning"]
+        assert [row[0] for row in rows[1:]] == [p.key.name for p in keys] + [p.name for p in others]
+        for row, p in zip(rows[1:], keys):
+            kind, values = accepted(p.key)
+            assert row[1:3] + row[4:5] == [kind, unmark(default_text(p.key)), unmark(values)], (bsdf.name, row)
+        assert f'type = "{bsdf.name}"' in _text(section)
+    assert 'href="bsdfs.html"' in (manual[2] / "index.html").read_text()
 
 
 def test_the_performance_page_shows_each_records_figures(manual):

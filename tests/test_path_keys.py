@@ -53,7 +53,7 @@ def test_bsdf_keys_are_checked():
             "lights": [{"center": [0, 0, 2], "size": [1, 1], "normal": [0, 0, -1], "tangent": [1, 0, 0],
                         "radiance": 1.0}]}
     cases = [({"type": "glass"}, "materials.m.type = 'glass': must be one of: diffuse, conductor, dielectric, "
-                                 "roughconductor"),
+                                 "roughconductor, thindielectric, roughdielectric, plastic, roughplastic"),
              ({"type": "dielectric", "int_ior": 0.0}, "materials.m.int_ior = 0.0: must be > 0"),
              ({"type": "dielectric", "ext_ior": -1.0}, "materials.m.ext_ior = -1.0"),
              ({"type": "dielectric", "eta": 1.5}, "materials.m.eta = 1.5: is not a parameter of type = \"dielectric\""),

@@ -11,8 +11,9 @@ import pytest
 
 from helpers import ROOT
 from raytrace.errors import InputError
-from raytrace.scene import parse_scene
+from raytrace.scene import bsdfs, parse_scene
 from raytrace.scene.keys import REQUIRED, TABLES
+from raytrace.scene.model import fingerprint
 
 SCENE_PATH = str(ROOT / "scenes" / "every_table.toml")  # textures are read relative to it (it need not exist)
 RECTANGLE = {"center": [0.0, 0.0, 0.0], "size": [2.0, 2.0], "normal": [0.0, 0.0, 1.0], "tangent": [1.0, 0.0, 0.0]}
@@ -62,7 +63,21 @@ SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] 
          'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"'}
 
 
-BSDF_OF = {"alpha": "roughconductor", "int_ior": "dielectric", "ext_ior": "dielectric"}
+# A material of each BSDF (the path model's), given every key of its type's table that one table can hold
+# together (a conductor's material instead of eta and k, alpha_u and alpha_v instead of alpha: tests/test_bsdf_keys.py)
+BSDF_TABLES = {bsdf.table: bsdf.name for bsdf in bsdfs.DECLARED}
+EVERY_BSDF_KEY = {
+    "diffuse": {"reflectance": [0.5, 0.4, 0.3]},
+    "conductor": {"eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1], "specular_reflectance": [0.9, 0.8, 0.7]},
+    "dielectric": {"int_ior": "water", "ext_ior": 1.0},
+    "roughconductor": {"eta": 0.2, "k": [3.9, 2.4, 2.1], "specular_reflectance": 0.8, "distribution": "beckmann",
+                       "alpha": 0.3},
+    "thindielectric": {"int_ior": 1.5, "ext_ior": "AIR"},
+    "roughdielectric": {"int_ior": "diamond", "ext_ior": 1.2, "distribution": "ggx", "alpha": 0.2},
+    "plastic": {"diffuse_reflectance": [0.1, 0.27, 0.36], "nonlinear": True, "int_ior": 1.9, "ext_ior": "air",
+                "specular_reflectance": 0.8},
+    "roughplastic": {"diffuse_reflectance": 0.3, "nonlinear": True, "int_ior": "pet", "ext_ior": 1.1,
+                     "specular_reflectance": [1.0, 0.9, 0.8], "distribution": "beckmann", "alpha": 0.1}}
 
 
 def radiometric(scene, shading):
@@ -86,6 +101,11 @@ def scene_with(table_name, key_name=None):
                                 {"type": "envmap", "filename": "../assets/textures/sky.exr", "scale": 1.0,
                                  "up": [0.0, 1.0, 0.0], "forward": [0.0, 0.0, 1.0]})
         return scene, scene["environment"], "environment."
+    if table_name in BSDF_TABLES:  # the path model's material "b" of that type
+        kind = BSDF_TABLES[table_name]
+        radiometric(scene, "path")
+        scene["materials"]["b"] = {"type": kind, **copy.deepcopy(EVERY_BSDF_KEY[kind])}
+        return scene, scene["materials"]["b"], "materials.b."
     where, prefix = PLACES[table_name]
     node = scene
     for step in where:
@@ -95,14 +115,18 @@ def scene_with(table_name, key_name=None):
 
 def declared_keys(table_name):
     names = {key.name for key in TABLES[table_name]}
+    if table_name == "materials.NAME" or table_name in BSDF_TABLES:  # every material's, and every type's
+        return sorted({key.name for key in TABLES["materials.NAME"]} | set(bsdfs.KEY_NAMES))
     return sorted(names | ({"type", "material"} if table_name in SHAPE else set()))
 
 
 def test_every_declared_table_is_exercised():
-    assert set(TABLES) == set(PLACES) | {DIRECT, ENVIRONMENT}
+    assert set(TABLES) == set(PLACES) | {DIRECT, ENVIRONMENT} | set(BSDF_TABLES)
     parse_scene(every_table(), SCENE_PATH)
     parse_scene(scene_with(DIRECT)[0], SCENE_PATH)
     parse_scene(scene_with(ENVIRONMENT)[0], SCENE_PATH)
+    for table_name in BSDF_TABLES:
+        parse_scene(scene_with(table_name)[0], SCENE_PATH)
 
 
 @pytest.mark.parametrize("table_name", list(TABLES))
@@ -148,9 +172,11 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
                     "bound")
     if key.name == "max_depth":  # the path model's key
         radiometric(scene, "path")
-    if table_name == "materials.NAME" and key.name in BSDF_OF:  # a parameter of one of the path model's BSDFs
-        radiometric(scene, "path")
-        table["type"] = BSDF_OF[key.name]
+    if table_name in BSDF_TABLES:
+        partner = bsdfs.BY_NAME[BSDF_TABLES[table_name]].parameter(key.name).together
+        if partner:  # alpha_u and alpha_v, given together and instead of alpha
+            del table["alpha"]
+            table[partner] = 0.5
     table[key.name] = value
     if accepted:
         parse_scene(scene, SCENE_PATH)
@@ -180,6 +206,8 @@ def test_each_declared_default_is_the_readers(table_name):
         table[key.name] = list(key.default) if isinstance(key.default, tuple) else key.default
         with_default = parse_scene(scene, SCENE_PATH)
         assert repr(without) == repr(with_default), key.name
+        if table_name in BSDF_TABLES:  # the material itself, every value of it
+            assert fingerprint(without.materials) == fingerprint(with_default.materials), key.name
 
 
 def test_the_default_table_declares_required_keys_as_required():

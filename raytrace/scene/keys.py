@@ -1,48 +1,24 @@
-"""Every key of a scene file: its table, type, default and accepted range, declared once. scene_file.py's
-reader takes each key's bounds and default from here and from nowhere else, and the manual's scene-format
-table is generated from here (docs/_ext/raytrace_docs.py), so that what is checked and what is documented
-cannot drift apart. What holds between keys (extents, sizes, brightness) is ranges.py's; what a key must
-additionally satisfy (a tangent not along the normal, a triangle with an area) is in `also`.
+"""Every key of a scene file: its table, type, default and accepted range, declared once (each a Key of
+declaration.py; the BSDFs' own keys, with their BSDF's doc, in bsdfs.py). scene_file.py's reader takes each
+key's bounds and default from here and from nowhere else, and the manual's scene-format table is generated from
+here (docs/_ext/raytrace_docs.py), so that what is checked and what is documented cannot drift apart. What holds
+between keys (extents, sizes, brightness) is ranges.py's; what a key must additionally satisfy (a tangent not
+along the normal, a triangle with an area) is in `also`.
 """
-import math
-from dataclasses import dataclass
-
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import WRAP_MODES
-from .model import (BSDFS, ENVIRONMENTS, DEFAULT_ALPHA, DEFAULT_EXT_IOR, DEFAULT_INT_IOR, DEFAULT_SHININESS, MAX_DEPTH,
-                    SHADINGS)
+from . import bsdfs
+from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
+from .model import BSDFS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
-REQUIRED = object()
 MAX_GENERATED_TRIANGLES = 50_000_000
 SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
 GENERATED_SHAPES = ("sphere", "torus", "terrain")
 
 
-@dataclass(frozen=True)
-class Key:
-    """One key of a table. `kind` is one of number, integer, string, boolean, vector (`length` numbers),
-    vectors (a list of `count` vectors of `length` numbers, any count when None), number-or-vector, path,
-    faces, table, tables (an array of tables) or named-tables (a table of tables). Numbers lie in
-    [low, high] (open at an end with open_low, open_high); vectors' components are at least `low`."""
-    name: str
-    kind: str
-    doc: str
-    default: object = REQUIRED
-    low: float = -math.inf
-    high: float = math.inf
-    open_low: bool = False
-    open_high: bool = False
-    length: int = 0
-    count: int | None = None
-    choices: tuple = ()
-    nonzero: bool = False
-    also: str = ""
 
-    @property
-    def required(self):
-        return self.default is REQUIRED
 
 
 def _rectangle(emission=None):
@@ -116,8 +92,9 @@ TABLES = {
     "lights[]": _rectangle(_COLOUR),
     "lights[] (direct, path)": _rectangle(_RADIANCE) + [_LIGHT_MATERIAL],
     "materials.NAME": [
-        Key("colour", "vector", "ka = kd = ks, the material's colour (a texture replaces it)", length=3, low=0,
-            default=(1.0, 1.0, 1.0), also="required without texture for type = diffuse"),
+        Key("colour", "vector", "ka = kd = ks, the material's colour (a texture replaces it); in the path model the "
+            "BSDF's reflectance, which each type's table below also names as Mitsuba does", length=3, low=0,
+            default=(1.0, 1.0, 1.0), also="required without texture for type = diffuse; 0.5 for the plastics"),
         Key("shininess", "number", "the Phong exponent", default=DEFAULT_SHININESS, low=0, open_low=True),
         Key("texture", "path", "colour map (from the scene file's folder)", default=None),
         Key("normal_map", "path", "tangent-space normal map, rgb = (n + 1) / 2", default=None),
@@ -130,21 +107,10 @@ TABLES = {
         Key("uv_offset", "vector", "added after uv_scale", length=2, default=(0.0, 0.0)),
         Key("wrap", "string", "how texture coordinates outside [0, 1] wrap", default="repeat",
             choices=tuple(WRAP_MODES)),
-        Key("type", "string", "the BSDF, with Mitsuba's names: Lambertian, a smooth mirror (conductor), smooth "
-            "glass (dielectric), a rough metal (roughconductor); colour is then their reflectance (and "
-            "transmittance)", default="diffuse",
-            choices=BSDFS, also='other than diffuse with shading = "path" only'),
-        Key("eta", "number-or-vector", "conductor, roughconductor: the real part of the index of refraction, per "
-            "channel",
-            length=3, low=0, default=(0.0, 0.0, 0.0), also="with k; both 0: a perfect mirror"),
-        Key("k", "number-or-vector", "conductor, roughconductor: the imaginary part (absorption), per channel",
-            length=3, low=0, default=(0.0, 0.0, 0.0)),
-        Key("alpha", "number", "roughconductor: the GGX roughness", default=DEFAULT_ALPHA, low=0, high=1,
-            open_low=True),
-        Key("int_ior", "number", "dielectric: the index of refraction inside (the side the normal points away "
-            "from)", default=DEFAULT_INT_IOR, low=0, open_low=True),
-        Key("ext_ior", "number", "dielectric: the index of refraction outside", default=DEFAULT_EXT_IOR, low=0,
-            open_low=True)],
+        Key("type", "string", "the BSDF, with Mitsuba 3's plugin names (docs/bsdfs.md): its parameters are the keys "
+            "of its table below", default="diffuse", choices=BSDFS, also='other than diffuse with shading = "path" '
+            "only")],
+    **bsdfs.key_tables(),  # each BSDF's own keys ('materials.NAME type = "diffuse"', ...), declared in bsdfs.py
     "shapes[]": [Key("type", "string", "the kind of shape", choices=SHAPE_KINDS),
                  Key("material", "string", "a material's name", also="a defined material")],
     'shapes[] type = "rectangle"': _rectangle(),

@@ -20,11 +20,12 @@ def normalize(v):
 # The shading models: the course's Phong model, radiometric direct lighting (Lambertian surfaces, area lights
 # of a given radiance: docs/model.md) and global illumination by path tracing (docs/global-illumination.md).
 SHADINGS = ("phong", "direct", "path")
-# The BSDFs of the path model, with Mitsuba 3's names: Lambertian, a smooth conductor (a mirror with the Fresnel
-# reflectance of eta + i k), smooth glass (Fresnel reflection and refraction), a rough conductor (GGX
-# microfacets of roughness alpha). Only "diffuse" elsewhere.
-BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor")
-DEFAULT_ALPHA = 0.1  # Mitsuba's roughconductor default
+# The BSDFs of the path model, with Mitsuba 3's plugin names, in the kernel's numbering (BSDF_* in
+# kernels/types.h): each is declared once, its parameters and doc, in bsdfs.py. Only "diffuse" elsewhere.
+BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor", "thindielectric", "roughdielectric", "plastic",
+         "roughplastic")
+DISTRIBUTIONS = ("ggx", "beckmann")  # the microfacet distributions of the rough BSDFs, with Mitsuba's names
+DEFAULT_ALPHA = 0.1  # Mitsuba's default roughness of its rough BSDFs
 ENVIRONMENTS = ("constant", "envmap")  # the path model's environment emitters, with Mitsuba's names
 DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
@@ -68,7 +69,7 @@ class EnvironmentMap:
 @dataclass(frozen=True)
 class Material:
     """A material: the course's Phong material, a Lambertian one in the radiometric models, or in the path model
-    one of Mitsuba's smooth BSDFs (bsdf); textures are indices into Scene.textures (-1: none)."""
+    one of Mitsuba's BSDFs (bsdf, declared in bsdfs.py); textures are indices into Scene.textures (-1: none)."""
     name: str
     colour: np.ndarray
     shininess: float = DEFAULT_SHININESS
@@ -79,12 +80,16 @@ class Material:
     uv_scale: tuple = (1.0, 1.0)
     uv_offset: tuple = (0.0, 0.0)
     wrap: str = "repeat"
-    bsdf: str = "diffuse"                # one of BSDFS
-    eta: tuple = (0.0, 0.0, 0.0)         # conductor: the complex index of refraction eta + i k, per channel;
+    bsdf: str = "diffuse"                # one of BSDFS; bsdfs.py says which fields each one reads
+    eta: tuple = (0.0, 0.0, 0.0)         # conductors: the complex index of refraction eta + i k, per channel;
     k: tuple = (0.0, 0.0, 0.0)           # both 0: a perfect mirror (Mitsuba's material "none")
-    int_ior: float = DEFAULT_INT_IOR     # dielectric: the index of refraction inside (the normal points out)
-    ext_ior: float = DEFAULT_EXT_IOR     # and outside
-    alpha: float = DEFAULT_ALPHA         # roughconductor: the GGX roughness
+    int_ior: float = DEFAULT_INT_IOR     # dielectrics and plastics: the index of refraction inside (the normal
+    ext_ior: float = DEFAULT_EXT_IOR     # points out) and outside; Mitsuba's glass defaults (a plastic's: bsdfs.py)
+    alpha: float = DEFAULT_ALPHA         # the rough BSDFs: the roughness (alpha_u where alpha_v is given)
+    alpha_v: float | None = None         # roughconductor, roughdielectric: the roughness along v (None: isotropic)
+    distribution: str = "ggx"            # the rough BSDFs' microfacet distribution: one of DISTRIBUTIONS
+    specular: tuple = (1.0, 1.0, 1.0)    # plastic, roughplastic: the coat's specular_reflectance (colour: the
+    nonlinear: bool = False              # base's diffuse_reflectance); nonlinear: Mitsuba's colour shift
 
 
 @dataclass(frozen=True)

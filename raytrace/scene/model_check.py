@@ -10,7 +10,7 @@ and shapes by their place in the model (rectangles[0].size, triangles[5].vertice
 """
 import numpy as np
 
-from . import ranges, rules
+from . import bsdfs, ranges, rules
 from .model import (RADIOMETRIC, Camera, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle, Triangle,
                     fingerprint)
 from .environment_map import ROWS_PROBLEM
@@ -22,8 +22,10 @@ CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("
           ("focal_length", "focal_length")]
 RECTANGLE = [("center", "center"), ("size", "size"), ("normal", "normal"), ("tangent", "tangent")]
 MATERIAL = [("colour", "colour"), ("shininess", "shininess"), ("height_scale", "height_scale"),
-            ("uv_scale", "uv_scale"), ("uv_offset", "uv_offset"), ("wrap", "wrap"), ("bsdf", "type"), ("eta", "eta"),
-            ("k", "k"), ("int_ior", "int_ior"), ("ext_ior", "ext_ior"), ("alpha", "alpha")]
+            ("uv_scale", "uv_scale"), ("uv_offset", "uv_offset"), ("wrap", "wrap"), ("bsdf", "type")]
+# The BSDFs' fields (bsdfs.py): each checked under the key that sets it in its material's type, else under the
+# first type's that declares it (the kernel is given every field, whichever type reads it); alpha_v where set.
+BSDF_FIELDS = ("eta", "k", "int_ior", "ext_ior", "alpha", "alpha_v", "distribution", "specular", "nonlinear")
 
 
 _value = rules.value
@@ -31,7 +33,7 @@ _value = rules.value
 IMAGE = ("width", "height")
 RENDER = ("spp", "light_samples", "sampler", "light_sampler", "shading", "max_depth", "seed")
 READ = {"number": "number", "integer": "integer", "string": "string", "vector": "vector", "number-or-vector": "vector",
-        "vectors": "vectors"}
+        "vectors": "vectors", "number-or-name": "number_or_name", "boolean": "boolean"}
 
 
 def _reader(source, prefix, spec, obj, fields):
@@ -42,6 +44,21 @@ def _reader(source, prefix, spec, obj, fields):
 def _read(reader, fields):
     for _, key in fields:
         getattr(reader, READ[reader.spec[key].kind])(key)
+
+
+def _check_bsdf(source, m):
+    """A material's BSDF fields read back under their keys (bsdfs.py), as its type's table would hold them."""
+    own = {}
+    for p in bsdfs.BY_NAME[m.bsdf].parameters:
+        if p.key is not None and len(p.fields) == 1:
+            own.setdefault(p.fields[0], p.key)  # alpha, not alpha_u: the first key of a field
+    declared = {field: own.get(field) or bsdfs.declaring(field)[0] for field in BSDF_FIELDS}
+    r = Reader(source, {key.name: _value(getattr(m, field)) for field, key in declared.items()
+                        if getattr(m, field) is not None}, f"materials.{m.name}.")
+    r.spec = {key.name: key for key in declared.values()}
+    for key in declared.values():
+        if key.name in r.table:
+            getattr(r, READ[key.kind])(key.name)
 
 
 def check_value(source, table, key, value):
@@ -117,6 +134,7 @@ def check_model(scene, source="render()"):
         r = _reader(source, f"materials.{m.name}.", "materials.NAME", m, MATERIAL)
         r.table.update(texture=m.colour_map, height_map=m.height_map)  # what ranges.py names in its errors
         _read(r, MATERIAL)
+        _check_bsdf(source, m)
         for key in ("colour_map", "normal_map", "height_map"):
             if getattr(m, key) != -1:
                 _index(source, f"materials.{m.name}.{key}", getattr(m, key), len(scene.textures))

@@ -1,10 +1,10 @@
 """The rules that hold between a scene's values, each stated here and nowhere else.
 
 A key's own type, default and range are keys.py's, checked by the reader of its table (scene_file.Reader). What
-holds between values is here: between keys of one table (a camera's look_at apart from its position), between a
-value and the shading model (a mirror is the path model's, an ambient term the Phong model's), between a sample
-pattern and its count, and the float32 ranges of the scene as a whole (ranges.py). They run once on the final
-model, whatever made it:
+holds between values is here: between keys of one table (a camera's look_at apart from its position, a rough
+interface's two indices of refraction apart), between a value and the shading model (a mirror is the path
+model's, an ambient term the Phong model's), between a sample pattern and its count, and the float32 ranges of
+the scene as a whole (ranges.py). They run once on the final model, whatever made it:
 
 - a scene file, a dict or a string (scene_file.parse_scene), and so a parameter edit (parameters.py re-reads
   the edited table);
@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import ranges
+from . import bsdfs, ranges
 from .. import samplers
 from .model import RADIOMETRIC, normalize
 
@@ -73,6 +73,15 @@ def _shading(scene, places):
             _path_only(reader, "material", scene.materials[light.material].name, scene.shading)
 
 
+def _bsdfs(scene, places):
+    """A rough interface refracts only between different indices (bsdfs.py's declarations say which)."""
+    for material, reader in zip(scene.materials, places.materials):
+        if bsdfs.BY_NAME[material.bsdf].distinct_iors and material.int_ior == material.ext_ior:
+            reader.fail("int_ior", value(material.int_ior), f'must differ from ext_ior for type = "{material.bsdf}" '
+                        "(Mitsuba's rule for its rough interfaces: at equal indices the half-vector of refraction "
+                        "vanishes)")
+
+
 def _patterns(scene, render):
     """Each pattern takes the sample count it is given (the grids a square), and a radiometric model's light
     samples are not one fixed point."""
@@ -98,6 +107,7 @@ def check(scene, places):
     """Raise InputError, through the reader of the value's table, at the first rule `scene` breaks."""
     _camera(scene.camera, places.camera)
     _shading(scene, places)
+    _bsdfs(scene, places)
     _patterns(scene, places.render)
     located = [(places.camera, scene.camera), *zip(places.lights, scene.lights), *places.shapes]
     ranges.check_scene(scene, located, places.materials, places.lights, places.top)

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, ranges, rules
+from . import bsdfs, environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, named_materials, ranges, \
+    rules
 from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
 from .. import samplers
 from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
@@ -67,7 +68,7 @@ class Reader:
         return self.raw(key.name, None if key.required else key.default)
 
     def number(self, name):
-        key = self.key(name, "number", "number-or-vector")
+        key = self.key(name, "number", "number-or-vector", "number-or-name")
         value = self._given(key)
         low, high, open_low = key.low, key.high, key.open_low
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -80,6 +81,19 @@ class Reader:
         if key.open_high and value == high:
             self.fail(name, value, f"must be < {high}")
         return float(value)
+
+    def number_or_name(self, name):
+        """A number in the key's range, or one of its names (in any case, as Mitsuba looks up its named media),
+        as the number it stands for."""
+        key = self.key(name, "number-or-name")
+        value = self._given(key)
+        if isinstance(value, str):
+            named = dict(key.named)
+            if value.lower() not in named:
+                self.fail(name, value, f"must be a number or one of Mitsuba's names: {', '.join(named)}"
+                          f"{did_you_mean(value.lower(), named, ';')}")
+            return float(named[value.lower()])
+        return self.number(name)
 
     def integer(self, name):
         key = self.key(name, "integer")
@@ -316,14 +330,47 @@ def _mesh_shape(r, material):
                      source)
 
 
+# How a BSDF parameter's key is read, by its declared kind (bsdfs.py)
+_READ = {"number": Reader.number, "number-or-name": Reader.number_or_name, "string": Reader.string,
+         "boolean": Reader.boolean, "number-or-vector": lambda r, name: tuple(_rgb(r, name).tolist())}
+
+
 def _bsdf(r):
-    """The material's BSDF fields: its type, and the parameters of that type only."""
-    bsdf = r.string("type")
-    own = {"diffuse": (), "conductor": ("eta", "k"), "dielectric": ("int_ior", "ext_ior"),
-           "roughconductor": ("eta", "k", "alpha")}[bsdf]
-    own_keys(r, bsdf, own, ("eta", "k", "int_ior", "ext_ior", "alpha"))
-    return dict(bsdf=bsdf, eta=tuple(_rgb(r, "eta")), k=tuple(_rgb(r, "k")), int_ior=r.number("int_ior"),
-                ext_ior=r.number("ext_ior"), alpha=r.number("alpha"))
+    """The material's BSDF fields: its type, and the parameters that type declares (bsdfs.py) only, each given by
+    Mitsuba's name or by raytrace's own (colour, alpha; a conductor's material for its eta and k), not by both,
+    else its declared default; `colour` where the type gives it (a name of it, or the type's own default)."""
+    kind = r.string("type")
+    bsdf = bsdfs.BY_NAME[kind]
+    own_keys(r, kind, bsdf.key_names(), bsdfs.KEY_NAMES)
+    own = Reader(r.path, r.table, r.prefix, bsdf.table)  # this type's keys, with their declared defaults
+    given = {"colour": "colour"} if r.has("colour") else {}  # Material field -> the key that gave it
+    for p in bsdf.parameters:
+        if p.key is None or not r.has(p.key.name) or (p.key.name == "material" and r.raw("material") == "none"):
+            continue  # material "none" is the default eta and k: Mitsuba takes it beside them
+        for field in p.fields:
+            if field in given:
+                own.fail(p.key.name, r.raw(p.key.name), f"sets the same value as {given[field]}: give one or the "
+                         "other")
+            given[field] = p.key.name
+    fields = {"bsdf": kind}
+    for p in bsdf.parameters:
+        if p.key is None or given.get(p.fields[0], p.key.name) != p.key.name:
+            continue  # Mitsuba's scenes' own, or another key gave its value
+        name = p.key.name
+        if p.together and r.has(name) and not r.has(p.together):
+            own.fail(name, r.raw(name), f"must be given with {p.together}")
+        if name == "material":
+            metal = own.string(name)
+            if metal != "none":  # none: the perfect mirror, eta = k = 0 (the defaults)
+                fields["eta"], fields["k"] = named_materials.CONDUCTORS[metal]
+        elif p.fields == ("colour",):
+            if r.has(name) or p.key.default is not None:
+                fields["colour"] = _rgb(own, name) if r.has(name) else np.array(p.key.default, np.float64)
+        elif r.has(name) or p.key.default is not None:
+            fields[p.fields[0]] = _READ[p.key.kind](own, name)
+    if fields.get("alpha_v") is not None and fields["alpha_v"] == fields.get("alpha"):
+        fields["alpha_v"] = None  # alpha_u = alpha_v: isotropic, as alpha alone
+    return fields
 
 
 def _environment(e, base_dir):
@@ -351,7 +398,7 @@ def map_placement(e):
 
 def _material(r, name, textures):
     """A material table; texture paths are relative to the scene file and read here."""
-    r.check_keys()
+    r.check_keys(sorted(set(r.spec) | set(bsdfs.KEY_NAMES)))
     bsdf = _bsdf(r)
     maps = {}
     for key, role in (("texture", "colour"), ("normal_map", "normal"), ("height_map", "height")):
@@ -367,9 +414,10 @@ def _material(r, name, textures):
     uv_offset = r.vector("uv_offset")
     if not np.all(np.abs(uv_offset) <= FLOAT32_MAX):
         r.fail("uv_offset", uv_offset.tolist(), f"both offsets must lie within +-{FLOAT32_MAX:.6g} (float32)")
-    if "texture" not in maps and not r.has("colour") and bsdf["bsdf"] == "diffuse":
+    colour = bsdf.pop("colour", None)
+    if colour is None and "texture" not in maps and not r.has("colour") and bsdf["bsdf"] == "diffuse":
         r.fail("colour", None, "missing")
-    return Material(name, r.vector("colour"), r.number("shininess"),
+    return Material(name, r.vector("colour") if colour is None else colour, r.number("shininess"),
                     maps.get("texture", -1), maps.get("normal_map", -1), maps.get("height_map", -1),
                     r.number("height_scale") if "height_map" in maps else 0.0,
                     tuple(uv_scale), tuple(uv_offset), r.string("wrap"), **bsdf)

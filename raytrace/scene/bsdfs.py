@@ -1,0 +1,255 @@
+"""Each BSDF of the path model declared once, as Mitsuba 3 declares a plugin in its source: its name (Mitsuba's
+plugin name, the material's `type`), a paragraph of doc, its parameters with Mitsuba's names, types, ranges and
+defaults (keys.py's `Key`s), the Material field each sets, and the kernel feature it is built under.
+
+What is made from the declarations: keys.py's table of each type's keys (`materials.NAME type = "plastic"`, the
+scene format's tables), the scene file's reader of them (scene_file.py's `_bsdf`), the checks of a material built
+in Python (model_check.py), Mitsuba's BSDF plugins as mitsuba.py reads them (`PLUGINS`) and as mitsuba_writer.py
+writes them, and the manual's page of BSDFs (docs/bsdfs.md, by `python -m devtools.docs_tables`). Adding a BSDF is
+its declaration here with its name appended to model.BSDFS (the kernel's numbering), its kernel file
+(kernels/bsdfs/NAME.cl) and its tests.
+
+Names. A scene file takes Mitsuba's names beside raytrace's own older ones: `colour` is diffuse's `reflectance`,
+the conductors' `specular_reflectance` and the plastics' `diffuse_reflectance`; `alpha` is the isotropic roughness,
+`alpha_u` and `alpha_v` an anisotropic one (given together, as Mitsuba requires); a conductor's `material` names
+its `eta` and `k`. Two names of one value in one table are an error, as Mitsuba's `alpha` beside `alpha_u` is.
+
+Defaults are Mitsuba's, with two exceptions in the scene file, where raytrace's own came first and existing
+scenes keep their meaning: diffuse's reflectance (`colour`) is required without a texture, as it always was
+(Mitsuba's 0.5 is what its XML reader gives), and the rough BSDFs' `distribution` is GGX, raytrace's rough metal
+before Beckmann was declared (Mitsuba's default, Beckmann, is what its XML reader gives). A material built in
+Python takes model.Material's defaults, Mitsuba's glass indices among them: a plastic built so gives its
+int_ior itself.
+
+Ranges, argued where they are not simply Mitsuba's:
+
+- `alpha`, `alpha_u`, `alpha_v` in (0, 1]. Mitsuba checks none (it takes any alpha, a texture's included).
+  Open at 0: a roughness of 0 is the smooth BSDF, whose microfacet density is a delta (alpha^2 / 0 at the
+  normal): the smooth types express it. Closed at 1, the bound raytrace's roughness has had: the microfacet
+  terms are checked against float64 and by chi-square from alpha 0.001 to 1, and Mitsuba's own reference calls
+  0.3 to 0.7 extremely rough and values far above them unrealistic; a Mitsuba scene beyond 1 is refused with one
+  line (the value and its XML line) rather than rendered where nothing was tested.
+- `int_ior`, `ext_ior` > 0: Mitsuba refuses negative indices only, but the BSDFs divide by them (eta =
+  int_ior / ext_ior). For `roughdielectric` and `roughplastic` they must also differ, as Mitsuba requires of its
+  rough interfaces (rules.py states it): at eta = 1 the half-vector of refraction, wi + eta wo, vanishes for
+  the direction that passes straight through, and the microfacet transmission's density with it. The smooth
+  `dielectric`, `thindielectric` and `plastic` take equal indices, as Mitsuba does (an interface that does not
+  refract; a coat that reflects nothing).
+- Reflectances (`colour` and its names, `specular_reflectance`) >= 0 with no upper bound, as `colour` always
+  was: what an albedo above 1 does to a path is ranges.py's rule 5.
+"""
+from dataclasses import dataclass
+
+from .declaration import Key
+from .model import BSDFS, DEFAULT_ALPHA, DEFAULT_EXT_IOR, DEFAULT_INT_IOR, DISTRIBUTIONS
+from .named_materials import CONDUCTORS, IORS
+
+SAME = object()  # a parameter whose Mitsuba default is its key's
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of a BSDF, by Mitsuba's name. `key`: the scene file's key of that name (its type, range and
+    the default a scene file gets), or None for a parameter of Mitsuba's scenes only. `fields`: the Material
+    fields it sets. `mitsuba`: Mitsuba's default, where it is not the key's. `writes`: the scene table's key
+    Mitsuba's XML reader writes it as ("": its own name). `together`: a key it must be given with. `note`: what
+    raytrace makes of it in a Mitsuba scene."""
+    name: str
+    fields: tuple
+    key: Key | None = None
+    mitsuba: object = SAME
+    writes: str = ""
+    together: str = ""
+    note: str = ""
+
+    @property
+    def mitsuba_default(self):
+        return self.key.default if self.mitsuba is SAME else self.mitsuba
+
+    @property
+    def table_key(self):
+        """The scene table's key the XML reader writes this parameter's value under."""
+        return self.writes or self.name
+
+
+@dataclass(frozen=True)
+class BSDF:
+    """A BSDF: Mitsuba's plugin name, its one-line title and doc, its parameters (Parameter, in Mitsuba's
+    order), the field of raytrace.renderer.program.Features that compiles it ("": always compiled), the body of
+    an example [materials.NAME] table, whether Mitsuba's plugin scatters from the front side only (it is then
+    wrapped in `twosided`: raytrace's BSDFs scatter on both sides), and whether int_ior and ext_ior must
+    differ."""
+    name: str
+    title: str
+    doc: str
+    parameters: tuple
+    feature: str
+    example: str
+    front_only: bool = True
+    distinct_iors: bool = False
+
+    @property
+    def table(self):
+        """The name of keys.py's table of this type's keys."""
+        return table_name(self.name)
+
+    def keys(self):
+        return [p.key for p in self.parameters if p.key is not None]
+
+    def key_names(self):
+        return [key.name for key in self.keys()]
+
+    def parameter(self, name):
+        return next(p for p in self.parameters if p.name == name)
+
+
+def table_name(name):
+    """keys.py's table of the keys of the BSDF `name`, beside the keys every material has ("materials.NAME")."""
+    return f'materials.NAME type = "{name}"'
+
+
+def _reflectance(name, doc, default, mitsuba=SAME, also="not with colour"):
+    """A reflectance parameter that is `colour` by Mitsuba's name."""
+    return Parameter(name, ("colour",), Key(name, "number-or-vector", f"Mitsuba's name for colour: {doc}",
+                                            default=default, length=3, low=0, also=also),
+                     mitsuba=mitsuba, writes="colour")
+
+
+def _ior(name, default, mitsuba, inside):
+    where = ("inside (the side the normal points away from)" if inside else "outside (the side the normal points "
+             "to)")
+    return Parameter(name, (name,), Key(name, "number-or-name", f"the index of refraction {where}: a number, or "
+                                        "one of Mitsuba's named media", default=default, low=0, open_low=True,
+                                        named=tuple(IORS.items())), mitsuba=mitsuba)
+
+
+def _iors(int_default, int_name):
+    return (_ior("int_ior", int_default, int_name, True), _ior("ext_ior", DEFAULT_EXT_IOR, "air", False))
+
+
+def _roughness(anisotropic):
+    """The microfacet parameters: the distribution and the roughness (isotropic, or also along u and v)."""
+    bound = dict(low=0, high=1, open_low=True)
+    found = [Parameter("distribution", ("distribution",),
+                       Key("distribution", "string", "the microfacet distribution: GGX's (Trowbridge-Reitz) or "
+                           "Beckmann's", default="ggx", choices=DISTRIBUTIONS), mitsuba="beckmann"),
+             Parameter("alpha", ("alpha",), Key("alpha", "number", "the roughness: the microfacets' slope spread "
+                                                "(Beckmann's: their RMS slope)", default=DEFAULT_ALPHA,
+                                                also="not with alpha_u, alpha_v" if anisotropic else "", **bound))]
+    if anisotropic:
+        found += [Parameter("alpha_u", ("alpha",), Key("alpha_u", "number", "the roughness along the tangent (u)",
+                                                       default=None, also="with alpha_v; not with alpha", **bound),
+                            mitsuba=DEFAULT_ALPHA, together="alpha_v"),
+                  Parameter("alpha_v", ("alpha_v",), Key("alpha_v", "number", "the roughness along the bitangent (v)",
+                                                         default=None, also="with alpha_u; not with alpha", **bound),
+                            mitsuba=DEFAULT_ALPHA, together="alpha_u")]
+    return tuple(found + [Parameter("sample_visible", (), mitsuba=True,
+                                    note="noise only: raytrace samples the visible normals")])
+
+
+def _conductor():
+    """A conductor's index of refraction, by its parts or by a named metal, and a factor on its reflectance."""
+    return (Parameter("eta", ("eta",), Key("eta", "number-or-vector", "the real part of the index of refraction, "
+                                           "per channel", length=3, low=0, default=(0.0, 0.0, 0.0),
+                                           also="with k; both 0: a perfect mirror"), mitsuba=0.0),
+            Parameter("k", ("k",), Key("k", "number-or-vector", "the imaginary part (absorption), per channel",
+                                       length=3, low=0, default=(0.0, 0.0, 0.0)), mitsuba=1.0),
+            Parameter("material", ("eta", "k"), Key("material", "string", "a named metal, eta and k in RGB as "
+                                                    "Mitsuba's rgb variants have them; none: a perfect mirror",
+                                                    default="none", choices=tuple(CONDUCTORS),
+                                                    also="not with eta or k (but none)")),
+            _reflectance("specular_reflectance", "a factor on the reflectance", (1.0, 1.0, 1.0), mitsuba=1.0))
+
+
+def _glass_colour():
+    """A dielectric's reflectance and transmittance: Mitsuba's two factors, raytrace's one colour."""
+    return tuple(Parameter(name, ("colour",), mitsuba=1.0, writes="colour", note=f"equal to {other} only (raytrace's "
+                           "glass has one colour, the scene file's colour)")
+                 for name, other in (("specular_reflectance", "specular_transmittance"),
+                                     ("specular_transmittance", "specular_reflectance")))
+
+
+def _plastic():
+    """A plastic's diffuse base and its dielectric coat."""
+    return (_reflectance("diffuse_reflectance", "the diffuse base's reflectance", (0.5, 0.5, 0.5), mitsuba=0.5),
+            Parameter("nonlinear", ("nonlinear",), Key("nonlinear", "boolean", "let the light scattered inside the "
+                                                       "coat shift the base's colour (darker, more saturated), as a "
+                                                       "varnish does; false keeps the given colour", default=False)),
+            *_iors(IORS["polypropylene"], "polypropylene"),
+            Parameter("specular_reflectance", ("specular",),
+                      Key("specular_reflectance", "number-or-vector", "a factor on the coat's specular reflection",
+                          default=(1.0, 1.0, 1.0), length=3, low=0), mitsuba=1.0))
+
+
+DECLARED = (
+    BSDF("diffuse", "smooth diffuse (Lambertian)", """\
+An ideally diffuse surface: light arriving from any direction is scattered over the hemisphere with a density
+proportional to the cosine, so that the surface looks the same from every direction of view. Its reflectance is
+the albedo: the fraction of the light it scatters. The Phong and direct models' materials are diffuse too.""",
+         (_reflectance("reflectance", "the albedo", None, mitsuba=0.5,
+                       also="not with colour; one of them is required without a texture"),), "",
+         'type = "diffuse"\nreflectance = [0.2, 0.25, 0.7]  # or colour'),
+    BSDF("conductor", "smooth conductor (a mirror)", """\
+A perfectly smooth metal: each ray is reflected about the normal, weighted by the Fresnel reflectance of the
+complex index of refraction eta + i k, per channel. A named metal gives both parts as Mitsuba's rgb variants
+compute them from measured spectra; eta = k = 0, the default (Mitsuba's material "none"), reflects everything.""",
+         _conductor(), "conductors", 'type = "conductor"\nmaterial = "Au"  # or eta and k'),
+    BSDF("dielectric", "smooth dielectric (glass)", """\
+A smooth interface between two dielectrics of indices int_ior (inside, the side the normal points away from) and
+ext_ior (outside), such as glass in air: each ray is reflected or refracted, chosen with the Fresnel reflectance;
+beyond the critical angle inside the denser medium, reflected whole. It scatters on both sides, so a closed
+shape is its medium's boundary; colour is a factor on the reflection and the transmission alike.""",
+         (*_iors(DEFAULT_INT_IOR, "bk7"), *_glass_colour()), "dielectrics",
+         'type = "dielectric"\nint_ior = "water"  # or a number; ext_ior is air\'s by default',
+         front_only=False),
+    BSDF("roughconductor", "rough conductor (microfacets)", """\
+A rough metal: the surface is a distribution of tiny smooth conductor facets (microfacets), their normals spread
+by the roughness alpha after GGX's or Beckmann's distribution, with Smith's masking and shadowing between them.
+Roughness along the tangent and the bitangent may differ (alpha_u, alpha_v: a brushed metal), following the
+surface's texture coordinates. Its eta, k and material are the smooth conductor's.""",
+         (*_conductor(), *_roughness(anisotropic=True)), "rough_conductors",
+         'type = "roughconductor"\nmaterial = "Cu"\ndistribution = "beckmann"\nalpha_u = 0.05  # or alpha alone, '
+         'the same along both\nalpha_v = 0.3'),
+    BSDF("thindielectric", "thin dielectric (a pane)", """\
+A dielectric so thin that its two interfaces coincide, such as a window pane modelled as one sheet: a ray is
+reflected, with the reflectance of both interfaces and of the light bouncing between them, or passes straight
+through, undeflected. For closed glass, use the dielectric.""",
+         (*_iors(DEFAULT_INT_IOR, "bk7"), *_glass_colour()), "thin_dielectrics",
+         'type = "thindielectric"\nint_ior = 1.5', front_only=False),
+    BSDF("roughdielectric", "rough dielectric (frosted glass)", """\
+The rough counterpart of the dielectric: an interface of microfacets, each a smooth dielectric, their normals
+spread by the roughness as the rough conductor's, reflecting and refracting after Walter et al.'s microfacet model
+of refraction (2007), such as etched or ground glass. int_ior and ext_ior must differ.""",
+         (*_iors(DEFAULT_INT_IOR, "bk7"), *_glass_colour(), *_roughness(anisotropic=True)), "rough_dielectrics",
+         'type = "roughdielectric"\ndistribution = "ggx"\nalpha = 0.2\nint_ior = "bk7"', front_only=False,
+         distinct_iors=True),
+    BSDF("plastic", "smooth plastic", """\
+A diffuse base under a smooth dielectric coat, such as plastic or varnished wood: the coat reflects as a mirror
+with its Fresnel reflectance, and the light it transmits scatters diffusely from the base, some of it reflected
+back inside the coat again and again before it leaves. nonlinear lets that internal scattering shift the base's
+colour, as it does in reality; by default the colour is kept as given.""",
+         _plastic(), "plastics", 'type = "plastic"\ndiffuse_reflectance = [0.1, 0.27, 0.36]\nint_ior = 1.9'),
+    BSDF("roughplastic", "rough plastic", """\
+The rough counterpart of the plastic: its coat is an interface of microfacets, isotropic (one roughness alpha),
+reflecting glossily over the diffuse base. int_ior and ext_ior must differ.""",
+         (*_plastic(), *_roughness(anisotropic=False)), "rough_plastics",
+         'type = "roughplastic"\ndiffuse_reflectance = [0.8, 0.2, 0.1]\ndistribution = "beckmann"\nalpha = 0.1\n'
+         'nonlinear = true', distinct_iors=True),
+)
+BY_NAME = {bsdf.name: bsdf for bsdf in DECLARED}
+# Every key of every type's table, in the order they are first declared: a material of one type given another's
+# key is refused as such (scene_file.py's own_keys), an unknown key as unknown.
+KEY_NAMES = tuple(dict.fromkeys(name for bsdf in DECLARED for name in bsdf.key_names()))
+assert tuple(BY_NAME) == BSDFS, "model.BSDFS lists the declared BSDFs in the kernel's numbering"
+
+
+def key_tables():
+    """keys.py's tables of the BSDFs' keys, one per type in model.BSDFS's order, which the scene format's page
+    lists after the keys every material has ("materials.NAME")."""
+    return {bsdf.table: bsdf.keys() for bsdf in DECLARED}
+
+
+def declaring(field):
+    """The keys that set Material field `field`, in the order of the declarations (each type's own first
+    where a caller looks for its own)."""
+    return [p.key for bsdf in DECLARED for p in bsdf.parameters if p.key is not None and p.fields == (field,)]
