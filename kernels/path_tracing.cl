@@ -161,8 +161,10 @@ inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active)
  * may stand at different vertices: render.cl starts a lane's next pixel sample where its path ends): the ray
  * it follows next, from the camera (depth 0) or from its vertex `depth`, the throughput beta, the radiance
  * gathered so far, and what the MIS weight of light the ray reaches needs of the vertex it left: its BSDF
- * sample's density, whether that was a delta BSDF's or the camera's (weight 1), and for a constant
- * environment the sample's cosine (p_env = cos / pi), for solid-angle light sampling the vertex. */
+ * sample's density, whether no light sample could have met its direction (`specular`, weight 1: the camera's
+ * ray, a delta lobe's, or a direction through the surface, since the lights and the environment are sampled on
+ * the side the vertex is seen from only), and for a constant environment the sample's cosine (p_env = cos /
+ * pi), for solid-angle light sampling the vertex. */
 typedef struct {
     Ray r;
     vec3 beta, radiance;
@@ -322,7 +324,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
     path->r = next;
     path->beta = beta;
     path->radiance = radiance;
-    path->specular = bs.delta;
+    path->specular = bs.delta | transmit; /* no light sample meets these: light they reach counts whole */
     path->pdf = bs.pdf;
 #if HAS_ENVIRONMENT
     path->cos_s = cos_s;
