@@ -5,6 +5,8 @@ the host notices: a renamed, added or retyped argument is a KernelInterfaceError
 arguments in another order still render the same image."""
 
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -15,6 +17,9 @@ from raytrace.renderer.interface import KernelArguments, KernelInterfaceError, d
 from raytrace.renderer.program import build, kernel_dir
 from raytrace.renderer import device_render
 from raytrace.structs import CAMERA, RENDER_PARAMS
+from raytrace.commands import child_env
+
+from helpers import ROOT, on_pocl, runnable_lane_widths
 
 OPTIONS = dict(width=16, height=8, spp=1, light_samples=1, sampler="center", light_sampler="center", lanes=1,
                progress=False)
@@ -82,3 +87,45 @@ def test_host_values_are_checked(cl_env):
         args.check("n", np.int64(1))
     with pytest.raises(KernelInterfaceError, match="'table' is declared uint2"):
         args.check("table", np.zeros((4, 3), np.uint32))
+
+
+LARGE_LAUNCH = r'''
+import numpy as np
+from raytrace.commands.stability.probe import Probe, planar
+SRC = """
+#include "path_tracing.cl"
+__kernel void sample(int n, __global const float *nrm, __global const float *u, __global float *wi)
+{
+    ShadingPoint sp;
+    sp.p = v3_splat(0.0f, 0.0f, 0.0f);
+    sp.err = 0.0f;
+    sp.ng = sp.n = IN3(nrm);
+    sp.k = v3_splat(1.0f, 1.0f, 1.0f);
+    sp.bsdf = (vint)(BSDF_ROUGHDIELECTRIC);
+    sp.eta = sp.k_imag = v3_splat(1.5f, 0.0f, 0.0f);
+    sp.alpha = sp.alpha_v = 0.3f;
+    sp.distribution = (vint)(MICROFACET_GGX);
+    sp.backface = (vint)(0);
+    vec2 u2 = {IN(u), IN(u)};
+    OUT3(wi, bsdf_sample(sp, IN3(nrm), IN(u), u2, (vint)(-1) != 0).wi);
+}
+"""
+n = 1 << 17
+out = Probe(16).run(SRC, "sample", n, [planar(np.tile([0, 0, 1.0], (n, 1))), np.linspace(0, 1, n, endpoint=False)],
+                    {"wi": 3}, HAS_PATH_TRACING=1, HAS_ROUGH_DIELECTRICS=1, HAS_RECTANGLES=1)
+assert np.all(np.isfinite(out["wi"])), "not finite"
+print("ran", out["wi"].shape[1])
+'''
+
+
+@on_pocl
+def test_a_large_probe_launch_runs():
+    """The test kernels' harness (raytrace/commands/stability/probe.py) launches the vector kernels on a CPU in
+    groups of one work-item, as the renderer does: with PoCL's own choice of group, a launch of 8192 work-items
+    of a kernel that samples a BSDF at 16 lanes ended the process with a segmentation fault (seen: exit status
+    -11 before the change, in a child process so that the crash cannot take the test session with it)."""
+    if 16 not in runnable_lane_widths():
+        pytest.skip("this machine's target does not run 16 lanes")
+    done = subprocess.run([sys.executable, "-c", LARGE_LAUNCH], capture_output=True, text=True, cwd=ROOT,
+                          env=child_env(None), timeout=600)
+    assert done.returncode == 0 and done.stdout.strip() == "ran 131072", (done.returncode, done.stderr[-2000:])

@@ -63,6 +63,13 @@ class Probe:
     def _buffer(self, array):
         return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=self._array(array))
 
+    def _local_size(self):
+        """The launch's local size: one work-item per group for the vector kernels on a CPU, as the renderer
+        launches them (renderer/device_render.py's work_group_shape); else the runtime's choice. PoCL's own
+        choice for a launch of 2048 or more work-items of a test kernel that includes bsdf.cl at 16 lanes
+        crashed the process (a segmentation fault), where groups of one run any size."""
+        return (1,) if self.lanes > 1 and self.queue.device.type & cl.device_type.CPU else None
+
     def run(self, source, name, n, args, outputs, **defines):
         """Run kernel `name` over n elements. It receives `int n`, the `args` (numpy arrays are copied in,
         float64 as float32; numpy scalars pass as they are), then one float buffer per entry of `outputs`
@@ -89,10 +96,10 @@ class Probe:
                     bound.set(k, a)
             for k in outputs:
                 bound.set(k, host[k], bufs[k])
-            bound.launch(self.queue, (n // self.lanes,))
+            bound.launch(self.queue, (n // self.lanes,), self._local_size())
         else:
             kernel_args = [np.int32(n)] + [self._buffer(a) if isinstance(a, np.ndarray) else a for a in args]
-            kernel(self.queue, (n // self.lanes,), None, *kernel_args, *bufs.values())
+            kernel(self.queue, (n // self.lanes,), self._local_size(), *kernel_args, *bufs.values())
         for h, b in zip(host.values(), bufs.values()):
             cl.enqueue_copy(self.queue, h, b)
         return {k: (h[0] if outputs[k] == 1 else h).astype(np.float64) for k, h in host.items()}
