@@ -238,6 +238,120 @@ def test_bsdfs_and_their_named_values(tmp_path):
     assert kinds["roughconductor"].alpha == 0.3 and tuple(kinds["conductor"].eta) == (0, 0, 0)
 
 
+SHAPE_OF = '<shape type="rectangle"><transform name="to_world"><translate z="-0.{i}"/></transform>{bsdf}</shape>'
+NEW_BSDFS = {  # (the bsdf element, the scene table's material it becomes)
+    "thin": ('<bsdf type="thindielectric" id="thin"><string name="int_ior" value="Water"/>'
+             '<float name="ext_ior" value="1.1"/><rgb name="specular_reflectance" value="0.9"/>'
+             '<rgb name="specular_transmittance" value="0.9"/></bsdf>',
+             {"type": "thindielectric", "colour": [0.9] * 3, "int_ior": "Water", "ext_ior": 1.1}),
+    "frosted": ('<bsdf type="roughdielectric" id="frosted"><string name="distribution" value="GGX"/>'
+                '<float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/>'
+                '<boolean name="sample_visible" value="false"/></bsdf>',
+                {"type": "roughdielectric", "colour": [1.0] * 3, "int_ior": "bk7", "ext_ior": "air",
+                 "distribution": "ggx", "alpha_u": 0.05, "alpha_v": 0.3}),
+    "shiny": ('<bsdf type="twosided" id="shiny"><bsdf type="plastic"><rgb name="diffuse_reflectance" '
+              'value="0.1, 0.27, 0.36"/><float name="int_ior" value="1.9"/><boolean name="nonlinear" value="true"/>'
+              '<rgb name="specular_reflectance" value="1, 0.5, 0.25"/></bsdf></bsdf>',
+              {"type": "plastic", "colour": [0.1, 0.27, 0.36], "nonlinear": True, "int_ior": 1.9, "ext_ior": "air",
+               "specular_reflectance": [1.0, 0.5, 0.25]}),
+    "matte": ('<bsdf type="twosided" id="matte"><bsdf type="roughplastic"/></bsdf>',
+              {"type": "roughplastic", "colour": [0.5] * 3, "nonlinear": False, "int_ior": "polypropylene",
+               "ext_ior": "air", "specular_reflectance": [1.0] * 3, "distribution": "beckmann", "alpha": 0.1}),
+    "brushed": ('<bsdf type="twosided" id="brushed"><bsdf type="roughconductor"><string name="material" value="Al"/>'
+                '<float name="alpha_u" value="0.4"/><float name="alpha_v" value="0.05"/></bsdf></bsdf>',
+                {"type": "roughconductor", "colour": [1.0] * 3, "material": "Al", "distribution": "beckmann",
+                 "alpha_u": 0.4, "alpha_v": 0.05}),
+    "mirror": ('<bsdf type="twosided" id="mirror"><bsdf type="conductor"><string name="material" value="none"/>'
+               '<rgb name="k" value="2"/></bsdf></bsdf>',
+               {"type": "conductor", "colour": [1.0] * 3, "eta": [0.0] * 3, "k": [2.0] * 3, "material": "none"}),
+}
+
+
+def test_each_bsdf_becomes_its_table_with_mitsubas_names_and_defaults(tmp_path):
+    """thindielectric, roughdielectric, plastic, roughplastic and the conductors' new parameters as the scene
+    table's keys (bsdfs.py): each given value under the key of its name (a reflectance as colour), Mitsuba's
+    defaults written where raytrace's format has others (a distribution: Beckmann), named media and metals kept
+    as names, which the scene file's reader resolves, in any case as Mitsuba does."""
+    from raytrace.scene import named_materials
+    extra = "".join(SHAPE_OF.format(i=i + 1, bsdf=bsdf) for i, (bsdf, _) in enumerate(NEW_BSDFS.values()))
+    scene = load(tmp_path, extra)
+    for name, (_, table) in NEW_BSDFS.items():
+        assert scene.source["materials"][name] == table, name
+    m = {material.name: material for material in scene.materials}
+    assert (m["thin"].int_ior, m["thin"].ext_ior) == (named_materials.IORS["water"], 1.1)
+    assert (m["frosted"].alpha, m["frosted"].alpha_v, m["frosted"].distribution) == (0.05, 0.3, "ggx")
+    assert (m["shiny"].specular, m["shiny"].nonlinear, m["shiny"].int_ior) == ((1.0, 0.5, 0.25), True, 1.9)
+    assert (m["matte"].int_ior, m["matte"].ext_ior, m["matte"].alpha, m["matte"].distribution) == (
+        1.49, 1.000277, 0.1, "beckmann")
+    assert (m["brushed"].eta, m["brushed"].k) == named_materials.CONDUCTORS["Al"]
+    assert (m["mirror"].eta, m["mirror"].k) == ((0.0,) * 3, (2.0,) * 3)  # Mitsuba's eta 0 beside a given k
+
+
+def test_the_new_bsdfs_convert_to_toml_as_the_same_model(tmp_path):
+    """XML -> TOML -> model equals XML -> model: the TOML is the table the reader makes, names and all."""
+    import tomllib
+
+    from raytrace.scene import parse_scene
+    from raytrace.scene.model import fingerprint
+    from raytrace.scene.scene_file import load_mitsuba_file
+    from raytrace.scene.toml_writer import scene_toml
+    extra = "".join(SHAPE_OF.format(i=i + 1, bsdf=bsdf) for i, (bsdf, _) in enumerate(NEW_BSDFS.values()))
+    scene, translation = load_mitsuba_file(write(tmp_path, scene_text(extra)), {"depth": 3})
+    back = parse_scene(tomllib.loads(scene_toml(translation.table)), str(tmp_path / "scene.toml"))
+    assert fingerprint(back.materials) == fingerprint(scene.materials)
+
+
+@pytest.mark.filterwarnings("ignore:.*outside twosided:raytrace.errors.UnsupportedWarning")
+@pytest.mark.parametrize("bsdf, param, message", [
+    ('<bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/></bsdf>', "alpha_u",
+     "must be given with alpha_v"),
+    ('<bsdf type="roughconductor"><float name="alpha" value="0.1"/><float name="alpha_u" value="0.1"/>'
+     '<float name="alpha_v" value="0.2"/></bsdf>', "alpha_u", "sets the same value as alpha"),
+    ('<bsdf type="roughdielectric"><float name="int_ior" value="1.2"/><float name="ext_ior" value="1.2"/></bsdf>',
+     "int_ior", 'must differ from ext_ior for type = "roughdielectric"'),
+    ('<bsdf type="roughplastic"><string name="distribution" value="phong"/></bsdf>', "distribution",
+     "must be one of: ggx, beckmann"),
+    ('<bsdf type="roughplastic"><float name="alpha" value="1.5"/></bsdf>', "alpha", "must be > 0 and <= 1"),
+    ('<bsdf type="plastic"><string name="int_ior" value="watr"/></bsdf>', "int_ior", "did you mean 'water'?"),
+    ('<bsdf type="plastic"><string name="nonlinear" value="true"/></bsdf>', "nonlinear", "must be a boolean"),
+    ('<bsdf type="roughconductor"><string name="sample_visible" value="no"/></bsdf>', "sample_visible",
+     "must be a boolean"),
+    ('<bsdf type="conductor"><string name="material" value="Au"/><rgb name="eta" value="1"/></bsdf>', "material",
+     "sets the same value as eta"),
+    ('<bsdf type="conductor"><string name="material" value="Gold"/></bsdf>', "material", "must be one of: Ag,"),
+    ('<bsdf type="roughplastic"><float name="alpha_u" value="0.1"/></bsdf>', "alpha_u",
+     "is no parameter of Mitsuba's roughplastic bsdf"),
+])
+def test_a_bad_bsdf_value_is_named_at_its_xml_line(tmp_path, bsdf, param, message):
+    """The scene file's reader refuses it (or the translator, for what has no key), named at the XML line of the
+    parameter it came from."""
+    lines = bsdf.replace("><", ">\n<")  # a parameter a line
+    text = scene_text(f'<shape type="rectangle">\n{lines}\n</shape>')
+    error = error_of(tmp_path, text)
+    line = line_of(text, f'name="{param}"')
+    assert error.source.endswith(f"scene.xml:{line}") and message in str(error), str(error)
+
+
+def test_only_the_one_sided_bsdfs_warn_outside_twosided(tmp_path):
+    """Mitsuba's diffuse, conductors and plastics scatter from the front only: bare, each is warned about once;
+    its glass, smooth, thin or rough, has two sides in both renderers."""
+    extra = "".join(SHAPE_OF.format(i=i + 1, bsdf=f'<bsdf type="{kind}"/>') for i, kind in enumerate(
+        ["plastic", "roughplastic", "thindielectric", "roughdielectric", "dielectric"]))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load(tmp_path, extra)
+    assert sorted(str(w.message).split(": ")[1] for w in caught) == [
+        "bsdf plastic outside twosided", "bsdf roughplastic outside twosided"]
+
+
+def test_a_glass_of_two_colours_is_unsupported(tmp_path):
+    for kind in ("thindielectric", "roughdielectric"):
+        text = scene_text(f'<shape type="rectangle"><bsdf type="{kind}"><rgb name="specular_transmittance" '
+                          'value="0.5"/></bsdf></shape>')
+        error = error_of(tmp_path, text)
+        assert f"{kind} transmittance unlike its reflectance" in str(error)
+
+
 def test_spectrum_plugins_as_mitsubas_rgb_variants_take_them(tmp_path):
     """d65 (times its scale), uniform and srgb as Mitsuba 3.9.1's scalar_rgb holds them (mi.traverse: d65 of
     scale 2 is 2, uniform 2 is 2, srgb (0.5, 0.2, 0.1) is itself, as radiance and as reflectance alike); the
@@ -280,7 +394,7 @@ def test_a_sheared_rectangle_is_two_triangles(tmp_path):
 
 @pytest.mark.parametrize("extra, where, message", [
     ('<shape type="cube"/>', "shape cube", "not supported (raytrace renders: rectangle, obj, ply, sphere)"),
-    ('<shape type="rectangle"><bsdf type="plastic"/></shape>', "bsdf plastic", "raytrace renders: diffuse"),
+    ('<shape type="rectangle"><bsdf type="pplastic"/></shape>', "bsdf pplastic", "raytrace renders: diffuse"),
     ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
     ('<shape type="sphere"><emitter type="area"/></shape>', "area emitter on sphere", "lights are rectangles"),
 ])

@@ -627,7 +627,7 @@ HOSTILE_STEPS = (
 )
 UNSUPPORTED = (
     el("shape", type="cube"), el("shape", type="cylinder"), el("shape", type="disk"), el("shape", el("emitter",
-    type="area"), type="sphere"), el("bsdf", type="plastic"), el("bsdf", type="principled"),
+    type="area"), type="sphere"), el("bsdf", type="pplastic"), el("bsdf", type="principled"),
     el("emitter", type="point"), el("emitter", type="directional"), el("emitter", type="area"),
     el("sensor", type="orthographic"), el("sensor", type="perspective"), el("integrator", type="volpath"),
     el("integrator", type="path"), el("film", type="specfilm"), el("rfilter", type="gaussian"),
@@ -770,7 +770,7 @@ def xml_mutations():
         st.builds(XmlMutation, st.just("rename attribute"), where, st.none(), pick, st.sampled_from(ATTRIBUTE_NAMES)),
         st.builds(XmlMutation, st.just("tag"), where, st.sampled_from(WRONG_TAGS), pick),
         st.builds(XmlMutation, st.just("type"), where, st.sampled_from(
-            ["cube", "plastic", "point", "rectangle", "diffuse", "hdrfilm", "box", "path", "perspective", "scene",
+            ["cube", "pplastic", "point", "rectangle", "diffuse", "hdrfilm", "box", "path", "perspective", "scene",
              "ref", "rgb", "spectrum", "", "twosided", "Diffuse", "envmap", "area", "constant", "moment", "obj",
              "a\nb", "x\ry", "\u2028"]), pick),
         st.builds(XmlMutation, st.just("nest"), where, st.sampled_from(WRAPPERS), pick),
@@ -1004,7 +1004,7 @@ NOT_PLUGINS = (None, 1, 1.5, "diffuse", [], [{"type": "diffuse"}], (), {"Type": 
                {"type": "rgb"}, {"type": "spectrum", "value": "x"},
                {"type": "rgb", "value": np.array([1.0, np.nan, 0])},
                {"type": "diffuse", "__where__": "x"}, b"diffuse")
-PLUGIN_TYPES = ("cube", "plastic", "point", "", "Diffuse", "scene", "ref", "rgb", "spectrum", "rectangle", "diffuse",
+PLUGIN_TYPES = ("cube", "pplastic", "point", "", "Diffuse", "scene", "ref", "rgb", "spectrum", "rectangle", "diffuse",
                 "hdrfilm", "perspective", "path", "twosided", "area", "moment", "independent")
 
 

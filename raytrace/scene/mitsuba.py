@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, did_you_mean, printable
-from . import mesh_file, named_materials, spectra
+from . import bsdfs, mesh_file, spectra
 from .mitsuba_xml import WHERE, Where
 from .transform import AFFINE
 
@@ -52,27 +52,20 @@ class Plugin:
         return [p.name for p in self.params] + [name for name, _ in self.only_default]
 
 
-_MATERIAL = "materials.NAME"
-_CONDUCTOR = (Param("material", "none", f"{_MATERIAL} eta", "a named metal (Mitsuba's table, in RGB), or none: a "
-                    "perfect mirror"),
-              Param("eta", None, f"{_MATERIAL} eta", "the real part of the index of refraction"),
-              Param("k", None, f"{_MATERIAL} k", "the imaginary part"),
-              Param("specular_reflectance", 1.0, f"{_MATERIAL} colour", "a factor on the reflectance"))
+def _bsdf_plugin(bsdf):
+    """The Plugin of a BSDF's declaration (bsdfs.py): each parameter with Mitsuba's default and the scene table's
+    key it becomes ("materials.NAME colour" for a reflectance, its type's table's key for the others)."""
+    def key(p):
+        if not p.fields:
+            return ""
+        return "materials.NAME colour" if p.table_key == "colour" else f"{bsdf.table} {p.table_key}"
+    return Plugin("bsdf", f"{bsdf.title}; [its page](bsdfs.md#{bsdf.name})",
+                  tuple(Param(p.name, p.mitsuba_default, key(p), p.note) for p in bsdf.parameters))
+
+
 _TRANSFORM = Param("to_world", "identity", "", "placement")
 PLUGINS = {
-    "diffuse": Plugin("bsdf", "Lambertian reflection", (Param("reflectance", 0.5, f"{_MATERIAL} colour"),)),
-    "conductor": Plugin("bsdf", "a smooth metal", _CONDUCTOR),
-    "roughconductor": Plugin("bsdf", "a rough metal (GGX microfacets)", _CONDUCTOR + (
-        Param("distribution", "beckmann", f"{_MATERIAL} type", "ggx only: raytrace's microfacets are GGX's"),
-        Param("alpha", 0.1, f"{_MATERIAL} alpha"),
-        Param("alpha_u", None, f"{_MATERIAL} alpha", "equal to alpha_v only (isotropic)"),
-        Param("alpha_v", None, f"{_MATERIAL} alpha", "equal to alpha_u only (isotropic)"),
-        Param("sample_visible", True, "", "noise only: raytrace samples the visible normals"))),
-    "dielectric": Plugin("bsdf", "smooth glass", (
-        Param("int_ior", "bk7", f"{_MATERIAL} int_ior", "a number or one of Mitsuba's named media"),
-        Param("ext_ior", "air", f"{_MATERIAL} ext_ior", "a number or one of Mitsuba's named media"),
-        Param("specular_reflectance", 1.0, f"{_MATERIAL} colour", "equal to specular_transmittance only"),
-        Param("specular_transmittance", 1.0, f"{_MATERIAL} colour", "equal to specular_reflectance only"))),
+    **{bsdf.name: _bsdf_plugin(bsdf) for bsdf in bsdfs.DECLARED},
     "twosided": Plugin("bsdf", "the BSDF inside on both sides (raytrace's BSDFs are two-sided: it unwraps it)",
                        (Param("bsdf", None, "", "one BSDF (two different ones are not supported)"),)),
     "rectangle": Plugin("shape", "[-1, 1]^2 in the plane z = 0, normal +z, under to_world", (
@@ -226,6 +219,11 @@ class _Translator:
         if not ok or (not integer and not math.isfinite(value)):
             self.fail(self.where(node, path).of(param), f"{path}.{param}" if path else param, _shown(value),
                       f"must be {'an integer' if integer else 'a finite number'}")
+        return value
+
+    def boolean(self, value, node, path, param):
+        if not isinstance(value, bool):
+            self.fail(self.where(node, path).of(param), f"{path}.{param}", _shown(value), "must be a boolean")
         return value
 
     def string(self, value, node, path, param, choices=None):
@@ -505,10 +503,8 @@ class _Translator:
             if crop in params and params[crop] != image[side]:
                 self.unsupported(self.where(node, key).of(crop), f"film hdrfilm: {crop}", "a crop of the film is "
                                  "not supported (the whole film only)")
-        if "sample_border" in params and not isinstance(params["sample_border"], bool):
-            self.fail(self.where(node, key).of("sample_border"), f"{key}.sample_border",
-                      _shown(params["sample_border"]),
-                      "must be a boolean")
+        if "sample_border" in params:
+            self.boolean(params["sample_border"], node, key, "sample_border")
         rfilters = [(path, v) for path, v, category in self.objects(params, key, node) if category == "rfilter"]
         if not rfilters:
             self.unsupported(self.where(node, key).at, "rfilter gaussian", "hdrfilm's default reconstruction filter "
@@ -565,19 +561,19 @@ class _Translator:
             self.fail(self.where(node, path).at, path, node["type"], "must be a bsdf")
         inner, inner_path, two_sided = node, path, False
         while inner["type"] == "twosided":
-            bsdfs = self.objects(self.params(inner, inner_path, "twosided"), inner_path, inner)
-            if len(bsdfs) != 1:
+            wrapped = self.objects(self.params(inner, inner_path, "twosided"), inner_path, inner)
+            if len(wrapped) != 1:
                 self.unsupported(self.where(inner, inner_path).at, "twosided with two BSDFs",
                                  "raytrace's BSDFs are the same on both sides")
-            if not bsdfs or bsdfs[0][2] != "bsdf":
-                self.fail(self.where(inner, inner_path).at, inner_path, len(bsdfs), "twosided must wrap a bsdf")
-            inner_path, inner = bsdfs[0][0], bsdfs[0][1]
+            if not wrapped or wrapped[0][2] != "bsdf":
+                self.fail(self.where(inner, inner_path).at, inner_path, len(wrapped), "twosided must wrap a bsdf")
+            inner_path, inner = wrapped[0][0], wrapped[0][1]
             two_sided = True
         name = node.get("id") if isinstance(node.get("id"), str) else f"bsdf_{len(self.table['materials'])}"
         while name in self.table["materials"]:
             name += "_"
         kind = inner["type"]
-        if not two_sided and kind != "dielectric":
+        if not two_sided and bsdfs.BY_NAME[kind].front_only:
             self.warn(self.where(node, path).at, f"bsdf {kind} outside twosided", "raytrace's BSDFs reflect on both "
                       "sides; Mitsuba's on the front only (the back is black)")
         params = self.params(inner, inner_path, kind)
@@ -588,71 +584,51 @@ class _Translator:
             material[key] = value
             self.origin(f"{prefix}.{key}", inner, inner_path, param)
 
-        if kind == "diffuse":
-            colour = self.colour(params.get("reflectance", DEFAULT_DIFFUSE), inner, inner_path, "reflectance")
-            put("colour", colour or [DEFAULT_DIFFUSE] * 3, "reflectance")
-        elif kind in ("conductor", "roughconductor"):
-            self.conductor(params, inner, inner_path, put)
-            if kind == "roughconductor":
-                distribution = self.string(params.get("distribution", "beckmann"), inner, inner_path, "distribution")
-                if distribution != "ggx":
-                    self.unsupported(self.where(inner, inner_path).of("distribution"),
-                                     f"roughconductor distribution {distribution}",
-                                     "raytrace's rough metal is GGX's: give distribution = ggx")
-                alpha = params.get("alpha", 0.1)
-                if "alpha_u" in params or "alpha_v" in params:
-                    u, v = params.get("alpha_u", alpha), params.get("alpha_v", alpha)
-                    if u != v:
-                        self.unsupported(self.where(inner, inner_path).of("alpha_u"), "anisotropic roughness",
-                                         "alpha_u and alpha_v must be equal")
-                    alpha = u
-                put("alpha", self.number(self.resolve(alpha, inner_path), inner, inner_path, "alpha"), "alpha")
-        elif kind == "dielectric":
-            for param in ("int_ior", "ext_ior"):
-                value = params.get(param, "bk7" if param == "int_ior" else "air")
-                if isinstance(value, str):
-                    if value.lower() not in named_materials.IORS:
-                        self.fail(self.where(inner, inner_path).of(param), f"{inner_path}.{param}", value,
-                                  f"no such medium{did_you_mean(value.lower(), named_materials.IORS)} (Mitsuba's "
-                                  f"named media: {', '.join(named_materials.IORS)})")
-                    value = named_materials.IORS[value.lower()]
-                put(param, self.number(value, inner, inner_path, param), param)
-            reflectance = self.colour(params.get("specular_reflectance", 1.0), inner, inner_path,
-                                      "specular_reflectance")
-            transmittance = self.colour(params.get("specular_transmittance", 1.0), inner, inner_path,
-                                        "specular_transmittance")
-            if reflectance != transmittance:
-                self.unsupported(self.where(inner, inner_path).of("specular_transmittance"),
-                                 "dielectric transmittance unlike its reflectance",
-                                 "raytrace's glass has one colour for both")
-            put("colour", reflectance, "specular_reflectance")
+        self.bsdf_values(bsdfs.BY_NAME[kind], params, inner, inner_path, put)
         self.table["materials"][name] = material
         self.materials[id(node)] = name
         return name
 
-    def conductor(self, params, node, path, put):
-        material = params.get("material", "none")
-        self.string(material, node, path, "material")
-        if "eta" in params or "k" in params or material == "none":
-            if material != "none":
-                self.fail(self.where(node, path).of("material"), f"{path}.material", material,
-                          "give either (eta, k) or material, not both")
-            if "eta" not in params and "k" not in params:
-                put("eta", [0.0] * 3, "material")  # none: a perfect mirror (raytrace's eta = k = 0)
-                put("k", [0.0] * 3, "material")
-            else:
+    def bsdf_values(self, bsdf, params, node, path, put):
+        """The scene table's values of a BSDF's Mitsuba parameters, as its declaration (bsdfs.py) names them: each
+        given value, else Mitsuba's default, under the scene table's key for it; the scene file's reader then checks
+        and resolves them as a TOML file's (named media and metals, Mitsuba's rules between alpha, alpha_u and
+        alpha_v, and between eta, k and material)."""
+        colours = [p for p in bsdf.parameters if p.fields == ("colour",)]
+        values = [self.colour(params.get(p.name, p.mitsuba_default), node, path, p.name) for p in colours]
+        if any(value != values[0] for value in values[1:]):
+            self.unsupported(self.where(node, path).of(colours[-1].name), f"{bsdf.name} transmittance unlike its "
+                             "reflectance", "raytrace's glass has one colour for both")
+        put("colour", values[0] or self.colour(colours[0].mitsuba_default, node, path, colours[0].name),
+            colours[0].name)
+        if "material" in params or "eta" in params or "k" in params:
+            self.string(params.get("material", "none"), node, path, "material")
+            if "eta" in params or "k" in params:  # Mitsuba's defaults of either, given the other: eta 0, k 1
                 put("eta", self.colour(params.get("eta", 0.0), node, path, "eta", unbounded=True), "eta")
                 put("k", self.colour(params.get("k", 1.0), node, path, "k", unbounded=True), "k")
-        else:
-            if material not in named_materials.CONDUCTORS:
-                self.fail(self.where(node, path).of("material"), f"{path}.material", material,
-                          f"no such metal{did_you_mean(material, named_materials.CONDUCTORS)} (Mitsuba's: "
-                          f"{', '.join(named_materials.CONDUCTORS)})")
-            eta, k = named_materials.CONDUCTORS[material]
-            put("eta", list(eta), "material")
-            put("k", list(k), "material")
-        colour = self.colour(params.get("specular_reflectance", 1.0), node, path, "specular_reflectance")
-        put("colour", colour or [1.0] * 3, "specular_reflectance")
+        for p in bsdf.parameters:
+            if p.key is None and isinstance(p.mitsuba_default, bool) and p.name in params:  # sample_visible
+                self.boolean(params[p.name], node, path, p.name)
+            if p.key is None or p.fields == ("colour",) or p.name in ("eta", "k"):
+                continue
+            if p.name not in params:
+                if p.key.default is None or p.name == "material" or (
+                        p.name == "alpha" and ("alpha_u" in params or "alpha_v" in params)):
+                    continue  # none given: the scene file's default is Mitsuba's
+                value = p.mitsuba_default
+            else:
+                value = self.resolve(params[p.name], path)
+            kind = p.key.kind
+            if kind == "number" or (kind == "number-or-name" and not isinstance(value, str)):
+                value = self.number(value, node, path, p.name)
+            elif kind == "string":
+                value = self.string(value, node, path, p.name)
+                value = value.lower() if p.name == "distribution" else value  # as Mitsuba reads it
+            elif kind == "boolean":
+                value = self.boolean(value, node, path, p.name)
+            elif kind == "number-or-vector":
+                value = self.colour(value, node, path, p.name)
+            put(p.table_key, value, p.name)
 
     def warn(self, at, what, problem):
         if what not in self.warned:

@@ -4,12 +4,13 @@ written scene's model back. Mitsuba 3's plugin reference is the specification of
 
 What the XML holds: the integrator of the shading model (`path` with max_depth, `direct` with emitter_samples);
 a `perspective` sensor (fov_axis y: raytrace's fov is vertical) with an `hdrfilm` of box filter and the sampler
-nearest the pixel pattern; each material something uses, as a `bsdf` with the material's name as its id
-(diffuse and conductors inside `twosided`: raytrace's BSDFs reflect on both sides, Mitsuba's on the front
-only; glass unwrapped, its sides being its inside and outside); each light a `rectangle` with an `area`
-emitter and a BSDF (its material, or a black diffuse: a raytrace light reflects nothing, and Mitsuba's default
-BSDF would be a grey diffuse); the shapes; the environment. Every number is written by repr(), which Python
-and Mitsuba's parser read back to the same float64.
+nearest the pixel pattern; each material something uses, as a `bsdf` with the material's name as its id and
+its parameters by Mitsuba's names (raytrace/scene/bsdfs.py; those Mitsuba scatters from the front only inside
+`twosided`: raytrace's BSDFs reflect on both sides; glass unwrapped, its sides being its inside and outside;
+the rough ones' distribution always written, Mitsuba's default being Beckmann and raytrace's GGX); each light
+a `rectangle` with an `area` emitter and a BSDF (its material, or a black diffuse: a raytrace light reflects
+nothing, and Mitsuba's default BSDF would be a grey diffuse); the shapes; the environment. Every number is
+written by repr(), which Python and Mitsuba's parser read back to the same float64.
 
 Meshes raytrace holds itself (triangles and meshes written in the scene file, generated meshes, and a mesh
 file under a mirroring transform: Mitsuba keeps a mirrored mesh's corner order, raytrace reverses it) are
@@ -30,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from . import bsdfs
 from .mitsuba import view_depths
 from .transform import mesh_matrix
 
@@ -218,31 +220,38 @@ class _Writer:
         self.ids[index] = self.unique_id(name if ID.match(name) else f"material{index}")
         if self.ids[index] != name:
             root.append(_comment(f"material {name!r}"))
-        if material.bsdf == "dielectric":
-            bsdf = ET.SubElement(root, "bsdf", type="dielectric", id=self.ids[index])
-            ET.SubElement(bsdf, "float", name="int_ior", value=_number(material.int_ior))
-            ET.SubElement(bsdf, "float", name="ext_ior", value=_number(material.ext_ior))
-            for param in ("specular_reflectance", "specular_transmittance"):
-                ET.SubElement(bsdf, "rgb", name=param, value=_numbers(material.colour))
-            return
-        twosided = ET.SubElement(root, "bsdf", type="twosided", id=self.ids[index])
-        bsdf = ET.SubElement(twosided, "bsdf", type=material.bsdf)
-        if material.bsdf == "diffuse":
-            ET.SubElement(bsdf, "rgb", name="reflectance", value=_numbers(material.colour))
-            return
+        declared = bsdfs.BY_NAME[material.bsdf]
+        if declared.front_only:  # raytrace's BSDFs scatter on both sides
+            bsdf = ET.SubElement(ET.SubElement(root, "bsdf", type="twosided", id=self.ids[index]), "bsdf",
+                                 type=material.bsdf)
+        else:
+            bsdf = ET.SubElement(root, "bsdf", type=material.bsdf, id=self.ids[index])
+        for p in declared.parameters:
+            if p.fields == ("eta",):
+                self.conductor(bsdf, material)
+            elif p.fields == ("colour",) or p.fields == ("specular",):
+                ET.SubElement(bsdf, "rgb", name=p.name, value=_numbers(getattr(material, p.fields[0])))
+            elif p.name in ("int_ior", "ext_ior") or (p.name == "alpha" and material.alpha_v is None):
+                ET.SubElement(bsdf, "float", name=p.name, value=_number(getattr(material, p.name)))
+            elif p.name in ("alpha_u", "alpha_v") and material.alpha_v is not None:
+                ET.SubElement(bsdf, "float", name=p.name, value=_number(getattr(material, p.fields[0])))
+            elif p.name == "distribution":  # always written: Mitsuba's default is Beckmann, raytrace's GGX
+                ET.SubElement(bsdf, "string", name=p.name, value=material.distribution)
+            elif p.name == "nonlinear":
+                ET.SubElement(bsdf, "boolean", name=p.name, value=str(bool(material.nonlinear)).lower())
+
+    def conductor(self, bsdf, material):
+        """A conductor's eta and k, as rgb values: none where both are 0 (Mitsuba's default, material none, the
+        perfect mirror)."""
         eta, k = np.array(material.eta, np.float64), np.array(material.k, np.float64)
         mirror = (eta == 0) & (k == 0)
-        if not mirror.all():  # all zero: Mitsuba's default, material "none", the perfect mirror
+        if not mirror.all():
             if mirror.any():
                 bsdf.append(_comment("eta = k = 0, raytrace's perfect mirror, is eta 0, k 1 in Mitsuba (the same "
                                      "reflectance of 1, without 0 / 0 at normal incidence)"))
                 k[mirror] = 1.0
             ET.SubElement(bsdf, "rgb", name="eta", value=_numbers(eta))
             ET.SubElement(bsdf, "rgb", name="k", value=_numbers(k))
-        ET.SubElement(bsdf, "rgb", name="specular_reflectance", value=_numbers(material.colour))
-        if material.bsdf == "roughconductor":
-            ET.SubElement(bsdf, "string", name="distribution", value="ggx")
-            ET.SubElement(bsdf, "float", name="alpha", value=_number(material.alpha))
 
     def bsdf_ref(self, element, index):
         ET.SubElement(element, "ref", id=_escaped(self.ids[index] if index >= 0 else self.black))
