@@ -178,7 +178,9 @@ def tracked_files():
 
 
 # Names of files that are not the repository's: PoCL's header, files tests and commands write for themselves.
-NOT_OURS = {"opencl-c.h", "render_entry.cl", "peer.py", "scene.py", "script.py"}
+# names of other projects' files, and generic ones: Mitsuba 3's and pbrt-v4's headers, which the BSDFs cite
+NOT_OURS = {"opencl-c.h", "render_entry.cl", "peer.py", "scene.py", "script.py", "microfacet.h", "fresnel.h", "warp.h",
+            "sampling.h"}
 REPO_PATH = re.compile(r"(?<![\w./-])((?:raytrace|kernels|tests|benchmarks|devtools|scenes|assets|docs|\.ci)"
                        r"/[\w./*-]*[\w*])")
 FILE_NAME = re.compile(r"(?<![\w./-])([\w/-]*[A-Za-z_]\w*\.(?:py|cl|h))\b")

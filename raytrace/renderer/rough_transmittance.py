@@ -1,6 +1,6 @@
 """The roughplastic BSDF's two terms of its rough dielectric coat (kernels/bsdfs/roughplastic.cl), found once per
 material as Mitsuba 3 (v3.9.1) finds them when it builds the plugin (src/bsdfs/roughplastic.cpp,
-parameters_changed; include/mitsuba/render/microfacet.h, eval_transmittance and eval_reflectance):
+parameters_changed; microfacet.h, eval_transmittance and eval_reflectance):
 
 - `table`: the coat's transmittance from outside, t(mu) = E_m[(1 - F(wi . m)) G1(wt, m)] over the normals m
   visible from wi = (sqrt(1 - mu^2), 0, mu), wt the direction refracted through m: the share of light arriving
