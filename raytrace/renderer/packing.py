@@ -148,7 +148,7 @@ IOR_BSDFS = ("dielectric", "thindielectric", "roughdielectric", "plastic", "roug
 
 # The BSDFs the host declares whose kernel file is not written yet: refused in one line rather than rendered
 # black (issue 57).
-UNBUILT_BSDFS = ("thindielectric", "plastic")
+UNBUILT_BSDFS = ()
 
 
 def material_structs(materials):
