@@ -49,7 +49,7 @@ SCENES = sorted(CORPUS.glob("*.xml"))
 SPP = 1024  # raytrace's samples per pixel: 16 chunks of 64 (a square and a power of two, as the grids need)
 # The scenes of a BSDF raytrace does not build yet (issue 57), and that BSDF: their references are committed and
 # their test is skipped, naming it. Remove a scene's entry when its BSDF lands.
-PENDING = {"roughdielectric.xml": "roughdielectric"}
+PENDING = {}
 
 
 def test_every_scene_has_a_reference():

@@ -1,7 +1,8 @@
 /* `roughdielectric`: rough glass, an interface of microfacets each a smooth dielectric (dielectric.cl), their
- * normals m spread by GGX of roughness alpha (microfacet.cl), reflecting and refracting after Walter et al.,
- * "Microfacet Models for Refraction through Rough Surfaces", EGSR 2007, as Mitsuba 3's `roughdielectric`
- * (v3.9.1, src/bsdfs/roughdielectric.cpp) writes it; pbrt-v4's DielectricBxDF, section 9.7, is the same model.
+ * normals m spread by GGX's or Beckmann's distribution, isotropic or anisotropic (microfacet.cl), reflecting
+ * and refracting after Walter et al., "Microfacet Models for Refraction through Rough Surfaces", EGSR 2007, as
+ * Mitsuba 3's `roughdielectric` (v3.9.1, src/bsdfs/roughdielectric.cpp) writes it; pbrt-v4's DielectricBxDF,
+ * section 9.7, is the same model (GGX only).
  * With eta the index of wi's side over wo's, F = F(wo.m) the microfacet's Fresnel reflectance and the separable
  * G = G1(wo, m) G1(wi, m), Mitsuba's, the value with its cosine (bsdf.cl's convention) is
  *   reflection (wi on wo's side):   F D(m) G / (4 cos_o),                      m = normalize(wo + wi),
@@ -13,27 +14,35 @@
  * original paper"): raytrace traces radiance from the camera, as Mitsuba's `path` does. So the transmission
  * is not reciprocal; eval eta_wi^2 / cos_i is.
  * G1(v, m) is 0 where v sees the microfacet from behind, dot(v, m) cos(v) <= 0 (Mitsuba's smith_g1): a
- * direction pair whose half vector no microfacet facing both could have has no value and no density.
+ * direction pair whose half vector no microfacet facing both could have has no value and no density. Those
+ * checks are the lanes' `valid` here, and G1 itself microfacet_g1_front.
  *
- * Sampling: a normal m visible from wo (Heitz 2018, ggx_sample_visible_normal), then reflection about m with
- * probability F(wo.m), refraction through it otherwise (Walter's section 5.3: the choice by the sampled
- * microfacet's own reflectance, so that F cancels from the weight). The density of wi is D_wo(m) times the
- * choice's probability times the Jacobian of the half vector, 1 / (4 |wi.m|) for reflection and eta^2 |wi.m| /
- * (wo.m + eta wi.m)^2 for refraction (Walter's eqs. 14 and 17), so f cos / p = k G1(wi, m), and 1 / eta^2
- * that on refraction (dielectric.cl's factor). A sample whose wi lies on the wrong side for its lobe
- * (reflected below the surface, refracted above it: G1(wi, m) = 0) has pdf 0, as does wo at the horizon.
+ * Sampling: a normal m visible from wo (microfacet_sample_visible: Heitz 2018 for GGX, Jakob 2014 for
+ * Beckmann), then reflection about m with probability F(wo.m), refraction through it otherwise (Walter's
+ * section 5.3: the choice by the sampled microfacet's own reflectance, so that F cancels from the weight). The
+ * density of wi is D_wo(m) times the choice's probability times the Jacobian of the half vector,
+ * 1 / (4 |wi.m|) for reflection and eta^2 |wi.m| / (wo.m + eta wi.m)^2 for refraction (Walter's eqs. 14 and
+ * 17), so f cos / p = k G1(wi, m), and 1 / eta^2 that on refraction (dielectric.cl's factor). A sample whose wi
+ * lies on the wrong side for its lobe (reflected below the surface, refracted above it: G1(wi, m) = 0) has
+ * pdf 0, as does wo at the horizon.
  *
  * Sides. Mitsuba's shading frame keeps the surface's normal: cos(theta_o) < 0 means the viewer is inside and
  * eta inverts, and m is sampled from the visible normals of -wo. raytrace's shading normal sp.n faces the
  * viewer's side of the geometric normal and sp.backface says the hit is from inside. Mitsuba's BSDF is
  * unchanged by turning its normal over together with eta into 1 / eta (every quantity is a dot product with the
- * normal or m, m turning with it, and F(-cos, eta) = F(cos, 1 / eta)), so this works in the frame of n, the
- * side of the surface wo is on: sp.n, or -sp.n where a shading normal leaves wo below it; the index inverts
- * where wo is inside Mitsuba's normal, backface xor that flip (dielectric.cl's rule where n = sp.n).
+ * normal or m, m turning with it, and F(-cos, eta) = F(cos, 1 / eta); D and G1 are even in the tangential
+ * coordinates, so the frame's x and y may turn too), so this works in the frame of n, the side of the surface
+ * wo is on: sp.n, or -sp.n where a shading normal leaves wo below it; the index inverts where wo is inside
+ * Mitsuba's normal, backface xor that flip (dielectric.cl's rule where n = sp.n).
  *
- * Scope: GGX with the isotropic alpha. A material of distribution beckmann or with alpha_v (sp.distribution,
- * sp.alpha_v) renders here as GGX of alpha, for now. Mitsuba's two factors specular_reflectance and
- * specular_transmittance are raytrace's one colour k (raytrace/scene/bsdfs.py). */
+ * Frames. An isotropic distribution needs only cosines to n, and a build without anisotropy (HAS_ANISOTROPIC
+ * 0) passes microfacet.cl just those, (0, 0, cos), so that isotropic GGX renders to the bit as the GGX-only
+ * version of this file did. An anisotropic build works in the local frame of n whose x axis is the shading
+ * tangent sp.t (material.cl: dp/du made orthogonal to the normal, Mitsuba's shading frame), alpha_u's axis,
+ * as roughconductor.cl does; there D takes m's x and y, which also spares it the cancellation of
+ * cos^2 (alpha^2 - 1) + 1 near the normal that the cosine-only GGX D has (float32 cannot resolve alpha 1e-3's
+ * peak from the cosine alone). Mitsuba's two factors specular_reflectance and specular_transmittance are
+ * raytrace's one colour k (raytrace/scene/bsdfs.py). */
 #ifndef BSDFS_ROUGHDIELECTRIC_CL
 #define BSDFS_ROUGHDIELECTRIC_CL
 
@@ -62,6 +71,16 @@ inline vfloat roughdielectric_density(vfloat d, vfloat g1o, vfloat a, vfloat b, 
     return lobe * d * g1o * a / cos_o * jacobian;
 }
 
+#if HAS_ANISOTROPIC
+/* The shading frame of an anisotropic surface on wo's side n = +-sp.n: x along the tangent (orthogonal to n
+ * either way), y completing it right-handed (turned over with n, which D and G1 do not see). */
+inline LocalFrame roughdielectric_frame(ShadingPoint sp, vec3 n)
+{
+    LocalFrame f = {sp.t, v3_cross(n, sp.t), n};
+    return f;
+}
+#endif
+
 inline vec3 roughdielectric_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
 {
     vfloat cos_o, eta, zero = 0.0f, cos_t;
@@ -75,8 +94,17 @@ inline vec3 roughdielectric_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
     /* G1's sides: wo and wi each see m from the front (cos_o > 0: Mitsuba ignores the horizon) */
     vint valid = (cos_o > 0.0f) & (a > 0.0f) & (b * cos_i > 0.0f);
     vfloat f = fresnel_dielectric(vmin(vabs(a), (vfloat)(1.0f)), eta, &cos_t);
-    vfloat d = ggx_d(v3(zero, zero, vabs(cos_m)), sp.alpha);
-    vfloat g1o = ggx_g1(v3(zero, zero, cos_o), sp.alpha), g = g1o * ggx_g1(v3(zero, zero, cos_i), sp.alpha);
+    vint distribution = sp.distribution;
+    vfloat au = sp.alpha, av = sp.alpha_v;
+#if HAS_ANISOTROPIC
+    LocalFrame frame = roughdielectric_frame(sp, n);
+    vec3 lm = to_local(frame, m), lo = to_local(frame, wo), li = to_local(frame, wi);
+#else
+    vec3 lm = v3(zero, zero, vabs(cos_m)), lo = v3(zero, zero, cos_o), li = v3(zero, zero, cos_i);
+#endif
+    vfloat d = microfacet_d(distribution, au, av, lm);
+    vfloat g1o = microfacet_g1_front(distribution, au, av, lo);
+    vfloat g = g1o * microfacet_g1_front(distribution, au, av, li);
     vfloat lobe = SELECT(1.0f - f, f, reflect), s = MAD(eta, b, a);
     vfloat value = lobe * d * g / cos_o * SELECT(vabs(a * b) / (s * s), (vfloat)(0.25f), reflect);
     *pdf = SELECT(zero, roughdielectric_density(d, g1o, a, b, cos_o, eta, lobe, reflect), valid);
@@ -88,8 +116,15 @@ inline BSDFSample roughdielectric_sample(ShadingPoint sp, vec3 wo, vfloat u1, ve
     BSDFSample bs;
     vfloat cos_o, eta, zero = 0.0f, cos_t;
     vec3 n = roughdielectric_side(sp, wo, &cos_o, &eta);
+    vint distribution = sp.distribution;
+    vfloat au = sp.alpha, av = sp.alpha_v;
+#if HAS_ANISOTROPIC
+    LocalFrame frame = roughdielectric_frame(sp, n);
+#else
     LocalFrame frame = local_frame(n);
-    vec3 hl = ggx_sample_visible_normal(to_local(frame, wo), sp.alpha, u2), m = from_local(frame, hl);
+#endif
+    vec3 lo = to_local(frame, wo);
+    vec3 hl = microfacet_sample_visible(distribution, au, av, lo, u2), m = from_local(frame, hl);
     vfloat a = v3_dot(wo, m);
     vfloat f = fresnel_dielectric(vmin(vabs(a), (vfloat)(1.0f)), eta, &cos_t);
     vint refract = u1 > f; /* Mitsuba: reflection where u1 <= F; all of it past the critical angle (F = 1) */
@@ -97,8 +132,13 @@ inline BSDFSample roughdielectric_sample(ShadingPoint sp, vec3 wo, vfloat u1, ve
     bs.wi = v3_select(reflected(wo, m), t, refract);
     vfloat b = v3_dot(bs.wi, m), cos_i = v3_dot(n, bs.wi);
     vint valid = (cos_o > 0.0f) & (a > 0.0f) & (b * cos_i > 0.0f);
-    vfloat g1o = ggx_g1(v3(zero, zero, cos_o), sp.alpha), g1i = ggx_g1(v3(zero, zero, cos_i), sp.alpha);
-    vfloat p = roughdielectric_density(ggx_d(v3(zero, zero, hl.z), sp.alpha), g1o, a, b, cos_o, eta,
+#if HAS_ANISOTROPIC
+    vec3 li = to_local(frame, bs.wi), vo = lo;
+#else
+    vec3 li = v3(zero, zero, cos_i), vo = v3(zero, zero, cos_o);
+#endif
+    vfloat g1o = microfacet_g1_front(distribution, au, av, vo), g1i = microfacet_g1_front(distribution, au, av, li);
+    vfloat p = roughdielectric_density(microfacet_d(distribution, au, av, hl), g1o, a, b, cos_o, eta,
                                        SELECT(f, 1.0f - f, refract), !refract);
     bs.pdf = SELECT(zero, p, valid);
     bs.weight = v3_scale(sp.k, SELECT(zero, g1i * SELECT((vfloat)(1.0f), 1.0f / (eta * eta), refract), valid));
