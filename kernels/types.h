@@ -87,10 +87,10 @@ typedef struct {
     int nonlinear;                   /* plastic, roughplastic: Mitsuba's `nonlinear` (the colour shifts with the
                                       * light trapped under the coat) */
     float internal_reflectance;      /* plastic, roughplastic: the share of diffuse light the coat reflects back
-                                      * inside (raytrace/renderer/plastic_terms.py) */
+                                      * inside (raytrace/scene/plastic_terms.py) */
     float specular_weight;           /* plastic, roughplastic: the coat's share in choosing a lobe to sample */
     float transmittance[ROUGH_TRANSMITTANCE_RES]; /* roughplastic: the coat's transmittance at cos(theta) = i / (RES
-                                      * - 1), i = 0 .. RES - 1 (raytrace/renderer/rough_transmittance.py) */
+                                      * - 1), i = 0 .. RES - 1 (raytrace/scene/rough_transmittance.py) */
 } Material;
 
 /* The path model's BSDFs, one file each in kernels/bsdfs/ (bsdf.cl), numbered as raytrace/scene/model.py's BSDFS. */

@@ -1,5 +1,5 @@
 """The smooth plastic BSDF (kernels/bsdfs/plastic.cl behind kernels/bsdf.cl; the host's terms in
-raytrace/renderer/plastic_terms.py) against Mitsuba 3's `plastic` as tests/bsdf_reference.py reproduces it in
+raytrace/scene/plastic_terms.py) against Mitsuba 3's `plastic` as tests/bsdf_reference.py reproduces it in
 float64: its value and density, its samples (the coat's delta reflection and the diffuse lobe, the same
 directions from the same random numbers), the distribution of its diffuse samples, the sample weight f cos /
 p, reciprocity and a white furnace."""
@@ -13,7 +13,7 @@ from scipy import stats
 
 from devtools.chi_square import SIGNIFICANCE, chi_square
 from raytrace.commands.stability.probe import planar
-from raytrace.renderer import plastic_terms
+from raytrace.scene import plastic_terms
 from raytrace.scene.model import Material
 
 BUILD = {"HAS_PATH_TRACING": 1, "HAS_PLASTICS": 1, "HAS_RECTANGLES": 1}

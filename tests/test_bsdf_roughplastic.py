@@ -1,5 +1,5 @@
 """The rough plastic BSDF (type = "roughplastic", kernels/bsdfs/roughplastic.cl: Mitsuba 3's roughplastic, GGX or
-Beckmann microfacets) and its host tables (raytrace/renderer/rough_transmittance.py): the tables against
+Beckmann microfacets) and its host tables (raytrace/scene/rough_transmittance.py): the tables against
 Mitsuba's own, eval and pdf against a float64 reference written here from Mitsuba 3.9.1's roughplastic.cpp
 (with tests/bsdf_reference.py's microfacet distribution), its samples' directions by chi-square against that
 pdf, their weights against eval / pdf, reciprocity, and a furnace."""
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from raytrace.commands.stability.probe import planar
-from raytrace.renderer import rough_transmittance
+from raytrace.scene import rough_transmittance
 from raytrace.renderer.packing import material_structs
 from raytrace.scene.model import Material
 

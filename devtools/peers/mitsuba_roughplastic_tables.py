@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Mitsuba 3's own tables of its roughplastic plugin (the coat's transmittance t(mu) at 64 cosines and the
 internal reflectance R_int, roughplastic.cpp's parameters_changed), read back through the plugin itself, for
-tests/test_bsdf_roughplastic.py's check of raytrace/renderer/rough_transmittance.py (a developer rig, not a
+tests/test_bsdf_roughplastic.py's check of raytrace/scene/rough_transmittance.py (a developer rig, not a
 dependency of raytrace).
 
 Install (a venv of its own; the scalar_rgb variant needs no LLVM):

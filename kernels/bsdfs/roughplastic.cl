@@ -16,7 +16,7 @@
  * Rendering Translucent Materials", SIGGRAPH 2011, with the rough coat's R_int in place of Fdr).
  *
  * t and R_int have no closed form: the host integrates them as Mitsuba does when it builds the plugin
- * (raytrace/renderer/rough_transmittance.py), t as ROUGH_TRANSMITTANCE_RES values at cos(theta) = i / (RES -
+ * (raytrace/scene/rough_transmittance.py), t as ROUGH_TRANSMITTANCE_RES values at cos(theta) = i / (RES -
  * 1) in the material's table (types.h's Material.transmittance), looked up here by Mitsuba's lerp_gather,
  * and R_int as the material's internal_reflectance. So the BSDF is Mitsuba's to float32's rounding, not only
  * its model.

@@ -9,7 +9,7 @@ from .. import samplers, structs
 from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
-from . import plastic_terms, rough_transmittance
+from ..scene import plastic_terms, rough_transmittance
 from .culling import light_sides
 from .geometry import DEFAULT_UV
 
