@@ -59,6 +59,11 @@ REFUSED = [  # issue 55's item 1, each accepted before rule 5 and rendered with 
      lambda t: t["materials"].update(yellow={"type": "dielectric", "int_ior": 1e20})),
     ("materials.yellow.ext_ior", 1e-20, "throughput as large",
      lambda t: t["materials"].update(yellow={"type": "dielectric", "ext_ior": 1e-20})),
+    ("materials.yellow.int_ior", 1e20, "throughput as large",  # rough glass's refractions count as glass's
+     lambda t: t["materials"].update(yellow={"type": "roughdielectric", "int_ior": 1e20})),
+    ("materials.yellow.colour", [2.0, 2.0, 2.0], "throughput as large",  # nonlinear: d / (1 - d R), d R >= 1
+     lambda t: (t["materials"].update(yellow={"type": "plastic", "nonlinear": True, "colour": [2.0, 2.0, 2.0]}),
+                t["render"].update(max_depth=8))),
     # item 4: a path-model light's radiance was named lights[0].colour, missing
     ("lights[0].radiance", 5e18, "sample as bright", lambda t: t["lights"][0].update(radiance=5e18)),
 ]

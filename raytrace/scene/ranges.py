@@ -22,11 +22,19 @@ scene_file.py and rules.py to every value with its key:
      L, and the environment's sample, at most k L / 2 or k E_env / 2 (k the largest albedo): the power
      heuristic weighs a sample by 1 / (1 + x^2), x the ratio of the two densities, which makes its value the
      BSDF sample's weight f cos / p_bsdf times x / (1 + x^2) <= 1/2, and that weight is at most k for every
-     BSDF (rho, k F, k F G1(wi); the smooth conductor and glass take no light samples).
+     BSDF (rho, k F, k F G1(wi), glass's k or k G1 besides its 1 / eta^2 below; the delta BSDFs take no light
+     samples). A plastic's weight is a colour times what its coat makes of the sampled lobe's probability:
+     max(1, w / (1 - w)) / (eta^2 (1 - R)) for its base, max(1, (1 - w) / w) / F for its coat (w the coat's
+     share of the samples, R its internal reflectance, F its Fresnel reflectance), above 1 exactly where that
+     lobe was unlikely to be chosen; its expectation over the samples, the plastic's albedo, is what its
+     colours bound (but for Mitsuba's fit of R, which the plastic copies: 0.1% more for a white base of index 1.49, 18% at
+     index 3), so that for a plastic k
+     bounds the throughput's expectation and, by Markov's inequality, a throughput k^n 2^m comes with
+     probability at most 2^-m.
    - Each vertex multiplies the throughput by that weight, and a refraction by 1 / eta^2 (radiance, pbrt-v4
      section 9.5), which along a path through closed shapes multiply to the squared ratio of two of the
-     scene's indices, at most R^2 (R the largest ratio of two of the dielectrics' int_ior and ext_ior; 1
-     without glass). With max_depth = D the throughput is then at most G = R^2 max(1, k)^(D - 1); with D = -1
+     scene's indices, at most R^2 (R the largest ratio of two of the smooth and rough dielectrics' int_ior and
+     ext_ior; 1 without glass; a thin dielectric leaves radiance as it was). With max_depth = D the throughput is then at most G = R^2 max(1, k)^(D - 1); with D = -1
      (unbounded) k must be at most 1, and G = R^2.
    - Russian roulette divides the throughput by the probability q <= 0.95 it continues with (or sets it back
      to at most 1 where q is below 0.95), so after m continuations at 0.95 a vertex carries at most G 0.95^-m,
@@ -44,6 +52,7 @@ import math
 import numpy as np
 
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
+from . import plastic_terms
 from .model import RADIOMETRIC, Camera, Ellipsoid, MeshShape, Rectangle, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
@@ -97,11 +106,23 @@ def largest_texel(texture):
 
 
 def largest_albedo(scene, material):
-    """The material's largest colour, or the brightest texel of its colour map, which replaces the colour
-    (kernels/material.cl's texture_material, docs/textures.md)."""
+    """k of rules 4 and 5 for one material: its largest colour, or the brightest texel of its colour map, which
+    replaces the colour (kernels/material.cl's texture_material, docs/textures.md); for a plastic, the larger
+    of that and its coat's specular reflectance, and inf where its nonlinear model divides by 1 - d R <= 0 (d
+    its diffuse reflectance, R the coat's internal reflectance: plastic_terms.coat)."""
     if material.colour_map >= 0:
-        return largest_texel(scene.textures[material.colour_map])
-    return float(np.max(material.colour))
+        k = largest_texel(scene.textures[material.colour_map])
+    else:
+        k = float(np.max(material.colour))
+    if material.bsdf not in COATED:
+        return k
+    if material.nonlinear and k * plastic_terms.coat(material)[0] >= 1.0:
+        return math.inf
+    return max(k, float(np.max(material.specular)))
+
+
+COATED = ("plastic", "roughplastic")
+GLASS = ("dielectric", "roughdielectric")  # the BSDFs whose refraction scales radiance by 1 / eta^2 (rule 5)
 
 
 def brightest(scene):
@@ -195,7 +216,7 @@ def environment_brightest(scene):
 
 def index_ratio(scene):
     """R of rule 5: the largest ratio of two of the dielectrics' indices of refraction (1 without glass)."""
-    iors = [x for m in scene.materials if m.bsdf == "dielectric" for x in (m.int_ior, m.ext_ior)]
+    iors = [x for m in scene.materials if m.bsdf in GLASS for x in (m.int_ior, m.ext_ior)]
     return max(iors) / min(iors) if iors else 1.0
 
 
@@ -239,7 +260,7 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
                                                                                        material.colour)
     places = [(max(scene.max_depth, 1) * _log2(max(1.0, albedos[i])), albedo)]
     indices = [(abs(_log2(getattr(m, key))), (r, key, getattr(m, key))) for m, r in zip(scene.materials,
-               material_readers) if m.bsdf == "dielectric" for key in ("int_ior", "ext_ior")]
+               material_readers) if m.bsdf in GLASS for key in ("int_ior", "ext_ior")]
     if indices:
         places.append((2 * _log2(index_ratio(scene)), max(indices, key=lambda x: x[0])[1]))
     lights = [float(light.colour.max()) for light in scene.lights] or [0.0]  # none: an environment lights it
