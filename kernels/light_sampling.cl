@@ -88,10 +88,12 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
                     lit[g] &= !occluded_among(s, &candidates, shadow_segment(origin, q[g], q_err, light_normal), skip,
                                               lit[g]);
 #if LIGHT_VALUE_VEC3
-                vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples, lit[g] SOLID_ANGLE_ARGUMENT);
+                vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples,
+                                            lit[g] SOLID_ANGLE_ARGUMENT);
                 sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), weight, lit[g]));
 #else
-                vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples, lit[g] SOLID_ANGLE_ARGUMENT);
+                vfloat weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples,
+                                              lit[g] SOLID_ANGLE_ARGUMENT);
                 sum += SELECT((vfloat)(0.0f), weight, lit[g]);
 #endif
             }
