@@ -20,11 +20,15 @@
 #include "vmath.h"
 
 /* D(h) = 1 / (pi alpha^2 cos^4(theta_h) (1 + tan^2(theta_h) / alpha^2)^2), written without the tangent so
- * that it holds at theta_h = 0: with c = cos^2, D = alpha^2 / (pi (c (alpha^2 - 1) + 1)^2). Zero below the
- * horizon. */
+ * that it holds at theta_h = 0: with c = cos^2, D = alpha^2 / (pi (c alpha^2 + (1 - c))^2). Zero below the
+ * horizon. The denominator is summed so, not as c (alpha^2 - 1) + 1, and c is clamped to 1: below alpha =
+ * 1.7e-4 (alpha^2 < 2^-25; roughplastic's clamp is Mitsuba's 1e-4) alpha^2 - 1 rounds to -1, and at the peak
+ * (c = 1) D was alpha^2 / 0 = inf, a sample's weight inf / inf; and a normalised h may have h.z one ulp above
+ * 1 (c - 1 = 2^-22), which cancels alpha^2 near 2^-22 (alpha 2^-11) to nothing. So the denominator is at
+ * least c alpha^2 and D at most 1 / (pi alpha^2 c), 3.2e7 at alpha 1e-4 (found by the fuzz suite). */
 inline vfloat ggx_d(vec3 h, vfloat alpha)
 {
-    vfloat a2 = alpha * alpha, c = h.z * h.z, d = MAD(c, a2 - 1.0f, 1.0f);
+    vfloat a2 = alpha * alpha, c = vmin(h.z * h.z, (vfloat)(1.0f)), d = MAD(c, a2, 1.0f - c);
     return SELECT(a2 / (M_PI_F * d * d), (vfloat)(0.0f), h.z <= 0.0f);
 }
 

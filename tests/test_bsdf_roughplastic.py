@@ -397,3 +397,45 @@ def test_white_furnace(harness, row):
             albedo = 2 * np.sum(f) * (1 / 256) * (np.pi / 128)  # eval holds cos_i; d(omega) = d(cos) d(phi)
             assert abs(mean - albedo) <= 5 * se + 2e-3, (theta_o, mean, se, albedo)
     assert max(means) < 1
+
+
+@at_lane_ends
+def test_peak_of_a_lobe_below_float32_s_resolution(harness):
+    """GGX of alpha below 1.7e-4 (the fuzz suite's find: a roughplastic of alpha 1e-4, Mitsuba's clamp, or
+    anything below it rendered NaN): at its peak, h = n, the isotropic D = alpha^2 / (pi (c (alpha^2 - 1) + 1)^2)
+    of c = cos^2(theta_h) = 1 took alpha^2 - 1 = -1 in float32 (alpha^2 < 2^-25), hence alpha^2 / 0 = inf, and
+    the sample's weight inf / inf. Now D's denominator is c alpha^2 + (1 - c) with c <= 1: at most 1 / (pi
+    alpha^2), 3.2e7 at the clamp. With wi the mirror image of wo about random normals (float32 rounding puts n . h
+    at 1 and above it) and samples from the same wo, at alphas 1e-30 (clamped to 1e-4), 1e-4, 1.5e-4 and 2^-11
+    (whose alpha^2 met c - 1 = 2^-22 at n . h one ulp above 1: D's denominator 2^-44), both lane ends: eval,
+    pdf and the samples' weights finite and the pdfs positive; eval at most the float64 reference's at the exact
+    peak (h = n in the local frame, D = 1 / (pi alpha^2)) within 1e-3 relatively (a few float32 roundings), and
+    within it on at least a tenth of the lanes (where float32's cos(theta_h) rounds to 1). Nothing finer: such a
+    lobe is narrower than float32's cos(theta_h) resolves (d_conditioning; 1 - c is off by some 1e-7, alpha^2
+    1e-8), so off the exact peak the kernel's D is float32's guess. It failed before the fix (inf eval, NaN
+    weights; the peak's value at alpha 2^-11 was 2.3e19 / pi)."""
+    rows = [(a, 1.49, 1.000277, (0.5, 0.5, 0.5), (1.0, 1.0, 1.0), False, "ggx") for a in (1e-30, 1e-4, 1.5e-4, 2**-11)]
+    mats, packed = materials(rows)
+    rng = np.random.default_rng(11)
+    m = 2048
+    n = rng.normal(size=(m, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    wo = rng.normal(size=(m, 3))
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    wo *= np.sign(np.sum(wo * n, axis=1))[:, None]
+    n, wo = f32(n), f32(wo)
+    wi = f32(2 * np.sum(wo * n, axis=1)[:, None] * n - wo)
+    which = np.arange(m) % len(rows)
+    out = run(harness, packed, which, n, wo, wi, rng.uniform(size=(m, 3)))
+    for key in ("f", "pdf", "s_weight", "s_pdf", "s_f"):
+        assert np.all(np.isfinite(out[key])), (key, np.argwhere(~np.isfinite(out[key]))[:4])
+    fr = frame(n)
+    lo = local(fr, wo)
+    peak = lo * [-1.0, -1.0, 1.0]  # wo's mirror image about the local z exactly
+    for j in range(len(rows)):
+        s = which == j
+        top = reference(packed[j], lo[s], peak[s])[0]
+        ratio = out["f"].T[s] / top
+        assert np.all(ratio <= 1 + 1e-3), (rows[j][0], ratio.max())
+        assert np.mean(ratio >= 1 - 1e-3) > 0.1, (rows[j][0], np.mean(ratio >= 1 - 1e-3))
+    assert np.all(out["s_pdf"] > 0)
