@@ -18,7 +18,8 @@
  * BSDF's sample (cos(theta_s) / pi for diffuse). The weights are formed from the ratio p_bsdf / (n p_light),
  * which stays finite where either density does not (a light seen edge-on). The smooth conductor and the
  * dielectric are delta BSDFs, one direction each, which no light sample can meet: their vertices sample
- * that direction alone (sample_specular), and light it reaches counts whole.
+ * that direction alone (sample_specular), and light it reaches counts whole. The tests check these weights
+ * against path tracers of their own that sample the lights alone and the BSDF alone (tests/path_support.py).
  *
  * Depth follows Mitsuba's convention: max_depth 1 shows the emitters seen directly, 2 adds direct light, -1
  * is unbounded. From vertex rr_depth on (Mitsuba's default 5), after the vertex's light samples, Russian
@@ -43,12 +44,6 @@
 
 #ifndef RR_DEPTH
 #define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
-#endif
-#ifndef PATH_SAMPLING
-/* How light reaching a vertex is sampled: 0, both ways combined by MIS (the renderer's only choice); tests
- * (tests/test_path_integrator.py and the BSDFs' own) build 1, the lights alone, and 2, the BSDF alone, which
- * must agree with it. */
-#define PATH_SAMPLING 0
 #endif
 #define RR_MAX_Q 0.95f /* a path always has a chance to end there, however bright its throughput */
 
@@ -90,11 +85,7 @@ inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, ve
     SOLID_ANGLE_BY_AREA
     vfloat pdf, g = light_area_weight(-v3_dot(light_normal, l), v3_dot(w, w), area, solid_angle);
     vec3 value = v3_scale(bsdf_eval_pdf(sp, v, l, active, &pdf), g);
-#if PATH_SAMPLING == 1
-    return value;
-#else
     return v3_scale(value, power_weight(pdf * g * (area / (float)n)));
-#endif
 }
 
 inline float light_scale(__global const Light *light) { return 4.0f * light->shape.half_x * light->shape.half_y; }
@@ -218,11 +209,6 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes)
     x = SELECT(x, (float)n_light / (solid_angle * pdf), solid_angle > 0.0f);
 #endif
     vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), (area == 0.0f) | specular);
-#if PATH_SAMPLING == 1
-    w = SELECT((vfloat)(0.0f), (vfloat)(1.0f), (area == 0.0f) | specular);
-#elif PATH_SAMPLING == 2
-    w = (vfloat)(1.0f);
-#endif
     const vint seen = max_depth != 0 ? lanes : (vint)(0); /* max_depth 0: nothing, not even the emitters */
 #if HAS_ENVIRONMENT
     vint escaped = seen & (hit.t == INFINITY);
@@ -234,11 +220,6 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes)
         vfloat pdf_e = path->cos_s * M_1_PI_F;
 #endif
         vfloat w_env = SELECT(power_weight(pdf_e / pdf), (vfloat)(1.0f), specular);
-#if PATH_SAMPLING == 1
-        w_env = SELECT((vfloat)(0.0f), (vfloat)(1.0f), specular);
-#elif PATH_SAMPLING == 2
-        w_env = (vfloat)(1.0f);
-#endif
         vec3 e = v3_scale(v3_mul(path->beta, environment_radiance(s, wi, escaped)), w_env);
         path->radiance = v3_add(path->radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), e, escaped));
     }
@@ -267,26 +248,25 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
     /* light reached by sampling the lights: sum over lights (A / n) sum_j V L_e f cos G w; none where the BSDF
      * has delta lobes alone, whose directions no light sample meets */
     const vint smooth = alive & !bsdf_is_delta(sp);
-    vec3 direct = lights_sum(s, sp, wo, PATH_SAMPLING == 2 ? (vint)(0) : smooth, light_samples, ps, rays);
+    vec3 direct = lights_sum(s, sp, wo, smooth, light_samples, ps, rays);
     radiance = v3_add(radiance, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_mul(beta, direct), alive));
 #if HAS_ENVIRONMENT
     { /* the environment, sampled by its map (environment.cl) or, constant, by the cosine about the normal;
        * the sample's f cos / p_env, weighted against the BSDF's sample of the same direction: x = p_bsdf /
        * p_env */
         vec2 ue = stream_2d(light_samples, bounce, next_stream(ps, bounce, 1), (vint)(0)); /* drawn or not */
-        const vint candidates = PATH_SAMPLING == 2 ? (vint)(0) : smooth;
-        if (ANY(candidates)) { /* the map's sampling and lookups are per lane: none for a packet without use */
+        if (ANY(smooth)) { /* the map's sampling and lookups are per lane: none for a packet without use */
 #if HAS_ENVIRONMENT_MAP
             vfloat pdf_e;
-            vec3 we = sample_environment(s, ue, candidates, &pdf_e);
+            vec3 we = sample_environment(s, ue, smooth, &pdf_e);
 #else
             vec3 we = cosine_direction(sp.n, ue);
             vfloat pdf_e = v3_dot(sp.n, we) * M_1_PI_F;
 #endif
             vfloat cos_e = v3_dot(sp.n, we), pdf_b;
-            vint sampled = candidates & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
+            vint sampled = smooth & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
             vec3 f = bsdf_eval_pdf(sp, wo, we, sampled, &pdf_b);
-            vfloat w = PATH_SAMPLING == 1 ? (vfloat)(1.0f) : power_weight(pdf_b / pdf_e);
+            vfloat w = power_weight(pdf_b / pdf_e);
             vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
             *rays += MASK_TO_ONE(sampled);
             if (ANY(open)) {

@@ -77,14 +77,15 @@ LIGHT_NORMALS /= np.linalg.norm(LIGHT_NORMALS, axis=1, keepdims=True)
 
 @at_lane_ends
 def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
-    """Sampling the lights alone, the BSDF alone, and both combined by MIS are three unbiased estimators of the
-    same radiance: at points of scene 0's direct variant (a lit floor point, one in the ellipsoid's penumbra,
-    one on the wall, one in the ceiling's corner that only indirect light reaches, and two 5 to 10 cm below
-    the light, where both techniques carry weight) their means over 1024 lanes agree within 5 standard
-    errors of each difference. Far from the small light its samples take nearly all the weight (MIS and the
-    lights alone agree to 4 digits there); close to it both count. A BSDF hit counted with weight 1 beside
-    the lights' MIS-weighted samples fails this at every point (seen). MIS is less noisy than either alone
-    under the light (standard errors measured 0.078 against 0.175 and 0.108)."""
+    """Sampling the lights alone, the BSDF alone (path_support's own path tracers), and both combined by MIS
+    (the renderer's) are three unbiased estimators of the same radiance: at points of scene 0's direct
+    variant (a lit floor point, one in the ellipsoid's penumbra, one on the wall, one in the ceiling's corner
+    that only indirect light reaches, and two 5 to 10 cm below the light, where both techniques carry
+    weight) their means over 1024 lanes agree within 5 standard errors of each difference. Far from the
+    small light its samples take nearly all the weight (MIS and the lights alone agree to 4 digits there);
+    close to it both count. A BSDF hit counted with weight 1 beside the lights' MIS-weighted samples fails
+    this at every point (seen). MIS is less noisy than either alone under the light (standard errors
+    measured 0.078 against 0.175 and 0.108)."""
     scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
     est = {k: traced(harness, scene, LIGHT_POINTS, LIGHT_NORMALS, k) for k in (0, 1, 2)}
     mean, se = assert_techniques_agree(est)
@@ -93,18 +94,19 @@ def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
 
 def test_roulette_comes_after_the_light_samples(harness, cornell):
     """Russian roulette decides after a vertex's light samples and BSDF sample, before its ray is traced, as
-    in Mitsuba 3 and pbrt-v4 (path_tracing.cl). With the lights alone sampled (PATH_SAMPLING 1: light that a
-    BSDF ray meets weighs 0) and max_depth = RR_DEPTH + 1, the last vertex shaded is the first where roulette
-    plays, and it can only cut the ray along which no light is counted: every lane's estimate equals, to the
-    bit, that of a build whose roulette never plays (RR_DEPTH 100; the numbers drawn are the same). One
-    vertex deeper, roulette cuts paths before a vertex's light samples, and the two builds differ: the
-    comparison sees roulette where it acts. Roulette played right after a vertex's hit, before its light
-    samples (the placement before commit 07d2363), fails the first part."""
+    in Mitsuba 3 and pbrt-v4 (path_tracing.cl). The renderer's path tracer stopped before the ray of the last
+    vertex max_depth allows (path_support's `cut`: path_tracing.cl's own steps, that ray not traced) with
+    max_depth = RR_DEPTH + 1: the last vertex shaded is the first where roulette plays, and it can only cut
+    the ray that is not traced, so every lane's estimate equals, to the bit, that of a build whose roulette
+    never plays (RR_DEPTH 100; the numbers drawn are the same). One vertex deeper, roulette cuts paths
+    before a vertex's light samples, and the two builds differ: the comparison sees roulette where it acts.
+    Roulette played right after a vertex's hit, before its light samples (the placement before commit
+    07d2363), fails the first part."""
     scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
     for depth, same in ((6, True), (7, False)):
         at = dataclasses.replace(scene, max_depth=depth)
-        with_roulette = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 1, lanes=64)
-        without = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 1, lanes=64, RR_DEPTH=100)
+        with_roulette = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 0, lanes=64, cut=True)
+        without = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 0, lanes=64, cut=True, RR_DEPTH=100)
         assert np.array_equal(with_roulette, without) == same, depth
         assert np.all(np.isfinite(with_roulette)) and np.all(with_roulette >= 0)
 

@@ -14,7 +14,7 @@ from raytrace.renderer.packing import texture_tables
 from raytrace.renderer.program import Features
 
 from helpers import ROOT, SURFACE_POINT, at_lane_ends
-from path_support import PATH_MEAN, assert_techniques_agree, environment_scene, fresnel_reference, traced
+from path_support import ESTIMATORS, PATH_MEAN, assert_techniques_agree, environment_scene, fresnel_reference, traced
 
 
 @at_lane_ends
@@ -67,9 +67,7 @@ def test_effectively_smooth_rough_conductor_is_the_smooth_one():
 GOLD = {"eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603]}
 
 # path_support.TRACE's kernel with the viewer along `view` (a unit vector per lane) instead of the normal.
-TRACE_VIEWED = """
-#include "path_tracing.cl"
-""" + SURFACE_POINT + """
+TRACE_VIEWED = ESTIMATORS + SURFACE_POINT + """
 __kernel void trace(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const uint2 *light_samples,
                     __global const float *p, __global const float *nrm, __global const float *view, int samples,
                     __global float *out)
@@ -128,6 +126,6 @@ def test_rough_conductor_environment_albedo(harness, theta_o, alpha):
             "view": planar(np.tile(view, (lanes, 1))), "samples": np.int32(16)}
     expected = albedo_red(theta_o, alpha)
     for sampling in (0, 1, 2):
-        out = harness.run(TRACE_VIEWED, "trace", lanes, args, {"out": 3}, **defines, PATH_SAMPLING=sampling)["out"][0]
+        out = harness.run(TRACE_VIEWED, "trace", lanes, args, {"out": 3}, **defines, ESTIMATOR=sampling)["out"][0]
         mean, se = out.mean(), out.std(ddof=1) / np.sqrt(lanes)
         assert abs(mean - expected) <= 5 * se + 1e-5 * expected, (sampling, mean, se, expected)
