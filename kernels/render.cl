@@ -125,19 +125,14 @@ inline Ray camera_ray(const Scene *s, Tile tile, PixelSample *ps, __global const
                                1.0f / width, 1.0f / height);
 }
 
-#ifndef PATH_REGENERATION
-/* 1: the path model's lanes start new paths as theirs end (render_paths). Tests build 0, one sample at a time
- * in every lane (render_samples), which must give the same sums to the bit (tests/test_path_regeneration.py). */
-#define PATH_REGENERATION 1
-#endif
-
-#if HAS_PATH_TRACING && PATH_REGENERATION
+#if HAS_PATH_TRACING
 /* The path model's pixel samples: each lane follows its own path, and where the path ends starts its pixel's
  * next sample (path regeneration: Novak, Havran and Dachsbacher, "Path Regeneration for Interactive Path
  * Tracing", Eurographics 2010 short papers), so that a packet's lanes stay busy while its longest path goes
- * on; a lane's samples are its own as in render_samples, in the same order, and give the same sums. The
- * lanes' closest-hit traversal is one, camera rays and bounces together; the lanes without a ray (outside the
- * image, or done) search none of it. */
+ * on; a lane's samples are its own, in the same order, and give the same sums as trace_path's one sample at a
+ * time in every lane (tests/test_path_regeneration.py renders that way in a kernel of its own, to the bit).
+ * The lanes' closest-hit traversal is one, camera rays and bounces together; the lanes without a ray (outside
+ * the image, or done) search none of it. */
 inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active, vuint key,
                          __global const uint2 *pixel_samples, __global const uint2 *light_samples, int sample0,
                          int n_samples, int n_first, Sums *sums)
@@ -170,8 +165,8 @@ inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active
     }
 }
 #else
-/* The pixel samples of the course's model, of the direct one, and of the path model one at a time: a camera
- * ray and its shading, group samples of each pixel at a step (tile.h). */
+/* The pixel samples of the course's model and of the direct one: a camera ray and its shading, group samples
+ * of each pixel at a step (tile.h). */
 inline void render_samples(const Scene *s, TextureStore ts, Tile tile, vuint key, __global const uint2 *pixel_samples,
                            __global const uint2 *light_samples, int sample0, int n_samples, int n_first, Sums *sums)
 {
@@ -181,15 +176,39 @@ inline void render_samples(const Scene *s, TextureStore ts, Tile tile, vuint key
         Ray ray = camera_ray(s, tile, &ps, pixel_samples, all);
         Hit hit = closest_hit(s, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(s, ts, ray, hit);
-#if HAS_PATH_TRACING
-        vec3 value = trace_path(s, ts, ray, hit, sp, light_samples, &ps, &sums->rays);
-#else
         vec3 value = shade(s, ray, hit, sp, light_samples, &ps, &sums->rays);
-#endif
         add_samples(sums, value, all, ps.index, sample0 + n_first, n_first);
     }
 }
 #endif
+
+/* The work-item's sums (and the camera rays) stored as its pixels' in the output's planes (above), by each
+ * pixel's first lane; a measuring build's counts shared equally among its pixels. */
+inline void store_sums(const Scene *s, Tile tile, vint active, const Sums *sums, int n_samples, int n_first,
+                       int row0, int row1, __global float *out)
+{
+    const int width = s->params->width;
+    const vfloat rays = sums->rays + (float)(n_samples / tile.group); /* and the camera rays */
+
+    const int plane = width * (row1 - row0);
+    const vint index = (tile.y - row0) * width + tile.x;
+    const vint stored = active & (tile.sample == 0); /* a pixel's first lane */
+    store_lanes(out, index, pixel_sums(sums->sum.x, sums->carry.x, tile.group), stored);
+    store_lanes(out + plane, index, pixel_sums(sums->sum.y, sums->carry.y, tile.group), stored);
+    store_lanes(out + 2 * plane, index, pixel_sums(sums->sum.z, sums->carry.z, tile.group), stored);
+    store_lanes(out + RAYS_PLANE * plane, index, pixel_sums(rays, (vfloat)(0.0f), tile.group), stored);
+    if (n_first > 0) {
+        __global float *first = out + FIRST_HALF_PLANE * plane;
+        store_lanes(first, index, pixel_sums(sums->first_sum.x, sums->first_carry.x, tile.group), stored);
+        store_lanes(first + plane, index, pixel_sums(sums->first_sum.y, sums->first_carry.y, tile.group), stored);
+        store_lanes(first + 2 * plane, index, pixel_sums(sums->first_sum.z, sums->first_carry.z, tile.group), stored);
+    }
+#if COUNT_VISITS
+    const float pixels = (float)count_lanes(stored);
+    for (int k = 0; k < VISIT_KINDS; ++k)
+        store_lanes(out + (OUTPUT_PLANES + k) * plane, index, (vfloat)(s->visits[k] / pixels), stored);
+#endif
+}
 
 __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                      __global const uint2 *pixel_samples, /* the pixel and light sample tables (samplers.cl) */
@@ -212,28 +231,10 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
 
     vuint key = pixel_key(AS_VUINT(y * width + x), params->seed);
     Sums sums = {0};
-#if HAS_PATH_TRACING && PATH_REGENERATION
+#if HAS_PATH_TRACING
     render_paths(&scene, ts, tile, active, key, pixel_samples, light_samples, sample0, n_samples, n_first, &sums);
 #else
     render_samples(&scene, ts, tile, key, pixel_samples, light_samples, sample0, n_samples, n_first, &sums);
 #endif
-    const vfloat rays = sums.rays + (float)(n_samples / tile.group); /* and the camera rays */
-
-    const int plane = width * (row1 - row0);
-    const vint index = (y - row0) * width + x, stored = active & (tile.sample == 0); /* a pixel's first lane */
-    store_lanes(out, index, pixel_sums(sums.sum.x, sums.carry.x, tile.group), stored);
-    store_lanes(out + plane, index, pixel_sums(sums.sum.y, sums.carry.y, tile.group), stored);
-    store_lanes(out + 2 * plane, index, pixel_sums(sums.sum.z, sums.carry.z, tile.group), stored);
-    store_lanes(out + RAYS_PLANE * plane, index, pixel_sums(rays, (vfloat)(0.0f), tile.group), stored);
-    if (n_first > 0) {
-        __global float *first = out + FIRST_HALF_PLANE * plane;
-        store_lanes(first, index, pixel_sums(sums.first_sum.x, sums.first_carry.x, tile.group), stored);
-        store_lanes(first + plane, index, pixel_sums(sums.first_sum.y, sums.first_carry.y, tile.group), stored);
-        store_lanes(first + 2 * plane, index, pixel_sums(sums.first_sum.z, sums.first_carry.z, tile.group), stored);
-    }
-#if COUNT_VISITS
-    const float pixels = (float)count_lanes(stored);
-    for (int k = 0; k < VISIT_KINDS; ++k)
-        store_lanes(out + (OUTPUT_PLANES + k) * plane, index, (vfloat)(visits[k] / pixels), stored);
-#endif
+    store_sums(&scene, tile, active, &sums, n_samples, n_first, row0, row1, out);
 }
