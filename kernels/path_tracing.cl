@@ -1,25 +1,23 @@
 /* Global illumination, the third shading model (`shading = "path"`; docs/global-illumination.md):
  * unidirectional path tracing from the camera (pbrt-v4's PathIntegrator, Mitsuba 3's `path`). A material's
- * BSDF is its `type`, with Mitsuba's names: `diffuse`, Lambertian, f = albedo / pi, both sides reflecting, as
- * in the direct model; `conductor`, a smooth mirror with the Fresnel reflectance of eta + i k
- * (HAS_CONDUCTORS); `dielectric`, smooth glass that reflects or refracts by its Fresnel reflectance
- * (HAS_DIELECTRICS); `roughconductor`, GGX microfacets of roughness alpha with the conductor's Fresnel term
- * (HAS_ROUGH_CONDUCTORS, microfacet.cl). The rectangular lights emit their radiance from the front face and
- * reflect by their material where they have one; an environment (HAS_ENVIRONMENT, environment.cl), constant
- * or an image, emits along every direction in which a ray leaves the scene.
+ * BSDF is its `type`, with Mitsuba's names (docs/bsdfs.md), reached only through bsdf.cl's interface: its value
+ * and density towards a direction (bsdf_eval_pdf) and its own sample of one (bsdf_sample). The rectangular
+ * lights emit their radiance from the front face and reflect by their material where they have one; an
+ * environment (HAS_ENVIRONMENT, environment.cl), constant or an image, emits along every direction in which a
+ * ray leaves the scene.
  *
  * At every vertex the lights are sampled by area (next-event estimation, light_sampling.cl) and the BSDF by
- * its own sample (the cosine-weighted hemisphere for diffuse, the visible normals for rough conductors); the
- * two estimates of light reached both ways are combined by multiple importance sampling with the power
- * heuristic (Veach, "Robust Monte Carlo Methods for Light Transport Simulation", 1997, section 9.2), and so
- * are the environment's, sampled by its map or, constant, by the cosine about the normal. Each light's n
- * samples form one technique and the BSDF's single sample the other: w_light = (n p_light)^2 / ((n p_light)^2
- * + p_bsdf^2), both densities per solid angle, p_light = r^2 / (A cos(theta_l)), p_bsdf the density of the
- * BSDF's sample (cos(theta_s) / pi for diffuse). The weights are formed from the ratio p_bsdf / (n p_light),
- * which stays finite where either density does not (a light seen edge-on). The smooth conductor and the
- * dielectric are delta BSDFs, one direction each, which no light sample can meet: their vertices sample
- * that direction alone (sample_specular), and light it reaches counts whole. The tests check these weights
- * against path tracers of their own that sample the lights alone and the BSDF alone (tests/path_support.py).
+ * its own sample; the two estimates of light reached both ways are combined by multiple importance sampling
+ * with the power heuristic (Veach, "Robust Monte Carlo Methods for Light Transport Simulation", 1997, section
+ * 9.2), and so are the environment's, sampled by its map or, constant, by the cosine about the normal. Each
+ * light's n samples form one technique and the BSDF's single sample the other: w_light = (n p_light)^2 / ((n
+ * p_light)^2 + p_bsdf^2), both densities per solid angle, p_light = r^2 / (A cos(theta_l)), p_bsdf the
+ * density of the BSDF's sample (bsdf_eval_pdf's). The weights are formed from the ratio p_bsdf / (n
+ * p_light), which stays finite where either density does not (a light seen edge-on). A delta lobe's direction
+ * (a mirror's, glass's, a smooth plastic's coat's) no light sample can meet, nor one through the surface
+ * (lights are sampled on the side the vertex is seen from): light such a sample reaches counts whole, and a
+ * BSDF of delta lobes only (bsdf_is_delta) takes no light samples. The tests check these weights against
+ * path tracers of their own that sample the lights alone and the BSDF alone (tests/path_support.py).
  *
  * Depth follows Mitsuba's convention: max_depth 1 shows the emitters seen directly, 2 adds direct light, -1
  * is unbounded. From vertex rr_depth on (Mitsuba's default 5), after the vertex's light samples, Russian

@@ -1,4 +1,4 @@
-"""The diffuse BSDF's sampling (kernels/path_tracing.cl's cosine_direction): its directions are distributed as
+"""The diffuse BSDF's sampling (kernels/warp.cl's cosine_direction): its directions are distributed as
 cos(theta) / pi about the normal, by a chi-square test (devtools/chi_square.py)."""
 import numpy as np
 import pytest
