@@ -121,6 +121,64 @@ def test_path_scenes_at_the_bounds_render_finite(edit):
     assert stats.extra["nonfinite_values"] == 0 and image.max() > 0
 
 
+def coat(**material):
+    """An edit giving cornell_path's table a material `yellow` of these keys (its sphere's material)."""
+    return lambda t: t["materials"].update(yellow=material)
+
+
+COATS_AND_PANES = [  # the fuzz suite's finds (issue 57's BSDFs), each accepted before rules 5 and 6 counted them
+    # rule 6: eta^2 = 0 in float32, the base's (1 - F)^2 / eta^2 0 / 0 (NaN in the image)
+    ("materials.yellow.int_ior", 1e-30, "relative index", coat(type="plastic", int_ior=1e-30)),
+    ("materials.yellow.int_ior", 1e-30, "relative index", coat(type="roughplastic", int_ior=1e-30)),
+    # rule 6: eta = 1 / 1e-45 packed as float32's inf (numpy's overflow warning, then NaN)
+    ("materials.yellow.ext_ior", 1e-45, "relative index", coat(type="thindielectric", int_ior=1.0, ext_ior=1e-45)),
+    # Mitsuba's fit of the coat's internal reflectance past 1: a negative base (1 - R < 0), inf at R = 1
+    ("materials.yellow.int_ior", 3.9, "internal reflectance", coat(type="plastic", int_ior=3.9)),
+    # the fit's excess below that, 14 at 3.8, counted in the albedo (rule 5 took the colour, 0.5)
+    ("materials.yellow.int_ior", 3.8, "throughput as large", lambda t: (
+        coat(type="plastic", int_ior=3.8, colour=[0.5, 0.5, 0.5])(t), t["render"].update(max_depth=30))),
+    # nonlinear, colour 1.67: d / (1 - d R) is 556 d, not d (d R = 0.997; rule 5 took G = 1.67^7 = 36)
+    ("materials.yellow.colour", [1.67, 1.67, 1.67], "throughput as large", lambda t: (
+        coat(type="plastic", nonlinear=True, int_ior=1.5, colour=[1.67, 1.67, 1.67])(t),
+        t["render"].update(max_depth=8))),
+]
+
+
+@pytest.mark.parametrize("key,value,problem,edit", COATS_AND_PANES,
+                         ids=[f"{k}={v}-{i}" for i, (k, v, _, _) in enumerate(COATS_AND_PANES)])
+def test_coats_and_panes_beyond_their_ranges_are_refused(key, value, problem, edit):
+    """A plastic's or a thin dielectric's relative index within [2^-63, 2^63] (rule 6: its square and its
+    reciprocal's normal float32 numbers), a linear plastic's coat whose fitted internal reflectance stays below
+    1, and a plastic's albedo counted through its coat (rule 5: d T / (1 - r)): one line naming the file, the
+    key and its value. Each was accepted before, and rendered with NaN values zeroed (1e-30, 1e-45), or negative
+    and huge ones (3.8, 3.9: a base of 0.5 gave -18642 and 22375 at 3.85), or samples 5e8 where rule 5 allowed
+    36 times the light's radiance (1.67)."""
+    error = refused(edit)
+    assert (error.source, error.key, error.value) == ("hostile.toml", key, value), error
+    assert problem in error.problem, error
+
+
+@pytest.mark.parametrize("material", [dict(type="plastic", int_ior=2.0**-62), dict(type="roughplastic", int_ior=2.0**-62),
+                                      dict(type="roughplastic", int_ior=2.0**62), dict(type="thindielectric", int_ior=2.0**62),
+                                      dict(type="thindielectric", int_ior=2.0**-62), dict(type="plastic", int_ior=3.8),
+                                      dict(type="plastic", int_ior=1.49, colour=[1.0, 1.0, 1.0])],
+                         ids=["plastic-2^-62", "roughplastic-2^-62", "roughplastic-2^62", "pane-2^62", "pane-2^-62",
+                              "plastic-3.8", "white-plastic"])
+def test_coats_and_panes_within_their_ranges_render_finite(material):
+    """Just inside rule 6 (eta = 2^-62 or 2^62, ext_ior 1) and the fit's R < 1 (3.8, an albedo of 14 times its
+    colour at max_depth 8), and a white plastic of index 1.49 at unbounded depth (the fit's 0.1% excess is
+    within FIT_SLACK, as before): accepted, and the image and variance finite with nothing zeroed."""
+    def edit(t):
+        coat(**material, ext_ior=1.0)(t)
+        t["materials"]["white"] = dict(material, ext_ior=1.0)  # the walls too: paths bounce between coats
+        if material.get("int_ior") == 3.8:
+            t["render"].update(max_depth=8)
+    scene = raytrace.load_dict(cornell_path(edit))
+    image, stats = raytrace.render(scene, **SMALL)
+    assert np.isfinite(image).all() and np.isfinite(image.variance).all()
+    assert stats.extra["nonfinite_values"] == 0
+
+
 def test_glass_counts_its_squared_ratio_once():
     """Through closed shapes, a path's refractions multiply its throughput by the squared ratio of the indices
     at its ends (pbrt-v4 section 9.5), so rule 5 counts glass's R^2 once, not once per vertex: scenes/

@@ -34,7 +34,10 @@ Ranges, argued where they are not simply Mitsuba's:
   rough interfaces (rules.py states it): at eta = 1 the half-vector of refraction, wi + eta wo, vanishes for
   the direction that passes straight through, and the microfacet transmission's density with it. The smooth
   `dielectric`, `thindielectric` and `plastic` take equal indices, as Mitsuba does (an interface that does not
-  refract; a coat that reflects nothing).
+  refract; a coat that reflects nothing). Their ratio is bounded by ranges.py: glass's by rule 5 (its
+  refractions scale radiance by 1 / eta^2), the others' within [2^-63, 2^63] by rule 6 (the kernels square
+  it), and a `plastic`'s below 3.85, where Mitsuba's fit of its coat's internal reflectance, which it copies,
+  reaches 1 (rule 5 counts what the fit adds to its albedo below that).
 - Reflectances (`colour` and its names, `specular_reflectance`) >= 0 with no upper bound, as `colour` always
   was: what an albedo above 1 does to a path is ranges.py's rule 5.
 """

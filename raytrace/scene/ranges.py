@@ -26,11 +26,17 @@ scene_file.py and rules.py to every value with its key:
      samples). A plastic's weight is a colour times what its coat makes of the sampled lobe's probability:
      max(1, w / (1 - w)) / (eta^2 (1 - R)) for its base, max(1, (1 - w) / w) / F for its coat (w the coat's
      share of the samples, R its internal reflectance, F its Fresnel reflectance), above 1 exactly where that
-     lobe was unlikely to be chosen; its expectation over the samples, the plastic's albedo, is what its
-     colours bound (but for Mitsuba's fit of R, which the plastic copies: 0.1% more for a white base of index 1.49, 18% at
-     index 3), so that for a plastic k
-     bounds the throughput's expectation and, by Markov's inequality, a throughput k^n 2^m comes with
-     probability at most 2^-m.
+     lobe was unlikely to be chosen; its expectation over the samples, the plastic's albedo, is at most the
+     larger of its coat's specular reflectance and its base's albedo seen through the coat, d T / (1 - r) (d
+     the base's colour, T the share of the base's diffuse light the coat lets out, r = R or d R with
+     nonlinear: plastic_albedo). For a smooth coat T = 1 - R exactly, but R is Mitsuba's fit, which the plastic
+     copies: T / (1 - R) is within 0.3% of 1 for relative indices 0.3 to 2, 2.7% at diamond's 2.4, 25% at 3,
+     and grows without bound as the fit's R reaches 1 (at 3.85, beyond which 1 - R < 0: a negative colour).
+     So for a plastic k is its coat's specular reflectance or its base's d T / (1 - r) where that exceeds d
+     by more than FIT_SLACK (1%), else d: the fit's error below that is the rule's slack, and a coat whose
+     1 - r rounds to 0 or below in float32 (the kernel divides by it) is refused, naming int_ior (or, with
+     nonlinear, the colour). k bounds the throughput's expectation and, by Markov's inequality, a throughput
+     k^n 2^m comes with probability at most 2^-m.
    - Each vertex multiplies the throughput by that weight, and a refraction by 1 / eta^2 (radiance, pbrt-v4
      section 9.5), which along a path through closed shapes multiply to the squared ratio of two of the
      scene's indices, at most R^2 (R the largest ratio of two of the smooth and rough dielectrics' int_ior and
@@ -46,13 +52,20 @@ scene_file.py and rules.py to every value with its key:
    (1.8e-8), and only where each vertex's weight keeps the throughput at 0.95 or more (an albedo of 0.95 or
    more, or glass's 1 / eta^2); its square overflows float32 only past 2^64 (0.95^375 < 5e-9). A path that
    leaves glass it did not enter (an open glass mesh, overlapping shapes) gains 1 / eta^2 anew, which R^2
-   does not bound: a limit of the rule."""
+   does not bound: a limit of the rule.
+6. The relative index eta = int_ior / ext_ior of every BSDF that has one (the glass and the plastics), which
+   the kernel is given as a float32 (packing.py) and squares (Fresnel's (1 - cos^2) / eta^2, the radiance's 1
+   / eta^2 under a plastic's coat), lies within [2^-63, 2^63] (ETA_LIMIT): eta^2 and 1 / eta^2 are then normal
+   float32 numbers. Glass's ratio rule 5 bounds within 2^16; a thin dielectric's and a plastic's this. The
+   fuzz suite found a plastic of int_ior 1e-30 (eta^2 = 0 in float32: its base's (1 - F)^2 / eta^2 was 0 / 0,
+   NaN) and a ratio beyond float32's range (int_ior 1, ext_ior 1e-45: eta packed as inf)."""
 import math
 
 import numpy as np
 
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
-from . import plastic_terms
+from ..structs import ROUGH_TRANSMITTANCE_RES
+from . import bsdfs, plastic_terms, rough_transmittance
 from .model import RADIOMETRIC, Camera, Ellipsoid, MeshShape, Rectangle, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
@@ -60,6 +73,9 @@ MAX_SAMPLES = 1 << 16   # pixel samples and light samples
 ELLIPSOID_AXIS_RATIO = 2.0 ** -60
 BRIGHTEST_LIMIT = 2.0 ** 62
 PATH_BRIGHTEST_LIMIT = 2.0 ** 32  # rule 5: 2^30 below BRIGHTEST_LIMIT, for Russian roulette's growth
+FIT_SLACK = 0.01  # rule 5: a plastic's base albedo above its colour by Mitsuba's fit of R, below this, is ignored
+ETA_LIMIT = 2.0 ** 63  # rule 6: int_ior / ext_ior within [1 / ETA_LIMIT, ETA_LIMIT]
+INDEXED = tuple(b.name for b in bsdfs.DECLARED if "int_ior" in b.key_names())  # the BSDFs with indices
 
 
 def float32_problem(x):
@@ -107,22 +123,85 @@ def largest_texel(texture):
 
 def largest_albedo(scene, material):
     """k of rules 4 and 5 for one material: its largest colour, or the brightest texel of its colour map, which
-    replaces the colour (kernels/material.cl's texture_material, docs/textures.md); for a plastic, the larger
-    of that and its coat's specular reflectance, and inf where its nonlinear model divides by 1 - d R <= 0 (d
-    its diffuse reflectance, R the coat's internal reflectance: plastic_terms.coat)."""
+    replaces the colour (kernels/material.cl's texture_material, docs/textures.md); for a plastic, the bound on
+    its albedo of rule 5 (plastic_albedo)."""
+    k = base_albedo(scene, material)
+    return plastic_albedo(material, k) if material.bsdf in COATED else k
+
+
+def base_albedo(scene, material):
+    """A material's largest colour, or the brightest texel of its colour map."""
     if material.colour_map >= 0:
-        k = largest_texel(scene.textures[material.colour_map])
-    else:
-        k = float(np.max(material.colour))
-    if material.bsdf not in COATED:
-        return k
-    if material.nonlinear and k * plastic_terms.coat(material)[0] >= 1.0:
-        return math.inf
-    return max(k, float(np.max(material.specular)))
+        return largest_texel(scene.textures[material.colour_map])
+    return float(np.max(material.colour))
 
 
 COATED = ("plastic", "roughplastic")
 GLASS = ("dielectric", "roughdielectric")  # the BSDFs whose refraction scales radiance by 1 / eta^2 (rule 5)
+
+
+def coat_transmittance(material):
+    """T of rule 5: the share of the light a plastic's base scatters diffusely that leaves through its coat,
+    times 1 / eta^2 as the kernel takes it, 2 int_0^1 t(mu) mu dmu / eta^2 with t the coat's transmittance
+    from outside. A smooth coat's t is 1 - F(mu) (kernels/bsdfs/plastic.cl), and T = 1 - R_in, R_in the
+    coat's diffuse reflectance seen from inside (the reciprocity of a smooth interface's hemispherical
+    transmittances, eta^2 (1 - R_in) = 1 - R_out): each found from the side that has no total internal
+    reflection, whose integrand is smooth. A rough coat's t is roughplastic.cl's table, linear between its
+    entries, whose integral against mu is exact by Simpson's rule on each interval."""
+    eta = float(material.int_ior) / float(material.ext_ior)
+    if material.bsdf == "roughplastic":
+        t = rough_transmittance.table(material).astype(np.float64)
+        mu = np.linspace(0.0, 1.0, ROUGH_TRANSMITTANCE_RES)
+        t0, t1, m0, m1 = t[:-1], t[1:], mu[:-1], mu[1:]
+        inside = np.sum((m1 - m0) * (2 * t0 * m0 + t0 * m1 + t1 * m0 + 2 * t1 * m1) / 6)  # int t mu, t linear
+        return 2 * float(inside) / eta**2
+    x, w = np.polynomial.legendre.leggauss(64)
+    mu, w = 0.5 * (x + 1.0), 0.5 * w
+    if eta >= 1.0:
+        return (1.0 - 2 * float(np.sum(w * _fresnel_dielectric(mu, eta) * mu))) / eta**2
+    return 1.0 - 2 * float(np.sum(w * _fresnel_dielectric(mu, 1.0 / eta) * mu))
+
+
+def _fresnel_dielectric(cos_i, eta):
+    """kernels/fresnel.cl's fresnel_dielectric in float64, for eta >= 1 (no total internal reflection)."""
+    ct = np.sqrt(1.0 - (1.0 - cos_i * cos_i) / (eta * eta))
+    r_parl = (eta * cos_i - ct) / (eta * cos_i + ct)
+    r_perp = (cos_i - eta * ct) / (cos_i + eta * ct)
+    return 0.5 * (r_parl**2 + r_perp**2)
+
+
+def coat_peak(material):
+    """The most of the light arriving from outside that a plastic's coat lets through, over the directions: 1
+    - F(1) = 4 eta / (1 + eta)^2 for a smooth coat, its table's largest entry for a rough one."""
+    if material.bsdf == "roughplastic":
+        return float(np.max(rough_transmittance.table(material)))
+    eta = float(material.int_ior) / float(material.ext_ior)
+    return 4 * eta / (1 + eta) ** 2
+
+
+def plastic_excess(material, k):
+    """T / (1 - r) of rule 5 for a plastic's base of albedo k (r = R, or k R with nonlinear: R the coat's
+    internal reflectance as the kernel gets it, a float32), inf where 1 - r rounds to 0 or below in float32."""
+    r = float(np.float32(plastic_terms.coat(material)[0]))
+    r = k * r if material.nonlinear else r
+    below = float(np.float32(1.0) - np.float32(r)) if math.isfinite(r) else -math.inf
+    return coat_transmittance(material) / below if below > 0 else math.inf
+
+
+def plastic_albedo(material, k):
+    """Rule 5's k of a plastic of base albedo k: max(k, s), s its coat's largest specular reflectance, unless
+    the albedo through the coat exceeds that by more than FIT_SLACK; inf where the kernel's 1 - r <= 0. The
+    albedo from a direction at cos_o is g s + t k T / (1 - r) with t = t(cos_o) the coat's transmittance and g
+    <= 1 - t its reflectance (g = F = 1 - t for a smooth coat), at most max(s, (1 - t) s + t k T / (1 - r))
+    with t the coat's largest (coat_peak)."""
+    s = float(np.max(material.specular))
+    excess = plastic_excess(material, k)
+    if excess == math.inf:
+        return math.inf
+    t = coat_peak(material)
+    through = max(s, (1 - t) * s + t * k * excess)
+    plain = max(k, s)
+    return through if through > plain * (1 + FIT_SLACK) else plain
 
 
 def brightest(scene):
@@ -258,6 +337,9 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
     material, reader = scene.materials[i], material_readers[i]
     albedo = (reader, "texture", material.colour_map) if material.colour_map >= 0 else (reader, "colour",
                                                                                        material.colour)
+    if material.bsdf in COATED and not material.nonlinear and albedos[i] > max(base_albedo(scene, material),
+                                                                                float(np.max(material.specular))):
+        albedo = (reader, "int_ior", material.int_ior)  # the coat's index, through Mitsuba's fit of R
     places = [(max(scene.max_depth, 1) * _log2(max(1.0, albedos[i])), albedo)]
     indices = [(abs(_log2(getattr(m, key))), (r, key, getattr(m, key))) for m, r in zip(scene.materials,
                material_readers) if m.bsdf in GLASS for key in ("int_ior", "ext_ior")]
@@ -299,13 +381,31 @@ def _check_path_brightness(scene, material_readers, light_readers, scene_reader)
                         "up to which float32 sums of samples and squares of pixel values stay finite")
 
 
+def _check_indices(scene, material_readers):
+    """Rule 6, naming the index further from 1 (in ratio)."""
+    for material, reader in zip(scene.materials, material_readers):
+        if material.bsdf not in INDEXED or material.bsdf in GLASS:  # glass: rule 5's R, the tighter bound
+            continue
+        eta = float(material.int_ior) / float(material.ext_ior)
+        if not 1.0 / ETA_LIMIT <= eta <= ETA_LIMIT:
+            key = max(("int_ior", "ext_ior"), key=lambda k: abs(_log2(float(getattr(material, k)))))
+            reader.fail(key, _shown(reader, key, getattr(material, key)), f"makes the relative index int_ior / "
+                        f"ext_ior {eta:.4g}, beyond [2^-63, 2^63], within which float32 squares it and its "
+                        "reciprocal as normal numbers")
+        if material.bsdf in COATED and not material.nonlinear and plastic_excess(material, 1.0) == math.inf:
+            reader.fail("int_ior", _shown(reader, "int_ior", material.int_ior), f"makes the coat's internal "
+                        f"reflectance (Mitsuba's fit, for int_ior / ext_ior {eta:.4g}) 1 or more: the base's light "
+                        "would be divided by 1 - R <= 0 (the fit reaches 1 at a relative index of 3.85)")
+
+
 def check_scene(scene, places, material_readers, light_readers, scene_reader):
-    """Rules 2 to 5 for a parsed scene. `places` pairs the camera, each light and each shape with the reader
+    """Rules 2 to 6 for a parsed scene. `places` pairs the camera, each light and each shape with the reader
     of its table (whose fail(key, value, problem) names the file and the key); the other readers are those
     of the materials (in order), the lights (in order) and the whole file."""
     scale = _check_extents(places)
     _check_sizes(places, scale)
     _check_heights(scene, material_readers)
+    _check_indices(scene, material_readers)  # before rule 5, which finds a plastic's coat terms from them
     if scene.shading == "path":
         _check_path_brightness(scene, material_readers, light_readers, scene_reader)
     else:
