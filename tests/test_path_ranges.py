@@ -10,14 +10,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, note
+from hypothesis import Phase, assume, find, given, note, settings
 
 import raytrace
 from devtools.fuzz.contract import budget, write_example
-from devtools.fuzz.scenes import path_scenes
+from devtools.fuzz.scenes import PATH_KEYS, path_materials, path_scenes
 from helpers import ROOT
 from raytrace.errors import InputError
 from raytrace.scene import parse_scene
+from raytrace.scene.bsdfs import DECLARED
 from raytrace.scene.ranges import PATH_BRIGHTEST_LIMIT, path_brightest, path_gain
 
 CORNELL_PATH = ROOT / "scenes" / "cornell_path.toml"
@@ -158,12 +159,13 @@ def test_coats_and_panes_beyond_their_ranges_are_refused(key, value, problem, ed
     assert problem in error.problem, error
 
 
-@pytest.mark.parametrize("material", [dict(type="plastic", int_ior=2.0**-62), dict(type="roughplastic", int_ior=2.0**-62),
-                                      dict(type="roughplastic", int_ior=2.0**62), dict(type="thindielectric", int_ior=2.0**62),
-                                      dict(type="thindielectric", int_ior=2.0**-62), dict(type="plastic", int_ior=3.8),
-                                      dict(type="plastic", int_ior=1.49, colour=[1.0, 1.0, 1.0])],
-                         ids=["plastic-2^-62", "roughplastic-2^-62", "roughplastic-2^62", "pane-2^62", "pane-2^-62",
-                              "plastic-3.8", "white-plastic"])
+@pytest.mark.parametrize("material", [
+    {"type": "plastic", "int_ior": 2.0**-62}, {"type": "roughplastic", "int_ior": 2.0**-62},
+    {"type": "roughplastic", "int_ior": 2.0**62}, {"type": "thindielectric", "int_ior": 2.0**62},
+    {"type": "thindielectric", "int_ior": 2.0**-62}, {"type": "plastic", "int_ior": 3.8},
+    {"type": "plastic", "int_ior": 1.49, "colour": [1.0, 1.0, 1.0]}],
+    ids=["plastic-2^-62", "roughplastic-2^-62", "roughplastic-2^62", "pane-2^62", "pane-2^-62", "plastic-3.8",
+         "white-plastic"])
 def test_coats_and_panes_within_their_ranges_render_finite(material):
     """Just inside rule 6 (eta = 2^-62 or 2^62, ext_ior 1) and the fit's R < 1 (3.8, an albedo of 14 times its
     colour at max_depth 8), and a white plastic of index 1.49 at unbounded depth (the fit's 0.1% excess is
@@ -185,6 +187,22 @@ def test_glass_counts_its_squared_ratio_once():
     materials.toml's glass of index 1.5 at max_depth 8 has G = 2.25."""
     scene = raytrace.load_file(ROOT / "scenes" / "materials.toml")
     assert path_gain(scene) == pytest.approx(1.5 ** 2)
+
+
+def test_path_scenes_draw_every_bsdf_and_key():
+    """devtools/fuzz/scenes.py's path_materials draws every BSDF of raytrace/scene/bsdfs.py with each of its keys
+    (its PATH_KEYS are the declarations' keys), so that a BSDF or a parameter declared later is fuzzed or this
+    fails: 600 derandomised draws meet every (type, key) (the rarest, a rough conductor's k, 12 times)."""
+    assert {name: sorted(keys) for name, keys in PATH_KEYS.items()} == {b.name: sorted(b.key_names()) for b in DECLARED}
+    seen = set()
+
+    @settings(database=None, derandomize=True, max_examples=600, phases=[Phase.generate])
+    @given(material=path_materials())
+    def draw(material):
+        seen.update((material.get("type", "diffuse"), key) for key in material)
+
+    draw()
+    assert {(name, key) for name, keys in PATH_KEYS.items() for key in keys} - seen == set()
 
 
 @budget(60)

@@ -3,13 +3,16 @@ and how a run on one is checked.
 
 Valid scenes are built from the grammar of the plugins raytrace renders (PLUGINS in raytrace/scene/mitsuba.py): a
 perspective sensor (lookat or rotated, fov with each fov_axis or a focal length, clip planes), an hdrfilm of at most
-6 x 6 pixels with a box rfilter, each sampler, the path, direct and moment integrators, diffuse, conductor,
-roughconductor and dielectric BSDFs (in twosided or not, by reference or inline, reflectances as numbers, rgb and
-spectra), rectangle, sphere, obj and ply shapes, area emitters on rectangles and quad meshes, constant and envmap
-environments; and the XML's own: $parameters given by <default> or -D, <include> (of a scene's objects, of one object,
-through <path>), <alias>, a version 0.6 file's camelCase names. An Element tree is written as text one element a
-line, and the same tree is made into Mitsuba's dict form (numpy matrices, lists, objects with .matrix) by a converter
-of our own (rotations about the axis as written, as Mitsuba's).
+6 x 6 pixels with a box rfilter, each sampler, the path, direct and moment integrators, every BSDF raytrace declares
+(raytrace/scene/bsdfs.py: diffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic,
+roughplastic; in twosided or not, by reference or inline, reflectances as numbers, rgb and spectra, each parameter
+anywhere in its range: named metals and media, alpha from 1 to float32's smallest, alpha_u != alpha_v, GGX and
+Beckmann, indices above, below, near and far from each other), rectangle, sphere, obj and ply shapes, area
+emitters on rectangles and quad meshes, constant and envmap environments; and the XML's own: $parameters given by
+<default> or -D, <include> (of a scene's objects, of one object, through <path>), <alias>, a version 0.6 file's
+camelCase names. An Element tree is written as text one element a line, and the same tree is made into Mitsuba's dict
+form (numpy matrices, lists, objects with .matrix) by a converter of our own (rotations about the axis as written, as
+Mitsuba's).
 
 The same, mutated (XmlMutation): attribute values replaced by bad numbers (nan, inf, 1e39, huge integers), words and
 values out of each parameter's range (negative reflectance, fov 0 and 180, alpha 0, width 0, ...); hostile transform
@@ -41,6 +44,8 @@ from hypothesis import event, note, reject
 from hypothesis import strategies as st
 
 from raytrace.errors import UnsupportedWarning
+from raytrace.scene.bsdfs import BY_NAME
+from raytrace.scene.named_materials import CONDUCTORS, IORS
 
 from . import contract
 from .api import NotOneLineError, WrongErrorSource, checked_call
@@ -194,15 +199,67 @@ def reflectances(draw, name, low=0.0, high=1.0):
     return prop("spectrum", name, ", ".join(f"{w}:{num(draw(rounded(low, high)))}" for w in wavelengths))
 
 
-CONDUCTOR_NAMES = ("Au", "Ag", "Cu", "Al", "Cr", "none")
-IOR_NAMES = ("bk7", "water", "diamond", "acrylic glass", "air")
+CONDUCTOR_NAMES = tuple(CONDUCTORS)  # every named metal, "none" (a perfect mirror) among them
+IOR_NAMES = tuple(IORS)  # every named medium
+XML_BSDFS = ("diffuse", "diffuse", "conductor", "roughconductor", "dielectric", "thindielectric", "roughdielectric",
+             "plastic", "roughplastic")
+GLASS_AND_COATS = ("dielectric", "thindielectric", "roughdielectric", "plastic", "roughplastic")
+# A roughness anywhere in (0, 1], written exactly: the tested 1e-3 .. 1 and the effectively smooth region below
+# packing.py's SMOOTH_ALPHA (a rough conductor or glass renders smooth there; roughplastic clamps at 1e-4).
+XML_ALPHAS = ("1", "0.999", "0.5", "0.1", "0.01", "0.002", "0.0010000001", "0.001", "0.00099999", "0.0005",
+              "0.0002", "0.00017", "0.0001", "0.00005", "1e-7", "1e-20", "1e-38", "1e-45")
+
+
+def alpha_values():
+    return st.one_of(st.sampled_from(XML_ALPHAS), finite(1e-3, 1.0).map(repr),
+                     st.floats(-149.0, 0.0).map(lambda e: repr(2.0 ** e)))
+
+
+@st.composite
+def xml_iors(draw, kind):
+    """int_ior and ext_ior properties of a BSDF of type `kind` (each perhaps left out: Mitsuba's default then):
+    named media (in any case: Mitsuba lowercases them), numbers from 0.1 to 10 (int_ior above and below ext_ior,
+    far from it: a ratio up to 100, which keeps a valid scene within rule 5 whatever else it holds), near it (a
+    relative step of 2^-23 to 1e-2) or equal to it where the type takes equal indices (not the rough interfaces:
+    Mitsuba's rule, bsdfs.py's distinct_iors). A plastic's ratio stays within 0.5 to 2.2: beyond, Mitsuba's fit of
+    its coat's internal reflectance (and a rough coat's table below 0.5) makes a white base reflect more than it
+    receives (raytrace/scene/ranges.py's plastic_albedo), which a valid scene at unbounded depth may not."""
+    distinct, coat = BY_NAME[kind].distinct_iors, kind in ("plastic", "roughplastic")
+    how = draw(st.sampled_from(["named", "numbers", "near"] + ([] if distinct else ["equal"])))
+    media = [n for n in IOR_NAMES if not coat or IORS[n] < 2]  # diamond's 2.419 over air: too much for a coat
+    names = st.tuples(st.sampled_from(media), st.sampled_from([str, str, str.upper])).map(lambda t: t[1](t[0]))
+    if how == "named":
+        pair = [draw(st.one_of(st.none(), names)), draw(st.one_of(st.none(), names))]
+    elif how == "numbers" and coat:  # int_ior 0.75 to 2.2 over 1 to 1.5
+        pair = [draw(st.one_of(st.none(), rounded(0.75, 2.2))),
+                draw(st.one_of(st.none(), st.sampled_from([1.0, 1.000277, 1.33, 1.5])))]
+    elif how == "numbers":
+        pair = [draw(st.one_of(st.none(), rounded(0.1, 10.0))),
+                draw(st.one_of(st.none(), st.sampled_from([1.0, 1.000277, 1.33, 1.5, 0.1, 10.0]), names))]
+    elif how == "equal":
+        pair = [draw(st.one_of(rounded(0.1, 10.0), names))] * 2
+    else:
+        ext = draw(st.sampled_from([1.0, 1.5, 0.5, 2.419]))
+        step = draw(st.sampled_from([2.0**-23, 1e-6, 1e-4, 1e-2])) * draw(st.sampled_from([1.0, -1.0]))
+        pair = [ext * (1 + step), ext]
+    if distinct:
+        declared = {p.name: p.mitsuba_default for p in BY_NAME[kind].parameters}
+        given = [declared[name] if x is None else x for name, x in zip(("int_ior", "ext_ior"), pair)]
+        index = [IORS[x.lower()] if isinstance(x, str) else x for x in given]
+        if index[0] == index[1]:
+            pair[1] = index[0] * 1.25
+    return [prop("string" if isinstance(x, str) else "float", name, x if isinstance(x, str) else repr(float(x)))
+            for name, x in zip(("int_ior", "ext_ior"), pair) if x is not None]
 
 
 @st.composite
 def bsdfs(draw, direct, ident=None):
-    """A BSDF element (diffuse only for the direct integrator), perhaps in a twosided."""
-    kind = "diffuse" if direct else draw(st.sampled_from(["diffuse", "diffuse", "conductor", "roughconductor",
-                                                          "dielectric"]))
+    """A BSDF element (diffuse only for the direct integrator), perhaps in a twosided: every BSDF raytrace renders,
+    each parameter given or not, anywhere in its range (reflectances 0 to 1, black bases, named metals and eta, k,
+    GGX, Beckmann or Mitsuba's default, alpha from 1 down to float32's smallest or alpha_u != alpha_v, indices named
+    or numbers above, below, near and far from each other, nonlinear or not, a coat's specular_reflectance 0 to 1)
+    within what keeps a scene valid."""
+    kind = "diffuse" if direct else draw(st.sampled_from(XML_BSDFS))
     params = []
     if kind == "diffuse":
         if draw(st.booleans()):
@@ -211,28 +268,36 @@ def bsdfs(draw, direct, ident=None):
         if draw(st.booleans()):
             params.append(prop("string", "material", draw(st.sampled_from(CONDUCTOR_NAMES))))
         elif draw(st.booleans()):
-            params.append(prop("rgb", "eta", triple(draw(vectors(3, 0.1, 3.0)))))
-            params.append(prop("rgb", "k", triple(draw(vectors(3, 0.0, 5.0)))))
+            params.append(prop("rgb", "eta", triple(draw(vectors(3, 0.0, 5.0)))))
+            params.append(prop("rgb", "k", triple(draw(vectors(3, 0.0, 10.0)))))
         if draw(st.booleans()):
             params.append(draw(reflectances("specular_reflectance")))
-        if kind == "roughconductor":
-            params.append(prop("string", "distribution", "ggx"))
-            alpha = num(draw(rounded(0.02, 1.0)))
-            if draw(st.booleans()):
-                params.append(prop("float", "alpha", alpha))
-            elif draw(st.booleans()):
-                params += [prop("float", "alpha_u", alpha), prop("float", "alpha_v", alpha)]
-    else:
+    if kind in ("plastic", "roughplastic"):
         if draw(st.booleans()):
-            params.append(draw(st.one_of(st.sampled_from(IOR_NAMES[:-1]).map(lambda n: prop("string", "int_ior", n)),
-                                         rounded(1.1, 2.5).map(lambda x: prop("float", "int_ior", num(x))))))
+            params.append(draw(st.one_of(reflectances("diffuse_reflectance"), st.just(prop("rgb", "diffuse_reflectance",
+                                                                                           "0")))))
         if draw(st.booleans()):
-            params.append(draw(st.sampled_from([prop("string", "ext_ior", "air"), prop("float", "ext_ior", "1.0"),
-                                                prop("string", "ext_ior", "vacuum")])))
+            params.append(prop("boolean", "nonlinear", draw(st.sampled_from(["true", "false"]))))
         if draw(st.booleans()):
-            value = num(draw(rounded(0.2, 1.0)))
-            params += [prop("float", "specular_reflectance", value), prop("float", "specular_transmittance", value)]
-    inner = Element("bsdf", (("type", kind),), tuple(params))
+            params.append(draw(st.one_of(reflectances("specular_reflectance"),
+                                         st.just(prop("float", "specular_reflectance", "0")))))
+    if kind in GLASS_AND_COATS:
+        params += draw(xml_iors(kind))
+    if kind in ("dielectric", "thindielectric", "roughdielectric") and draw(st.booleans()):
+        value = num(draw(rounded(0.0, 1.0)))
+        params += [prop("float", "specular_reflectance", value), prop("float", "specular_transmittance", value)]
+    if kind.startswith("rough"):
+        distribution = draw(st.sampled_from(["ggx", "beckmann", "GGX", None]))
+        if distribution is not None:
+            params.append(prop("string", "distribution", distribution))
+        if kind != "roughplastic" and draw(st.booleans()):
+            params += [prop("float", "alpha_u", draw(alpha_values())), prop("float", "alpha_v", draw(alpha_values()))]
+        elif draw(st.sampled_from([True, True, False])):
+            params.append(prop("float", "alpha", draw(alpha_values())))
+        if draw(st.integers(0, 3)) == 0:
+            params.append(prop("boolean", "sample_visible", draw(st.sampled_from(["true", "false"]))))
+    order = draw(st.permutations(range(len(params))))
+    inner = Element("bsdf", (("type", kind),), tuple(params[i] for i in order))
     if draw(st.booleans()):
         inner = Element("bsdf", (("type", "twosided"),), (inner,))
     return inner.with_attr("id", ident) if ident else inner
@@ -587,7 +652,9 @@ BAD_WORDS = ("", " ", "x", "true", "True", "FALSE", "yes", "$", "$$", "$undefine
              "99.0.0", "-1.0.0", "3.0", "\ud800")
 RANGE_VALUES = {
     "fov": ("0", "180", "-1", "1e-30", "179.9999999", "1e-7", "360", "-180", "1e30"),
-    "alpha": ("0", "-1", "1e-30", "1e30", "1e-7"), "alpha_u": ("0", "-1", "2"), "alpha_v": ("0", "0.7"),
+    "alpha": ("0", "-1", "1e-30", "1e30", "1e-7", "1.0000001", "1e-46"), "alpha_u": ("0", "-1", "2", "1e-45"),
+    "alpha_v": ("0", "0.7", "1.5"), "diffuse_reflectance": ("-1", "1.5", "2", "1e30", "0"),
+    "nonlinear": ("1", "yes", "", "TRUE"), "sample_visible": ("2", "no"),
     "reflectance": ("-1", "-0.5", "1.5", "2", "1e30", "-1e-30", "1, -1, 0", "0.5, 0.5", "400:-1, 500:2"),
     "radiance": ("-1", "0", "1e30", "3.5e38", "-0.0", "1, 1, -1", "1e-45"),
     "width": ("0", "-1", "16385", "100000", "2147483648", "99999999999999999999", "1.5"),
@@ -595,7 +662,8 @@ RANGE_VALUES = {
     "sample_count": ("0", "-1", "65537", "2147483647", "4294967296", "3", "5", "17"),
     "max_depth": ("-2", "0", "1000000", "2147483648", "-2147483649"), "rr_depth": ("0", "-1", "99999999999999999999"),
     "radius": ("0", "-1", "1e-30", "1e30", "-0"),
-    "int_ior": ("0", "-1", "1", "1e30", "nothing", "Water", "air"), "ext_ior": ("0", "-1", "5", "bk7", "vacuum "),
+    "int_ior": ("0", "-1", "1", "1e30", "nothing", "Water", "air", "3.9", "1e-30", "3.4e38", "1e-45"),
+    "ext_ior": ("0", "-1", "5", "bk7", "vacuum ", "1e-45", "1e30"),
     "scale": ("-1", "0", "1e39", "1e30"), "seed": ("-1", "4294967296", "18446744073709551616"),
     "near_clip": ("0", "-1", "1e30", "100"), "far_clip": ("0", "0.001", "1", "-1"),
     "focal_length": ("0mm", "-1mm", "mm", "1e400mm", "nanmm", "infmm", "50", "1e-300mm", "50 mm", "50MM"),

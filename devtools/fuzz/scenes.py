@@ -14,10 +14,14 @@ from hypothesis import assume
 from hypothesis import strategies as st
 
 from raytrace.numerics import FLOAT32_MAX, FLOAT32_TINY
+from raytrace.renderer.packing import SMOOTH_ALPHA  # below it a rough conductor or glass renders smooth
+from raytrace.scene.bsdfs import BY_NAME
+from raytrace.scene.model import BSDFS, DISTRIBUTIONS
+from raytrace.scene.named_materials import CONDUCTORS, IORS
+from raytrace.scene.toml_writer import to_toml
 
 from .files import TETRAHEDRON, TETRAHEDRON_FACES, AssetCopy, ImageFile, finite, hostile_files, valid_images, \
     valid_mesh_files, vectors
-from raytrace.scene.toml_writer import to_toml
 
 
 @dataclasses.dataclass
@@ -224,23 +228,117 @@ def number_or_vector(values):
     return st.one_of(values, st.lists(values, min_size=3, max_size=3))
 
 
+# Every BSDF's keys the generator below draws, by type (tests/test_path_ranges.py checks them against the
+# declarations, raytrace/scene/bsdfs.py, so that a BSDF or a parameter declared later is not left unfuzzed).
+REFLECTANCE_NAMES = {"diffuse": "reflectance", "conductor": "specular_reflectance",
+                     "roughconductor": "specular_reflectance", "plastic": "diffuse_reflectance",
+                     "roughplastic": "diffuse_reflectance"}
+CONDUCTOR_KEYS = ("eta", "k", "material", "specular_reflectance")
+ROUGH_KEYS = ("distribution", "alpha", "alpha_u", "alpha_v")
+IOR_KEYS = ("int_ior", "ext_ior")
+PLASTIC_KEYS = ("diffuse_reflectance", "nonlinear", *IOR_KEYS, "specular_reflectance")
+PATH_KEYS = {"diffuse": ("reflectance",), "conductor": CONDUCTOR_KEYS, "dielectric": IOR_KEYS,
+             "roughconductor": CONDUCTOR_KEYS + ROUGH_KEYS, "thindielectric": IOR_KEYS,
+             "roughdielectric": IOR_KEYS + ROUGH_KEYS, "plastic": PLASTIC_KEYS,
+             "roughplastic": PLASTIC_KEYS + ROUGH_KEYS[:2]}
+ANISOTROPIC = ("roughconductor", "roughdielectric")
+
+ALPHA_EDGES = (1.0, 0.999, 0.5, 0.1, 0.01, 2e-3, SMOOTH_ALPHA * (1 + 2.0**-20), SMOOTH_ALPHA,
+               SMOOTH_ALPHA * (1 - 2.0**-20), 9e-4, 5e-4, 1e-4, 1e-5, 1e-7, 2.0**-63, 2.0**-64, 2.0**-75, 1e-30,
+               FLOAT32_TINY, 1e-45)
+
+
+def alphas():
+    """A roughness anywhere in (0, 1]: the tested range 1e-3 .. 1, the effectively smooth region below
+    SMOOTH_ALPHA (to float32's smallest), and its edges."""
+    return st.one_of(st.sampled_from(ALPHA_EDGES), finite(SMOOTH_ALPHA, 1.0),
+                     st.floats(-149.0, 0.0).map(lambda e: 2.0 ** e), magnitudes(1e-45, 1.0))
+
+
+def reflectances(scalar=True):
+    """A colour anywhere in its range: black, in [0, 1], or anywhere in float32's; three numbers, or with
+    `scalar` (Mitsuba's names of it take one) one."""
+    triples = st.one_of(st.sampled_from([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), vectors(3, 0.0, 1.0),
+                        st.lists(magnitudes(), min_size=3, max_size=3))
+    return st.one_of(triples, st.sampled_from([0.0, 1.0]), magnitudes()) if scalar else triples
+
+
+IOR_NEAR = (2.0**-23, 2.0**-20, 1e-6, 1e-4, 1e-3, 1e-2)
+
+
+@st.composite
+def ior_pairs(draw, distinct):
+    """(int_ior, ext_ior), each a number, a named medium (in any case) or None (the key left out): anywhere in
+    (0, float32's max], int_ior above or below ext_ior, near it (within float32's step), equal to it (for the
+    BSDFs that take equal indices: `distinct` False) or far from it."""
+    names = st.tuples(st.sampled_from(sorted(IORS)), st.sampled_from([str, str.upper, str.title])).map(
+        lambda t: t[1](t[0]))
+    plausible = st.one_of(finite(1.0, 3.0), st.sampled_from([1.0, 1.5, 2.419, 4.0]))
+    kind = draw(st.sampled_from(["anywhere", "plausible", "named", "near", "below", "far", "equal"]))
+    if kind == "anywhere":
+        pair = [draw(st.one_of(st.none(), magnitudes(1e-45), plausible, names)) for _ in range(2)]
+    elif kind == "plausible":
+        pair = [draw(st.one_of(st.none(), plausible)) for _ in range(2)]
+    elif kind == "named":
+        pair = [draw(st.one_of(st.none(), names)) for _ in range(2)]
+    elif kind == "equal":
+        value = draw(st.one_of(plausible, names, magnitudes(1e-45)))
+        pair = [value, value]
+    else:
+        ext = draw(st.one_of(plausible, finite(0.1, 10.0)))
+        if kind == "near":
+            step = draw(st.sampled_from(IOR_NEAR)) * draw(st.sampled_from([1.0, -1.0]))
+            inside = float(np.float32(ext * (1 + step)))
+        elif kind == "below":
+            inside = ext * draw(finite(0.05, 0.999))
+        else:  # far: a ratio up to 2^16, the most rule 5 takes (R^2 <= 2^32)
+            inside = ext * 2.0 ** (draw(finite(1.0, 17.0)) * draw(st.sampled_from([1.0, -1.0])))
+        pair = [inside, ext]
+        if draw(st.booleans()):
+            pair.reverse()
+    if distinct and pair[0] is not None and pair[0] == pair[1] and draw(st.booleans()):
+        pair[1] = None  # equal indices are refused here: now and then the default instead
+    return pair
+
+
 @st.composite
 def path_materials(draw):
-    """A material of the path model of any BSDF, its parameters anywhere in their accepted ranges."""
-    bsdf = draw(st.sampled_from(["diffuse", "conductor", "dielectric", "roughconductor"]))
+    """A material of the path model of any BSDF (raytrace/scene/bsdfs.py's), each of its keys (PATH_KEYS)
+    given or not, anywhere in its accepted range: reflectances black to float32's largest (by `colour` or the
+    type's own name), eta and k anywhere or a named metal, alpha from 1 to float32's smallest (the effectively
+    smooth region below SMOOTH_ALPHA included) or alpha_u != alpha_v, GGX or Beckmann, indices of refraction
+    anywhere, above and below each other, near and far, numbers or named media, nonlinear or not, a coat's
+    specular_reflectance 0 to anywhere. Values beyond the rules between them are left to the checks."""
+    bsdf = draw(st.sampled_from(BSDFS))
     material = {"type": bsdf} if bsdf != "diffuse" or draw(st.booleans()) else {}
-    if bsdf == "diffuse" or draw(st.booleans()):
-        material["colour"] = draw(st.one_of(vectors(3, 0.0, 1.0), st.lists(magnitudes(), min_size=3, max_size=3)))
+    if bsdf in REFLECTANCE_NAMES and draw(st.booleans()):
+        material[REFLECTANCE_NAMES[bsdf]] = draw(reflectances())
+    elif bsdf == "diffuse" or draw(st.booleans()):
+        material["colour"] = draw(reflectances(scalar=False))
     if bsdf in ("conductor", "roughconductor"):
-        for key in ("eta", "k"):
-            if draw(st.booleans()):
-                material[key] = draw(number_or_vector(magnitudes()))
-    if bsdf == "roughconductor" and draw(st.booleans()):
-        material["alpha"] = draw(magnitudes(1e-45, 1.0))
-    if bsdf == "dielectric":
-        for key in ("int_ior", "ext_ior"):
-            if draw(st.booleans()):
-                material[key] = draw(magnitudes(1e-45))
+        if draw(st.booleans()):
+            material["material"] = draw(st.sampled_from(sorted(CONDUCTORS)))
+        else:
+            for key in ("eta", "k"):
+                if draw(st.booleans()):
+                    material[key] = draw(number_or_vector(st.one_of(magnitudes(), finite(0.0, 5.0))))
+    if bsdf in PATH_KEYS and "distribution" in PATH_KEYS[bsdf]:
+        if draw(st.booleans()):
+            material["distribution"] = draw(st.sampled_from(DISTRIBUTIONS))
+        if bsdf in ANISOTROPIC and draw(st.booleans()):
+            material["alpha_u"] = draw(alphas())
+            material["alpha_v"] = draw(alphas())
+        elif draw(st.sampled_from([True, True, False])):
+            material["alpha"] = draw(alphas())
+    if "int_ior" in PATH_KEYS.get(bsdf, ()):
+        for key, value in zip(IOR_KEYS, draw(ior_pairs(BY_NAME[bsdf].distinct_iors))):
+            if value is not None:
+                material[key] = value
+    if bsdf in ("plastic", "roughplastic"):
+        if draw(st.booleans()):
+            material["nonlinear"] = draw(st.booleans())
+        if draw(st.booleans()):
+            material["specular_reflectance"] = draw(reflectances())
     return material
 
 
