@@ -6,56 +6,21 @@ p, reciprocity and a white furnace."""
 import math
 
 import bsdf_reference as ref
+import bsdf_support
+from bsdf_support import unit
 import numpy as np
 import pytest
 from helpers import at_lane_ends
 from scipy import stats
 
 from devtools.chi_square import SIGNIFICANCE, chi_square
-from raytrace.commands.stability.probe import planar
+from raytrace.renderer.packing import material_structs
 from raytrace.scene import plastic_terms
 from raytrace.scene.model import Material
 
 BUILD = {"HAS_PATH_TRACING": 1, "HAS_PLASTICS": 1, "HAS_RECTANGLES": 1}
-
-PLASTIC = """
-#include "bsdf.cl"
-/* bsdf.cl's eval_pdf at (wo, wi) and sample at (wo, u1, u2) of a plastic of the given (uniform) values, about
- * the per-lane normal nrm. */
-__kernel void plastic(int n, float kr, float kg, float kb, float sr, float sg, float sb, float eta, int nonlinear,
-                      float r_int, float weight_s, __global const float *wo_, __global const float *wi_,
-                      __global const float *nrm, __global const float *u, __global float *f, __global float *pdf,
-                      __global float *s_wi, __global float *s_weight, __global float *s_pdf, __global float *s_delta,
-                      __global float *s_transmit)
-{
-    ShadingPoint sp;
-    sp.p = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.err = 0.0f;
-    sp.ng = sp.n = IN3(nrm);
-    sp.k = v3_splat(kr, kg, kb);
-    sp.shininess = 1.0f;
-    sp.bsdf = (vint)(BSDF_PLASTIC);
-    sp.eta = v3((vfloat)(eta), (vfloat)(0.0f), (vfloat)(0.0f));
-    sp.k_imag = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.alpha = 1.0f;
-    sp.specular = v3_splat(sr, sg, sb);
-    sp.nonlinear = (vint)(nonlinear);
-    sp.internal_reflectance = r_int;
-    sp.specular_weight = weight_s;
-    const vint all = (vint)(-1) != 0;
-    vec3 wo = IN3(wo_);
-    vfloat p;
-    OUT3(f, bsdf_eval_pdf(sp, wo, IN3(wi_), all, &p));
-    OUT(pdf, p);
-    vec2 u2 = {IN(u + n), IN(u + 2 * n)};
-    BSDFSample bs = bsdf_sample(sp, wo, IN(u), u2, all);
-    OUT3(s_wi, bs.wi);
-    OUT3(s_weight, bs.weight);
-    OUT(s_pdf, bs.pdf);
-    OUT(s_delta, SELECT((vfloat)(0.0f), (vfloat)(1.0f), bs.delta != 0));
-    OUT(s_transmit, SELECT((vfloat)(0.0f), (vfloat)(1.0f), bs.transmit != 0));
-}
-"""
+# bsdf_eval_pdf at (wo, wi) and bsdf_sample at (wo, u1, u2) (bsdf_support.OUTPUTS)
+OUTPUTS = ("f", "pdf", "s_wi", "s_weight", "s_pdf", "s_delta", "s_transmit")
 
 # Mitsuba plugin dicts: the default plastic; coloured, nonlinear, a dense coat; a coat of index near 1 (F
 # small everywhere); a very dense one (F large); a coat less dense than outside (eta = 2/3: total internal
@@ -82,16 +47,10 @@ def material(d):
                     nonlinear=b.nonlinear)
 
 
-def run(harness, d, wo, wi, normal, u):
-    """The kernel's eval, pdf and sample for plastic dict d, the host's terms from plastic_terms.coat."""
-    b = ref.load_dict(d)
-    r_int, weight = plastic_terms.coat(material(d))
-    f32 = np.float32
-    scalars = [*map(f32, b.diffuse), *map(f32, b.specular), f32(b.eta), np.int32(b.nonlinear), f32(r_int),
-               f32(weight)]
-    return harness.run(PLASTIC, "plastic", len(wo), [*scalars, planar(wo), planar(wi), planar(normal), planar(u)],
-                       {"f": 3, "pdf": 1, "s_wi": 3, "s_weight": 3, "s_pdf": 1, "s_delta": 1, "s_transmit": 1},
-                       **BUILD)
+def run(harness, d, wo, wi, normal, u, outputs=OUTPUTS):
+    """The kernel's eval, pdf and sample for plastic dict d, the host's terms from plastic_terms.coat (as
+    packing.material_structs packs them)."""
+    return bsdf_support.run(harness, material_structs([material(d)]), normal, wo, wi, u, outputs, **BUILD)
 
 
 def frame(n):
@@ -103,10 +62,6 @@ def frame(n):
     t = np.stack([1 + sign * n[:, 0] ** 2 * a, sign * c, -sign * n[:, 0]], axis=1)
     b = np.stack([c, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
     return np.stack([t, b, n], axis=1)
-
-
-def unit(v):
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 def random_inputs(m, seed):
@@ -181,7 +136,7 @@ def test_eval_pdf_and_sample_against_the_reference(harness, case):
         _, ps = b._prob_specular(np.maximum(lo[:, 2], 0))
     far = ~near_critical(b, lo[:, 2], li[:, 2])
     scale_f, scale_p = max(np.abs(f).max(), 1e-30), max(pdf.max(), 1e-30)
-    np.testing.assert_allclose(out["f"].T[far], f[far], atol=2e-5 * scale_f, rtol=1e-4)
+    np.testing.assert_allclose(out["f"][far], f[far], atol=2e-5 * scale_f, rtol=1e-4)
     np.testing.assert_allclose(out["pdf"][far], pdf[far], atol=2e-5 * scale_p, rtol=1e-4)
 
     keep = (s.valid & (np.abs(u[:, 0] - ps) > 1e-5) & (out["s_pdf"] > 0)
@@ -189,18 +144,18 @@ def test_eval_pdf_and_sample_against_the_reference(harness, case):
     assert keep.sum() > 0.6 * m
     assert np.all(out["s_pdf"][~s.valid] == 0)  # no sample where Mitsuba has none: wo below the surface
     world = np.einsum("mji,mj->mi", basis, s.wi)
-    np.testing.assert_allclose(out["s_wi"].T[keep], world[keep], atol=1e-5)
+    np.testing.assert_allclose(out["s_wi"][keep], world[keep], atol=1e-5)
     assert np.array_equal(out["s_delta"][keep] > 0, s.delta[keep]) and not np.any(out["s_transmit"])
     # the density and weight at the kernel's own direction (the 2.6e-6 by which its float32 concentric map
     # moves a direction would move them too, by the Fresnel term's slope, where the direction is grazing)
-    kw = np.einsum("mij,mj->mi", basis, out["s_wi"].T)
+    kw = np.einsum("mij,mj->mi", basis, out["s_wi"])
     kw /= np.linalg.norm(kw, axis=1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         lobe = b.delta_lobes(lo)[0]
         pdf_s = np.where(s.delta, lobe.prob, b.pdf(lo, kw))
         weight_s = np.where(s.delta[:, None], lobe.weight, b.eval(lo, kw) / b.pdf(lo, kw)[:, None])
     np.testing.assert_allclose(out["s_pdf"][keep], pdf_s[keep], rtol=1e-4, atol=2e-5 * max(pdf_s[keep].max(), 1e-30))
-    np.testing.assert_allclose(out["s_weight"].T[keep], weight_s[keep], rtol=1e-4,
+    np.testing.assert_allclose(out["s_weight"][keep], weight_s[keep], rtol=1e-4,
                                atol=2e-5 * max(np.abs(weight_s[keep]).max(), 1e-30))
 
 
@@ -219,14 +174,14 @@ def test_weight_is_value_over_density_and_value_is_reciprocal(harness):
         out = run(harness, d, wo, wi, normal, u)
         diffuse = (out["s_delta"] == 0) & (out["s_pdf"] > 0)
         assert diffuse.sum() > 1000
-        again = run(harness, d, wo, out["s_wi"].T, normal, u)
-        ratio = again["f"].T[diffuse] / again["pdf"][diffuse, None]
-        np.testing.assert_allclose(out["s_weight"].T[diffuse], ratio, rtol=1e-5)
+        again = run(harness, d, wo, out["s_wi"], normal, u)
+        ratio = again["f"][diffuse] / again["pdf"][diffuse, None]
+        np.testing.assert_allclose(out["s_weight"][diffuse], ratio, rtol=1e-5)
         back = run(harness, d, wi, wo, normal, u)
         cos_o, cos_i = np.sum(wo * normal, axis=1), np.sum(wi * normal, axis=1)
         above = (cos_o > 0) & (cos_i > 0)
-        left = out["f"].T[above] / cos_i[above, None]
-        right = back["f"].T[above] / cos_o[above, None]
+        left = out["f"][above] / cos_i[above, None]
+        right = back["f"][above] / cos_o[above, None]
         np.testing.assert_allclose(left, right, atol=1e-5 * np.abs(left).max(), rtol=1e-5)
 
 
@@ -260,12 +215,12 @@ def test_sampling_chi_square(harness, case, theta_o):
     delta = out["s_delta"] > 0
     ps = ref.load_dict(d)._prob_specular(np.array([math.cos(theta_o)]))[1][0]
     assert stats.binomtest(int(delta.sum()), m, ps).pvalue > SIGNIFICANCE, (delta.sum(), m * ps)
-    samples = out["s_wi"].T[~delta]
+    samples = out["s_wi"][~delta]
 
     def density(c, phi):
         w = directions(c, phi).reshape(-1, 3)
         k = len(w)
-        p = run(harness, d, np.tile(wo[0], (k, 1)), w, np.tile([0.0, 0.0, 1.0], (k, 1)), np.zeros((k, 3)))["pdf"]
+        p = run(harness, d, np.tile(wo[0], (k, 1)), w, np.tile([0.0, 0.0, 1.0], (k, 1)), None, ("pdf",))["pdf"]
         return p.reshape(c.shape)
 
     p, statistic, total = chi_square(samples, lambda c, phi: density(c, phi) / (1 - ps))
@@ -317,7 +272,7 @@ def test_white_furnace(harness, case, theta_o):
     t = unit(np.cross(normal, rng.normal(size=(m, 3))))
     wo = math.cos(theta_o) * normal + math.sin(theta_o) * t
     out = run(harness, d, wo, wo, normal, rng.uniform(0, 1, (m, 3)))
-    weight = np.where((out["s_pdf"] > 0)[:, None], out["s_weight"].T, 0.0)
+    weight = np.where((out["s_pdf"] > 0)[:, None], out["s_weight"], 0.0)
     mean, se = weight.mean(axis=0), weight.std(axis=0, ddof=1) / math.sqrt(m)
     expected = albedo(d, theta_o)
     assert np.all(np.abs(mean - expected) <= 5 * se + 1e-5), (mean, se, expected)

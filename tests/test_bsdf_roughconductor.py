@@ -7,58 +7,15 @@ roughness is anisotropic, the anisotropic one (HAS_ANISOTROPIC 1: the local fram
 import numpy as np
 import pytest
 
+import bsdf_support
+from bsdf_support import unit
 from bsdf_reference import Microfacet, fresnel_conductor
 from devtools.chi_square import SIGNIFICANCE, chi_square
-from raytrace.commands.stability.probe import planar
 
-ROUGH = """
-#include "bsdf.cl"
-/* A rough conductor's shading point: normal nrm, tangent tan (the anisotropic build's), per-lane roughness and
- * distribution, eta + i k per channel, colour 1. Its eval and pdf at (wo, wi), its eval of the swapped pair,
- * and a sample from u with eval and pdf at the sampled direction. */
-__kernel void rough(int n, __global const float *nrm, __global const float *tan, __global const int *dist,
-                    __global const float *au, __global const float *av, __global const float *eta_,
-                    __global const float *k_, __global const float *wo_, __global const float *wi_,
-                    __global const float *u, __global float *f, __global float *pdf, __global float *f_swapped,
-                    __global float *s_wi, __global float *s_weight, __global float *s_pdf, __global float *s_f,
-                    __global float *s_eval_pdf)
-{
-    ShadingPoint sp;
-    sp.p = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.err = 0.0f;
-    sp.ng = sp.n = IN3(nrm);
-    sp.k = v3_splat(1.0f, 1.0f, 1.0f);
-    sp.bsdf = (vint)(BSDF_ROUGHCONDUCTOR);
-    sp.eta = IN3(eta_);
-    sp.k_imag = IN3(k_);
-    sp.alpha = IN(au);
-    sp.alpha_v = IN(av);
-    sp.distribution = VLOAD_INT(dist + I * LANES);
-#if HAS_ANISOTROPIC
-    sp.t = IN3(tan);
-#endif
-    vint all = (vint)(-1) != 0;
-    vec3 wo = IN3(wo_), wi = IN3(wi_);
-    vfloat p;
-    OUT3(f, bsdf_eval_pdf(sp, wo, wi, all, &p));
-    OUT(pdf, p);
-    OUT3(f_swapped, bsdf_eval(sp, wi, wo, all));
-    vec2 u2 = {IN(u + n), IN(u + 2 * n)};
-    BSDFSample bs = bsdf_sample(sp, wo, IN(u), u2, all);
-    OUT3(s_wi, bs.wi);
-    OUT3(s_weight, bs.weight);
-    OUT(s_pdf, bs.pdf);
-    OUT3(s_f, bsdf_eval_pdf(sp, wo, bs.wi, all, &p));
-    OUT(s_eval_pdf, p);
-}
-"""
-KINDS = {"ggx": 0, "beckmann": 1}
+# eval and pdf at (wo, wi), eval of the swapped pair, a sample and eval and pdf at its direction (bsdf_support)
+OUTPUTS = ("f", "pdf", "f_swapped", "s_wi", "s_weight", "s_pdf", "s_f", "s_eval_pdf")
 U = 2.0 ** -24
 GOLD = (np.array([0.143, 0.374, 1.442]), np.array([3.983, 2.385, 1.603]))
-
-
-def unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def f32(a):
@@ -92,26 +49,14 @@ def to_local(frame, v):
     return np.stack([np.sum(v * t, 1), np.sum(v * b, 1), np.sum(v * n, 1)], 1)
 
 
-CHUNK = 8192  # lanes per kernel run: PoCL (pocl-binary-distribution 3.0) crashed running this kernel over
-              # 32768 lanes or more at once (16384 ran)
-
-
 def run(harness, anisotropic, distribution, n, t, au, av, wo, wi, u, eta=GOLD[0], k=GOLD[1]):
-    m = len(n)
-    au, av = np.broadcast_to(au, m), np.broadcast_to(av, m)
-    if m > CHUNK:
-        parts = [run(harness, anisotropic, distribution, n[i:i + CHUNK], t[i:i + CHUNK], au[i:i + CHUNK],
-                     av[i:i + CHUNK], wo[i:i + CHUNK], wi[i:i + CHUNK], u[i:i + CHUNK], eta, k)
-                 for i in range(0, m, CHUNK)]
-        return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
-    out = harness.run(ROUGH, "rough", m, [planar(n), planar(t), np.full(m, KINDS[distribution], np.int32),
-                                          np.asarray(au, np.float32) * np.ones(m, np.float32),
-                                          np.asarray(av, np.float32) * np.ones(m, np.float32),
-                                          planar(np.tile(eta, (m, 1))), planar(np.tile(k, (m, 1))), planar(wo),
-                                          planar(wi), np.ascontiguousarray(np.asarray(u, np.float64).T.ravel())],
-                      {"f": 3, "pdf": 1, "f_swapped": 3, "s_wi": 3, "s_weight": 3, "s_pdf": 1, "s_f": 3,
-                       "s_eval_pdf": 1}, **defines(anisotropic))
-    return {key: value.T if value.ndim == 2 else value for key, value in out.items()}
+    """A rough conductor's shading point per lane: normal n, tangent t (the anisotropic build's), roughness au
+    and av (one for every lane, or one per lane) of the distribution, eta + i k per channel, colour 1. Its eval
+    and pdf at (wo, wi), its eval of the swapped pair, and a sample from u with eval and pdf at the sampled
+    direction."""
+    table = bsdf_support.material_table(max(np.size(au), np.size(av)), bsdf="roughconductor", eta=eta, k=k,
+                                        alpha=au, alpha_v=av, distribution=distribution)
+    return bsdf_support.run(harness, table, n, wo, wi, u, OUTPUTS, tangent=t, **defines(anisotropic))
 
 
 def reference_eval_pdf(distribution, au, av, wo, wi, eta=GOLD[0], k=GOLD[1]):

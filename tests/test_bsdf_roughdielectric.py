@@ -3,21 +3,21 @@ anisotropic, Walter et al. 2007, as Mitsuba 3 writes it), through bsdf.cl's inte
 tests/bsdf_reference.py's float64 RoughDielectric at every lane width, the samples' directions by a chi-square
 test against bsdf_pdf, the samples' weight against eval / pdf, the transmission's reciprocity with Mitsuba's
 radiance factor, and a white furnace. Each runs in the isotropic build (HAS_ANISOTROPIC 0: microfacet.cl sees
-cosines alone, the build of an isotropic scene) and the anisotropic one (the frame of the shading tangent).
-Every kernel run takes at most CHUNK lanes."""
+cosines alone, the build of an isotropic scene) and the anisotropic one (the frame of the shading tangent)."""
 import numpy as np
 import pytest
 
 from helpers import LANE_ENDS, at_lane_ends, lane_id
-from raytrace.commands.stability.probe import planar
 
 import bsdf_reference as ref
+import bsdf_support
+from bsdf_support import unit
 from devtools.chi_square import SIGNIFICANCE, chi_square
 
 BK7 = 1.5046 / 1.000277  # Mitsuba's default int_ior over ext_ior
-KINDS = {"ggx": 0, "beckmann": 1}  # types.h's MICROFACET_*
-CHUNK = 8192  # lanes per kernel run: PoCL (pocl-binary-distribution 3.0) crashed (a segmentation fault) running
-              # kernels that include bsdf.cl over 32768 lanes or more at once
+KINDS = ("ggx", "beckmann")  # the microfacet distributions
+# bsdf_sample's direction, weight, density and side, and bsdf_eval_pdf at the direction (bsdf_support.OUTPUTS)
+SAMPLED = ("s_wi", "s_weight", "s_pdf", "s_transmit", "s_f", "s_eval_pdf")
 
 
 def defines(anisotropic):
@@ -26,75 +26,6 @@ def defines(anisotropic):
     distribution compiled in."""
     return dict(HAS_PATH_TRACING=1, HAS_ROUGH_DIELECTRICS=1, HAS_RECTANGLES=1, HAS_BECKMANN=1,
                 HAS_ANISOTROPIC=int(anisotropic))
-
-
-KERNEL = """
-#include "path_tracing.cl"
-/* A rough dielectric shading point per lane: normal nrm (sp.n, on wo's side unless a test puts it elsewhere),
- * tangent tan (the anisotropic build's sp.t), eta = int_ior / ext_ior, roughness alpha_u and alpha_v of
- * distribution dist, the hit from inside where backface. */
-inline ShadingPoint rough_point(int n, __global const float *nrm, __global const float *tan,
-                                __global const float *eta, __global const float *au, __global const float *av,
-                                __global const int *dist, __global const int *backface)
-{
-    ShadingPoint sp;
-    sp.p = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.err = 0.0f;
-    sp.ng = sp.n = IN3(nrm);
-    sp.k = v3_splat(1.0f, 1.0f, 1.0f);
-    sp.shininess = 1.0f;
-    sp.bsdf = (vint)(BSDF_ROUGHDIELECTRIC);
-    sp.eta = v3((vfloat)(IN(eta)), (vfloat)(0.0f), (vfloat)(0.0f));
-    sp.k_imag = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.alpha = IN(au);
-    sp.alpha_v = IN(av);
-    sp.distribution = VLOAD_INT(dist + I * LANES);
-#if HAS_ANISOTROPIC
-    sp.t = IN3(tan);
-#else
-    (void)tan;
-#endif
-    sp.backface = VLOAD_INT(backface + I * LANES);
-    return sp;
-}
-
-/* bsdf_eval_pdf at (wo, wi). */
-__kernel void eval(int n, __global const float *wo, __global const float *wi, __global const float *nrm,
-                   __global const float *tan, __global const float *eta, __global const float *au,
-                   __global const float *av, __global const int *dist, __global const int *backface,
-                   __global float *f, __global float *pdf)
-{
-    ShadingPoint sp = rough_point(n, nrm, tan, eta, au, av, dist, backface);
-    vfloat p;
-    vec3 v = bsdf_eval_pdf(sp, IN3(wo), IN3(wi), (vint)(-1) != 0, &p);
-    OUT3(f, v);
-    OUT(pdf, p);
-}
-
-/* bsdf_sample from (u1, u2), and bsdf_eval_pdf at the sampled direction. */
-__kernel void sample(int n, __global const float *wo, __global const float *nrm, __global const float *tan,
-                     __global const float *eta, __global const float *au, __global const float *av,
-                     __global const int *dist, __global const int *backface, __global const float *u,
-                     __global float *wi, __global float *weight, __global float *pdf, __global float *transmit,
-                     __global float *f, __global float *eval_pdf)
-{
-    ShadingPoint sp = rough_point(n, nrm, tan, eta, au, av, dist, backface);
-    vec2 u2 = {IN(u + n), IN(u + 2 * n)};
-    vint all = (vint)(-1) != 0;
-    BSDFSample bs = bsdf_sample(sp, IN3(wo), IN(u), u2, all);
-    OUT3(wi, bs.wi);
-    OUT3(weight, bs.weight);
-    OUT(pdf, bs.pdf);
-    OUT(transmit, SELECT((vfloat)(0.0f), (vfloat)(1.0f), bs.transmit != 0));
-    vfloat p;
-    OUT3(f, bsdf_eval_pdf(sp, IN3(wo), bs.wi, all, &p));
-    OUT(eval_pdf, p);
-}
-"""
-
-
-def unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def f32(v):
@@ -120,39 +51,29 @@ def to_local(v, f):
 
 
 def lanes_of(case, m):
-    """The per-lane parameters of m lanes of case (distribution, alpha_u, alpha_v, eta)."""
+    """m lanes of case (distribution, alpha_u, alpha_v, eta): its Material (colour 1) and each lane's index into
+    that table (bsdf_support.run's table and which)."""
     kind, au, av, eta = case
-    return (np.full(m, eta, np.float32), np.full(m, au, np.float32), np.full(m, av, np.float32),
-            np.full(m, KINDS[kind], np.int32))
-
-
-def chunked(run, m):
-    """run(slice) over runs of CHUNK lanes, the outputs concatenated (transposed to lanes first)."""
-    parts = []
-    for at in range(0, m, CHUNK):
-        out = run(slice(at, min(m, at + CHUNK)))
-        parts.append({key: (v.T if v.ndim == 2 else v) for key, v in out.items()})
-    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    table = bsdf_support.material_table(bsdf="roughdielectric", eta=(eta, 0.0, 0.0), alpha=au, alpha_v=av,
+                                        distribution=kind)
+    return table, np.zeros(m, int)
 
 
 def run_eval(harness, anisotropic, wo, wi, n, t, params, backface):
-    """bsdf_eval_pdf per lane; params = (eta, alpha_u, alpha_v, distribution) per lane (lanes_of)."""
-    eta, au, av, dist = params
-    out = chunked(lambda k: harness.run(KERNEL, "eval", len(wo[k]),
-                                        [planar(wo[k]), planar(wi[k]), planar(n[k]), planar(t[k]), eta[k], au[k],
-                                         av[k], dist[k], backface[k]], {"f": 3, "pdf": 1}, **defines(anisotropic)),
-                  len(wo))
+    """bsdf_eval_pdf per lane, the shading point's normal n (sp.n, on wo's side unless a test puts it
+    elsewhere), tangent t (the anisotropic build's sp.t), the hit from inside where backface; params = (a
+    Material table, each lane's index into it) (lanes_of)."""
+    table, which = params
+    out = bsdf_support.run(harness, table, n, wo, wi, None, ("f", "pdf"), which=which, tangent=t, backface=backface,
+                           **defines(anisotropic))
     return out["f"], out["pdf"]
 
 
 def run_sample(harness, anisotropic, wo, n, t, params, backface, u):
-    """bsdf_sample per lane from u (m, 3), and bsdf_eval_pdf at each sampled direction."""
-    eta, au, av, dist = params
-    return chunked(lambda k: harness.run(KERNEL, "sample", len(wo[k]),
-                                         [planar(wo[k]), planar(n[k]), planar(t[k]), eta[k], au[k], av[k], dist[k],
-                                          backface[k], np.ascontiguousarray(u[k].T, dtype=np.float32)],
-                                         {"wi": 3, "weight": 3, "pdf": 1, "transmit": 1, "f": 3, "eval_pdf": 1},
-                                         **defines(anisotropic)), len(wo))
+    """bsdf_sample per lane from u (m, 3), and bsdf_eval_pdf at each sampled direction (SAMPLED)."""
+    table, which = params
+    return bsdf_support.run(harness, table, n, wo, None, u, SAMPLED, which=which, tangent=t, backface=backface,
+                            **defines(anisotropic))
 
 
 U = 2.0 ** -24  # float32's unit roundoff
@@ -294,7 +215,7 @@ def eval_data(anisotropic, m=256):
         data = [pairs(rng, m, c) for c in cases]
         refs = [eval_tolerance(c, anisotropic, to_local(d[0], d[5]), to_local(d[1], d[5]), rng)
                 for c, d in zip(cases, data)]
-        params = [np.concatenate(p) for p in zip(*(lanes_of(c, m) for c in cases))]
+        params = np.concatenate([lanes_of(c, m)[0] for c in cases]), np.repeat(np.arange(len(cases)), m)
         EVAL_DATA[anisotropic] = [np.concatenate([d[k] for d in data]) for k in range(5)], params, refs
     return EVAL_DATA[anisotropic]
 
@@ -387,9 +308,9 @@ def test_sampling_chi_square(harness, theta_o, phi_o, case, backface, anisotropi
     params = lanes_of(case, m)
     u = np.random.default_rng(int(theta_o * 100 + au * 10 + av * 1000)).uniform(size=(m, 3))
     out = run_sample(harness, anisotropic, wo, n, t, params, bf, u)
-    valid = out["pdf"] > 0
-    local = out["wi"] @ fr
-    np.testing.assert_array_equal(out["transmit"][valid] > 0, local[valid, 2] < 0)
+    valid = out["s_pdf"] > 0
+    local = out["s_wi"] @ fr
+    np.testing.assert_array_equal(out["s_transmit"][valid] > 0, local[valid, 2] < 0)
 
     cache = {}
 
@@ -434,14 +355,14 @@ def test_sample_weight_is_eval_over_pdf(harness, anisotropic):
     for case in weight_cases(anisotropic):
         wo, _, sp_n, t, bf, fr = pairs(rng, m, case)
         out = run_sample(harness, anisotropic, wo, sp_n, t, lanes_of(case, m), bf, rng.uniform(size=(m, 3)))
-        valid = out["pdf"] > 0
-        assert valid.mean() > 0.5 and np.all(out["weight"][~valid] == 0), case
-        w, f, p = out["weight"][valid, 0], out["f"][valid, 0], out["eval_pdf"][valid]
-        lo, li = to_local(wo[valid], fr[valid]), to_local(out["wi"][valid], fr[valid])
+        valid = out["s_pdf"] > 0
+        assert valid.mean() > 0.5 and np.all(out["s_weight"][~valid] == 0), case
+        w, f, p = out["s_weight"][valid, 0], out["s_f"][valid, 0], out["s_eval_pdf"][valid]
+        lo, li = to_local(wo[valid], fr[valid]), to_local(out["s_wi"][valid], fr[valid])
         a = np.abs(np.sum(lo * half_vector(lo, li, case[3])[0], axis=1))
         assert np.all(np.abs(w - f / p) <= (64 * U + 4 * U / a**2) * f / p), case
         _, p64, _, tol_p = eval_tolerance(case, anisotropic, lo, li, rng)
-        assert np.all(np.abs(out["pdf"][valid] - p64) <= tol_p), case
+        assert np.all(np.abs(out["s_pdf"][valid] - p64) <= tol_p), case
 
 
 @at_lane_ends
@@ -511,14 +432,14 @@ def test_white_furnace(harness, anisotropic):
         out = run_sample(harness, anisotropic, wo, n, t, lanes_of(case, m), bf, rng.uniform(size=(m, 3)))
         eta = case[3]
         e_rel = 1 / eta if backface else eta  # the index across, relative to wo's side
-        energy = out["weight"][:, 0] * np.where(out["transmit"] > 0, e_rel**2, 1.0)
+        energy = out["s_weight"][:, 0] * np.where(out["s_transmit"] > 0, e_rel**2, 1.0)
         lo = np.tile([np.sin(theta_o) * np.cos(phi_o), np.sin(theta_o) * np.sin(phi_o),
                       -np.cos(theta_o) if backface else np.cos(theta_o)], (4 * m, 1))
         s = reference(case).sample(lo, rng.uniform(size=4 * m), rng.uniform(size=(4 * m, 2)))
         transmit_ref = s.wi[:, 2] * lo[:, 2] < 0
         energy_ref = s.weight[:, 0] * np.where(transmit_ref, e_rel**2, 1.0)
         assert energy.mean() <= 1 + 5 * energy.std() / np.sqrt(m) + 8 * U, (theta_o, case, energy.mean())
-        for k, r in ((energy, energy_ref), (out["weight"][:, 0], s.weight[:, 0])):
+        for k, r in ((energy, energy_ref), (out["s_weight"][:, 0], s.weight[:, 0])):
             se = np.sqrt(k.var() / m + r.var() / (4 * m))
             assert abs(k.mean() - r.mean()) <= 5 * se + 1e-7, (theta_o, case, k.mean(), r.mean(), se)
         if max(case[1], case[2]) <= 0.01:

@@ -6,12 +6,12 @@ pdf, their weights against eval / pdf, reciprocity, and a furnace."""
 import numpy as np
 import pytest
 
-from raytrace.commands.stability.probe import planar
 from raytrace.scene import rough_transmittance
 from raytrace.renderer.packing import material_structs
 from raytrace.scene.model import Material
 
 import bsdf_reference as ref
+import bsdf_support
 from devtools.chi_square import SIGNIFICANCE, cell_integrals, chi_square
 from helpers import LANE_ENDS, ROOT, at_lane_ends, lane_id, runnable_lane_widths
 
@@ -20,54 +20,8 @@ from helpers import LANE_ENDS, ROOT, at_lane_ends, lane_id, runnable_lane_widths
 DEFINES = dict(HAS_PATH_TRACING=1, HAS_ROUGH_PLASTICS=1, HAS_RECTANGLES=1, HAS_BECKMANN=1)
 ANISOTROPIC = dict(DEFINES, HAS_ANISOTROPIC=1)
 
-# Each lane: its material's index (for the transmittance table) and the shading point's values, as
-# material.cl's shading_point gathers them; wo and wi at the normal nrm; u1, u2 for bsdf_sample.
-KERNEL = """
-#include "path_tracing.cl"
-__kernel void rough(int n, __global const Material *materials, __global const int *material,
-                    __global const float *nrm, __global const float *k, __global const float *spec,
-                    __global const float *eta, __global const float *alpha, __global const int *distribution,
-                    __global const float *r_int,
-                    __global const float *weight_s, __global const int *nonlinear, __global const float *wo_,
-                    __global const float *wi_, __global const float *u,
-                    __global float *f, __global float *pdf, __global float *s_wi, __global float *s_weight,
-                    __global float *s_pdf, __global float *s_f, __global float *s_pdf_eval)
-{
-    ShadingPoint sp;
-    sp.p = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.err = 0.0f;
-    sp.ng = sp.n = IN3(nrm);
-    sp.k = IN3(k);
-    sp.shininess = 1.0f;
-    sp.bsdf = (vint)(BSDF_ROUGHPLASTIC);
-    sp.eta = v3(IN(eta), (vfloat)(0.0f), (vfloat)(0.0f));
-    sp.k_imag = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.alpha = sp.alpha_v = IN(alpha);
-    sp.distribution = VLOAD_INT(distribution + I * LANES);
-#if HAS_ANISOTROPIC
-    sp.t = v3_splat(0.0f, 0.0f, 0.0f); /* unread: roughplastic is isotropic, its frame any about n */
-#endif
-    sp.specular = IN3(spec);
-    sp.nonlinear = VLOAD_INT(nonlinear + I * LANES);
-    sp.internal_reflectance = IN(r_int);
-    sp.specular_weight = IN(weight_s);
-    sp.material = VLOAD_INT(material + I * LANES);
-    sp.materials = materials;
-    vint all = (vint)(-1) != 0;
-    vec3 wo = IN3(wo_), wi = IN3(wi_);
-    vfloat p;
-    OUT3(f, bsdf_eval_pdf(sp, wo, wi, all, &p));
-    OUT(pdf, p);
-    vec2 u2 = {IN(u + n), IN(u + 2 * n)};
-    BSDFSample bs = bsdf_sample(sp, wo, IN(u), u2, all);
-    OUT3(s_wi, bs.wi);
-    OUT3(s_weight, bs.weight);
-    OUT(s_pdf, bs.pdf);
-    OUT3(s_f, bsdf_eval_pdf(sp, wo, bs.wi, all, &p));
-    OUT(s_pdf_eval, p);
-}
-"""
-OUTPUTS = {"f": 3, "pdf": 1, "s_wi": 3, "s_weight": 3, "s_pdf": 1, "s_f": 3, "s_pdf_eval": 1}
+# eval and pdf at (wo, wi), a sample, and eval and pdf at its direction (bsdf_support.OUTPUTS)
+OUTPUTS = ("f", "pdf", "s_wi", "s_weight", "s_pdf", "s_f", "s_eval_pdf")
 
 # (alpha, int_ior, ext_ior, colour, specular, nonlinear, distribution): alpha from 1e-3 to 1, the relative index
 # above and below 1 (the coat seen from a denser medium: total internal reflection within the coat's
@@ -150,23 +104,9 @@ def f32(v):
     return np.asarray(v, np.float32).astype(np.float64)
 
 
-def run(harness, packed, which, n, wo, wi, u, defines=DEFINES, chunk=1 << 13):
-    """The kernel's outputs for lanes of materials `which` (indices into packed) at normals n, in launches of
-    `chunk` lanes. The harness leaves the work-group size to PoCL, and PoCL crashed (a segmentation fault in
-    the launch, the test process gone) running this kernel over 2^15 lanes at 16 lanes per work-item (2048
-    work-items) whatever the lanes' materials; 2^14 ran, and so did 2^17 with a work-group size of 64 or 256
-    given (the renderer gives one: device_render.work_group_shape). 2^13 lanes a launch keeps a margin."""
-    parts = []
-    for at in range(0, len(which), chunk):
-        k = slice(at, at + chunk)
-        m = packed[which[k]]
-        args = [packed, which[k].astype(np.int32), planar(n[k]), planar(m["colour"]), planar(m["specular"]),
-                m["eta"][:, 0].astype(np.float32), m["alpha"].astype(np.float32), m["distribution"].astype(np.int32),
-                m["internal_reflectance"].astype(np.float32), m["specular_weight"].astype(np.float32),
-                m["nonlinear"].astype(np.int32), planar(wo[k]), planar(wi[k]),
-                np.ascontiguousarray(u[k].T.ravel(), np.float32)]
-        parts.append(harness.run(KERNEL, "rough", len(m), args, OUTPUTS, **defines))
-    return {key: np.concatenate([p[key] for p in parts], axis=-1) for key in parts[0]}
+def run(harness, packed, which, n, wo, wi, u, defines=DEFINES):
+    """The kernel's outputs for lanes of materials `which` (indices into packed) at normals n."""
+    return bsdf_support.run(harness, packed, n, wo, wi, u, OUTPUTS, which=which, **defines)
 
 
 def random_case(rng, count, n_materials):
@@ -286,12 +226,12 @@ def test_eval_and_pdf_against_reference(harness, defines):
     for j in range(len(mats)):
         s = which == j
         ref_f[s], ref_p[s], tol_f[s], tol_p[s] = eval_tolerance(packed[j], lo[s], li[s], rng)
-    err_f, err_p = np.abs(out["f"].T - ref_f), np.abs(out["pdf"] - ref_p)
+    err_f, err_p = np.abs(out["f"] - ref_f), np.abs(out["pdf"] - ref_p)
     ex_f, ex_p = np.max(err_f / tol_f, axis=1), err_p / tol_p
     assert np.all(ex_f <= 1), (np.max(ex_f), np.argmax(ex_f), which[np.argmax(ex_f)])
     assert np.all(ex_p <= 1), (np.max(ex_p), np.argmax(ex_p), which[np.argmax(ex_p)])
     below = (lo[:, 2] <= 0) | (li[:, 2] <= 0)
-    assert below.sum() > 500 and np.all(out["f"].T[below] == 0) and np.all(out["pdf"][below] == 0)
+    assert below.sum() > 500 and np.all(out["f"][below] == 0) and np.all(out["pdf"][below] == 0)
 
 
 def test_sample_weight_is_eval_over_pdf_and_reciprocity(harness):
@@ -310,15 +250,15 @@ def test_sample_weight_is_eval_over_pdf_and_reciprocity(harness):
     out = run(harness, packed, which, n, wo, wi, u)
     valid = out["s_pdf"] > 0
     assert valid.mean() > 0.6
-    np.testing.assert_allclose(out["s_pdf"][valid], out["s_pdf_eval"][valid], rtol=1e-5)
-    np.testing.assert_allclose(out["s_weight"].T[valid] * out["s_pdf"][valid, None], out["s_f"].T[valid],
+    np.testing.assert_allclose(out["s_pdf"][valid], out["s_eval_pdf"][valid], rtol=1e-5)
+    np.testing.assert_allclose(out["s_weight"][valid] * out["s_pdf"][valid, None], out["s_f"][valid],
                                rtol=1e-5, atol=1e-7)
-    assert np.all(out["s_weight"].T[~valid] == 0)
+    assert np.all(out["s_weight"][~valid] == 0)
     back = run(harness, packed, which, n, wi, wo, u)
     co, ci = np.sum(wo * n, axis=1), np.sum(wi * n, axis=1)
     mirror = np.sum((2 * co[:, None] * n - wo) * wi, axis=1) > 0.999
     keep = (co > 0) & (ci > 0) & ~mirror
-    a, b = out["f"].T[keep] * co[keep, None], back["f"].T[keep] * ci[keep, None]
+    a, b = out["f"][keep] * co[keep, None], back["f"][keep] * ci[keep, None]
     np.testing.assert_allclose(a, b, rtol=2e-4, atol=1e-6)
 
 
@@ -357,7 +297,7 @@ def test_sampling_chi_square(harness, row, theta_o):
         return _DENSITIES[key]
 
     mass = cell_integrals(density, np.linspace(-1, 1, 17), np.linspace(0, 2 * np.pi, 33)).sum()
-    p, stat, total = chi_square(out["s_wi"].T[valid], lambda c, phi: density(c, phi) / mass)
+    p, stat, total = chi_square(out["s_wi"][valid], lambda c, phi: density(c, phi) / mass)
     assert abs(valid.mean() - mass) <= 5 * np.sqrt(mass * (1 - mass) / m) + 1e-3, (valid.mean(), mass)
     assert p > SIGNIFICANCE, (p, stat, total)
 
@@ -383,7 +323,7 @@ def test_white_furnace(harness, row):
     for theta_o in np.radians([0, 15, 30, 45, 60, 70, 80, 85]):
         nrm = np.tile([0.0, 0.0, 1.0], (m, 1))
         wo = np.tile([np.sin(theta_o), 0.0, np.cos(theta_o)], (m, 1))
-        w = run(harness, packed, np.zeros(m, int), nrm, wo, wo, rng.uniform(size=(m, 3)))["s_weight"][0]
+        w = run(harness, packed, np.zeros(m, int), nrm, wo, wo, rng.uniform(size=(m, 3)))["s_weight"][:, 0]
         mean, se = w.mean(), w.std(ddof=1) / np.sqrt(m)
         means.append(mean)
         assert mean <= 1 + 5 * se, (theta_o, mean, se)
@@ -418,12 +358,7 @@ def test_peak_of_a_lobe_below_float32_s_resolution(harness):
     mats, packed = materials(rows)
     rng = np.random.default_rng(11)
     m = 2048
-    n = rng.normal(size=(m, 3))
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    wo = rng.normal(size=(m, 3))
-    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
-    wo *= np.sign(np.sum(wo * n, axis=1))[:, None]
-    n, wo = f32(n), f32(wo)
+    n, wo = map(f32, bsdf_support.facing(rng, m))
     wi = f32(2 * np.sum(wo * n, axis=1)[:, None] * n - wo)
     which = np.arange(m) % len(rows)
     out = run(harness, packed, which, n, wo, wi, rng.uniform(size=(m, 3)))
@@ -435,7 +370,7 @@ def test_peak_of_a_lobe_below_float32_s_resolution(harness):
     for j in range(len(rows)):
         s = which == j
         top = reference(packed[j], lo[s], peak[s])[0]
-        ratio = out["f"].T[s] / top
+        ratio = out["f"][s] / top
         assert np.all(ratio <= 1 + 1e-3), (rows[j][0], ratio.max())
         assert np.mean(ratio >= 1 - 1e-3) > 0.1, (rows[j][0], np.mean(ratio >= 1 - 1e-3))
     assert np.all(out["s_pdf"] > 0)

@@ -6,6 +6,8 @@ density describes: bsdf_eval and bsdf_pdf are 0 everywhere, and its samples' wei
 import math
 
 import bsdf_reference as ref
+import bsdf_support
+from bsdf_support import facing, unit
 import numpy as np
 import pytest
 from path_support import FACES, assert_mean
@@ -13,44 +15,9 @@ from scipy import stats
 
 import raytrace
 from devtools.chi_square import SIGNIFICANCE
-from raytrace.commands.stability.probe import planar
 
 BUILD = {"HAS_PATH_TRACING": 1, "HAS_THIN_DIELECTRICS": 1, "HAS_RECTANGLES": 1}
-
-THIN = """
-#include "bsdf.cl"
-/* bsdf.cl's eval_pdf at (wo, wi), is_delta, and sample at (wo, u1) of a thin dielectric of colour k and index
- * eta (uniform) about the per-lane normal nrm. */
-__kernel void thin(int n, float kr, float kg, float kb, float eta, __global const float *wo_, __global const float *wi_,
-                   __global const float *nrm, __global const float *u, __global float *f, __global float *pdf,
-                   __global float *delta_bsdf, __global float *s_wi, __global float *s_weight, __global float *s_pdf,
-                   __global float *s_delta, __global float *s_transmit)
-{
-    ShadingPoint sp;
-    sp.p = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.err = 0.0f;
-    sp.ng = sp.n = IN3(nrm);
-    sp.k = v3_splat(kr, kg, kb);
-    sp.shininess = 1.0f;
-    sp.bsdf = (vint)(BSDF_THINDIELECTRIC);
-    sp.eta = v3((vfloat)(eta), (vfloat)(0.0f), (vfloat)(0.0f));
-    sp.k_imag = v3_splat(0.0f, 0.0f, 0.0f);
-    sp.alpha = 1.0f;
-    const vint all = (vint)(-1) != 0;
-    vec3 wo = IN3(wo_);
-    vfloat p;
-    OUT3(f, bsdf_eval_pdf(sp, wo, IN3(wi_), all, &p));
-    OUT(pdf, p);
-    OUT(delta_bsdf, SELECT((vfloat)(0.0f), (vfloat)(1.0f), bsdf_is_delta(sp) != 0));
-    vec2 u2 = {(vfloat)(0.5f), (vfloat)(0.5f)};
-    BSDFSample bs = bsdf_sample(sp, wo, IN(u), u2, all);
-    OUT3(s_wi, bs.wi);
-    OUT3(s_weight, bs.weight);
-    OUT(s_pdf, bs.pdf);
-    OUT(s_delta, SELECT((vfloat)(0.0f), (vfloat)(1.0f), bs.delta != 0));
-    OUT(s_transmit, SELECT((vfloat)(0.0f), (vfloat)(1.0f), bs.transmit != 0));
-}
-"""
+OUTPUTS = ("f", "pdf", "delta_bsdf", "s_wi", "s_weight", "s_pdf", "s_delta", "s_transmit")
 
 COLOUR = (0.9, 0.5, 0.2)
 # Relative indices: glass, its inverse (a pane less dense than its surroundings: R' = 1 past the critical
@@ -59,15 +26,11 @@ ETAS = (1.5046 / 1.000277, 1.000277 / 1.5046, 1.01, 3.0)
 
 
 def run(harness, eta, wo, normal, u, wi=None, colour=COLOUR):
-    wi = wo if wi is None else wi
-    return harness.run(THIN, "thin", len(wo), [*map(np.float32, colour), np.float32(eta), planar(wo), planar(wi),
-                                               planar(normal), np.asarray(u, np.float64)],
-                       {"f": 3, "pdf": 1, "delta_bsdf": 1, "s_wi": 3, "s_weight": 3, "s_pdf": 1, "s_delta": 1,
-                        "s_transmit": 1}, **BUILD)
-
-
-def unit(v):
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
+    """bsdf_eval_pdf at (wo, wi), bsdf_is_delta, and bsdf_sample at (wo, u1) of a thin dielectric of colour k and
+    index eta about the per-lane normal (u2 = 0.5: its lobes are chosen by u1 alone)."""
+    table = bsdf_support.material_table(bsdf="thindielectric", colour=colour, eta=(eta, 0.0, 0.0))
+    u = np.column_stack([u, np.full((len(wo), 2), 0.5)])
+    return bsdf_support.run(harness, table, normal, wo, wi, u, OUTPUTS, **BUILD)
 
 
 def reference(eta):
@@ -114,12 +77,12 @@ def test_lobes_against_the_reference(harness, eta):
     reflect = u <= r
     assert np.array_equal(out["s_transmit"][keep] == 0, reflect[keep])
     mirror = 2 * cos_o[:, None] * normal - wo
-    np.testing.assert_allclose(out["s_wi"].T[keep & reflect], mirror[keep & reflect], atol=1e-5)
+    np.testing.assert_allclose(out["s_wi"][keep & reflect], mirror[keep & reflect], atol=1e-5)
     through = keep & ~reflect
-    assert np.array_equal(out["s_wi"].T[through], -wo.astype(np.float32).astype(np.float64)[through])
+    assert np.array_equal(out["s_wi"][through], -wo.astype(np.float32).astype(np.float64)[through])
     error = np.abs(out["s_pdf"] - np.where(reflect, r, 1 - r))
     assert np.all(error[keep] <= 1e-6 + moved[keep]), np.max(error[keep] - moved[keep])
-    assert np.array_equal(out["s_weight"].T, np.tile(np.float32(COLOUR).astype(np.float64), (m, 1)))
+    assert np.array_equal(out["s_weight"], np.tile(np.float32(COLOUR).astype(np.float64), (m, 1)))
     if eta < 1:  # past the critical angle everything reflects
         beyond = np.abs(cos_o) < critical - 1e-3
         assert beyond.sum() > 100 and np.all(out["s_transmit"][beyond] == 0)
@@ -163,14 +126,13 @@ def test_symmetric_from_either_side_and_both_ways(harness):
     4096 random directions of eta 1.5 (the same float32 operations on the same |cos|)."""
     m = 4096
     rng = np.random.default_rng(9)
-    normal, wo = unit(rng.normal(size=(m, 3))), unit(rng.normal(size=(m, 3)))
-    wo *= np.sign(np.sum(wo * normal, axis=1))[:, None]
+    normal, wo = facing(rng, m)
     u = np.full(m, 0.999999)  # transmit where R' < 0.999999: s_pdf is then 1 - R'
     eta = ETAS[0]
     front = run(harness, eta, wo, normal, u)
     back = run(harness, eta, -wo, -normal, u)
     np.testing.assert_array_equal(front["s_pdf"], back["s_pdf"])
-    mirrored = run(harness, eta, front["s_wi"].T, normal, np.zeros(m))  # u1 = 0: reflect, s_pdf = R'
+    mirrored = run(harness, eta, front["s_wi"], normal, np.zeros(m))  # u1 = 0: reflect, s_pdf = R'
     direct = run(harness, eta, wo, normal, np.zeros(m))
     np.testing.assert_allclose(mirrored["s_pdf"], direct["s_pdf"], rtol=0, atol=1e-6)
 

@@ -8,6 +8,7 @@ import pytest
 import raytrace
 from raytrace.commands.stability.probe import planar
 
+from bsdf_support import facing
 from path_support import FACES, SPECULAR, assert_mean, fresnel_reference
 
 
@@ -46,11 +47,7 @@ def test_reflection_and_refraction_directions(harness):
     refracted sample is divided by eta^2 (pbrt-v4 9.5). Float32 to a few roundings: 1e-5."""
     rng = np.random.default_rng(5)
     m = 4096
-    normal = rng.normal(size=(m, 3))
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    wo = rng.normal(size=(m, 3))
-    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
-    wo *= np.sign(np.sum(wo * normal, axis=1))[:, None]  # on the normal's side
+    normal, wo = facing(rng, m)  # wo on the normal's side
     eta = rng.uniform(1.1, 2.5, m)
     u = rng.uniform(0, 1, m)
     bsdf = rng.choice([1, 2], m).astype(np.int32)
