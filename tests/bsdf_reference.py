@@ -569,6 +569,17 @@ def _empty_sample(n):
                   np.zeros(n, bool))
 
 
+def _choose_lobe(lobes, u1):
+    """The sample of a BSDF of two delta lobes (dielectric.cpp, thindielectric.cpp): the first lobe where u1 <= its
+    probability, else the second, with that lobe's direction, probability, weight and component."""
+    first, second = lobes
+    pick = u1 <= first.prob
+    ones = np.ones(len(u1), bool)
+    return Sample(np.where(pick[:, None], first.wi, second.wi), np.where(pick, first.prob, second.prob),
+                  np.where(pick[:, None], first.weight, second.weight),
+                  np.where(pick, first.component, second.component), ones, ones)
+
+
 class Diffuse(BSDF):
     """Lambertian reflection (diffuse.cpp): f cos = reflectance cos_i / pi, cosine-weighted sampling."""
     name = "diffuse"
@@ -689,11 +700,7 @@ class Dielectric(BSDF):
 
     def sample(self, wo, u1, u2):
         wo, u1, u2 = self._inputs(wo, u1, u2)
-        refl, trans = self.delta_lobes(wo)
-        pick = u1 <= refl.prob
-        ones = np.ones(len(wo), bool)
-        return Sample(np.where(pick[:, None], refl.wi, trans.wi), np.where(pick, refl.prob, trans.prob),
-                      np.where(pick[:, None], refl.weight, trans.weight), np.where(pick, 0, 1), ones, ones)
+        return _choose_lobe(self.delta_lobes(wo), u1)
 
 
 class ThinDielectric(BSDF):
@@ -722,11 +729,7 @@ class ThinDielectric(BSDF):
 
     def sample(self, wo, u1, u2):
         wo, u1, u2 = self._inputs(wo, u1, u2)
-        refl, trans = self.delta_lobes(wo)
-        pick = u1 <= refl.prob
-        ones = np.ones(len(wo), bool)
-        return Sample(np.where(pick[:, None], refl.wi, trans.wi), np.where(pick, refl.prob, trans.prob),
-                      np.where(pick[:, None], refl.weight, trans.weight), np.where(pick, 0, 1), ones, ones)
+        return _choose_lobe(self.delta_lobes(wo), u1)
 
 
 class RoughDielectric(BSDF):
