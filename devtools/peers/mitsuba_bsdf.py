@@ -24,8 +24,6 @@ Mitsuba and the reference see the same numbers.
 import argparse
 import datetime
 import json
-import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -165,16 +163,9 @@ def load(path):
         return [(c["name"], c["plugin"], {k: f[f"{i}/{k}"] for k in FIELDS}) for i, c in enumerate(meta)]
 
 
-def cpu():
-    try:
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-        return next(line.split(":", 1)[1].strip() for line in lines if line.startswith("model name"))
-    except (OSError, StopIteration):
-        return platform.processor()
-
-
 def record(args):
     import drjit
+    import machine  # a sibling module: this rig records as a script
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     rng = np.random.default_rng(args.seed)
@@ -190,8 +181,7 @@ def record(args):
            "mode": "TransportMode.Radiance (BSDFContext())", "points": args.fixture_points,
            "points_recorded": args.points, "seed": args.seed, "cases": len(cases),
            "command": " ".join([sys.executable, "devtools/peers/mitsuba_bsdf.py"] + sys.argv[1:]),
-           "machine": {"cpu": cpu(), "cpu_count": os.cpu_count(), "platform": platform.platform(),
-                       "python": platform.python_version()},
+           "machine": machine.described(),
            "date": datetime.date.today().isoformat()}
     Path(args.fixture).with_suffix(".json").write_text(json.dumps(rec, indent=1) + "\n")
     print(f"{args.out}: {len(cases)} cases x {args.points}; {args.fixture}: x {args.fixture_points} "

@@ -22,14 +22,14 @@ data/ior folder, and "none"), as the eta and k textures the rgb variants make of
 import argparse
 import datetime
 import json
-import os
-import platform
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import mitsuba as mi
+
+import machine
 
 OUT = Path(__file__).resolve().parents[2] / "tests" / "data" / "mitsuba_spectra.json"
 PRESETS = ("Au", "Cu")
@@ -132,14 +132,6 @@ def named():
     return {"ior": iors, "conductors": conductors, "preset_spd": spd}
 
 
-def cpu():
-    try:
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-        return next(line.split(":", 1)[1].strip() for line in lines if line.startswith("model name"))
-    except (OSError, StopIteration):
-        return platform.processor()
-
-
 def dumped(doc):
     """The JSON text with one case, IOR or preset a line: a diff shows what changed."""
     def block(key, value):
@@ -166,8 +158,7 @@ def main():
     import drjit
     record = {"mitsuba": mi.__version__, "drjit": drjit.__version__, "variants": args.variants,
               "command": " ".join([sys.executable, "devtools/peers/mitsuba_spectra.py"] + sys.argv[1:]),
-              "machine": {"cpu": cpu(), "cpu_count": os.cpu_count(), "platform": platform.platform(),
-                          "python": platform.python_version()},
+              "machine": machine.described(),
               "date": datetime.date.today().isoformat()}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(dumped({"record": record, **results[0]}))
