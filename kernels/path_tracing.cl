@@ -29,6 +29,7 @@
 #include "vmath.h"
 #include "bsdf.cl"
 #include "warp.cl"
+#include "roulette.cl"
 /* The light samples' weights are colours, the BSDF's value (bsdf.cl) with its colour: light_sampling.cl sums
  * them as such. */
 #define LIGHT_VALUE_VEC3 1
@@ -39,11 +40,6 @@
  * benchmarks/results/solid-angle/), so the renderer leaves it off; the tests keep it correct. */
 #define LIGHT_SOLID_ANGLE 0
 #endif
-
-#ifndef RR_DEPTH
-#define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
-#endif
-#define RR_MAX_Q 0.95f /* a path always has a chance to end there, however bright its throughput */
 
 /* A light sample counts where it lies above the surface (ng and the shading normal n) and in front of the
  * light (direct_lighting.cl's rule). */
@@ -291,12 +287,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
     /* Russian roulette from vertex RR_DEPTH on, on the throughput onwards: here, after the vertex's light
      * samples and before its ray is traced, as in Mitsuba 3's `path` and pbrt-v4's PathIntegrator, so that a
      * path it ends keeps its vertex's sampled light (the estimate's low-variance part) and costs no ray */
-    vint roulette = alive & (path->depth >= RR_DEPTH);
-    if (ANY(roulette)) {
-        vfloat q = vmin(vmax(beta.x, vmax(beta.y, beta.z)), (vfloat)(RR_MAX_Q));
-        alive &= !roulette | (v.x < q);
-        beta = v3_select(beta, v3_scale(beta, 1.0f / vmax(q, (vfloat)(1e-30f))), roulette);
-    }
+    alive &= russian_roulette(alive & (path->depth >= RR_DEPTH), v.x, &beta);
     Ray next = {offset_ray_origin(sp.p, sp.err, v3_select(sp.ng, v3_scale(sp.ng, -1.0f), transmit)), wi};
     *rays += MASK_TO_ONE(alive);
     path->r = next;
@@ -315,15 +306,19 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
 
 /* Radiance along the camera ray r, whose first hit is `hit`, shaded at sp: one pixel sample's path in every
  * lane, vertex after vertex (render.cl's loop does the same, restarting each lane's path where it ends); *rays
- * counts the rays traced per lane after the camera ray. */
+ * counts the rays traced per lane after the camera ray. With `cut`, the last vertex max_depth allows traces no
+ * ray: what that ray would reach is not counted (max_depth > 1; tests/path_support.py's CUT, for the test that
+ * roulette plays after a vertex's light samples). */
 inline vec3 trace_path(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingPoint sp,
-                       __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
+                       __global const uint2 *light_samples, PixelSample *ps, vfloat *rays, int cut)
 {
     PathState path;
     start_paths(&path, r, (vint)(-1) != 0);
     vint alive = path_hit(s, &path, hit, (vint)(-1) != 0);
     while (ANY(alive)) {
         alive = path_vertex(s, ts, &path, sp, alive, light_samples, ps, rays);
+        if (cut && ANY(path.depth + 1 >= s->params->max_depth)) /* the depth is every lane's */
+            break;
         hit = closest_hit(s, path.r, (vfloat)(INFINITY));
         alive = path_hit(s, &path, hit, alive);
         sp = shading_point(s, ts, path.r, hit);

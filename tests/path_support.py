@@ -45,19 +45,18 @@ def assert_mean(image, expected):
     return mean, se
 
 
-# The start of every path-tracing test kernel: ESTIMATE(s, ts, r, hit, sp, light_samples, ps, rays), the
-# radiance along the camera ray r, whose first hit is `hit`, shaded at sp, by the estimator ESTIMATOR names: 0,
-# the renderer's (path_tracing.cl's trace_path: light sampled both ways, combined by MIS), or, with CUT, the
-# same stopped before the ray of the last vertex max_depth allows is traced (path_tracing.cl's own steps, as
-# trace_path takes them); 1 and 2, this file's own path tracers, written from the BSDF interface (bsdf.cl),
-# light_sampling.cl, the closest hit and the environment alone, so that the renderer's MIS weights, which add
-# to 1 over the two techniques, are checked against estimators that have none. 1 samples the lights (by area
-# or, LIGHT_SOLID_ANGLE, by solid angle) and the environment (by its map, or constant, by the cosine about the
-# normal) at every vertex, and counts what the BSDF's sample reaches only where no such sample could have met
-# it: a delta lobe's direction, or one not above both ng and n (through glass, say); 2 counts what the BSDF's
-# sample reaches, always, and samples nothing else. Both end paths by Russian roulette as the renderer does
-# (from vertex RR_DEPTH, q = min(max(throughput), 0.95)); any roulette keeps them unbiased. 1 counting what
-# the BSDF's sample reaches everywhere, a light sample without its cos(theta_l), or the environment's samples
+# The start of every path-tracing test kernel: ESTIMATE(s, ts, r, hit, sp, light_samples, ps, rays), the radiance
+# along the camera ray r, whose first hit is `hit`, shaded at sp, by the estimator ESTIMATOR names: 0, the renderer's
+# (path_tracing.cl's trace_path: light sampled both ways, combined by MIS), or, with CUT, the same stopped before the
+# ray of the last vertex max_depth allows is traced (trace_path's cut); 1 and 2, this file's own path tracers,
+# written from the BSDF interface (bsdf.cl), light_sampling.cl, the closest hit and the environment alone, so that
+# the renderer's MIS weights, which add to 1 over the two techniques, are checked against estimators that have none.
+# 1 samples the lights (by area or, LIGHT_SOLID_ANGLE, by solid angle) and the environment (by its map, or constant,
+# by the cosine about the normal) at every vertex, and counts what the BSDF's sample reaches only where no such
+# sample could have met it: a delta lobe's direction, or one not above both ng and n (through glass, say); 2 counts
+# what the BSDF's sample reaches, always, and samples nothing else. Both end paths by the renderer's Russian roulette
+# (roulette.cl: from vertex RR_DEPTH, q = min(max(throughput), 0.95)); any roulette keeps them unbiased. 1 counting
+# what the BSDF's sample reaches everywhere, a light sample without its cos(theta_l), or the environment's samples
 # scaled by 0.9 fail the tests that use them (seen).
 ESTIMATORS = """
 #ifndef CUT
@@ -65,37 +64,12 @@ ESTIMATORS = """
 #endif
 #if ESTIMATOR == 0
 #include "path_tracing.cl"
-
-/* trace_path, except that the last vertex max_depth allows traces no ray: what that ray would reach is not
- * counted (max_depth > 1). */
-inline vec3 trace_cut(const Scene *s, TextureStore ts, Ray r, Hit hit, ShadingPoint sp,
-                      __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
-{
-    PathState path;
-    start_paths(&path, r, (vint)(-1) != 0);
-    vint alive = path_hit(s, &path, hit, (vint)(-1) != 0);
-    while (ANY(alive)) {
-        alive = path_vertex(s, ts, &path, sp, alive, light_samples, ps, rays);
-        if (ANY(path.depth + 1 >= s->params->max_depth)) /* the depth is every lane's */
-            break;
-        hit = closest_hit(s, path.r, (vfloat)(INFINITY));
-        alive = path_hit(s, &path, hit, alive);
-        sp = shading_point(s, ts, path.r, hit);
-    }
-    return path.radiance;
-}
-#if CUT
-#define ESTIMATE trace_cut
-#else
-#define ESTIMATE trace_path
-#endif
+#define ESTIMATE(s, ts, r, hit, sp, samples, ps, rays) trace_path(s, ts, r, hit, sp, samples, ps, rays, CUT)
 #else
 #include "vmath.h"
 #include "bsdf.cl"
 #include "warp.cl"
-#ifndef RR_DEPTH
-#define RR_DEPTH 5
-#endif
+#include "roulette.cl"
 
 /* light_sampling.cl's model: a sample counts above the surface (ng and n) and in front of the light, and
  * weighs f cos(theta_s) cos(theta_l) / r^2 (a colour, bsdf.cl's value), times the light's area over the
@@ -185,11 +159,7 @@ inline vec3 trace_alone(const Scene *s, TextureStore ts, Ray r, Hit hit, Shading
         vfloat cos_g = v3_dot(sp.ng, bs.wi);
         alive &= (bs.pdf > 0.0f) & SELECT(cos_g > 0.0f, cos_g < 0.0f, bs.transmit);
         beta = v3_select(beta, v3_mul(beta, bs.weight), alive);
-        if (depth >= RR_DEPTH) {
-            vfloat q = vmin(vmax(beta.x, vmax(beta.y, beta.z)), (vfloat)(0.95f));
-            alive &= v.x < q;
-            beta = v3_scale(beta, 1.0f / vmax(q, (vfloat)(1e-30f)));
-        }
+        alive &= russian_roulette(alive & ((vint)(depth) >= RR_DEPTH), v.x, &beta);
         whole = bs.delta | (cos_g <= 0.0f) | (v3_dot(sp.n, bs.wi) <= 0.0f);
         if (!lights)
             whole = (vint)(-1) != 0;

@@ -50,7 +50,7 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const uint2 
         Ray ray = camera_ray(&scene, tile, &ps, pixel_samples, all);
         Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
-        vec3 value = trace_path(&scene, ts, ray, hit, sp, light_samples, &ps, &sums.rays);
+        vec3 value = trace_path(&scene, ts, ray, hit, sp, light_samples, &ps, &sums.rays, 0);
         add_samples(&sums, value, all, ps.index, sample0 + n_first, n_first);
     }
     store_sums(&scene, tile, active, &sums, n_samples, n_first, row0, row1, out);
