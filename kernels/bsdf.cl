@@ -31,6 +31,14 @@ typedef struct {
     vint transmit; /* wi crosses the surface */
 } BSDFSample;
 
+/* NAME_eval of a BSDF of delta lobes only (bsdf_is_delta): no value or density towards a given direction. */
+#define DELTA_BSDF_EVAL(name)                                                                               \
+    inline vec3 name##_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)                                 \
+    {                                                                                                       \
+        *pdf = 0.0f;                                                                                        \
+        return v3_splat(0.0f, 0.0f, 0.0f);                                                                  \
+    }
+
 #include "bsdfs/diffuse.cl"
 #if HAS_CONDUCTORS
 #include "bsdfs/conductor.cl"

@@ -8,11 +8,7 @@
 #include "../fresnel.cl"
 #include "../local_frame.cl"
 
-inline vec3 conductor_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
-{
-    *pdf = 0.0f;
-    return v3_splat(0.0f, 0.0f, 0.0f);
-}
+DELTA_BSDF_EVAL(conductor)
 
 inline BSDFSample conductor_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2)
 {

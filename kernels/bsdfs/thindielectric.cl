@@ -16,11 +16,7 @@
 #include "../fresnel.cl"
 #include "../local_frame.cl"
 
-inline vec3 thindielectric_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
-{
-    *pdf = 0.0f;
-    return v3_splat(0.0f, 0.0f, 0.0f);
-}
+DELTA_BSDF_EVAL(thindielectric)
 
 /* The slab's reflectance R' = 2 R / (1 + R) at the cosine cos_o of wo to the normal, either side. */
 inline vfloat thindielectric_reflectance(vfloat cos_o, vfloat eta)
