@@ -47,6 +47,13 @@ class _Parser(argparse.ArgumentParser):
             problem += did_you_mean(value, _commands(), ";")
         raise InputError("command line", key, value, problem)
 
+    def _get_values(self, action, arg_strings):
+        """argparse drops a value of '--' (`--texture-filter=--`) as if it ended the options, leaving an option
+        of one value a list of none, which no check expects: refused here instead."""
+        if action.option_strings and action.nargs is None and arg_strings == ["--"]:
+            raise InputError("command line", action.option_strings[-1], "--", "takes a value; '--' is none")
+        return super()._get_values(action, arg_strings)
+
 
 def _commands():
     return next(a for a in parser()._actions if a.dest == "command").choices

@@ -85,6 +85,17 @@ def test_an_empty_value_is_refused(tmp_path, argv, option):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("option", ["--texture-filter", "--spp", "--output"])
+def test_a_value_of_two_dashes_is_refused(tmp_path, option):
+    """Found by the fuzz suite: argparse takes `--texture-filter=--` as the option with no value at all (it
+    drops '--' as the end of the options), and render's check of the filter raised TypeError on the empty list
+    with a traceback, exit status 1. Each option of one value refuses it in one line, exit 2, nothing written."""
+    argv = ["render", str(CORNELL), *TINY, "-o", "x.png", f"{option}=--"]
+    r = run(*argv, cwd=tmp_path)
+    one_line(r, f"raytrace: error: command line: {option} = '--': takes a value; '--' is none")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_an_empty_raytrace_device_is_refused(tmp_path):
     """Found (item 15): RAYTRACE_DEVICE='' picked the first device."""
     r = run("render", CORNELL, "-o", tmp_path / "x.png", *TINY, env={**os.environ, "RAYTRACE_DEVICE": ""})
