@@ -55,7 +55,7 @@ def test_arguments_in_another_order_render_the_same(monkeypatch, cornell):
 
 @pytest.mark.parametrize("change, message", [
     (lambda s: re.sub(r"\bn_samples\b", "samples", s), "has no argument 'n_samples'"),
-    (lambda s: s.replace("int row0,", "int row0, int extra,"), "never set: extra"),
+    (lambda s: s.replace("int n_first, int row0,", "int n_first, int row0, int extra,"), "never set: extra"),
     (lambda s: s.replace("__global const uint2 *light_samples", "__global const float2 *light_samples").replace(
         "shade(&scene, ray, hit, sp, light_samples,", "shade(&scene, ray, hit, sp, (__global const uint2 *)light_samples,"),
      "'light_samples' is declared float2"),
