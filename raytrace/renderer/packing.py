@@ -9,7 +9,7 @@ from .. import samplers, structs
 from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
-from ..scene import plastic_terms, rough_transmittance
+from ..scene import bsdfs, plastic_terms, rough_transmittance
 from .culling import light_sides
 from .geometry import DEFAULT_UV
 
@@ -140,28 +140,15 @@ def packed_bsdf(material):
     return material.bsdf
 
 
-# The BSDFs with a microfacet distribution (alpha, alpha_v, distribution).
-ROUGH_BSDFS = ("roughconductor", "roughdielectric", "roughplastic")
-# The BSDFs whose eta.x is int_ior / ext_ior (types.h's Material).
-IOR_BSDFS = ("dielectric", "thindielectric", "roughdielectric", "plastic", "roughplastic")
-
-
-# The BSDFs the host declares whose kernel file is not written yet: refused in one line rather than rendered
-# black (issue 57).
-UNBUILT_BSDFS = ()
-
-
 def material_structs(materials):
     a = np.zeros(len(materials), structs.MATERIAL)
     for s, m in zip(a, materials):
-        if m.bsdf in UNBUILT_BSDFS:
-            raise InputError("scene", f"materials.{m.name}.type", m.bsdf, "is declared but not built yet")
         s["colour"], s["shininess"] = m.colour, m.shininess
         s["colour_map"], s["normal_map"], s["height_map"] = m.colour_map, m.normal_map, m.height_map
         s["wrap"], s["height_scale"] = structs.WRAP_MODES[m.wrap], m.height_scale
         s["uv_scale"], s["uv_offset"] = m.uv_scale, m.uv_offset
         s["bsdf"] = structs.BSDFS[packed_bsdf(m)]
-        s["eta"], s["k"] = (m.int_ior / m.ext_ior, 0.0, 0.0) if m.bsdf in IOR_BSDFS else m.eta, m.k
+        s["eta"], s["k"] = (m.int_ior / m.ext_ior, 0.0, 0.0) if m.bsdf in bsdfs.INDEXED else m.eta, m.k
         s["alpha"] = m.alpha
         s["alpha_v"] = m.alpha if m.alpha_v is None else m.alpha_v
         s["distribution"] = structs.MICROFACETS[m.distribution]

@@ -10,7 +10,8 @@ from pathlib import Path
 import pyopencl as cl
 
 from .cpu_target import current_llvm_cpu
-from .packing import ROUGH_BSDFS, packed_bsdf
+from ..scene import bsdfs
+from .packing import packed_bsdf
 
 
 def kernel_dir():
@@ -76,9 +77,9 @@ class Features:
                       for name, bsdf in (("thin_dielectrics", "thindielectric"),
                                          ("rough_dielectrics", "roughdielectric"), ("plastics", "plastic"),
                                          ("rough_plastics", "roughplastic"))},
-                   beckmann=any(packed_bsdf(m) in ROUGH_BSDFS and m.distribution == "beckmann"
+                   beckmann=any(packed_bsdf(m) in bsdfs.ROUGH and m.distribution == "beckmann"
                                 for m in scene.materials),
-                   anisotropic=any(packed_bsdf(m) in ROUGH_BSDFS and m.alpha_v not in (None, m.alpha)
+                   anisotropic=any(packed_bsdf(m) in bsdfs.ROUGH and m.alpha_v not in (None, m.alpha)
                                    for m in scene.materials))
 
     def options(self):

@@ -240,6 +240,10 @@ reflecting glossily over the diffuse base. int_ior and ext_ior must differ.""",
          'nonlinear = true', distinct_iors=True),
 )
 BY_NAME = {bsdf.name: bsdf for bsdf in DECLARED}
+# The BSDFs with indices of refraction (the kernel's eta.x is int_ior / ext_ior), and those with a microfacet
+# distribution (alpha, alpha_v, distribution): read off their parameters.
+INDEXED = tuple(bsdf.name for bsdf in DECLARED if "int_ior" in bsdf.key_names())
+ROUGH = tuple(bsdf.name for bsdf in DECLARED if "distribution" in bsdf.key_names())
 # Every key of every type's table, in the order they are first declared: a material of one type given another's
 # key is refused as such (scene_file.py's own_keys), an unknown key as unknown.
 KEY_NAMES = tuple(dict.fromkeys(name for bsdf in DECLARED for name in bsdf.key_names()))

@@ -75,7 +75,7 @@ BRIGHTEST_LIMIT = 2.0 ** 62
 PATH_BRIGHTEST_LIMIT = 2.0 ** 32  # rule 5: 2^30 below BRIGHTEST_LIMIT, for Russian roulette's growth
 FIT_SLACK = 0.01  # rule 5: a plastic's base albedo above its colour by Mitsuba's fit of R, below this, is ignored
 ETA_LIMIT = 2.0 ** 63  # rule 6: int_ior / ext_ior within [1 / ETA_LIMIT, ETA_LIMIT]
-INDEXED = tuple(b.name for b in bsdfs.DECLARED if "int_ior" in b.key_names())  # the BSDFs with indices
+INDEXED = bsdfs.INDEXED  # the BSDFs with indices
 
 
 def float32_problem(x):
