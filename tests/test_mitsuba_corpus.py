@@ -49,7 +49,11 @@ SCENES = sorted(CORPUS.glob("*.xml"))
 SPP = 1024  # raytrace's samples per pixel: 16 chunks of 64 (a square and a power of two, as the grids need)
 # The scenes of a BSDF raytrace does not build yet (issue 57), and that BSDF: their references are committed and
 # their test is skipped, naming it. Remove a scene's entry when its BSDF lands.
-PENDING = {}
+PENDING = {"bitmap.xml": "bitmap texture (issue 58)",
+           "checkerboard.xml": "checkerboard texture (issue 58)",
+           "roughness_map.xml": "roughconductor with bitmap alpha and specular_reflectance (issue 58)",
+           "normalmap.xml": "normalmap (issue 58)",
+           "bumpmap.xml": "bumpmap (issue 58)"}
 
 
 def test_every_scene_has_a_reference():
