@@ -52,8 +52,13 @@ SPP = 1024  # raytrace's samples per pixel: 16 chunks of 64 (a square and a powe
 PENDING = {"bitmap.xml": "bitmap texture (issue 58)",
            "checkerboard.xml": "checkerboard texture (issue 58)",
            "roughness_map.xml": "roughconductor with bitmap alpha and specular_reflectance (issue 58)",
+           "mask.xml": "mask (issue 58)",
+           "blendbsdf.xml": "blendbsdf (issue 58)",
+           "twosided.xml": "twosided of two BSDFs, one-sided BSDFs outside twosided (issue 58)",
            "normalmap.xml": "normalmap (issue 58)",
-           "bumpmap.xml": "bumpmap (issue 58)"}
+           "bumpmap.xml": "bumpmap (issue 58)",
+           "principled.xml": "principled (issue 58)",
+           "issue58.xml": "normalmap, mask, blendbsdf, principled, bitmap textures (issue 58)"}
 
 
 def test_every_scene_has_a_reference():
