@@ -55,7 +55,7 @@ def accepted(key):
     kind = {"number": "number", "integer": "integer", "string": "string", "boolean": "true or false",
             "number-or-name": "number or name",
             "path": "file path", "table": "table", "tables": "array of tables", "named-tables": "table of tables",
-            "faces": "list of index triples", "vector": f"{key.length} numbers",
+            "faces": "list of index triples", "vector": f"{key.length} numbers", "strings": f"{key.length} names",
             "number-or-vector": f"number or {key.length} numbers",
             "vectors": f"{key.count} vectors of {key.length} numbers" if key.count
             else f"one or more vectors of {key.length} numbers"}[key.kind]

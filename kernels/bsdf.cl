@@ -61,6 +61,9 @@ typedef struct {
 #if HAS_ROUGH_PLASTICS
 #include "bsdfs/roughplastic.cl"
 #endif
+#if HAS_NULLS
+#include "bsdfs/null.cl"
+#endif
 
 /* value and *pdf of NAME_eval where the lanes `on` (of `active`, BSDF `id`) hold that BSDF */
 #define BSDF_EVAL(name, id)                                                                                 \
@@ -154,6 +157,9 @@ inline BSDFSample bsdf_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2, vint
 #if HAS_ROUGH_PLASTICS
     BSDF_SAMPLE(roughplastic, BSDF_ROUGHPLASTIC)
 #endif
+#if HAS_NULLS
+    BSDF_SAMPLE(null, BSDF_NULL)
+#endif
     return bs;
 #endif
 }
@@ -169,6 +175,9 @@ inline vint bsdf_is_delta(ShadingPoint sp)
 #endif
 #if HAS_THIN_DIELECTRICS
     delta |= sp.bsdf == BSDF_THINDIELECTRIC;
+#endif
+#if HAS_NULLS
+    delta |= sp.bsdf == BSDF_NULL;
 #endif
     return delta;
 }

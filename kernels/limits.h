@@ -8,6 +8,11 @@
 /* The entries of a roughplastic's table of its coat's transmittance (types.h's Material): Mitsuba 3's
  * MI_ROUGH_TRANSMITTANCE_RES. */
 #define ROUGH_TRANSMITTANCE_RES 64
+/* The textured parameters a material has room for (types.h's Material.maps, MAP_*). */
+#define MAPS 8
+/* The wrappers (blendbsdf, mask, twosided) a hit passes through to its BSDF, at most (wrappers.cl): the host
+ * refuses deeper nesting. */
+#define WRAPPER_DEPTH 8
 /* The lane widths lanes.h accepts: pixel samples a work-item holds at once. */
 #define LANE_WIDTH_ACCEPTED(n) ((n) == 1 || (n) == 4 || (n) == 8 || (n) == 16)
 

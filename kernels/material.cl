@@ -13,6 +13,9 @@
 #include "mipmap.cl"
 #include "surface.cl"
 #endif
+#if HAS_LOOKUPS
+#include "lookups.cl"
+#endif
 #if HAS_ANISOTROPIC
 #include "surface.cl" /* the shapes' dp/du */
 #endif
@@ -110,7 +113,12 @@ inline TexturedHits textured_hits(const Scene *s, Surface surface, vec3 d, vec3 
 
 inline int is_textured(__global const Material *m)
 {
-    return m->colour_map >= 0 || m->normal_map >= 0 || m->height_map >= 0;
+    int textured = m->colour_map >= 0 || m->normal_map >= 0 || m->height_map >= 0;
+#if HAS_LOOKUPS
+    for (int slot = MAP_COLOUR; slot <= MAP_ALPHA_V; ++slot)
+        textured |= m->maps[slot] >= 0;
+#endif
+    return textured;
 }
 
 /* The height map's bump: the shading normal of the surface displaced by h along n, from the partial
@@ -196,6 +204,38 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
     }
 }
 
+#if HAS_LOOKUPS
+/* Material m's textured parameters (Material.maps: lookups.cl) on the lanes of `mask`, at their hits h. A
+ * textured roughness is kept within [1e-3, 1], the range of the constant one (raytrace/scene/bsdfs.py; below
+ * 1e-3 the host renders a constant roughness with the smooth BSDF, packing.SMOOTH_ALPHA): an image's 0 would be
+ * a delta density, which the microfacet terms cannot evaluate, and values above 1 were never tested. */
+inline void lookup_material(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
+                            vint mask, ShadingPoint *sp)
+{
+    if (m->maps[MAP_COLOUR] >= 0)
+        sp->k = v3_select(sp->k, lookup_value(ts, m->maps[MAP_COLOUR], h->surface.uv, h->duv, filter), mask);
+#if HAS_COATS
+    if (m->maps[MAP_SPECULAR] >= 0)
+        sp->specular = v3_select(sp->specular, lookup_value(ts, m->maps[MAP_SPECULAR], h->surface.uv, h->duv, filter),
+                                 mask);
+#endif
+#if HAS_MICROFACETS
+    if (m->maps[MAP_ALPHA] >= 0) {
+        vfloat a = lookup_value(ts, m->maps[MAP_ALPHA], h->surface.uv, h->duv, filter).x;
+        sp->alpha = SELECT(sp->alpha, vmin(vmax(a, 1e-3f), 1.0f), mask);
+    }
+    if (m->maps[MAP_ALPHA_V] >= 0) {
+        vfloat a = lookup_value(ts, m->maps[MAP_ALPHA_V], h->surface.uv, h->duv, filter).x;
+        sp->alpha_v = SELECT(sp->alpha_v, vmin(vmax(a, 1e-3f), 1.0f), mask);
+    }
+#endif
+}
+#endif
+
+#endif
+
+#if HAS_WRAPPERS
+#include "wrappers.cl"
 #endif
 
 #if HAS_SMOOTH_NORMALS
@@ -257,6 +297,9 @@ inline ShadingPoint with_tangent(const Scene *s, Hit hit, ShadingPoint sp)
  * material's textures on the lanes that hit it, lane-parallel. */
 inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hit)
 {
+#if HAS_WRAPPERS
+    hit.material = wrapped_materials(s, ts, r, hit);
+#endif
     ShadingPoint sp;
     sp.p = hit.p;
     sp.err = hit.err;
@@ -374,9 +417,13 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         int first = 1; /* each material once, at its first lane */
         for (int j = 0; j < i; ++j)
             first &= m[j] != m[i];
-        if (first)
-            texture_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i], sp.ng,
-                             &sp.k, &sp.n, &sp.p, &sp.err);
+        if (!first)
+            continue;
+        texture_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i], sp.ng,
+                         &sp.k, &sp.n, &sp.p, &sp.err);
+#if HAS_LOOKUPS
+        lookup_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i], &sp);
+#endif
     }
 #endif
     return with_tangent(s, hit, sp);

@@ -11,17 +11,18 @@
 #include "types.h"
 
 /* Any texture at all: hits then carry what is needed to find their texture coordinates. */
-#define HAS_TEXTURES (HAS_COLOUR_MAPS || HAS_NORMAL_MAPS || HAS_HEIGHT_MAPS)
+#define HAS_TEXTURES (HAS_COLOUR_MAPS || HAS_NORMAL_MAPS || HAS_HEIGHT_MAPS || HAS_LOOKUPS)
 /* Hits carry their shape and barycentrics for texturing or for interpolating smooth normals. */
 #define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING) /* path: which light was hit */
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
 /* the path model's BSDFs (bsdf.cl): with a microfacet distribution (microfacet.cl), with a coat over a diffuse
- * base, with hits that must know whether they come from inside (the index of refraction inverts) */
+ * base, with hits that must know whether they come from inside (the index of refraction inverts; a back side) */
 #define HAS_MICROFACETS (HAS_ROUGH_CONDUCTORS || HAS_ROUGH_DIELECTRICS || HAS_ROUGH_PLASTICS)
 #define HAS_COATS (HAS_PLASTICS || HAS_ROUGH_PLASTICS)
-#define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS)
+#define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS || HAS_WRAPPERS)
 /* shading points carry a BSDF's own values: any BSDF besides diffuse */
-#define HAS_BSDF_PARAMETERS (HAS_CONDUCTORS || HAS_DIELECTRICS || HAS_THIN_DIELECTRICS || HAS_MICROFACETS || HAS_COATS)
+#define HAS_BSDF_PARAMETERS (HAS_CONDUCTORS || HAS_DIELECTRICS || HAS_THIN_DIELECTRICS || HAS_MICROFACETS || HAS_COATS \
+                             || HAS_NULLS)
 
 typedef struct {
     __global const Rectangle *rectangles;
@@ -70,6 +71,7 @@ typedef struct {
     __global const MipLevel *levels;
     __global const uint *texels;
     __global const float *srgb_to_linear; /* 256 entries: 8-bit sRGB code to linear */
+    __global const TextureLookup *lookups; /* the textured parameters' lookups (lookups.cl) */
 } TextureStore;
 
 /* The scene and its textures as kernel parameters, declared once: the render kernel (render.cl) and the test
@@ -91,8 +93,8 @@ typedef struct {
 
 #define TEXTURE_PARAMETERS                                                                                  \
     __global const Texture *textures, __global const MipLevel *mip_levels, __global const uint *texels,    \
-    __global const float *srgb_to_linear
+    __global const float *srgb_to_linear, __global const TextureLookup *lookups
 #define TEXTURES_FROM_PARAMETERS \
-    {.textures = textures, .levels = mip_levels, .texels = texels, .srgb_to_linear = srgb_to_linear}
+    {.textures = textures, .levels = mip_levels, .texels = texels, .srgb_to_linear = srgb_to_linear, .lookups = lookups}
 
 #endif

@@ -71,6 +71,29 @@ typedef struct {
 #define WRAP_CLAMP 1
 #define WRAP_MIRROR 2
 
+/* A material's parameters that may vary over the surface (Mitsuba's textured parameters): the index in
+ * Material.maps of each one's TextureLookup. */
+#define MAP_COLOUR 0   /* colour: diffuse's reflectance, the conductors' and glass's specular_reflectance, the
+                        * plastics' diffuse_reflectance */
+#define MAP_SPECULAR 1 /* the plastics' specular_reflectance */
+#define MAP_ALPHA 2    /* the rough BSDFs' alpha (alpha_u) */
+#define MAP_ALPHA_V 3  /* their alpha_v */
+#define MAP_WEIGHT 4   /* a blend's weight: blendbsdf's weight, mask's opacity */
+
+/* How a textured parameter finds its value at a surface point (Mitsuba's texture plugins; lookups.cl). */
+#define LOOKUP_BITMAP 0       /* an image, filtered */
+#define LOOKUP_CHECKERBOARD 1 /* colour0 and colour1 in alternate squares of a 2 x 2 tile of (s, t) */
+
+typedef struct {
+    int kind;              /* LOOKUP_* */
+    int texture;           /* LOOKUP_BITMAP: the image's index in the Texture table */
+    int wrap, filter;      /* LOOKUP_BITMAP: WRAP_*; FILTER_*, or -1: the render's texture_filter */
+    int luminance;         /* a float parameter of an RGB image: its luminance (Mitsuba's eval_1), else red */
+    float to_uv[6];        /* (s, t) = rows (to_uv[0..2], to_uv[3..5]) . (u, v, 1): the texture's coordinates,
+                            * s along the image's rows, t down its columns (the image's top-left is (0, 0)) */
+    Vec3f colour0, colour1; /* LOOKUP_CHECKERBOARD */
+} TextureLookup;
+
 typedef struct {
     Vec3f colour;                    /* ka = kd = ks = colour (the course's model), unless a colour map */
     float shininess;
@@ -91,6 +114,12 @@ typedef struct {
     float specular_weight;           /* plastic, roughplastic: the coat's share in choosing a lobe to sample */
     float transmittance[ROUGH_TRANSMITTANCE_RES]; /* roughplastic: the coat's transmittance at cos(theta) = i / (RES
                                       * - 1), i = 0 .. RES - 1 (raytrace/scene/rough_transmittance.py) */
+    int maps[MAPS];                  /* each textured parameter's TextureLookup (MAP_*), -1: its value above */
+    int back;                        /* the material of the back side (where the normal points away from the
+                                      * viewer): its own index (two-sided), another's (Mitsuba's twosided of two
+                                      * BSDFs), or -1: black (Mitsuba's one-sided BSDFs) */
+    int blend[2];                    /* BSDF_BLEND: the materials it mixes (wrappers.cl) */
+    float weight;                    /* BSDF_BLEND: the second one's share, unless maps[MAP_WEIGHT] */
 } Material;
 
 /* The path model's BSDFs, one file each in kernels/bsdfs/ (bsdf.cl), numbered as raytrace/scene/model.py's BSDFS. */
@@ -102,6 +131,10 @@ typedef struct {
 #define BSDF_ROUGHDIELECTRIC 5
 #define BSDF_PLASTIC 6
 #define BSDF_ROUGHPLASTIC 7
+#define BSDF_NULL 8
+/* Not a BSDF: a node that mixes two materials (Mitsuba's blendbsdf, and mask: a null and the masked one),
+ * resolved at each hit into one of them (wrappers.cl). */
+#define BSDF_BLEND 31
 
 /* The rough BSDFs' microfacet distributions (microfacet.cl), with Mitsuba's names. */
 #define MICROFACET_GGX 0

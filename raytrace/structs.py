@@ -7,6 +7,8 @@ VEC3F = ("<f4", (3,))
 
 # kernels/limits.h (with the others below)
 ROUGH_TRANSMITTANCE_RES = 64  # entries of a roughplastic's transmittance table (Material.transmittance)
+MAPS = 8  # textured parameters a material has room for (Material.maps)
+WRAPPER_DEPTH = 8  # nested wrappers (blendbsdf, mask, twosided) a hit passes through, at most
 
 CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F), ("up", *VEC3F),
                    ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4")])
@@ -35,7 +37,14 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
                      ("uv_offset", "<f4", (2,)), ("bsdf", "<i4"), ("eta", *VEC3F), ("k", *VEC3F),
                      ("alpha", "<f4"), ("alpha_v", "<f4"), ("distribution", "<i4"), ("specular", *VEC3F),
                      ("nonlinear", "<i4"), ("internal_reflectance", "<f4"), ("specular_weight", "<f4"),
-                     ("transmittance", "<f4", (ROUGH_TRANSMITTANCE_RES,))])
+                     ("transmittance", "<f4", (ROUGH_TRANSMITTANCE_RES,)), ("maps", "<i4", (MAPS,)),
+                     ("back", "<i4"), ("blend", "<i4", (2,)), ("weight", "<f4")])
+
+# kernels/types.h: MAP_* (Material.maps), LOOKUP_*
+MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4}
+LOOKUPS = {"bitmap": 0, "checkerboard": 1}
+TEXTURE_LOOKUP = np.dtype([("kind", "<i4"), ("texture", "<i4"), ("wrap", "<i4"), ("filter", "<i4"),
+                           ("luminance", "<i4"), ("to_uv", "<f4", (6,)), ("colour0", *VEC3F), ("colour1", *VEC3F)])
 
 TEXTURE = np.dtype([("first_level", "<i4"), ("n_levels", "<i4"), ("encoding", "<i4")])
 
@@ -51,7 +60,8 @@ FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 # kernels/types.h: BSDF_*
 BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2, "roughconductor": 3, "thindielectric": 4, "roughdielectric": 5,
-         "plastic": 6, "roughplastic": 7}
+         "plastic": 6, "roughplastic": 7, "null": 8}
+BSDF_BLEND = 31  # not a BSDF: a blendbsdf's or mask's node, resolved per hit (kernels/wrappers.cl)
 
 # kernels/types.h: MICROFACET_*
 MICROFACETS = {"ggx": 0, "beckmann": 1}
@@ -73,6 +83,7 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
            "TriangleNormals": TRIANGLE_NORMALS,
            "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
+           "TextureLookup": TEXTURE_LOOKUP,
            "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE}
 
 # kernels/limits.h

@@ -152,6 +152,7 @@ def kernel_lookup(harness, textures, index, filter_name, wrap, s, t, derivs=None
     texels, levels, table = packing.pack_textures(textures)
     args = {"textures": table, "mip_levels": levels, "texels": texels,
             "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32), "texture": np.int32(index),
+            "lookups": packing.lookup_structs([])[0],
             "filter": np.int32(structs.FILTERS[filter_name]), "wrap": np.int32(structs.WRAP_MODES[wrap]),
             "st": np.stack([s, t]).astype(np.float32), "dst": np.asarray(derivs).astype(np.float32)}
     return harness.run(LOOKUP, "lookup", n, args, {"out": 3})["out"][:, :count].T

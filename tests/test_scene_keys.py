@@ -77,7 +77,14 @@ EVERY_BSDF_KEY = {
     "plastic": {"diffuse_reflectance": [0.1, 0.27, 0.36], "nonlinear": True, "int_ior": 1.9, "ext_ior": "air",
                 "specular_reflectance": 0.8},
     "roughplastic": {"diffuse_reflectance": 0.3, "nonlinear": True, "int_ior": "pet", "ext_ior": 1.1,
-                     "specular_reflectance": [1.0, 0.9, 0.8], "distribution": "beckmann", "alpha": 0.1}}
+                     "specular_reflectance": [1.0, 0.9, 0.8], "distribution": "beckmann", "alpha": 0.1},
+    "null": {}}
+# A blend and a mask of material "m", every key given; a textured reflectance (a bitmap, every key of its kind)
+WRAPPER_TABLES = {bsdfs.table_name(name): name for name in bsdfs.WRAPPER_KEYS}
+EVERY_WRAPPER_KEY = {"blendbsdf": {"weight": 0.3, "bsdfs": ["m", "m"]}, "mask": {"opacity": 0.7, "bsdf": "m"}}
+TEXTURE = "texture"
+EVERY_TEXTURE_KEY = {"type": "bitmap", "filename": "../assets/textures/bricks_colour.png", "raw": False,
+                     "filter_type": "nearest", "wrap_mode": "mirror", "to_uv": [[2.0, 0.0, 0.1], [0.0, 2.0, 0.2]]}
 
 
 def radiometric(scene, shading):
@@ -106,6 +113,15 @@ def scene_with(table_name, key_name=None):
         radiometric(scene, "path")
         scene["materials"]["b"] = {"type": kind, **copy.deepcopy(EVERY_BSDF_KEY[kind])}
         return scene, scene["materials"]["b"], "materials.b."
+    if table_name in WRAPPER_TABLES:
+        kind = WRAPPER_TABLES[table_name]
+        radiometric(scene, "path")
+        scene["materials"]["b"] = {"type": kind, **copy.deepcopy(EVERY_WRAPPER_KEY[kind])}
+        return scene, scene["materials"]["b"], "materials.b."
+    if table_name == TEXTURE:
+        radiometric(scene, "path")
+        scene["materials"]["b"] = {"type": "diffuse", "reflectance": copy.deepcopy(EVERY_TEXTURE_KEY)}
+        return scene, scene["materials"]["b"]["reflectance"], "materials.b.reflectance."
     where, prefix = PLACES[table_name]
     node = scene
     for step in where:
@@ -115,14 +131,16 @@ def scene_with(table_name, key_name=None):
 
 def declared_keys(table_name):
     names = {key.name for key in TABLES[table_name]}
-    if table_name == "materials.NAME" or table_name in BSDF_TABLES:  # every material's, and every type's
+    if table_name == "materials.NAME" or table_name in BSDF_TABLES or table_name in WRAPPER_TABLES:
         return sorted({key.name for key in TABLES["materials.NAME"]} | set(bsdfs.KEY_NAMES))
     return sorted(names | ({"type", "material"} if table_name in SHAPE else set()))
 
 
 def test_every_declared_table_is_exercised():
-    assert set(TABLES) == set(PLACES) | {DIRECT, ENVIRONMENT} | set(BSDF_TABLES)
+    assert set(TABLES) == set(PLACES) | {DIRECT, ENVIRONMENT, TEXTURE} | set(BSDF_TABLES) | set(WRAPPER_TABLES)
     parse_scene(every_table(), SCENE_PATH)
+    for table_name in (TEXTURE, *WRAPPER_TABLES):
+        parse_scene(scene_with(table_name)[0], SCENE_PATH)
     parse_scene(scene_with(DIRECT)[0], SCENE_PATH)
     parse_scene(scene_with(ENVIRONMENT)[0], SCENE_PATH)
     for table_name in BSDF_TABLES:

@@ -61,7 +61,7 @@ def test_padding_is_found(cl_env):
 
 
 def test_constants_match_device(cl_env):
-    """The WRAP_*, FILTER_*, RANDOMIZE_*, BSDF_*, SHAPE_* and TEXELS_* macros of kernels/types.h and the limits of
+    """The WRAP_*, FILTER_*, RANDOMIZE_*, BSDF_*, SHAPE_*, MAP_*, LOOKUP_* and TEXELS_* macros of kernels/types.h and the limits of
     kernels/limits.h against their mirrors in raytrace/structs.py."""
     names = {f"WRAP_{k.upper()}": v for k, v in structs.WRAP_MODES.items()}
     names |= {f"FILTER_{k.upper()}": v for k, v in structs.FILTERS.items()}
@@ -69,6 +69,9 @@ def test_constants_match_device(cl_env):
     names |= {f"BSDF_{k.upper()}": v for k, v in structs.BSDFS.items()}
     names |= {f"MICROFACET_{k.upper()}": v for k, v in structs.MICROFACETS.items()}
     names |= {f"SHAPE_{k.upper()}": v for k, v in structs.SHAPES.items()}
+    names |= {f"MAP_{k.upper()}": v for k, v in structs.MAP_SLOTS.items()}
+    names |= {f"LOOKUP_{k.upper()}": v for k, v in structs.LOOKUPS.items()}
+    names |= {"BSDF_BLEND": structs.BSDF_BLEND, "MAPS": structs.MAPS, "WRAPPER_DEPTH": structs.WRAPPER_DEPTH}
     names |= {"TEXELS_SRGB8": structs.TEXELS_SRGB8, "TEXELS_UNORM8": structs.TEXELS_UNORM8,
               "TEXELS_FLOAT": structs.TEXELS_FLOAT, "TEXELS_QUAD8": structs.TEXELS_QUAD8,
               "TEXELS_QUADF": structs.TEXELS_QUADF, "TEXELS_QUAD16": structs.TEXELS_QUAD16}

@@ -10,6 +10,7 @@ from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
 from ..scene import bsdfs, plastic_terms, rough_transmittance
+from ..scene.model import WRAPPERS, Material
 from .culling import light_sides
 from .geometry import DEFAULT_UV
 
@@ -140,9 +141,45 @@ def packed_bsdf(material):
     return material.bsdf
 
 
+# kernels/types.h's MAP_* of the parameters whose value is a float (a lookup's luminance)
+FLOAT_SLOTS = ("alpha", "alpha_v", "weight")
+
+
+def material_table(materials):
+    """The kernel's material table of the model's materials: each one in its place, then one `null` material where
+    any is a `mask` (kernels/wrappers.cl resolves a mask as a blend of null and the masked material)."""
+    masks = any(m.bsdf == "mask" for m in materials)
+    return list(materials) + [Material("null", np.zeros(3), bsdf="null")] * masks
+
+
+def lookup_structs(materials):
+    """(the TextureLookup table, each material's maps) of the materials' textured parameters: one lookup per
+    parameter, a float parameter's reading its lookup's luminance. to_uv becomes the kernel's, whose t runs down
+    the image: t' = 1 - t."""
+    table, maps = [], []
+    for m in materials:
+        slots = np.full(structs.MAPS, -1, np.int32)
+        for slot, lookup in m.maps:
+            a, b, c, d, e, f = lookup.to_uv
+            table.append((structs.LOOKUPS[lookup.kind], lookup.texture, structs.WRAP_MODES[lookup.wrap],
+                          -1 if lookup.filter is None else structs.FILTERS[lookup.filter], slot in FLOAT_SLOTS,
+                          (a, b, c, -d, -e, 1.0 - f), lookup.colour0, lookup.colour1))
+            slots[structs.MAP_SLOTS[slot]] = len(table) - 1
+        maps.append(slots)
+    return np.array(table or [(0, 0, 0, 0, 0, (0.0,) * 6, (0.0,) * 3, (0.0,) * 3)], structs.TEXTURE_LOOKUP), maps
+
+
 def material_structs(materials):
+    materials = material_table(materials)
     a = np.zeros(len(materials), structs.MATERIAL)
-    for s, m in zip(a, materials):
+    null = len(materials) - 1
+    for i, (s, m, maps) in enumerate(zip(a, materials, lookup_structs(materials)[1])):
+        s["maps"] = maps
+        s["back"] = m.back if m.back >= 0 else i if m.two_sided else -1
+        if m.bsdf in WRAPPERS:
+            s["bsdf"], s["weight"] = structs.BSDF_BLEND, m.weight
+            s["blend"] = m.blend if m.bsdf == "blendbsdf" else (null, m.blend[0])
+            continue
         s["colour"], s["shininess"] = m.colour, m.shininess
         s["colour_map"], s["normal_map"], s["height_map"] = m.colour_map, m.normal_map, m.height_map
         s["wrap"], s["height_scale"] = structs.WRAP_MODES[m.wrap], m.height_scale
@@ -187,7 +224,8 @@ def texture_tables(scene):
     """The tables of all the scene's textures, named after kernels/scene.h's TEXTURE_PARAMETERS."""
     texels, levels, textures = pack_textures(scene.textures, scene.path)
     return {"textures": textures, "mip_levels": levels, "texels": texels,
-            "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32)}
+            "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32),
+            "lookups": lookup_structs(material_table(scene.materials))[0]}
 
 
 def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear",

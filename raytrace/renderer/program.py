@@ -12,6 +12,7 @@ import pyopencl as cl
 from .cpu_target import current_llvm_cpu
 from ..scene import bsdfs
 from .packing import packed_bsdf
+from ..scene.model import WRAPPERS
 
 
 def kernel_dir():
@@ -53,12 +54,15 @@ class Features:
     rough_plastics: bool = False   # the path model's rough plastic (type = "roughplastic")
     beckmann: bool = False         # a rough BSDF with distribution = "beckmann" (else GGX alone)
     anisotropic: bool = False      # a rough BSDF with alpha_v other than alpha: shading points carry a tangent
+    lookups: bool = False          # textured BSDF parameters (a material's maps: kernels/lookups.cl)
+    wrappers: bool = False         # blendbsdf, mask, or a back side other than the front (kernels/wrappers.cl)
+    nulls: bool = False            # a mask's null BSDF (type = "null", or a mask)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
     @property
     def textures(self):
-        return self.colour_maps or self.normal_maps or self.height_maps
+        return self.colour_maps or self.normal_maps or self.height_maps or self.lookups
 
     @classmethod
     def of(cls, scene, lanes):
@@ -79,8 +83,11 @@ class Features:
                                          ("rough_plastics", "roughplastic"))},
                    beckmann=any(packed_bsdf(m) in bsdfs.ROUGH and m.distribution == "beckmann"
                                 for m in scene.materials),
-                   anisotropic=any(packed_bsdf(m) in bsdfs.ROUGH and m.alpha_v not in (None, m.alpha)
-                                   for m in scene.materials))
+                   anisotropic=any(packed_bsdf(m) in bsdfs.ROUGH and (m.alpha_v not in (None, m.alpha) or dict(
+                                   m.maps).get("alpha") != dict(m.maps).get("alpha_v")) for m in scene.materials),
+                   lookups=any(m.maps for m in scene.materials),
+                   wrappers=any(m.bsdf in WRAPPERS or m.back >= 0 or not m.two_sided for m in scene.materials),
+                   nulls=any(m.bsdf in ("mask", "null") for m in scene.materials))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -90,7 +97,8 @@ class Features:
                  "ROUGH_CONDUCTORS": self.rough_conductors, "ENVIRONMENT": self.environment,
                  "ENVIRONMENT_MAP": self.environment_map, "THIN_DIELECTRICS": self.thin_dielectrics,
                  "ROUGH_DIELECTRICS": self.rough_dielectrics, "PLASTICS": self.plastics,
-                 "ROUGH_PLASTICS": self.rough_plastics, "BECKMANN": self.beckmann, "ANISOTROPIC": self.anisotropic}
+                 "ROUGH_PLASTICS": self.rough_plastics, "BECKMANN": self.beckmann, "ANISOTROPIC": self.anisotropic,
+                 "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

@@ -238,7 +238,24 @@ reflecting glossily over the diffuse base. int_ior and ext_ior must differ.""",
          (*_plastic(), *_roughness(anisotropic=False)), "rough_plastics",
          'type = "roughplastic"\ndiffuse_reflectance = [0.8, 0.2, 0.1]\ndistribution = "beckmann"\nalpha = 0.1\n'
          'nonlinear = true', distinct_iors=True),
+    BSDF("null", "no surface for light", """\
+A surface that light passes straight through, unchanged, as if it were not there; what a `mask` is where its
+opacity lets light through. Shadow rays stop at it, as at any surface (Mitsuba's `path` does the same): light
+behind it reaches the scene through paths that pass it.""", (), "nulls", 'type = "null"', front_only=False),
 )
+# Mitsuba's wrappers a material can be instead of a BSDF (model.WRAPPERS), with their own keys: a blend of two
+# materials, and a mask of one
+WRAPPER_KEYS = {
+    "blendbsdf": [Key("weight", "number", "the second material's share: 0 is the first alone, 1 the second (a "
+                      "number or a texture)", default=0.5, low=0, high=1),
+                  Key("bsdfs", "strings", "the two materials it mixes, by name", length=2,
+                      also="defined materials, not blending themselves")],
+    "mask": [Key("opacity", "number", "the share of light the masked material scatters; the rest passes through "
+                 "(a number or a texture)", default=0.5, low=0, high=1),
+             Key("bsdf", "string", "the masked material, by name", also="a defined material")],
+}
+
+
 BY_NAME = {bsdf.name: bsdf for bsdf in DECLARED}
 # The BSDFs with indices of refraction (the kernel's eta.x is int_ior / ext_ior), and those with a microfacet
 # distribution (alpha, alpha_v, distribution): read off their parameters.
@@ -246,14 +263,29 @@ INDEXED = tuple(bsdf.name for bsdf in DECLARED if "int_ior" in bsdf.key_names())
 ROUGH = tuple(bsdf.name for bsdf in DECLARED if "distribution" in bsdf.key_names())
 # Every key of every type's table, in the order they are first declared: a material of one type given another's
 # key is refused as such (scene_file.py's own_keys), an unknown key as unknown.
-KEY_NAMES = tuple(dict.fromkeys(name for bsdf in DECLARED for name in bsdf.key_names()))
+KEY_NAMES = tuple(dict.fromkeys([name for bsdf in DECLARED for name in bsdf.key_names()]
+                                + [key.name for keys in WRAPPER_KEYS.values() for key in keys]))
 assert tuple(BY_NAME) == BSDFS, "model.BSDFS lists the declared BSDFs in the kernel's numbering"
+
+
+# The kernel's map slot (kernels/types.h's MAP_*) a texture on a parameter fills, by the Material fields it sets
+TEXTURED = {("colour",): "colour", ("specular",): "specular", ("alpha",): "alpha", ("alpha_v",): "alpha_v"}
+
+
+def texture_slot(bsdf, name):
+    """The map slot a texture given for parameter `name` of `bsdf` fills, or None where it takes a value only: a
+    roughplastic's alpha is a number (its coat's transmittance table is found for it), as in Mitsuba."""
+    p = next((p for p in bsdf.parameters if p.key is not None and p.key.name == name), None)
+    if p is None or (bsdf.name == "roughplastic" and name == "alpha"):
+        return None
+    return TEXTURED.get(p.fields)
 
 
 def key_tables():
     """keys.py's tables of the BSDFs' keys, one per type in model.BSDFS's order, which the scene format's page
     lists after the keys every material has ("materials.NAME")."""
-    return {bsdf.table: bsdf.keys() for bsdf in DECLARED}
+    return {bsdf.table: bsdf.keys() for bsdf in DECLARED} | {table_name(name): keys
+                                                             for name, keys in WRAPPER_KEYS.items()}
 
 
 def declaring(field):

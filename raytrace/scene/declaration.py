@@ -12,7 +12,8 @@ class Key:
     """One key of a table. `kind` is one of number, integer, string, boolean, vector (`length` numbers),
     vectors (a list of `count` vectors of `length` numbers, any count when None), number-or-vector,
     number-or-name (a number, or a name of `named`, (name, number) pairs, in any case, as Mitsuba looks up its
-    named media), path, faces, table, tables (an array of tables) or named-tables (a table of tables). Numbers
+    named media), path, faces, strings (a list of `length` names), table, tables (an array of tables) or named-tables (a
+    table of tables). Numbers
     lie in [low, high] (open at an end with open_low, open_high); vectors' components are at least `low`."""
     name: str
     kind: str

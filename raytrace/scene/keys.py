@@ -8,9 +8,9 @@ along the normal, a triangle with an area) is in `also`.
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import WRAP_MODES
-from . import bsdfs
+from . import bsdfs, texture_lookups
 from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
-from .model import BSDFS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
+from .model import BSDFS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 MAX_GENERATED_TRIANGLES = 50_000_000
@@ -108,8 +108,13 @@ TABLES = {
         Key("wrap", "string", "how texture coordinates outside [0, 1] wrap", default="repeat",
             choices=tuple(WRAP_MODES)),
         Key("type", "string", "the BSDF, with Mitsuba 3's plugin names (docs/bsdfs.md): its parameters are the keys "
-            "of its table below", default="diffuse", choices=BSDFS, also='other than diffuse with shading = "path" '
-            "only")],
+            "of its table below; or a wrapper of other materials (blendbsdf, mask)", default="diffuse",
+            choices=BSDFS + WRAPPERS, also='other than diffuse with shading = "path" only'),
+        Key("two_sided", "boolean", "scatter light on both sides; false: black from behind (Mitsuba's BSDFs outside "
+            "twosided)", default=True, also="false only for a type that reflects only"),
+        Key("back", "string", "the material of the back side (Mitsuba's twosided of two BSDFs)", default=None,
+            also="a defined, two-sided material without a back of its own")],
+    "texture": texture_lookups.KEYS,  # a textured parameter's table (texture_lookups.py)
     **bsdfs.key_tables(),  # each BSDF's own keys ('materials.NAME type = "diffuse"', ...), declared in bsdfs.py
     "shapes[]": [Key("type", "string", "the kind of shape", choices=SHAPE_KINDS),
                  Key("material", "string", "a material's name", also="a defined material")],

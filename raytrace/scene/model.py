@@ -23,7 +23,14 @@ SHADINGS = ("phong", "direct", "path")
 # The BSDFs of the path model, with Mitsuba 3's plugin names, in the kernel's numbering (BSDF_* in
 # kernels/types.h): each is declared once, its parameters and doc, in bsdfs.py. Only "diffuse" elsewhere.
 BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor", "thindielectric", "roughdielectric", "plastic",
-         "roughplastic")
+         "roughplastic", "null")
+# Mitsuba's BSDF wrappers a material can be besides a BSDF: a blend of two materials, and a mask (a blend of
+# the masked material and `null` by opacity); twosided is a material's `back` (Material).
+WRAPPERS = ("blendbsdf", "mask")
+# Mitsuba's texture plugins a textured parameter can be (TextureLookup); their wrap modes and filter types.
+LOOKUPS = ("bitmap", "checkerboard")
+WRAP_MODES = ("repeat", "mirror", "clamp")
+FILTER_TYPES = ("nearest", "bilinear")
 DISTRIBUTIONS = ("ggx", "beckmann")  # the microfacet distributions of the rough BSDFs, with Mitsuba's names
 DEFAULT_ALPHA = 0.1  # Mitsuba's default roughness of its rough BSDFs
 ENVIRONMENTS = ("constant", "envmap")  # the path model's environment emitters, with Mitsuba's names
@@ -67,6 +74,23 @@ class EnvironmentMap:
 
 
 @dataclass(frozen=True)
+class TextureLookup:
+    """How a textured parameter finds its value (Mitsuba's texture plugins): `bitmap`, an image (`texture`, an
+    index into Scene.textures, read as colour or as raw data) with its wrap mode and filter (None: the render's
+    texture filter; "nearest" or "bilinear": Mitsuba's filter_type, on the finest level), or `checkerboard`, colour0
+    and colour1 in alternate squares. to_uv, rows (a, b, c), (d, e, f): the texture's coordinates (s, t) = (a u + b
+    v + c, d u + e v + f) of the surface's (u, v), with t up the image, as the surface's v (the identity: the
+    image once over the course's rectangles, as a colour map)."""
+    kind: str = "bitmap"
+    texture: int = -1
+    wrap: str = "repeat"
+    filter: str | None = None
+    to_uv: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+    colour0: tuple = (0.4, 0.4, 0.4)
+    colour1: tuple = (0.2, 0.2, 0.2)
+
+
+@dataclass(frozen=True)
 class Material:
     """A material: the course's Phong material, a Lambertian one in the radiometric models, or in the path model
     one of Mitsuba's BSDFs (bsdf, declared in bsdfs.py); textures are indices into Scene.textures (-1: none)."""
@@ -90,6 +114,14 @@ class Material:
     distribution: str = "ggx"            # the rough BSDFs' microfacet distribution: one of DISTRIBUTIONS
     specular: tuple = (1.0, 1.0, 1.0)    # plastic, roughplastic: the coat's specular_reflectance (colour: the
     nonlinear: bool = False              # base's diffuse_reflectance); nonlinear: Mitsuba's colour shift
+    maps: tuple = ()                     # (parameter, TextureLookup) of its textured parameters: colour, specular,
+                                         # alpha, alpha_v, weight (kernels/types.h's MAP_*)
+    two_sided: bool = True               # scatters on both sides; False: black from behind (Mitsuba's one-sided
+                                         # BSDFs outside twosided)
+    back: int = -1                       # the material of its back side (Mitsuba's twosided of two BSDFs), -1: its
+                                         # own (two_sided) or black
+    blend: tuple = ()                    # blendbsdf: the two materials it mixes; mask: the one it masks
+    weight: float = 0.5                  # blendbsdf: the second one's share; mask: the opacity
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,11 @@ and shapes by their place in the model (rectangles[0].size, triangles[5].vertice
 import numpy as np
 
 from . import bsdfs, ranges, rules
-from .model import (RADIOMETRIC, Camera, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle, Triangle,
-                    fingerprint)
+from .. import structs
+from ..errors import InputError
+from ..numerics import FLOAT32_MAX
+from .model import (RADIOMETRIC, WRAPPERS, Camera, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle,
+                    TextureLookup, Triangle, fingerprint)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
 from .scene_file import LIGHTS_SPEC, Reader, check_axes, check_frame, check_triangle, map_placement
@@ -59,6 +62,54 @@ def _check_bsdf(source, m):
     for key in declared.values():
         if key.name in r.table:
             getattr(r, READ[key.kind])(key.name)
+
+
+def _check_wrapper(source, m, count):
+    """A blend's or mask's materials and weight."""
+    prefix = f"materials.{m.name}."
+    wanted = 2 if m.bsdf == "blendbsdf" else 1
+    if not isinstance(m.blend, tuple) or len(m.blend) != wanted:
+        raise InputError(source, prefix + "blend", m.blend, f"must be a tuple of {wanted} material indices")
+    for index in m.blend:
+        _index(source, prefix + "blend", index, count)
+    key = "weight" if m.bsdf == "blendbsdf" else "opacity"
+    r = Reader(source, {key: _value(m.weight)}, prefix, bsdfs.table_name(m.bsdf))
+    r.number(key)
+
+
+def _check_sides(source, m, i, materials):
+    """A material's back side: none, or another two-sided material without a back of its own."""
+    prefix = f"materials.{m.name}."
+    if not isinstance(m.two_sided, bool):
+        raise InputError(source, prefix + "two_sided", m.two_sided, "must be True or False")
+    if m.back != -1:
+        _index(source, prefix + "back", m.back, len(materials))
+        other = materials[m.back]
+        if m.back == i or other.back != -1 or not other.two_sided:
+            raise InputError(source, prefix + "back", m.back, "must be another two-sided material without a back "
+                             "of its own")
+
+
+def _check_maps(source, m, textures):
+    """A material's textured parameters: (slot, TextureLookup) pairs of known slots, lookups of known kinds and
+    modes, images in the scene's textures, to_uv six finite numbers."""
+    prefix = f"materials.{m.name}.maps"
+    for entry in m.maps:
+        if not (isinstance(entry, tuple) and len(entry) == 2 and entry[0] in structs.MAP_SLOTS
+                and isinstance(entry[1], TextureLookup)):
+            raise InputError(source, prefix, entry, f"must be (slot, TextureLookup) pairs, slot one of "
+                             f"{', '.join(structs.MAP_SLOTS)}")
+        lookup = entry[1]
+        if lookup.kind not in structs.LOOKUPS or lookup.wrap not in structs.WRAP_MODES or (
+                lookup.filter is not None and lookup.filter not in structs.FILTERS):
+            raise InputError(source, prefix, lookup, "unknown kind, wrap or filter")
+        if lookup.kind == "bitmap":
+            _index(source, prefix + ".texture", lookup.texture, textures)
+        to_uv = np.asarray(lookup.to_uv, np.float64)
+        colours = np.asarray([lookup.colour0, lookup.colour1], np.float64)
+        if to_uv.shape != (6,) or not np.all(np.abs(to_uv) <= FLOAT32_MAX) or colours.shape != (2, 3) or not (
+                np.all(colours >= 0) and np.all(colours <= FLOAT32_MAX)):
+            raise InputError(source, prefix, lookup, "to_uv must be 6 finite numbers, the colours 3 numbers >= 0")
 
 
 def check_value(source, table, key, value):
@@ -134,10 +185,15 @@ def check_model(scene, source="render()"):
         r = _reader(source, f"materials.{m.name}.", "materials.NAME", m, MATERIAL)
         r.table.update(texture=m.colour_map, height_map=m.height_map)  # what ranges.py names in its errors
         _read(r, MATERIAL)
-        _check_bsdf(source, m)
+        if m.bsdf in WRAPPERS:
+            _check_wrapper(source, m, len(scene.materials))
+        else:
+            _check_bsdf(source, m)
         for key in ("colour_map", "normal_map", "height_map"):
             if getattr(m, key) != -1:
                 _index(source, f"materials.{m.name}.{key}", getattr(m, key), len(scene.textures))
+        _check_sides(source, m, i, scene.materials)
+        _check_maps(source, m, len(scene.textures))
         materials.append(r)
 
     emission = "radiance" if scene.shading in RADIOMETRIC else "colour"

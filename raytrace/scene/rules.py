@@ -76,7 +76,7 @@ def _shading(scene, places):
 def _bsdfs(scene, places):
     """A rough interface refracts only between different indices (bsdfs.py's declarations say which)."""
     for material, reader in zip(scene.materials, places.materials):
-        if bsdfs.BY_NAME[material.bsdf].distinct_iors and material.int_ior == material.ext_ior:
+        if material.bsdf in bsdfs.BY_NAME and bsdfs.BY_NAME[material.bsdf].distinct_iors and material.int_ior == material.ext_ior:
             reader.fail("int_ior", value(material.int_ior), f'must differ from ext_ior for type = "{material.bsdf}" '
                         "(Mitsuba's rule for its rough interfaces: at equal indices the half-vector of refraction "
                         "vanishes)")

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from . import bsdfs, environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, named_materials, ranges, \
-    rules
+    rules, texture_lookups
 from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
 from .. import samplers
-from .model import (RADIOMETRIC, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
+from .model import (RADIOMETRIC, WRAPPERS, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     Triangle, normalize)
 from .textures import TextureCache
 from .transform import AFFINE, mesh_matrix
@@ -190,10 +190,10 @@ def check_axes(r, axes):
         r.fail("axes", axes.tolist(), "singular ellipsoid: the three axes must be linearly independent")
 
 
-def material_named(r, key, material_index):
-    """The index of the material that key `key` names."""
-    name = r.string(key)
-    if name not in material_index:
+def material_named(r, key, material_index, name=None):
+    """The index of the material that key `key` names (or `name`, one of the names it lists)."""
+    name = r.string(key) if name is None else name
+    if not isinstance(name, str) or name not in material_index:
         r.fail(key, name, f"no such material (defined: {', '.join(material_index)})")
     return material_index[name]
 
@@ -396,14 +396,24 @@ def map_placement(e):
     return e.number("scale"), up, forward
 
 
-def _material(r, name, textures):
-    """A material table; texture paths are relative to the scene file and read here."""
+def _material(r, name, textures, names):
+    """A material table; texture paths are relative to the scene file and read here; `names` are the scene's
+    materials in order, which blends, masks and back sides name."""
     r.check_keys(sorted(set(r.spec) | set(bsdfs.KEY_NAMES)))
+    kind = r.string("type")
+    r, maps = _textured(r, kind, textures)
+    sides = {"two_sided": r.boolean("two_sided")}
+    if r.has("back"):
+        sides["back"] = material_named(r, "back", {n: i for i, n in enumerate(names)})
+    if not sides["two_sided"] and kind in bsdfs.BY_NAME and not bsdfs.BY_NAME[kind].front_only:
+        r.fail("two_sided", False, f'type = "{kind}" scatters on both sides (it has no back to be black)')
+    if kind in WRAPPERS:
+        return _wrapper(r, name, kind, names, maps, sides)
     bsdf = _bsdf(r)
-    maps = {}
+    course = {}
     for key, role in (("texture", "colour"), ("normal_map", "normal"), ("height_map", "height")):
         if r.has(key):
-            maps[key] = textures.index(r.string(key), role, r.path, r.prefix + key)
+            course[key] = textures.index(r.string(key), role, r.path, r.prefix + key)
     if r.has("height_scale") != r.has("height_map"):
         given = "height_scale" if r.has("height_scale") else "height_map"
         r.fail(given, r.table[given], "height_map and height_scale go together")
@@ -415,12 +425,54 @@ def _material(r, name, textures):
     if not np.all(np.abs(uv_offset) <= FLOAT32_MAX):
         r.fail("uv_offset", uv_offset.tolist(), f"both offsets must lie within +-{FLOAT32_MAX:.6g} (float32)")
     colour = bsdf.pop("colour", None)
-    if colour is None and "texture" not in maps and not r.has("colour") and bsdf["bsdf"] == "diffuse":
+    if colour is None and "texture" not in course and not r.has("colour") and bsdf["bsdf"] == "diffuse":
         r.fail("colour", None, "missing")
     return Material(name, r.vector("colour") if colour is None else colour, r.number("shininess"),
-                    maps.get("texture", -1), maps.get("normal_map", -1), maps.get("height_map", -1),
-                    r.number("height_scale") if "height_map" in maps else 0.0,
-                    tuple(uv_scale), tuple(uv_offset), r.string("wrap"), **bsdf)
+                    course.get("texture", -1), course.get("normal_map", -1), course.get("height_map", -1),
+                    r.number("height_scale") if "height_map" in course else 0.0,
+                    tuple(uv_scale), tuple(uv_offset), r.string("wrap"), **bsdf, maps=tuple(maps), **sides)
+
+
+def _textured(r, kind, textures):
+    """(a reader of the material's table with each texture's table replaced by its mean, the maps: (slot,
+    TextureLookup) pairs) of the parameters given as textures (texture_lookups.py); a texture where the
+    parameter takes a value only is refused."""
+    table, maps = dict(r.table), []
+    for key, value in r.table.items():
+        if not texture_lookups.is_texture(value):
+            continue
+        if kind in WRAPPERS:
+            slot = "weight" if key in ("weight", "opacity") else None
+        else:
+            slot = "colour" if key == "colour" else bsdfs.texture_slot(bsdfs.BY_NAME[kind], key)
+        if slot is None:
+            r.fail(key, value, f'takes a value, not a texture, in type = "{kind}"')
+        lookup, mean = texture_lookups.read(Reader(r.path, value, f"{r.prefix}{key}.", "texture"), slot, textures,
+                                            _rgb, own_keys)
+        maps.append((slot, lookup))
+        if key == "alpha" and slot == "alpha":  # isotropic: the same roughness along v
+            maps.append(("alpha_v", lookup))
+        table[key] = mean if isinstance(mean, float) else mean.tolist()
+    return Reader(r.path, table, r.prefix, "materials.NAME"), maps
+
+
+def _wrapper(r, name, kind, names, maps, sides):
+    """A blendbsdf's or a mask's material: the materials it wraps and its weight (a mask's opacity)."""
+    own_keys(r, kind, [key.name for key in bsdfs.WRAPPER_KEYS[kind]], bsdfs.KEY_NAMES)
+    own_keys(r, kind, (), ("colour", "texture", "normal_map", "height_map"))  # its materials have their own
+    own = Reader(r.path, r.table, r.prefix, bsdfs.table_name(kind))
+    if kind == "blendbsdf":
+        given = own.raw("bsdfs")
+        if not isinstance(given, list) or len(given) != 2:
+            own.fail("bsdfs", given, "must be a list of two material names")
+        wrapped = tuple(material_named(own, "bsdfs", {n: i for i, n in enumerate(names)}, value) for value in given)
+        weight = own.number("weight")
+    else:
+        wrapped, weight = (material_named(own, "bsdf", {n: i for i, n in enumerate(names)}),), own.number("opacity")
+    if names.index(name) in wrapped:
+        own.fail("bsdfs" if kind == "blendbsdf" else "bsdf", own.raw("bsdfs" if kind == "blendbsdf" else "bsdf"),
+                 "must not name the material itself")
+    return Material(name, np.zeros(3), bsdf=kind, blend=wrapped, weight=weight, maps=tuple(maps), **sides)
 
 
 def parse_scene(table, path="<scene>"):
@@ -452,7 +504,7 @@ def parse_scene(table, path="<scene>"):
     for name in mats:
         material_index[name] = len(materials)
         material_readers.append(Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
-        materials.append(_material(material_readers[-1], name, textures))
+        materials.append(_material(material_readers[-1], name, textures, list(mats)))
 
     sampler, light_sampler = (render.string(key) if render.has(key) else samplers.default_pattern(shading)
                               for key in ("sampler", "light_sampler"))

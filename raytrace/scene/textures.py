@@ -35,7 +35,7 @@ from .. import structs
 from .mipmap import srgb_to_linear
 from ..errors import InputError
 
-ROLES = ("colour", "normal", "height")  # colour map, normal map, height map
+ROLES = ("colour", "normal", "height", "data")  # colour map, normal map, height map, raw values (a bitmap's raw)
 
 
 @dataclass(eq=False)
@@ -224,7 +224,7 @@ def check_pixels(pixels, kind, role):
         raise ValueError(f"the image holds {what}: texel (x={x}, y={y}) channel {c} is {value:g}")
     used = rgb_channels(pixels)[..., :1 if role == "height" else 3]
     if role != "normal" and used.min() < 0:
-        name = {"colour": "a colour map's values must be >= 0", "environment": "an environment map's values must "
+        name = {"colour": "a colour map's values must be >= 0", "data": "a texture's values must be >= 0", "environment": "an environment map's values must "
                 "be >= 0", "height": "a height map's heights must be >= 0 (relief lifts the surface outwards)"}[role]
         raise ValueError(f"{name}, its lowest is {float(used.min()):g}")
 

@@ -1,0 +1,47 @@
+/* Textured parameters: the value of a material's parameter at the lanes' hits, from its TextureLookup (types.h),
+ * one of Mitsuba 3's texture plugins: `bitmap` (an image through the course's MIP-mapped lookups, mipmap.cl, with
+ * the lookup's own wrap mode and filter: Mitsuba's filter_type, nearest or bilinear on the finest level, or the
+ * render's filter) and `checkerboard`.
+ *
+ * The lookup's to_uv maps the surface's (u, v) to the image's (s, t) (the host composes the flip between the
+ * surface's v, up, and the image's rows, down: raytrace/renderer/packing.py), and the footprint of the pixel
+ * sample with it: a trilinear or anisotropic filter sees the footprint the transform stretched. */
+#ifndef LOOKUPS_CL
+#define LOOKUPS_CL
+
+#include "mipmap.cl"
+#include "surface.cl"
+
+/* Luminance of linear sRGB (Rec. 709 primaries, as Mitsuba's `luminance`): a float parameter's value of an RGB
+ * texture, Mitsuba's eval_1. Grey stays grey: the weights sum to 1. */
+inline vfloat luminance(vec3 c) { return MAD(c.x, 0.212671f, MAD(c.y, 0.715160f, c.z * 0.072169f)); }
+
+/* Lookup l's colour at uv, whose pixel sample's footprint in (u, v) is duv; render_filter is the render's
+ * texture filter (FILTER_*), which a lookup of filter -1 takes. Every lane computes. A float parameter's lookup
+ * (luminance set) gives its value thrice. */
+inline vec3 lookup_value(TextureStore ts, int l, vec2 uv, UVDerivatives duv, int render_filter)
+{
+    __global const TextureLookup *t = &ts.lookups[l];
+    __global const float *m = t->to_uv;
+    vec2 st = {MAD(uv.x, m[0], MAD(uv.y, m[1], m[2])), MAD(uv.x, m[3], MAD(uv.y, m[4], m[5]))};
+    vec3 c;
+    if (t->kind == LOOKUP_CHECKERBOARD) {
+        /* Mitsuba's checkerboard: colour0 where the fractions of s and t lie on the same side of 1/2 (its
+         * eval_1, a float parameter's, swaps the two: kept, since it is what Mitsuba renders) */
+        vint same = ((st.x - vfloor(st.x)) > 0.5f) == ((st.y - vfloor(st.y)) > 0.5f);
+        if (t->luminance)
+            same = !same;
+        c = v3_select(v3_uniform(t->colour1), v3_uniform(t->colour0), same);
+    } else {
+        Footprint dst = {MAD(duv.u_x, m[0], duv.v_x * m[1]), MAD(duv.u_x, m[3], duv.v_x * m[4]),
+                         MAD(duv.u_y, m[0], duv.v_y * m[1]), MAD(duv.u_y, m[3], duv.v_y * m[4])};
+        c = texture_lookup(ts, t->texture, st, dst, t->filter >= 0 ? t->filter : render_filter, t->wrap);
+    }
+    if (t->luminance) {
+        vfloat y = luminance(c);
+        c = v3(y, y, y);
+    }
+    return c;
+}
+
+#endif

@@ -1,0 +1,96 @@
+"""Textured parameters in a scene file: a BSDF parameter given as a table of one of Mitsuba 3's texture plugins
+instead of a value, `bitmap` (an image) or `checkerboard`, with Mitsuba's names and defaults:
+
+    [materials.brushed]
+    type = "roughconductor"
+    material = "Al"
+    alpha = { type = "bitmap", filename = "roughness.png", raw = true, to_uv = [[4, 0, 0], [0, 4, 0]] }
+
+Which parameters take a texture: the reflectances (`colour` and Mitsuba's names of it, a plastic's
+`specular_reflectance`), the rough conductors' and dielectrics' `alpha`, `alpha_u` and `alpha_v`, a blend's
+`weight` and a mask's `opacity`; each BSDF's table in the manual says so (TEXTURED). A float parameter of an RGB
+image takes its luminance, as Mitsuba's eval_1 does.
+
+`to_uv` is the texture's coordinates (s, t) of the surface's (u, v): two rows of Mitsuba's 3 x 3 matrix, (s, t) =
+((a, b, c), (d, e, f)) . (u, v, 1), with t up the image as the surface's v (the course's colour maps' convention:
+Mitsuba's XML reader composes Mitsuba's own, whose t runs down the image, with that flip). The material keeps the
+texture's mean as its constant value, which the host uses where a BSDF needs one number for the whole material
+(a plastic's choice between its lobes, as Mitsuba's mean()), and which the range checks see.
+"""
+import numpy as np
+
+from .declaration import Key
+from .mipmap import SRGB8_TO_LINEAR
+from .model import FILTER_TYPES, LOOKUPS, WRAP_MODES, TextureLookup
+from .. import structs
+
+# The scene format's table of a textured parameter's keys (keys.py lists it as "texture").
+KEYS = [
+    Key("type", "string", "Mitsuba's texture plugin: an image, or a checkerboard", choices=LOOKUPS),
+    Key("filename", "path", "bitmap: the image (from the scene file's folder)", default=None,
+        also='required with type = "bitmap"'),
+    Key("raw", "boolean", "bitmap: take the image's values as they are (data: roughness, opacity); false decodes "
+        "an 8-bit or 16-bit image's sRGB to linear", default=False),
+    Key("filter_type", "string", "bitmap: nearest or bilinear (Mitsuba's, on the image itself), or trilinear or "
+        "anisotropic (its MIP pyramid, by the pixel's footprint)", default="bilinear",
+        choices=FILTER_TYPES + ("trilinear", "anisotropic")),
+    Key("wrap_mode", "string", "bitmap: how coordinates outside [0, 1] wrap", default="repeat", choices=WRAP_MODES),
+    Key("to_uv", "vectors", "the texture's (s, t) of the surface's (u, v): rows (a, b, c), (d, e, f) of (s, t) = "
+        "M (u, v, 1), t up the image", length=3, count=2, default=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))),
+    Key("color0", "number-or-vector", "checkerboard: the colour of the squares at (0, 0) and (1/2, 1/2)", length=3,
+        low=0, default=0.4),
+    Key("color1", "number-or-vector", "checkerboard: the other squares' colour", length=3, low=0, default=0.2),
+]
+KIND_KEYS = {"bitmap": ("type", "filename", "raw", "filter_type", "wrap_mode", "to_uv"),
+             "checkerboard": ("type", "to_uv", "color0", "color1")}
+# The parameters whose value is one number (kernels/types.h's MAP_ALPHA, MAP_ALPHA_V, MAP_WEIGHT): a lookup's
+# luminance
+FLOAT_SLOTS = ("alpha", "alpha_v", "weight")
+
+
+def is_texture(value):
+    """Whether a parameter's value is a texture's table rather than a value."""
+    return isinstance(value, dict)
+
+
+def read(r, slot, textures, rgb, own_keys):
+    """(TextureLookup, its mean: three numbers, or one for a float slot) of the texture table reader `r` (a
+    scene_file.Reader of the "texture" table) for parameter slot `slot`; images are read through `textures` (a
+    textures.TextureCache). `rgb(reader, key)` reads a colour as scene_file does, `own_keys` refuses another kind's
+    keys as scene_file does."""
+    r.check_keys()
+    kind = r.string("type")
+    own_keys(r, kind, KIND_KEYS[kind], [key.name for key in KEYS])
+    rows = r.vectors("to_uv") if r.has("to_uv") else np.array(r.spec["to_uv"].default)
+    to_uv = tuple(float(x) for x in rows.ravel())
+    if kind == "checkerboard":
+        c0, c1 = rgb(r, "color0"), rgb(r, "color1")
+        lookup = TextureLookup("checkerboard", to_uv=to_uv, colour0=tuple(c0.tolist()), colour1=tuple(c1.tolist()))
+        mean = (c0 + c1) / 2
+    else:
+        if not r.has("filename"):
+            r.fail("filename", None, 'missing (type = "bitmap" reads an image)')
+        role = "data" if r.boolean("raw") else "colour"
+        index = textures.index(r.string("filename"), role, r.path, r.prefix + "filename")
+        lookup = TextureLookup("bitmap", index, r.string("wrap_mode"), r.string("filter_type"), to_uv)
+        mean = texture_mean(textures.textures[index])
+    if slot in FLOAT_SLOTS:
+        return lookup, float(luminance(mean))
+    return lookup, mean
+
+
+def luminance(rgb):
+    """Mitsuba's luminance of linear sRGB (kernels/lookups.cl's)."""
+    return float(np.dot(rgb, (0.212671, 0.715160, 0.072169)))
+
+
+def texture_mean(texture):
+    """The mean linear RGB of a texture's finest level, as the kernel decodes its texels."""
+    level = texture.levels[0]
+    if texture.encoding == structs.TEXELS_SRGB8:
+        rgb = SRGB8_TO_LINEAR[level[..., :3]]
+    elif texture.encoding == structs.TEXELS_UNORM8:
+        rgb = level[..., :3] / 255.0
+    else:
+        rgb = level[..., :3].astype(np.float64)
+    return rgb.reshape(-1, 3).mean(axis=0)
