@@ -8,7 +8,7 @@ with the defines the record names) and runs devtools/judge.py's Z-test against t
 The corpus is one small scene per plugin family raytrace reads (diffuse, conductor, roughconductor, dielectric,
 rectangle placement, obj and ply meshes, constant and envmap emitters, the perspective sensor's fov axes and focal
 length, the samplers, the path, direct and moment integrators, a version 0.6 file, $name parameters, include, ref)
-and composite scenes, the Cornell box in millimetres among them, and the BSDFs raytrace is gaining (PENDING); each
+and composite scenes, the Cornell box in millimetres among them, and the plugins raytrace is gaining (PENDING); each
 file's comment says what it exercises.
 
 The false-failure rate (devtools/judge.py's docstring argues each figure). Where raytrace and Mitsuba converge to
@@ -26,8 +26,8 @@ seeds 0 to 9: no scene failed; at most 5 values of a scene (of the 19 to 36 allo
 one 4 x 4 tile (of the 1 or 2 allowed) in all 170 renders.
 
 A scene raytrace cannot render as Mitsuba does is not in the corpus (the differences found while making it are
-recorded in the commit that added it), with one exception: PENDING's scenes, one per BSDF family raytrace is
-gaining (issue 57) and does not build yet, are in the corpus with their references, and their test is skipped
+recorded in the commit that added it), with one exception: PENDING's scenes, one per plugin family raytrace is
+gaining and does not render yet, are in the corpus with their references, and their test is skipped
 with a reason naming the BSDF; the entry goes when the BSDF lands. To remake a reference, with Mitsuba 3.9.1
 installed as devtools/peers/xml_check.py's header says (16384 samples, or the record's own count; parameters.xml
 with `--define radiance=12,10,7`: each STEM.json names the exact command):
@@ -47,15 +47,9 @@ from helpers import ROOT
 CORPUS = ROOT / "scenes" / "mitsuba"
 SCENES = sorted(CORPUS.glob("*.xml"))
 SPP = 1024  # raytrace's samples per pixel: 16 chunks of 64 (a square and a power of two, as the grids need)
-# The scenes of a BSDF raytrace does not build yet (issue 57), and that BSDF: their references are committed and
-# their test is skipped, naming it. Remove a scene's entry when its BSDF lands.
-PENDING = {"bitmap.xml": "bitmap texture (issue 58)",
-           "checkerboard.xml": "checkerboard texture (issue 58)",
-           "roughness_map.xml": "roughconductor with bitmap alpha and specular_reflectance (issue 58)",
-           "mask.xml": "mask (issue 58)",
-           "blendbsdf.xml": "blendbsdf (issue 58)",
-           "twosided.xml": "twosided of two BSDFs, one-sided BSDFs outside twosided (issue 58)",
-           "normalmap.xml": "normalmap (issue 58)",
+# The scenes of a plugin raytrace does not render yet, and that plugin: their references are committed and their
+# test is skipped, naming it. Remove a scene's entry when its plugin lands.
+PENDING = {"normalmap.xml": "normalmap (issue 58)",
            "bumpmap.xml": "bumpmap (issue 58)",
            "principled.xml": "principled (issue 58)",
            "issue58.xml": "normalmap, mask, blendbsdf, principled, bitmap textures (issue 58)"}
@@ -83,11 +77,10 @@ def _judged(scene):
     """The scene as a parameter: skipped, naming its BSDF, where PENDING lists it."""
     if scene.name not in PENDING:
         return scene
-    reason = f"BSDF {PENDING[scene.name]}: raytrace does not build it yet (issue 57)"
+    reason = f"{PENDING[scene.name]}: raytrace does not render it yet"
     return pytest.param(scene, marks=pytest.mark.skip(reason=reason))
 
 
-@pytest.mark.filterwarnings("ignore:.*outside twosided:raytrace.errors.UnsupportedWarning")
 @pytest.mark.parametrize("scene", [_judged(s) for s in SCENES if xml_check.reference_path(s).is_file()],
                          ids=lambda s: s.stem)
 def test_raytrace_matches_mitsuba(scene):

@@ -301,7 +301,6 @@ def test_the_new_bsdfs_convert_to_toml_as_the_same_model(tmp_path):
     assert fingerprint(back.materials) == fingerprint(scene.materials)
 
 
-@pytest.mark.filterwarnings("ignore:.*outside twosided:raytrace.errors.UnsupportedWarning")
 @pytest.mark.parametrize("bsdf, param, message", [
     ('<bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/></bsdf>', "alpha_u",
      "must be given with alpha_v"),
@@ -332,16 +331,26 @@ def test_a_bad_bsdf_value_is_named_at_its_xml_line(tmp_path, bsdf, param, messag
     assert error.source.endswith(f"scene.xml:{line}") and message in str(error), str(error)
 
 
-def test_only_the_one_sided_bsdfs_warn_outside_twosided(tmp_path):
-    """Mitsuba's diffuse, conductors and plastics scatter from the front only: bare, each is warned about once;
-    its glass, smooth, thin or rough, has two sides in both renderers."""
+def test_the_one_sided_bsdfs_are_one_sided_outside_twosided(tmp_path):
+    """Mitsuba's diffuse, conductors and plastics scatter from the front only: bare, each becomes a one-sided
+    material (two_sided = false, black from behind), without a warning; its glass, smooth, thin or rough, has two
+    sides in both renderers; inside twosided, every BSDF is two-sided; a twosided of two BSDFs gives the first
+    the second as its back."""
     extra = "".join(SHAPE_OF.format(i=i + 1, bsdf=f'<bsdf type="{kind}"/>') for i, kind in enumerate(
         ["plastic", "roughplastic", "thindielectric", "roughdielectric", "dielectric"]))
+    extra += SHAPE_OF.format(i=6, bsdf='<bsdf type="twosided"><bsdf type="diffuse"/></bsdf>')
+    extra += SHAPE_OF.format(i=7, bsdf='<bsdf type="twosided" id="pair"><bsdf type="diffuse"/>'
+                             '<bsdf type="conductor"/></bsdf>')
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        load(tmp_path, extra)
-    assert sorted(str(w.message).split(": ")[1] for w in caught) == [
-        "bsdf plastic outside twosided", "bsdf roughplastic outside twosided"]
+        scene = load(tmp_path, extra)
+    assert not [w for w in caught if "twosided" in str(w.message)]
+    sides = {m.bsdf: m.two_sided for m in scene.materials if m.back == -1 and m.name != "pair"}
+    assert sides["plastic"] is sides["roughplastic"] is False
+    assert sides["thindielectric"] and sides["roughdielectric"] and sides["dielectric"]
+    pair = next(m for m in scene.materials if m.name == "pair")
+    assert (pair.bsdf, pair.two_sided, scene.materials[pair.back].bsdf) == ("diffuse", True, "conductor")
+    assert scene.materials[pair.back].two_sided and scene.materials[pair.back].back == -1
 
 
 def test_a_glass_of_two_colours_is_unsupported(tmp_path):

@@ -25,7 +25,12 @@ def relocated(table, scene_folder, out_folder):
             shape["file"] = moved(shape["file"])
     if "environment" in table and "filename" in table["environment"]:
         table["environment"] = {**table["environment"], "filename": moved(table["environment"]["filename"])}
-    assert set(FILE_KEYS) == {"shapes[].file", "environment.filename"}
+    table["materials"] = {name: dict(m) for name, m in table.get("materials", {}).items()}
+    for material in table["materials"].values():
+        for key, value in list(material.items()):
+            if isinstance(value, dict) and "filename" in value:  # a texture's table
+                material[key] = {**value, "filename": moved(value["filename"])}
+    assert set(FILE_KEYS) == {"shapes[].file", "environment.filename", "materials.NAME.PARAMETER.filename"}
     return table
 
 

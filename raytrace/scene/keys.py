@@ -140,7 +140,9 @@ TABLES = {
             default=False),
         Key("vertex_normals", "string", "smooth = true, a file without normals: area (area-weighted over the faces "
             "around each position: no seam where a file splits a vertex) or angle (angle-weighted over the faces "
-            "around each vertex of the file, as Mitsuba 3 computes them)", default="area", choices=("area", "angle"))],
+            "around each vertex of the file, as Mitsuba 3 computes them)", default="area", choices=("area", "angle")),
+        Key("flip_tex_coords", "boolean", "turn the file's texture coordinates upside down: v -> 1 - v (Mitsuba's "
+            "OBJ reader does by default)", default=False)],
     "generate": [Key("shape", "string", "the procedural mesh", choices=GENERATED_SHAPES),
                  Key("triangles", "integer", "about this many triangles", low=2, high=MAX_GENERATED_TRIANGLES,
                      also="within the memory there is")],

@@ -27,7 +27,8 @@ from .transform import AFFINE
 SAMPLER_PATTERNS = {"independent": "random", "stratified": "jittered", "multijitter": "jittered",
                     "orthogonal": "jittered", "ldsampler": "sobol"}
 SPECTRUM_PLUGINS = {"d65": ("scale", 1.0), "uniform": ("value", 1.0), "srgb": ("color", None)}  # their parameter
-FILE_KEYS = ("shapes[].file", "environment.filename")  # the scene table's keys that name files
+# the scene table's keys that name files
+FILE_KEYS = ("shapes[].file", "environment.filename", "materials.NAME.PARAMETER.filename")
 DEFAULT_DIFFUSE = 0.5  # the BSDF Mitsuba gives a shape that names none: diffuse, reflectance 0.5
 
 
@@ -66,8 +67,23 @@ def _bsdf_plugin(bsdf):
 _TRANSFORM = Param("to_world", "identity", "", "placement")
 PLUGINS = {
     **{bsdf.name: _bsdf_plugin(bsdf) for bsdf in bsdfs.DECLARED},
-    "twosided": Plugin("bsdf", "the BSDF inside on both sides (raytrace's BSDFs are two-sided: it unwraps it)",
-                       (Param("bsdf", None, "", "one BSDF (two different ones are not supported)"),)),
+    "twosided": Plugin("bsdf", "the BSDF inside on both sides (Mitsuba's other BSDFs but glass are black from "
+                       "behind: materials.NAME two_sided), or two: the front's and the back's", (
+                           Param("bsdf", None, "materials.NAME back", "one BSDF, or two: the second is the back's"),)),
+    "blendbsdf": Plugin("bsdf", "a blend of two BSDFs", (
+        Param("weight", None, 'materials.NAME type = "blendbsdf" weight', "a number or a texture"),
+        Param("bsdf", None, 'materials.NAME type = "blendbsdf" bsdfs', "two BSDFs, in order"))),
+    "mask": Plugin("bsdf", "a BSDF where opacity says, elsewhere light passing through (null)", (
+        Param("opacity", 0.5, 'materials.NAME type = "mask" opacity', "a number or a texture"),
+        Param("bsdf", None, 'materials.NAME type = "mask" bsdf', "one BSDF"))),
+    "bitmap": Plugin("texture", "an image texture", (
+        Param("filename", None, "texture filename"), Param("raw", False, "texture raw"),
+        Param("filter_type", "bilinear", "texture filter_type"), Param("wrap_mode", "repeat", "texture wrap_mode"),
+        Param("to_uv", "identity", "texture to_uv", "its 2D part (x, y and the translation)"),
+        Param("accel", True, "", "no effect"))),
+    "checkerboard": Plugin("texture", "two colours in alternate squares", (
+        Param("color0", 0.4, "texture color0", "a number or an rgb"), Param("color1", 0.2, "texture color1"),
+        Param("to_uv", "identity", "texture to_uv", "its 2D part (x, y and the translation)"))),
     "rectangle": Plugin("shape", "[-1, 1]^2 in the plane z = 0, normal +z, under to_world", (
         _TRANSFORM, Param("flip_normals", False, "shapes[] normal", "turns the front side"),
         Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "lights[]", "an area emitter"))),
@@ -75,12 +91,13 @@ PLUGINS = {
         Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
         _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
                           "false: smooth (smooth = true)"),
-        Param("flip_tex_coords", True, "", "no effect: raytrace's BSDFs take no texture from Mitsuba yet"),
+        Param("flip_tex_coords", True, 'shapes[] type = "mesh", from a file or generated flip_tex_coords'),
         Param("bsdf", "diffuse", "shapes[] material"),
         Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
         only_default=(("flip_normals", False),)),
     "ply": Plugin("shape", "a PLY mesh (ascii or binary)", (
         Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
+        Param("flip_tex_coords", False, 'shapes[] type = "mesh", from a file or generated flip_tex_coords'),
         _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
                           "false: smooth (smooth = true)"),
         Param("bsdf", "diffuse", "shapes[] material"),
@@ -548,46 +565,101 @@ class _Translator:
         self.origin("render.seed", node, key, "seed")
 
     # -- materials
-    def material(self, node, path, for_light=False):
-        """The name of raytrace's material for BSDF `node` (None: Mitsuba's default diffuse)."""
+    def material(self, node, path, two_sided=False, back=None, named=None):
+        """The name of raytrace's material for BSDF `node` (None: Mitsuba's default diffuse), seen from both sides
+        where `two_sided` (inside a twosided), with material `back` behind it (a twosided's second BSDF); named
+        after its id, or the id of the twosided around it (`named`)."""
         if node is None:
             name = "mitsuba_default"
-            self.table["materials"].setdefault(name, {"type": "diffuse", "colour": [DEFAULT_DIFFUSE] * 3})
+            self.table["materials"].setdefault(name, {"type": "diffuse", "colour": [DEFAULT_DIFFUSE] * 3,
+                                                      "two_sided": False})
             return name
         node = self.resolve(node, path)
-        if id(node) in self.materials:
-            return self.materials[id(node)]
+        if (id(node), two_sided, back) in self.materials:
+            return self.materials[id(node), two_sided, back]
         if self.category(node, path, node) != "bsdf":
             self.fail(self.where(node, path).at, path, node["type"], "must be a bsdf")
-        inner, inner_path, two_sided = node, path, False
-        while inner["type"] == "twosided":
-            wrapped = self.objects(self.params(inner, inner_path, "twosided"), inner_path, inner)
-            if len(wrapped) != 1:
-                self.unsupported(self.where(inner, inner_path).at, "twosided with two BSDFs",
-                                 "raytrace's BSDFs are the same on both sides")
-            if not wrapped or wrapped[0][2] != "bsdf":
-                self.fail(self.where(inner, inner_path).at, inner_path, len(wrapped), "twosided must wrap a bsdf")
-            inner_path, inner = wrapped[0][0], wrapped[0][1]
-            two_sided = True
-        name = node.get("id") if isinstance(node.get("id"), str) else f"bsdf_{len(self.table['materials'])}"
+        kind = node["type"]
+        params = self.params(node, path, kind)
+        nested = [(p, v) for p, v, category in self.objects(
+            {k: v for k, v in params.items() if _is_bsdf(self.resolve(v, path))}, path, node) if category == "bsdf"]
+        own_id = node.get("id") if isinstance(node.get("id"), str) else named
+        if kind == "twosided":
+            if len(nested) not in (1, 2):
+                self.fail(self.where(node, path).at, path, len(nested), "twosided must wrap one or two bsdfs")
+            behind = self.material(nested[1][1], nested[1][0], True) if len(nested) == 2 else None
+            name = self.material(nested[0][1], nested[0][0], True, behind if back is None else back, own_id)
+            self.materials[id(node), two_sided, back] = name
+            return name
+        name = own_id or f"bsdf_{len(self.table['materials'])}"
         while name in self.table["materials"]:
             name += "_"
-        kind = inner["type"]
-        if not two_sided and bsdfs.BY_NAME[kind].front_only:
-            self.warn(self.where(node, path).at, f"bsdf {kind} outside twosided", "raytrace's BSDFs reflect on both "
-                      "sides; Mitsuba's on the front only (the back is black)")
-        params = self.params(inner, inner_path, kind)
+        self.materials[id(node), two_sided, back] = name
         material = {"type": kind}
+        self.table["materials"][name] = material  # its name taken before the BSDFs inside take theirs
         prefix = f"materials.{name}"
 
         def put(key, value, param):
             material[key] = value
-            self.origin(f"{prefix}.{key}", inner, inner_path, param)
+            self.origin(f"{prefix}.{key}", node, path, param)
 
-        self.bsdf_values(bsdfs.BY_NAME[kind], params, inner, inner_path, put)
-        self.table["materials"][name] = material
-        self.materials[id(node)] = name
+        if kind in ("blendbsdf", "mask"):
+            wanted = 2 if kind == "blendbsdf" else 1
+            if len(nested) != wanted:
+                self.fail(self.where(node, path).at, path, len(nested), f"{kind} must wrap {wanted} bsdf"
+                          f"{'s' * (wanted > 1)}")
+            inner = [self.material(v, p, two_sided) for p, v in nested]
+            weight = "weight" if kind == "blendbsdf" else "opacity"
+            if kind == "blendbsdf" and weight not in params:
+                self.fail(self.where(node, path).at, f"{path}.weight", None, "missing (blendbsdf's weight)")
+            put(weight, self.float_or_texture(params.get(weight, 0.5), node, path, weight), weight)
+            if kind == "blendbsdf":
+                put("bsdfs", inner, "bsdf")
+            else:
+                put("bsdf", inner[0], "bsdf")
+        else:
+            self.bsdf_values(bsdfs.BY_NAME[kind], params, node, path, put)
+            if not two_sided and bsdfs.BY_NAME[kind].front_only:
+                material["two_sided"] = False
+        if back is not None:
+            material["back"] = back
         return name
+
+    def float_or_texture(self, value, node, path, param):
+        """A float parameter's value: a number, or a texture's table."""
+        value = self.resolve(value, path)
+        if isinstance(value, dict) and _type(value) in ("bitmap", "checkerboard"):
+            return self.texture(value, f"{path}.{param}")
+        return float(self.number(value, node, path, param))
+
+    def texture(self, node, path):
+        """The scene table's texture table (texture_lookups.py) of a Mitsuba bitmap or checkerboard: its to_uv's 2D
+        part composed with the flip of t (raytrace's t runs up the image, Mitsuba's down it)."""
+        kind = node["type"]
+        params = self.params(node, path, kind)
+        table = {"type": kind}
+        if "to_uv" in params:
+            m = self.matrix(params["to_uv"], node, path, "to_uv")
+            table["to_uv"] = [[m[0, 0], m[0, 1], m[0, 3]], [-m[1, 0], -m[1, 1], 1.0 - m[1, 3]]]
+        else:
+            table["to_uv"] = [[1.0, 0.0, 0.0], [0.0, -1.0, 1.0]]
+        if kind == "bitmap":
+            table["filename"] = self.path(self.string(params.get("filename"), node, path, "filename"))
+            table["raw"] = self.boolean(params.get("raw", False), node, path, "raw")
+            table["filter_type"] = self.string(params.get("filter_type", "bilinear"), node, path, "filter_type",
+                                               ("nearest", "bilinear"))
+            table["wrap_mode"] = self.string(params.get("wrap_mode", "repeat"), node, path, "wrap_mode",
+                                             ("repeat", "mirror", "clamp"))
+            if "accel" in params:
+                self.boolean(params["accel"], node, path, "accel")
+        else:
+            for key, default in (("color0", 0.4), ("color1", 0.2)):
+                value = self.resolve(params.get(key, default), path)
+                if isinstance(value, dict) and _type(value) in ("bitmap", "checkerboard"):
+                    self.unsupported(self.where(value, path).at, "a texture inside a checkerboard",
+                                     "its colours must be numbers or rgb values")
+                table[key] = self.colour(value, node, path, key)
+        return table
 
     def bsdf_values(self, bsdf, params, node, path, put):
         """The scene table's values of a BSDF's Mitsuba parameters, as its declaration (bsdfs.py) names them: each
@@ -595,12 +667,23 @@ class _Translator:
         and resolves them as a TOML file's (named media and metals, Mitsuba's rules between alpha, alpha_u and
         alpha_v, and between eta, k and material)."""
         colours = [p for p in bsdf.parameters if p.fields == ("colour",)]
+        textured = [p for p in bsdf.parameters if p.name in params and _type(self.resolve(params[p.name], path)) in (
+            "bitmap", "checkerboard")]
+        for p in textured:
+            if p.key is None or bsdfs.texture_slot(bsdf, p.key.name) is None:
+                self.fail(self.where(node, path).of(p.name), f"{path}.{p.name}", params[p.name]["type"],
+                          f"raytrace's {bsdf.name} takes a value here, not a texture")
+            put(p.table_key, self.texture(self.resolve(params[p.name], path), f"{path}.{p.name}"), p.name)
+        original, params = params, {k: v for k, v in params.items() if k not in {p.name for p in textured}}
+        if any(p.fields == ("colour",) for p in textured):
+            colours = []
         values = [self.colour(params.get(p.name, p.mitsuba_default), node, path, p.name) for p in colours]
         if any(value != values[0] for value in values[1:]):
             self.unsupported(self.where(node, path).of(colours[-1].name), f"{bsdf.name} transmittance unlike its "
                              "reflectance", "raytrace's glass has one colour for both")
-        put("colour", values[0] or self.colour(colours[0].mitsuba_default, node, path, colours[0].name),
-            colours[0].name)
+        if colours:
+            put("colour", values[0] or self.colour(colours[0].mitsuba_default, node, path, colours[0].name),
+                colours[0].name)
         if "material" in params or "eta" in params or "k" in params:
             self.string(params.get("material", "none"), node, path, "material")
             if "eta" in params or "k" in params:  # Mitsuba's defaults of either, given the other: eta 0, k 1
@@ -609,11 +692,11 @@ class _Translator:
         for p in bsdf.parameters:
             if p.key is None and isinstance(p.mitsuba_default, bool) and p.name in params:  # sample_visible
                 self.boolean(params[p.name], node, path, p.name)
-            if p.key is None or p.fields == ("colour",) or p.name in ("eta", "k"):
+            if p.key is None or p.fields == ("colour",) or p.name in ("eta", "k") or p in textured:
                 continue
             if p.name not in params:
                 if p.key.default is None or p.name == "material" or (
-                        p.name == "alpha" and ("alpha_u" in params or "alpha_v" in params)):
+                        p.name == "alpha" and ("alpha_u" in original or "alpha_v" in original)):
                     continue  # none given: the scene file's default is Mitsuba's
                 value = p.mitsuba_default
             else:
@@ -665,8 +748,9 @@ class _Translator:
         elif name in ("obj", "ply"):
             filename = self.string(params.get("filename"), node, key, "filename")
             smooth = not params.get("face_normals", False)
+            flip = self.boolean(params.get("flip_tex_coords", name == "obj"), node, key, "flip_tex_coords")
             shape = {"type": "mesh", "file": self.path(filename), "matrix": m.tolist(), "smooth": smooth,
-                     **({"vertex_normals": "angle"} if smooth else {})}
+                     **({"vertex_normals": "angle"} if smooth else {}), **({"flip_tex_coords": True} if flip else {})}
             self.origin(f"{prefix}.file", node, key, "filename")
             self.origin(f"{prefix}.matrix", node, key, "to_world")
         else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius
@@ -679,7 +763,9 @@ class _Translator:
                                  "a sphere's to_world must be a rotation, a uniform scale and a translation (as "
                                  "Mitsuba's sphere takes it)")
                 return
-            axes = (m[:3, :3] * radius).T
+            # the axes negated: the same sphere, whose (u, v) are then Mitsuba's (phi / 2 pi, theta / pi), theta
+            # from the pole +z, where an ellipsoid's own are (phi / 2 pi + 1/2, 1 - theta / pi)
+            axes = -(m[:3, :3] * radius).T
             shape = {"type": "ellipsoid", "center": (m[:3, :3] @ center + m[:3, 3]).tolist(), "axes": axes.tolist()}
             self.origin(f"{prefix}.center", node, key, "center")
             self.origin(f"{prefix}.axes", node, key, "radius")
@@ -815,6 +901,14 @@ def _type(value):
     hold anything there)."""
     kind = value.get("type") if isinstance(value, dict) else None
     return kind if isinstance(kind, str) else None
+
+
+def _is_bsdf(value):
+    """Whether a plugin's parameter is a BSDF nested in it (known, or given in a <bsdf> tag)."""
+    if not _is_object(value) or not isinstance(value.get("type"), str):
+        return False
+    tag = value[WHERE].tag if isinstance(value.get(WHERE), Where) else ""
+    return tag == "bsdf" or (value["type"] in PLUGINS and PLUGINS[value["type"]].category == "bsdf")
 
 
 def _is_object(value):

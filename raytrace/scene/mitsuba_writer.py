@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import InputError
 from . import bsdfs
+from .model import WRAPPERS
 from .mitsuba import view_depths
 from .transform import mesh_matrix
 
@@ -207,6 +208,14 @@ class _Writer:
                 table = ((self.scene.source or {}).get("materials") or {}).get(material.name) or {}
                 self.fail(f"materials.{material.name}.{key}", table.get(key, getattr(material, field)),
                           "a material's texture maps are not written as Mitsuba 3 XML yet")
+        table = ((self.scene.source or {}).get("materials") or {}).get(material.name) or {}
+        textured = next((k for k, v in table.items() if isinstance(v, dict)), "maps")
+        for given, key, value in ((material.bsdf in WRAPPERS, "type", material.bsdf),
+                                  (material.maps, textured, table.get(textured, "a texture")),
+                                  (material.back >= 0, "back", table.get("back", material.back))):
+            if given:
+                self.fail(f"materials.{material.name}.{key}", value, "blends, masks, textured parameters and back "
+                          "sides are not written as Mitsuba 3 XML yet")
 
     def unique_id(self, name):
         taken = set(self.ids.values()) | {self.black}
@@ -221,7 +230,7 @@ class _Writer:
         if self.ids[index] != name:
             root.append(_comment(f"material {name!r}"))
         declared = bsdfs.BY_NAME[material.bsdf]
-        if declared.front_only:  # raytrace's BSDFs scatter on both sides
+        if declared.front_only and material.two_sided:  # Mitsuba's are black from behind
             bsdf = ET.SubElement(ET.SubElement(root, "bsdf", type="twosided", id=self.ids[index]), "bsdf",
                                  type=material.bsdf)
         else:

@@ -326,7 +326,10 @@ def _mesh_shape(r, material):
                    else computed(vertices, faces))
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-    return MeshShape(meshes.Mesh(vertices, faces, normals, mesh.uvs), material, bool(smooth), dropped + collapsed,
+    uvs = mesh.uvs
+    if r.boolean("flip_tex_coords") and uvs is not None:  # Mitsuba's OBJ default: v -> 1 - v
+        uvs = np.column_stack([uvs[:, 0], 1.0 - uvs[:, 1]])
+    return MeshShape(meshes.Mesh(vertices, faces, normals, uvs), material, bool(smooth), dropped + collapsed,
                      source)
 
 
