@@ -77,7 +77,25 @@ typedef struct {
         }                                                                                                   \
     }
 
-inline vec3 bsdf_eval_pdf(ShadingPoint sp, vec3 wo, vec3 wi, vint active, vfloat *pdf)
+#if HAS_PERTURBED_NORMALS
+/* What Mitsuba 3's normalmap and bumpmap wrappers add to the BSDF of their perturbed normal sp.n (material.cl's
+ * perturb_normal), at the light's direction wi: nothing where wi lies on different sides of the shading normal
+ * sp.n0 and of sp.n, and the microfacet shadowing term of Estevez et al. (Ray Tracing Gems, 2019, chapter 12),
+ * which darkens the light past the tilted normal's terminator smoothly: G = 2 / (1 + sqrt(1 + alpha^2 tan^2
+ * theta_i)), alpha^2 = min(tan^2 theta_n / 8, 1), both angles from sp.n0. 1 on unperturbed lanes. */
+inline vfloat perturbed_factor(ShadingPoint sp, vec3 wi)
+{
+    vfloat cos_n = v3_dot(sp.n, sp.n0), cos_i = v3_dot(wi, sp.n0);
+    vfloat cos_n2 = cos_n * cos_n, cos_i2 = cos_i * cos_i;
+    vfloat alpha2 = vmin(0.125f * vmax(1.0f - cos_n2, 0.0f) / cos_n2, 1.0f);
+    vfloat g = 2.0f / (1.0f + sqrt(1.0f + alpha2 * vmax(1.0f - cos_i2, 0.0f) / cos_i2));
+    g = SELECT((vfloat)(0.0f), g, cos_i * v3_dot(wi, sp.n) > 0.0f);
+    return SELECT((vfloat)(1.0f), g, sp.perturbed);
+}
+#endif
+
+/* the value and density of the BSDF's lobes: bsdf_eval_pdf but for a perturbed normal's factor */
+inline vec3 lobes_eval_pdf(ShadingPoint sp, vec3 wo, vec3 wi, vint active, vfloat *pdf)
 {
 #if !HAS_BSDF_PARAMETERS
     return diffuse_eval(sp, wo, wi, pdf);
@@ -100,6 +118,17 @@ inline vec3 bsdf_eval_pdf(ShadingPoint sp, vec3 wo, vec3 wi, vint active, vfloat
     /* the delta BSDFs' (bsdf_is_delta) eval is 0: conductor_eval, dielectric_eval, thindielectric_eval */
     return f;
 #endif
+}
+
+inline vec3 bsdf_eval_pdf(ShadingPoint sp, vec3 wo, vec3 wi, vint active, vfloat *pdf)
+{
+    vec3 f = lobes_eval_pdf(sp, wo, wi, active, pdf);
+#if HAS_PERTURBED_NORMALS
+    vfloat g = perturbed_factor(sp, wi);
+    *pdf = SELECT(*pdf, (vfloat)(0.0f), g == 0.0f);
+    f = v3_scale(f, g);
+#endif
+    return f;
 }
 
 inline vec3 bsdf_eval(ShadingPoint sp, vec3 wo, vec3 wi, vint active)
@@ -129,7 +158,8 @@ inline vfloat bsdf_pdf(ShadingPoint sp, vec3 wo, vec3 wi, vint active)
         }                                                                                                   \
     }
 
-inline BSDFSample bsdf_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2, vint active)
+/* a sample of the BSDF's lobes: bsdf_sample but for a perturbed normal's factor */
+inline BSDFSample lobes_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2, vint active)
 {
 #if !HAS_BSDF_PARAMETERS
     return diffuse_sample(sp, wo, u1, u2);
@@ -162,6 +192,17 @@ inline BSDFSample bsdf_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2, vint
 #endif
     return bs;
 #endif
+}
+
+inline BSDFSample bsdf_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2, vint active)
+{
+    BSDFSample bs = lobes_sample(sp, wo, u1, u2, active);
+#if HAS_PERTURBED_NORMALS
+    vfloat g = perturbed_factor(sp, bs.wi);
+    bs.weight = v3_scale(bs.weight, g);
+    bs.pdf = SELECT(bs.pdf, (vfloat)(0.0f), g == 0.0f);
+#endif
+    return bs;
 }
 
 inline vint bsdf_is_delta(ShadingPoint sp)

@@ -44,4 +44,37 @@ inline vec3 lookup_value(TextureStore ts, int l, vec2 uv, UVDerivatives duv, int
     return c;
 }
 
+/* The gradient (dh/du, dh/dv) of lookup l's value h (its luminance) at uv, as Mitsuba's eval_1_grad: the
+ * derivative of the bilinear interpolation between the four texels around st on the finest level, through to_uv
+ * by the chain rule; 0 for a nearest lookup and a checkerboard (constant almost everywhere). Mitsuba scales its
+ * (dh/ds, dh/dt) by the resolution after to_uv's transpose rather than before: the same for square images or a
+ * to_uv without rotation. */
+inline vec2 lookup_gradient(TextureStore ts, int l, vec2 uv)
+{
+    __global const TextureLookup *t = &ts.lookups[l];
+    __global const float *m = t->to_uv;
+    vec2 zero = {(vfloat)(0.0f), (vfloat)(0.0f)};
+    if (t->kind != LOOKUP_BITMAP || t->filter == FILTER_NEAREST)
+        return zero;
+    Levels level = mip_levels(ts, t->texture, (vint)(0));
+    int encoding = ts.textures[t->texture].encoding;
+    vfloat w = CONVERT_VFLOAT(level.width), hgt = CONVERT_VFLOAT(level.height);
+    vec2 st = {MAD(uv.x, m[0], MAD(uv.y, m[1], m[2])), MAD(uv.x, m[3], MAD(uv.y, m[4], m[5]))};
+    vfloat x = reduce_coordinate(st.x * w - 0.5f, level.width, t->wrap);
+    vfloat y = reduce_coordinate(st.y * hgt - 0.5f, level.height, t->wrap);
+    vfloat fx = vfloor(x), fy = vfloor(y);
+    vfloat wx = x - fx, wy = y - fy;
+    vint ix = CONVERT_VINT(fx), iy = CONVERT_VINT(fy);
+    vint i0 = wrap_index(ix, level.width, t->wrap), i1 = wrap_index(ix + 1, level.width, t->wrap);
+    vint j0 = wrap_index(iy, level.height, t->wrap), j1 = wrap_index(iy + 1, level.height, t->wrap);
+    vfloat f00 = luminance(texel_fetch(ts, encoding, level, i0, j0));
+    vfloat f10 = luminance(texel_fetch(ts, encoding, level, i1, j0));
+    vfloat f01 = luminance(texel_fetch(ts, encoding, level, i0, j1));
+    vfloat f11 = luminance(texel_fetch(ts, encoding, level, i1, j1));
+    vfloat ds = w * MAD(1.0f - wy, f10 - f00, wy * (f11 - f01)); /* dh/ds, dh/dt */
+    vfloat dt = hgt * MAD(1.0f - wx, f01 - f00, wx * (f11 - f10));
+    vec2 g = {MAD(m[0], ds, m[3] * dt), MAD(m[1], ds, m[4] * dt)};
+    return g;
+}
+
 #endif

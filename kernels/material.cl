@@ -51,6 +51,10 @@ typedef struct {
 #if HAS_BACKFACES
     vint backface;     /* the hit is on the side the normal points away from (inside a closed shape) */
 #endif
+#if HAS_PERTURBED_NORMALS /* Mitsuba's normalmap and bumpmap (bsdf.cl's perturbed_factor) */
+    vec3 n0;           /* the shading normal before the map, on the side of ng */
+    vint perturbed;    /* n is the map's */
+#endif
 } ShadingPoint;
 
 #if HAS_TEXTURES
@@ -115,8 +119,8 @@ inline int is_textured(__global const Material *m)
 {
     int textured = m->colour_map >= 0 || m->normal_map >= 0 || m->height_map >= 0;
 #if HAS_LOOKUPS
-    for (int slot = MAP_COLOUR; slot <= MAP_ALPHA_V; ++slot)
-        textured |= m->maps[slot] >= 0;
+    for (int slot = 0; slot < MAPS; ++slot)
+        textured |= slot != MAP_WEIGHT && m->maps[slot] >= 0; /* (a blend's, resolved before) */
 #endif
     return textured;
 }
@@ -209,9 +213,52 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
  * textured roughness is kept within [1e-3, 1], the range of the constant one (raytrace/scene/bsdfs.py; below
  * 1e-3 the host renders a constant roughness with the smooth BSDF, packing.SMOOTH_ALPHA): an image's 0 would be
  * a delta density, which the microfacet terms cannot evaluate, and values above 1 were never tested. */
-inline void lookup_material(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
-                            vint mask, ShadingPoint *sp)
+#if HAS_PERTURBED_NORMALS
+/* Material m's normalmap or bumpmap on the lanes of `mask`, as Mitsuba 3's wrappers perturb the shading frame
+ * (src/bsdfs/normalmap.cpp, bumpmap.cpp): the frame (s, t, n0) of the shading normal n0, facing the shape's
+ * outside, and s along dp/du made orthogonal to it; a normal map's rgb is (x, y, z) / 2 + 1/2 in that frame; a
+ * bump map's gradient g (times bump_scale) tilts dp/du and dp/dv out of the tangent plane, dp/du + n0 (g.x -
+ * n0.dp/du), and the normal is their cross product, on the geometric normal's side. Where the viewer wo would
+ * lie on different sides of n0 and of the perturbed normal, its tangential part is mirrored (Mitsuba's
+ * flip_invalid_normals). sp->n becomes the perturbed normal, on sp->n0's side of the viewer; sp->n0 keeps the
+ * shading normal for bsdf.cl's side condition and shadow terminator. */
+inline void perturb_normal(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
+                           vint mask, vec3 wo, ShadingPoint *sp)
 {
+    vec3 outside = v3(h->surface.n.x, h->surface.n.y, h->surface.n.z);
+    vfloat side = SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(sp->n, outside) < 0.0f);
+    vec3 n0 = v3_scale(sp->n, side); /* the shading normal, facing out */
+    vec3 dpdu = h->surface.dpdu, dpdv = h->surface.dpdv, n;
+    if (m->maps[MAP_NORMAL] >= 0) {
+        vec3 c = lookup_value(ts, m->maps[MAP_NORMAL], h->surface.uv, h->duv, filter);
+        vec3 s = v3_unit_or(v3_sub(dpdu, v3_scale(n0, v3_dot(n0, dpdu))), any_perpendicular(n0));
+        vec3 t = v3_cross(n0, s);
+        n = v3_scale(s, MAD(c.x, 2.0f, -1.0f));
+        n = v3_madd(n, MAD(c.y, 2.0f, -1.0f), t);
+        n = v3_unit_or(v3_madd(n, MAD(c.z, 2.0f, -1.0f), n0), n0);
+    } else {
+        vec2 g = lookup_gradient(ts, m->maps[MAP_BUMP], h->surface.uv);
+        vec3 du = v3_madd(dpdu, m->bump_scale * g.x - v3_dot(n0, dpdu), n0);
+        vec3 dv = v3_madd(dpdv, m->bump_scale * g.y - v3_dot(n0, dpdv), n0);
+        n = v3_unit_or(v3_cross(du, dv), n0);
+        n = v3_scale(n, SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, outside) < 0.0f));
+    }
+    vfloat cos_n = v3_dot(n, n0);
+    vec3 mirrored = v3_sub(v3_scale(n0, 2.0f * cos_n), n);
+    n = v3_select(n, mirrored, v3_dot(wo, n0) * v3_dot(wo, n) <= 0.0f);
+    sp->n0 = v3_select(sp->n0, sp->n, mask);
+    sp->n = v3_select(sp->n, v3_scale(n, side), mask);
+    sp->perturbed = SELECT(sp->perturbed, (vint)(-1), mask);
+}
+#endif
+
+inline void lookup_material(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
+                            vint mask, vec3 wo, ShadingPoint *sp)
+{
+#if HAS_PERTURBED_NORMALS
+    if (m->maps[MAP_NORMAL] >= 0 || m->maps[MAP_BUMP] >= 0)
+        perturb_normal(ts, m, filter, h, mask, wo, sp);
+#endif
     if (m->maps[MAP_COLOUR] >= 0)
         sp->k = v3_select(sp->k, lookup_value(ts, m->maps[MAP_COLOUR], h->surface.uv, h->duv, filter), mask);
 #if HAS_COATS
@@ -329,6 +376,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_BACKFACES
     sp.backface = hit.backface;
 #endif
+#if HAS_PERTURBED_NORMALS
+    sp.perturbed = (vint)(0);
+#endif
 #if HAS_SMOOTH_NORMALS /* the hits' shapes and barycentrics, for interpolating normals per lane */
     int kind[LANES], index[LANES];
     float b1[LANES], b2[LANES];
@@ -407,6 +457,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_SMOOTH_NORMALS
     sp.n = v3_fill(&n);
 #endif
+#if HAS_PERTURBED_NORMALS
+    sp.n0 = sp.n;
+#endif
 #if HAS_TEXTURES
     if (!any_textured)
         return with_tangent(s, hit, sp);
@@ -422,7 +475,8 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         texture_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i], sp.ng,
                          &sp.k, &sp.n, &sp.p, &sp.err);
 #if HAS_LOOKUPS
-        lookup_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i], &sp);
+        lookup_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i],
+                        v3_scale(r.d, -1.0f), &sp);
 #endif
     }
 #endif

@@ -79,6 +79,8 @@ typedef struct {
 #define MAP_ALPHA 2    /* the rough BSDFs' alpha (alpha_u) */
 #define MAP_ALPHA_V 3  /* their alpha_v */
 #define MAP_WEIGHT 4   /* a blend's weight: blendbsdf's weight, mask's opacity */
+#define MAP_NORMAL 5   /* Mitsuba's normalmap: a tangent-space normal, rgb = (n + 1) / 2 */
+#define MAP_BUMP 6     /* Mitsuba's bumpmap: a height field, whose gradient tilts the normal (times bump_scale) */
 
 /* How a textured parameter finds its value at a surface point (Mitsuba's texture plugins; lookups.cl). */
 #define LOOKUP_BITMAP 0       /* an image, filtered */
@@ -120,6 +122,7 @@ typedef struct {
                                       * BSDFs), or -1: black (Mitsuba's one-sided BSDFs) */
     int blend[2];                    /* BSDF_BLEND: the materials it mixes (wrappers.cl) */
     float weight;                    /* BSDF_BLEND: the second one's share, unless maps[MAP_WEIGHT] */
+    float bump_scale;                /* maps[MAP_BUMP]: scene units of relief per unit of the height field */
 } Material;
 
 /* The path model's BSDFs, one file each in kernels/bsdfs/ (bsdf.cl), numbered as raytrace/scene/model.py's BSDFS. */

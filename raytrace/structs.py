@@ -38,10 +38,10 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
                      ("alpha", "<f4"), ("alpha_v", "<f4"), ("distribution", "<i4"), ("specular", *VEC3F),
                      ("nonlinear", "<i4"), ("internal_reflectance", "<f4"), ("specular_weight", "<f4"),
                      ("transmittance", "<f4", (ROUGH_TRANSMITTANCE_RES,)), ("maps", "<i4", (MAPS,)),
-                     ("back", "<i4"), ("blend", "<i4", (2,)), ("weight", "<f4")])
+                     ("back", "<i4"), ("blend", "<i4", (2,)), ("weight", "<f4"), ("bump_scale", "<f4")])
 
 # kernels/types.h: MAP_* (Material.maps), LOOKUP_*
-MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4}
+MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4, "normal": 5, "bump": 6}
 LOOKUPS = {"bitmap": 0, "checkerboard": 1}
 TEXTURE_LOOKUP = np.dtype([("kind", "<i4"), ("texture", "<i4"), ("wrap", "<i4"), ("filter", "<i4"),
                            ("luminance", "<i4"), ("to_uv", "<f4", (6,)), ("colour0", *VEC3F), ("colour1", *VEC3F)])

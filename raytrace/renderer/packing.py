@@ -9,7 +9,7 @@ from .. import samplers, structs
 from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
-from ..scene import bsdfs, plastic_terms, rough_transmittance
+from ..scene import bsdfs, plastic_terms, rough_transmittance, texture_lookups
 from ..scene.model import WRAPPERS, Material
 from .culling import light_sides
 from .geometry import DEFAULT_UV
@@ -141,10 +141,6 @@ def packed_bsdf(material):
     return material.bsdf
 
 
-# kernels/types.h's MAP_* of the parameters whose value is a float (a lookup's luminance)
-FLOAT_SLOTS = ("alpha", "alpha_v", "weight")
-
-
 def material_table(materials):
     """The kernel's material table of the model's materials: each one in its place, then one `null` material where
     any is a `mask` (kernels/wrappers.cl resolves a mask as a blend of null and the masked material)."""
@@ -162,7 +158,7 @@ def lookup_structs(materials):
         for slot, lookup in m.maps:
             a, b, c, d, e, f = lookup.to_uv
             table.append((structs.LOOKUPS[lookup.kind], lookup.texture, structs.WRAP_MODES[lookup.wrap],
-                          -1 if lookup.filter is None else structs.FILTERS[lookup.filter], slot in FLOAT_SLOTS,
+                          -1 if lookup.filter is None else structs.FILTERS[lookup.filter], slot in texture_lookups.FLOAT_SLOTS,
                           (a, b, c, -d, -e, 1.0 - f), lookup.colour0, lookup.colour1))
             slots[structs.MAP_SLOTS[slot]] = len(table) - 1
         maps.append(slots)
@@ -174,7 +170,7 @@ def material_structs(materials):
     a = np.zeros(len(materials), structs.MATERIAL)
     null = len(materials) - 1
     for i, (s, m, maps) in enumerate(zip(a, materials, lookup_structs(materials)[1])):
-        s["maps"] = maps
+        s["maps"], s["bump_scale"] = maps, m.bump_scale
         s["back"] = m.back if m.back >= 0 else i if m.two_sided else -1
         if m.bsdf in WRAPPERS:
             s["bsdf"], s["weight"] = structs.BSDF_BLEND, m.weight

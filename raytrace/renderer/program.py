@@ -57,6 +57,7 @@ class Features:
     lookups: bool = False          # textured BSDF parameters (a material's maps: kernels/lookups.cl)
     wrappers: bool = False         # blendbsdf, mask, or a back side other than the front (kernels/wrappers.cl)
     nulls: bool = False            # a mask's null BSDF (type = "null", or a mask)
+    perturbed_normals: bool = False  # Mitsuba's normalmap or bumpmap (a material's maps normal, bump)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -87,7 +88,8 @@ class Features:
                                    m.maps).get("alpha") != dict(m.maps).get("alpha_v")) for m in scene.materials),
                    lookups=any(m.maps for m in scene.materials),
                    wrappers=any(m.bsdf in WRAPPERS or m.back >= 0 or not m.two_sided for m in scene.materials),
-                   nulls=any(m.bsdf in ("mask", "null") for m in scene.materials))
+                   nulls=any(m.bsdf in ("mask", "null") for m in scene.materials),
+                   perturbed_normals=any(slot in ("normal", "bump") for m in scene.materials for slot, _ in m.maps))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -98,7 +100,8 @@ class Features:
                  "ENVIRONMENT_MAP": self.environment_map, "THIN_DIELECTRICS": self.thin_dielectrics,
                  "ROUGH_DIELECTRICS": self.rough_dielectrics, "PLASTICS": self.plastics,
                  "ROUGH_PLASTICS": self.rough_plastics, "BECKMANN": self.beckmann, "ANISOTROPIC": self.anisotropic,
-                 "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls}
+                 "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
+                 "PERTURBED_NORMALS": self.perturbed_normals}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

@@ -113,7 +113,14 @@ TABLES = {
         Key("two_sided", "boolean", "scatter light on both sides; false: black from behind (Mitsuba's BSDFs outside "
             "twosided)", default=True, also="false only for a type that reflects only"),
         Key("back", "string", "the material of the back side (Mitsuba's twosided of two BSDFs)", default=None,
-            also="a defined, two-sided material without a back of its own")],
+            also="a defined, two-sided material without a back of its own"),
+        Key("normalmap", "table", "Mitsuba's normalmap: a texture of tangent-space normals, rgb = (n + 1) / 2 "
+            "(give raw = true), tilting the BSDF's shading normal", default=None,
+            also="not with bumpmap, normal_map or height_map"),
+        Key("bumpmap", "table", "Mitsuba's bumpmap: a texture of heights whose gradient tilts the BSDF's shading "
+            "normal", default=None, also="not with normalmap, normal_map or height_map"),
+        Key("bump_scale", "number", "a bumpmap's scene units of relief per unit of its heights (Mitsuba's scale)",
+            default=1.0, low=0, open_low=True)],
     "texture": texture_lookups.KEYS,  # a textured parameter's table (texture_lookups.py)
     **bsdfs.key_tables(),  # each BSDF's own keys ('materials.NAME type = "diffuse"', ...), declared in bsdfs.py
     "shapes[]": [Key("type", "string", "the kind of shape", choices=SHAPE_KINDS),

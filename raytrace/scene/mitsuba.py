@@ -76,6 +76,15 @@ PLUGINS = {
     "mask": Plugin("bsdf", "a BSDF where opacity says, elsewhere light passing through (null)", (
         Param("opacity", 0.5, 'materials.NAME type = "mask" opacity', "a number or a texture"),
         Param("bsdf", None, 'materials.NAME type = "mask" bsdf', "one BSDF"))),
+    "normalmap": Plugin("bsdf", "a BSDF whose shading normal a texture of normals tilts", (
+        Param("normalmap", None, "materials.NAME normalmap", "a texture, raw"),
+        Param("bsdf", None, "materials.NAME normalmap", "one BSDF: each material inside takes the map")),
+        only_default=(("flip_invalid_normals", True), ("use_shadowing_function", True))),
+    "bumpmap": Plugin("bsdf", "a BSDF whose shading normal the gradient of a texture of heights tilts", (
+        Param("scale", 1.0, "materials.NAME bump_scale"),
+        Param("texture", None, "materials.NAME bumpmap", "one texture, of any name"),
+        Param("bsdf", None, "materials.NAME bumpmap", "one BSDF: each material inside takes the map")),
+        only_default=(("flip_invalid_normals", True), ("use_shadowing_function", True))),
     "bitmap": Plugin("texture", "an image texture", (
         Param("filename", None, "texture filename"), Param("raw", False, "texture raw"),
         Param("filter_type", "bilinear", "texture filter_type"), Param("wrap_mode", "repeat", "texture wrap_mode"),
@@ -565,18 +574,20 @@ class _Translator:
         self.origin("render.seed", node, key, "seed")
 
     # -- materials
-    def material(self, node, path, two_sided=False, back=None, named=None):
+    def material(self, node, path, two_sided=False, back=None, named=None, perturb=None):
         """The name of raytrace's material for BSDF `node` (None: Mitsuba's default diffuse), seen from both sides
         where `two_sided` (inside a twosided), with material `back` behind it (a twosided's second BSDF); named
-        after its id, or the id of the twosided around it (`named`)."""
+        after its id, or the id of the twosided around it (`named`); `perturb`: a normalmap's or bumpmap's (its
+        node, its key and texture table, its scale) around it, which each BSDF inside takes."""
         if node is None:
             name = "mitsuba_default"
             self.table["materials"].setdefault(name, {"type": "diffuse", "colour": [DEFAULT_DIFFUSE] * 3,
                                                       "two_sided": False})
             return name
         node = self.resolve(node, path)
-        if (id(node), two_sided, back) in self.materials:
-            return self.materials[id(node), two_sided, back]
+        cached = (id(node), two_sided, back, perturb and id(perturb[0]))
+        if cached in self.materials:
+            return self.materials[cached]
         if self.category(node, path, node) != "bsdf":
             self.fail(self.where(node, path).at, path, node["type"], "must be a bsdf")
         kind = node["type"]
@@ -587,14 +598,31 @@ class _Translator:
         if kind == "twosided":
             if len(nested) not in (1, 2):
                 self.fail(self.where(node, path).at, path, len(nested), "twosided must wrap one or two bsdfs")
-            behind = self.material(nested[1][1], nested[1][0], True) if len(nested) == 2 else None
-            name = self.material(nested[0][1], nested[0][0], True, behind if back is None else back, own_id)
-            self.materials[id(node), two_sided, back] = name
+            behind = self.material(nested[1][1], nested[1][0], True, None, None, perturb) if len(nested) == 2 else None
+            name = self.material(nested[0][1], nested[0][0], True, behind if back is None else back, own_id, perturb)
+            self.materials[cached] = name
+            return name
+        if kind in ("normalmap", "bumpmap"):
+            if len(nested) != 1:
+                self.fail(self.where(node, path).at, path, len(nested), f"{kind} must wrap one bsdf")
+            textures = [(p, v) for p, v, category in self.objects(
+                {k: v for k, v in params.items() if not _is_bsdf(self.resolve(v, path))}, path, node)
+                if category == "texture"]
+            if len(textures) != 1 or (kind == "normalmap" and "normalmap" not in params):
+                self.fail(self.where(node, path).at, path, len(textures), f"{kind} takes one texture"
+                          + (" named normalmap" if kind == "normalmap" else ""))
+            if perturb is not None:
+                self.unsupported(self.where(node, path).at, f"{kind} inside {perturb[1]}",
+                                 "one map tilts a material's normal")
+            scale = float(self.number(params.get("scale", 1.0), node, path, "scale"))
+            inner = (node, kind, self.texture(textures[0][1], textures[0][0]), scale)
+            name = self.material(nested[0][1], nested[0][0], two_sided, back, own_id, inner)
+            self.materials[cached] = name
             return name
         name = own_id or f"bsdf_{len(self.table['materials'])}"
         while name in self.table["materials"]:
             name += "_"
-        self.materials[id(node), two_sided, back] = name
+        self.materials[cached] = name
         material = {"type": kind}
         self.table["materials"][name] = material  # its name taken before the BSDFs inside take theirs
         prefix = f"materials.{name}"
@@ -608,7 +636,7 @@ class _Translator:
             if len(nested) != wanted:
                 self.fail(self.where(node, path).at, path, len(nested), f"{kind} must wrap {wanted} bsdf"
                           f"{'s' * (wanted > 1)}")
-            inner = [self.material(v, p, two_sided) for p, v in nested]
+            inner = [self.material(v, p, two_sided, None, None, perturb) for p, v in nested]
             weight = "weight" if kind == "blendbsdf" else "opacity"
             if kind == "blendbsdf" and weight not in params:
                 self.fail(self.where(node, path).at, f"{path}.weight", None, "missing (blendbsdf's weight)")
@@ -621,6 +649,11 @@ class _Translator:
             self.bsdf_values(bsdfs.BY_NAME[kind], params, node, path, put)
             if not two_sided and bsdfs.BY_NAME[kind].front_only:
                 material["two_sided"] = False
+            if perturb is not None:
+                wrapper, key, texture, scale = perturb
+                put(key, texture, key if key == "normalmap" else "texture")
+                if key == "bumpmap":
+                    put("bump_scale", scale, "scale")
         if back is not None:
             material["back"] = back
         return name

@@ -115,13 +115,14 @@ class Material:
     specular: tuple = (1.0, 1.0, 1.0)    # plastic, roughplastic: the coat's specular_reflectance (colour: the
     nonlinear: bool = False              # base's diffuse_reflectance); nonlinear: Mitsuba's colour shift
     maps: tuple = ()                     # (parameter, TextureLookup) of its textured parameters: colour, specular,
-                                         # alpha, alpha_v, weight (kernels/types.h's MAP_*)
+                                         # alpha, alpha_v, weight, normal (normalmap), bump (bumpmap); MAP_*
     two_sided: bool = True               # scatters on both sides; False: black from behind (Mitsuba's one-sided
                                          # BSDFs outside twosided)
     back: int = -1                       # the material of its back side (Mitsuba's twosided of two BSDFs), -1: its
                                          # own (two_sided) or black
     blend: tuple = ()                    # blendbsdf: the two materials it mixes; mask: the one it masks
     weight: float = 0.5                  # blendbsdf: the second one's share; mask: the opacity
+    bump_scale: float = 1.0              # a bump map's (maps' "bump") scene units of relief per unit of height
 
 
 @dataclass(frozen=True)

@@ -433,7 +433,12 @@ def _material(r, name, textures, names):
     return Material(name, r.vector("colour") if colour is None else colour, r.number("shininess"),
                     course.get("texture", -1), course.get("normal_map", -1), course.get("height_map", -1),
                     r.number("height_scale") if "height_map" in course else 0.0,
-                    tuple(uv_scale), tuple(uv_offset), r.string("wrap"), **bsdf, maps=tuple(maps), **sides)
+                    tuple(uv_scale), tuple(uv_offset), r.string("wrap"), **bsdf, maps=tuple(maps),
+                    bump_scale=r.number("bump_scale"), **sides)
+
+
+# Mitsuba's wrappers that tilt a BSDF's shading normal, as a material's keys, and their map slots
+PERTURBING = {"normalmap": "normal", "bumpmap": "bump"}
 
 
 def _textured(r, kind, textures):
@@ -446,6 +451,8 @@ def _textured(r, kind, textures):
             continue
         if kind in WRAPPERS:
             slot = "weight" if key in ("weight", "opacity") else None
+        elif key in PERTURBING:
+            slot = PERTURBING[key]
         else:
             slot = "colour" if key == "colour" else bsdfs.texture_slot(bsdfs.BY_NAME[kind], key)
         if slot is None:
@@ -455,14 +462,21 @@ def _textured(r, kind, textures):
         maps.append((slot, lookup))
         if key == "alpha" and slot == "alpha":  # isotropic: the same roughness along v
             maps.append(("alpha_v", lookup))
-        table[key] = mean if isinstance(mean, float) else mean.tolist()
+        if key in PERTURBING:
+            del table[key]
+        else:
+            table[key] = mean if isinstance(mean, float) else mean.tolist()
+    perturbing = [key for key in (*PERTURBING, "normal_map", "height_map") if r.has(key)]
+    if len(perturbing) > 1 and set(perturbing) & set(PERTURBING):
+        r.fail(perturbing[1], r.raw(perturbing[1]), f"not with {perturbing[0]}: one map tilts a material's normal")
     return Reader(r.path, table, r.prefix, "materials.NAME"), maps
 
 
 def _wrapper(r, name, kind, names, maps, sides):
     """A blendbsdf's or a mask's material: the materials it wraps and its weight (a mask's opacity)."""
     own_keys(r, kind, [key.name for key in bsdfs.WRAPPER_KEYS[kind]], bsdfs.KEY_NAMES)
-    own_keys(r, kind, (), ("colour", "texture", "normal_map", "height_map"))  # its materials have their own
+    # the materials it wraps have their own
+    own_keys(r, kind, (), ("colour", "texture", "normal_map", "height_map", *PERTURBING, "bump_scale"))
     own = Reader(r.path, r.table, r.prefix, bsdfs.table_name(kind))
     if kind == "blendbsdf":
         given = own.raw("bsdfs")

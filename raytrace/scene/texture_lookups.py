@@ -43,9 +43,9 @@ KEYS = [
 ]
 KIND_KEYS = {"bitmap": ("type", "filename", "raw", "filter_type", "wrap_mode", "to_uv"),
              "checkerboard": ("type", "to_uv", "color0", "color1")}
-# The parameters whose value is one number (kernels/types.h's MAP_ALPHA, MAP_ALPHA_V, MAP_WEIGHT): a lookup's
-# luminance
-FLOAT_SLOTS = ("alpha", "alpha_v", "weight")
+# The parameters whose value is one number (kernels/types.h's MAP_ALPHA, MAP_ALPHA_V, MAP_WEIGHT, MAP_BUMP): a
+# lookup's luminance
+FLOAT_SLOTS = ("alpha", "alpha_v", "weight", "bump")
 
 
 def is_texture(value):
