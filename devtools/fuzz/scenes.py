@@ -342,6 +342,61 @@ def path_materials(draw):
     return material
 
 
+def textures(draw, slot_is_float, files):
+    """A texture's table (raytrace/scene/texture_lookups.py): a checkerboard of any colours or a bitmap of a 2 x 2
+    image, raw or not, of any filter, wrap mode and to_uv (a bitmap's file is added to `files`)."""
+    to_uv = [draw(vectors(3, -1e3, 1e3)), draw(vectors(3, -1e3, 1e3))]
+    if draw(st.booleans()):
+        colours = (finite(0.0, 1.0) if slot_is_float else number_or_vector(st.one_of(finite(0.0, 1.0), magnitudes())))
+        return {"type": "checkerboard", "color0": draw(colours), "color1": draw(colours), "to_uv": to_uv}
+    name = f"map{len(files)}.png"
+    files.append(ImageFile(name, ".png", 2, 2, draw(st.sampled_from([1, 3])), "uint8",
+                           tuple(draw(st.lists(finite(0.0, 1.0), min_size=1, max_size=4)))))
+    return {"type": "bitmap", "filename": name, "raw": draw(st.booleans()), "to_uv": to_uv,
+            "filter_type": draw(st.sampled_from(["nearest", "bilinear", "trilinear", "anisotropic"])),
+            "wrap_mode": draw(st.sampled_from(["repeat", "mirror", "clamp"]))}
+
+
+TEXTURED_KEYS = {"colour": False, "reflectance": False, "specular_reflectance": False, "diffuse_reflectance": False,
+                 "alpha": True, "alpha_u": True, "alpha_v": True}
+
+
+@st.composite
+def wrapped_and_textured(draw, materials, shapes):
+    """Issue 58's keys on the materials drawn (changed in place): a texture for some textured parameters (and a
+    normalmap or bumpmap), one-sided materials and back sides, and blends and masks of them, now and then nested,
+    which the shapes then use. Returns the image files the textures name."""
+    files = []
+    names = list(materials)
+    for name in names:
+        material = materials[name]
+        kind = material.get("type", "diffuse")
+        for key, is_float in TEXTURED_KEYS.items():
+            if key in material and draw(st.integers(0, 3)) == 0 and not (kind == "roughplastic" and key == "alpha"):
+                material[key] = textures(draw, is_float, files)
+        if draw(st.integers(0, 5)) == 0:
+            material[draw(st.sampled_from(["normalmap", "bumpmap"]))] = textures(draw, True, files)
+            if draw(st.booleans()):
+                material["bump_scale"] = draw(st.one_of(magnitudes(1e-45), finite(1e-3, 10.0)))
+        if BY_NAME[kind].front_only and draw(st.integers(0, 3)) == 0:
+            material["two_sided"] = False
+    for i in range(draw(st.integers(0, 3))):
+        kind, name = draw(st.sampled_from(["blendbsdf", "mask"])), f"w{i}"
+        weight = textures(draw, True, files) if draw(st.booleans()) else draw(finite(0.0, 1.0))
+        inner = draw(st.sampled_from(names))
+        materials[name] = ({"type": "blendbsdf", "weight": weight, "bsdfs": [inner, draw(st.sampled_from(names))]}
+                           if kind == "blendbsdf" else {"type": "mask", "opacity": weight, "bsdf": inner})
+        names.append(name)
+    for shape in shapes:
+        if draw(st.booleans()):
+            shape["material"] = draw(st.sampled_from(names))
+    if len(names) > 1 and draw(st.integers(0, 3)) == 0:
+        front, back = draw(st.sampled_from(names)), draw(st.sampled_from(names))
+        if front != back and "back" not in materials[back] and materials[back].get("two_sided", True):
+            materials[front]["back"] = back
+    return tuple(files)
+
+
 @st.composite
 def path_scenes(draw):
     """SMALL_SCENE in the path model, 8 x 8: a floor, a sphere and a triangle of up to three materials of any
@@ -372,6 +427,7 @@ def path_scenes(draw):
         files += (ImageFile("colour.exr", ".exr", 2, 2, 3, "float",
                             tuple(draw(st.lists(magnitudes(), min_size=1, max_size=4)))),)
         table["materials"]["m0"]["texture"] = "colour.exr"
+    files += draw(wrapped_and_textured(table["materials"], table["shapes"]))
     kind = draw(st.sampled_from(["none", "constant", "envmap"]))
     if kind == "constant":
         table["environment"] = {"type": "constant", "radiance": draw(number_or_vector(magnitudes()))}
