@@ -18,7 +18,8 @@ inline vfloat luminance(vec3 c) { return MAD(c.x, 0.212671f, MAD(c.y, 0.715160f,
 
 /* Lookup l's colour at uv, whose pixel sample's footprint in (u, v) is duv; render_filter is the render's
  * texture filter (FILTER_*), which a lookup of filter -1 takes. Every lane computes. A float parameter's lookup
- * (luminance set) gives its value thrice. */
+ * (luminance set) gives its value thrice: an image's luminance, a checkerboard colour's mean, as Mitsuba's
+ * eval_1 has them. */
 inline vec3 lookup_value(TextureStore ts, int l, vec2 uv, UVDerivatives duv, int render_filter)
 {
     __global const TextureLookup *t = &ts.lookups[l];
@@ -32,6 +33,11 @@ inline vec3 lookup_value(TextureStore ts, int l, vec2 uv, UVDerivatives duv, int
         if (t->luminance)
             same = !same;
         c = v3_select(v3_uniform(t->colour1), v3_uniform(t->colour0), same);
+        if (t->luminance) { /* a float parameter: Mitsuba's eval_1 of an rgb colour is its channels' mean */
+            vfloat y = (c.x + c.y + c.z) * (1.0f / 3.0f);
+            return v3(y, y, y);
+        }
+        return c;
     } else {
         Footprint dst = {MAD(duv.u_x, m[0], duv.v_x * m[1]), MAD(duv.u_x, m[3], duv.v_x * m[4]),
                          MAD(duv.u_y, m[0], duv.v_y * m[1]), MAD(duv.u_y, m[3], duv.v_y * m[4])};

@@ -90,7 +90,8 @@ typedef struct {
     int kind;              /* LOOKUP_* */
     int texture;           /* LOOKUP_BITMAP: the image's index in the Texture table */
     int wrap, filter;      /* LOOKUP_BITMAP: WRAP_*; FILTER_*, or -1: the render's texture_filter */
-    int luminance;         /* a float parameter of an RGB image: its luminance (Mitsuba's eval_1), else red */
+    int luminance;         /* a float parameter: an image's luminance, a checkerboard colour's mean (Mitsuba's
+                            * eval_1) */
     float to_uv[6];        /* (s, t) = rows (to_uv[0..2], to_uv[3..5]) . (u, v, 1): the texture's coordinates,
                             * s along the image's rows, t down its columns (the image's top-left is (0, 0)) */
     Vec3f colour0, colour1; /* LOOKUP_CHECKERBOARD */

@@ -248,8 +248,6 @@ def test_checkerboard_matches_mitsuba(harness):
         np.testing.assert_allclose(got, want, rtol=0, atol=2e-7, err_msg=slot)
 
 
-@pytest.mark.xfail(strict=True, reason="lookups.cl takes an RGB checkerboard's luminance on a float slot; Mitsuba's "
-                   "eval_1 of an RGB colour is its channels' mean (reported with issue 58)")
 def test_checkerboard_of_rgb_colours_on_float_slots(harness):
     """A float slot's checkerboard of RGB colours: Mitsuba's eval_1 of the colour (an srgb spectrum: the mean of
     its channels, src/spectra/srgb.cpp), colour1 where eval gives colour0. Bound as above."""
@@ -259,8 +257,6 @@ def test_checkerboard_of_rgb_colours_on_float_slots(harness):
         np.testing.assert_allclose(got, want, rtol=0, atol=2e-7, err_msg=slot)
 
 
-@pytest.mark.xfail(strict=True, reason="scene_file._rgb reads a number-or-vector key's default as a vector: "
-                   "a checkerboard without color0 or color1 is refused (reported with issue 58)")
 def test_checkerboard_defaults_are_mitsubas():
     """Mitsuba's checkerboard defaults: color0 0.4, color1 0.2, grey."""
     scene = raytrace.load_dict(mts.path_scene({"d": {"type": "diffuse", "reflectance": {"type": "checkerboard"}}},

@@ -170,7 +170,7 @@ def check_frame(r):
 def _rgb(r, key):
     """A light's colour (Phong) or radiance (direct, emitted from the side its normal points to), or any
     other key declared number-or-vector: three numbers, or for such a key one, the same in every channel."""
-    value = r.table.get(key)
+    value = r.table.get(key, r.spec[key].default)
     if r.spec[key].kind == "number-or-vector" and isinstance(value, (int, float)) and not isinstance(value, bool):
         return np.full(3, r.number(key))
     return r.vector(key)

@@ -9,7 +9,7 @@ instead of a value, `bitmap` (an image) or `checkerboard`, with Mitsuba's names 
 Which parameters take a texture: the reflectances (`colour` and Mitsuba's names of it, a plastic's
 `specular_reflectance`), the rough conductors' and dielectrics' `alpha`, `alpha_u` and `alpha_v`, a blend's
 `weight` and a mask's `opacity`; each BSDF's table in the manual says so (TEXTURED). A float parameter of an RGB
-image takes its luminance, as Mitsuba's eval_1 does.
+image takes its luminance, of a checkerboard the mean of its colour's channels, as Mitsuba's eval_1 does.
 
 `to_uv` is the texture's coordinates (s, t) of the surface's (u, v): two rows of Mitsuba's 3 x 3 matrix, (s, t) =
 ((a, b, c), (d, e, f)) . (u, v, 1), with t up the image as the surface's v (the course's colour maps' convention:
@@ -74,8 +74,8 @@ def read(r, slot, textures, rgb, own_keys):
         index = textures.index(r.string("filename"), role, r.path, r.prefix + "filename")
         lookup = TextureLookup("bitmap", index, r.string("wrap_mode"), r.string("filter_type"), to_uv)
         mean = texture_mean(textures.textures[index])
-    if slot in FLOAT_SLOTS:
-        return lookup, float(luminance(mean))
+    if slot in FLOAT_SLOTS:  # Mitsuba's eval_1: an image's luminance, an rgb colour's mean
+        return lookup, float(luminance(mean) if kind == "bitmap" else np.mean(mean))
     return lookup, mean
 
 
