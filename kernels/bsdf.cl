@@ -64,6 +64,9 @@ typedef struct {
 #if HAS_NULLS
 #include "bsdfs/null.cl"
 #endif
+#if HAS_PRINCIPLED
+#include "bsdfs/principled.cl"
+#endif
 
 /* value and *pdf of NAME_eval where the lanes `on` (of `active`, BSDF `id`) hold that BSDF */
 #define BSDF_EVAL(name, id)                                                                                 \
@@ -114,6 +117,9 @@ inline vec3 lobes_eval_pdf(ShadingPoint sp, vec3 wo, vec3 wi, vint active, vfloa
 #endif
 #if HAS_ROUGH_PLASTICS
     BSDF_EVAL(roughplastic, BSDF_ROUGHPLASTIC)
+#endif
+#if HAS_PRINCIPLED
+    BSDF_EVAL(principled, BSDF_PRINCIPLED)
 #endif
     /* the delta BSDFs' (bsdf_is_delta) eval is 0: conductor_eval, dielectric_eval, thindielectric_eval */
     return f;
@@ -189,6 +195,9 @@ inline BSDFSample lobes_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2, vin
 #endif
 #if HAS_NULLS
     BSDF_SAMPLE(null, BSDF_NULL)
+#endif
+#if HAS_PRINCIPLED
+    BSDF_SAMPLE(principled, BSDF_PRINCIPLED)
 #endif
     return bs;
 #endif

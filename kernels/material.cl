@@ -55,6 +55,9 @@ typedef struct {
     vec3 n0;           /* the shading normal before the map, on the side of ng */
     vint perturbed;    /* n is the map's */
 #endif
+#if HAS_PRINCIPLED
+    vfloat principled[PRINCIPLED_PARAMETERS]; /* the principled BSDF's values (types.h's PRINCIPLED_*) */
+#endif
 } ShadingPoint;
 
 #if HAS_TEXTURES
@@ -391,6 +394,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_TEXTURES
     int textured[LANES], any_textured = 0;
 #endif
+#if HAS_PRINCIPLED
+    float principled[PRINCIPLED_PARAMETERS][LANES];
+#endif
     for (int i = 0; i < LANES; ++i) {
         sh[i] = 1.0f;
 #if HAS_BSDF_PARAMETERS
@@ -408,6 +414,10 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_TEXTURES
         textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
         any_textured |= textured[i];
+#endif
+#if HAS_PRINCIPLED
+        for (int j = 0; j < PRINCIPLED_PARAMETERS; ++j)
+            principled[j][i] = m[i] < 0 ? 0.0f : s->materials[m[i]].principled[j];
 #endif
         if (m[i] < 0)
             continue;
@@ -453,6 +463,10 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     sp.internal_reflectance = VLOAD(internal_reflectance);
     sp.specular_weight = VLOAD(specular_weight);
     sp.specular = v3_fill(&specular);
+#endif
+#if HAS_PRINCIPLED
+    for (int j = 0; j < PRINCIPLED_PARAMETERS; ++j)
+        sp.principled[j] = VLOAD(principled[j]);
 #endif
 #if HAS_SMOOTH_NORMALS
     sp.n = v3_fill(&n);

@@ -124,7 +124,23 @@ typedef struct {
     int blend[2];                    /* BSDF_BLEND: the materials it mixes (wrappers.cl) */
     float weight;                    /* BSDF_BLEND: the second one's share, unless maps[MAP_WEIGHT] */
     float bump_scale;                /* maps[MAP_BUMP]: scene units of relief per unit of the height field */
+    float principled[PRINCIPLED_PARAMETERS]; /* principled: its values, PRINCIPLED_* below (its eta in eta.x, its
+                                      * main lobe's GGX roughness in alpha, alpha_v: principled_terms.py) */
 } Material;
+
+/* The principled BSDF's values in Material.principled (and ShadingPoint.principled): Mitsuba's parameters, but
+ * the clearcoat's GTR1 roughness in place of its clearcoat_gloss. */
+#define PRINCIPLED_ROUGHNESS 0
+#define PRINCIPLED_METALLIC 1
+#define PRINCIPLED_SPEC_TINT 2
+#define PRINCIPLED_SHEEN 3
+#define PRINCIPLED_SHEEN_TINT 4
+#define PRINCIPLED_CLEARCOAT 5
+#define PRINCIPLED_CLEARCOAT_ALPHA 6
+#define PRINCIPLED_SPEC_TRANS 7
+#define PRINCIPLED_SPECULAR_RATE 8  /* main_specular_sampling_rate */
+#define PRINCIPLED_CLEARCOAT_RATE 9 /* clearcoat_sampling_rate */
+#define PRINCIPLED_DIFFUSE_RATE 10  /* diffuse_reflectance_sampling_rate */
 
 /* The path model's BSDFs, one file each in kernels/bsdfs/ (bsdf.cl), numbered as raytrace/scene/model.py's BSDFS. */
 #define BSDF_DIFFUSE 0
@@ -136,6 +152,7 @@ typedef struct {
 #define BSDF_PLASTIC 6
 #define BSDF_ROUGHPLASTIC 7
 #define BSDF_NULL 8
+#define BSDF_PRINCIPLED 9
 /* Not a BSDF: a node that mixes two materials (Mitsuba's blendbsdf, and mask: a null and the masked one),
  * resolved at each hit into one of them (wrappers.cl). */
 #define BSDF_BLEND 31

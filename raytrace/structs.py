@@ -9,6 +9,7 @@ VEC3F = ("<f4", (3,))
 ROUGH_TRANSMITTANCE_RES = 64  # entries of a roughplastic's transmittance table (Material.transmittance)
 MAPS = 8  # textured parameters a material has room for (Material.maps)
 WRAPPER_DEPTH = 8  # nested wrappers (blendbsdf, mask, twosided) a hit passes through, at most
+PRINCIPLED_PARAMETERS = 11    # a principled BSDF's values (Material.principled: types.h's PRINCIPLED_*)
 
 CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F), ("up", *VEC3F),
                    ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4")])
@@ -38,7 +39,8 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
                      ("alpha", "<f4"), ("alpha_v", "<f4"), ("distribution", "<i4"), ("specular", *VEC3F),
                      ("nonlinear", "<i4"), ("internal_reflectance", "<f4"), ("specular_weight", "<f4"),
                      ("transmittance", "<f4", (ROUGH_TRANSMITTANCE_RES,)), ("maps", "<i4", (MAPS,)),
-                     ("back", "<i4"), ("blend", "<i4", (2,)), ("weight", "<f4"), ("bump_scale", "<f4")])
+                     ("back", "<i4"), ("blend", "<i4", (2,)), ("weight", "<f4"), ("bump_scale", "<f4"),
+                     ("principled", "<f4", (PRINCIPLED_PARAMETERS,))])
 
 # kernels/types.h: MAP_* (Material.maps), LOOKUP_*
 MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4, "normal": 5, "bump": 6}
@@ -60,8 +62,12 @@ FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 # kernels/types.h: BSDF_*
 BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2, "roughconductor": 3, "thindielectric": 4, "roughdielectric": 5,
-         "plastic": 6, "roughplastic": 7, "null": 8}
+         "plastic": 6, "roughplastic": 7, "null": 8, "principled": 9}
 BSDF_BLEND = 31  # not a BSDF: a blendbsdf's or mask's node, resolved per hit (kernels/wrappers.cl)
+
+# kernels/types.h: PRINCIPLED_*, the order of Material.principled's values
+PRINCIPLED = ("roughness", "metallic", "spec_tint", "sheen", "sheen_tint", "clearcoat", "clearcoat_alpha",
+              "spec_trans", "specular_rate", "clearcoat_rate", "diffuse_rate")
 
 # kernels/types.h: MICROFACET_*
 MICROFACETS = {"ggx": 0, "beckmann": 1}

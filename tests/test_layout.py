@@ -179,7 +179,7 @@ def tracked_files():
 
 # Names of files that are not the repository's: PoCL's header, files tests and commands write for themselves.
 # names of other projects' files, and generic ones: Mitsuba 3's and pbrt-v4's headers, which the BSDFs cite
-NOT_OURS = {"opencl-c.h", "render_entry.cl", "peer.py", "scene.py", "script.py", "microfacet.h", "fresnel.h", "warp.h",
+NOT_OURS = {"opencl-c.h", "render_entry.cl", "peer.py", "scene.py", "script.py", "microfacet.h", "fresnel.h", "warp.h", "principledhelpers.h",
             "sampling.h"}
 REPO_PATH = re.compile(r"(?<![\w./-])((?:raytrace|kernels|tests|benchmarks|devtools|scenes|assets|docs|\.ci)"
                        r"/[\w./*-]*[\w*])")

@@ -64,7 +64,8 @@ SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] 
 
 
 # A material of each BSDF (the path model's), given every key of its type's table that one table can hold
-# together (a conductor's material instead of eta and k, alpha_u and alpha_v instead of alpha: tests/test_bsdf_keys.py)
+# together (a conductor's material instead of eta and k, alpha_u and alpha_v instead of alpha, a principled's
+# specular instead of eta: tests/test_bsdf_keys.py)
 BSDF_TABLES = {bsdf.table: bsdf.name for bsdf in bsdfs.DECLARED}
 EVERY_BSDF_KEY = {
     "diffuse": {"reflectance": [0.5, 0.4, 0.3]},
@@ -78,7 +79,11 @@ EVERY_BSDF_KEY = {
                 "specular_reflectance": 0.8},
     "roughplastic": {"diffuse_reflectance": 0.3, "nonlinear": True, "int_ior": "pet", "ext_ior": 1.1,
                      "specular_reflectance": [1.0, 0.9, 0.8], "distribution": "beckmann", "alpha": 0.1},
-    "null": {}}
+    "null": {},
+    "principled": {"base_color": [0.8, 0.3, 0.2], "roughness": 0.3, "anisotropic": 0.2, "metallic": 0.1,
+                   "spec_trans": 0.4, "specular": 0.6, "spec_tint": 0.3, "sheen": 0.5, "sheen_tint": 0.2,
+                   "clearcoat": 0.7, "clearcoat_gloss": 0.8, "diffuse_reflectance_sampling_rate": 1.5,
+                   "main_specular_sampling_rate": 0.5, "clearcoat_sampling_rate": 2.0}}
 # A blend and a mask of material "m", every key given; a textured reflectance (a bitmap, every key of its kind)
 WRAPPER_TABLES = {bsdfs.table_name(name): name for name in bsdfs.WRAPPER_KEYS}
 EVERY_WRAPPER_KEY = {"blendbsdf": {"weight": 0.3, "bsdfs": ["m", "m"]}, "mask": {"opacity": 0.7, "bsdf": "m"}}
@@ -195,6 +200,8 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
         if partner:  # alpha_u and alpha_v, given together and instead of alpha
             del table["alpha"]
             table[partner] = 0.5
+        if key.name == "eta" and "specular" in table:  # a principled's eta, instead of its specular
+            del table["specular"]
     table[key.name] = value
     if accepted:
         parse_scene(scene, SCENE_PATH)

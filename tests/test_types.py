@@ -77,6 +77,8 @@ def test_constants_match_device(cl_env):
               "TEXELS_QUADF": structs.TEXELS_QUADF, "TEXELS_QUAD16": structs.TEXELS_QUAD16}
     names |= {"BVH_STACK": structs.BVH_STACK, "CULLED_RECTANGLES": structs.CULLED_RECTANGLES,
               "ROUGH_TRANSMITTANCE_RES": structs.ROUGH_TRANSMITTANCE_RES}
+    names |= {"PRINCIPLED_PARAMETERS": structs.PRINCIPLED_PARAMETERS}
+    names |= {f"PRINCIPLED_{k.upper()}": i for i, k in enumerate(structs.PRINCIPLED)}
     assert run_int_kernel(cl_env, values_kernel(names), len(names)) == list(names.values())
 
 

@@ -5,9 +5,10 @@ Valid scenes are built from the grammar of the plugins raytrace renders (PLUGINS
 perspective sensor (lookat or rotated, fov with each fov_axis or a focal length, clip planes), an hdrfilm of at most
 6 x 6 pixels with a box rfilter, each sampler, the path, direct and moment integrators, every BSDF raytrace declares
 (raytrace/scene/bsdfs.py: diffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic,
-roughplastic; in twosided or not, by reference or inline, reflectances as numbers, rgb and spectra, each parameter
-anywhere in its range: named metals and media, alpha from 1 to float32's smallest, alpha_u != alpha_v, GGX and
-Beckmann, indices above, below, near and far from each other), rectangle, sphere, obj and ply shapes, area
+roughplastic, principled; in twosided or not (a transmitting principled not), by reference or inline, reflectances
+as numbers, rgb and spectra, each parameter anywhere in its range: named metals and media, alpha from 1 to
+float32's smallest, alpha_u != alpha_v, GGX and Beckmann, indices above, below, near and far from each other, a
+principled's weights 0 to 1 with eta or specular), rectangle, sphere, obj and ply shapes, area
 emitters on rectangles and quad meshes, constant and envmap environments; and the XML's own: $parameters given by
 <default> or -D, <include> (of a scene's objects, of one object, through <path>), <alias>, a version 0.6 file's
 camelCase names. An Element tree is written as text one element a line, and the same tree is made into Mitsuba's dict
@@ -202,7 +203,10 @@ def reflectances(draw, name, low=0.0, high=1.0):
 CONDUCTOR_NAMES = tuple(CONDUCTORS)  # every named metal, "none" (a perfect mirror) among them
 IOR_NAMES = tuple(IORS)  # every named medium
 XML_BSDFS = ("diffuse", "diffuse", "conductor", "roughconductor", "dielectric", "thindielectric", "roughdielectric",
-             "plastic", "roughplastic")
+             "plastic", "roughplastic", "principled")
+PRINCIPLED_WEIGHTS = ("roughness", "anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint",
+                      "clearcoat", "clearcoat_gloss")
+PRINCIPLED_RATES = ("diffuse_reflectance_sampling_rate", "main_specular_sampling_rate", "clearcoat_sampling_rate")
 GLASS_AND_COATS = ("dielectric", "thindielectric", "roughdielectric", "plastic", "roughplastic")
 # A roughness anywhere in (0, 1], written exactly: the tested 1e-3 .. 1 and the effectively smooth region below
 # packing.py's SMOOTH_ALPHA (a rough conductor or glass renders smooth there; roughplastic clamps at 1e-4).
@@ -286,6 +290,27 @@ def bsdfs(draw, direct, ident=None):
     if kind in ("dielectric", "thindielectric", "roughdielectric") and draw(st.booleans()):
         value = num(draw(rounded(0.0, 1.0)))
         params += [prop("float", "specular_reflectance", value), prop("float", "specular_transmittance", value)]
+    transmits = False
+    if kind == "principled":  # each weight 0 to 1; eta (0.2 to 5) or specular, not both (Mitsuba refuses them)
+        if draw(st.booleans()):
+            params.append(draw(reflectances("base_color")))
+        for name in PRINCIPLED_WEIGHTS:
+            if draw(st.booleans()):
+                value = draw(st.one_of(st.sampled_from([0.0, 1.0]), rounded(0.0, 1.0)))
+                transmits |= name == "spec_trans" and value != 0
+                params.append(prop("float", name, num(value)))
+        which = draw(st.sampled_from(["eta", "specular", None]))
+        if which == "eta":
+            value = draw(st.one_of(st.sampled_from([1.0, 0.5, 1.5]), rounded(0.2, 5.0)))
+            params.append(prop("float", "eta", num(value)))
+        elif which == "specular":
+            value = draw(st.one_of(st.sampled_from([0.0, 1.0]), rounded(0.0, 1.0)))
+            params.append(prop("float", "specular", num(value)))
+        for name in PRINCIPLED_RATES:
+            if draw(st.booleans()):
+                low = 2.0**-10 if name == "main_specular_sampling_rate" else 0.0
+                params.append(prop("float", name, num(draw(st.one_of(st.just(1.0), rounded(low, 16.0).filter(
+                    lambda x: x >= low))))))
     if kind.startswith("rough"):
         distribution = draw(st.sampled_from(["ggx", "beckmann", "GGX", None]))
         if distribution is not None:
@@ -298,7 +323,7 @@ def bsdfs(draw, direct, ident=None):
             params.append(prop("boolean", "sample_visible", draw(st.sampled_from(["true", "false"]))))
     order = draw(st.permutations(range(len(params))))
     inner = Element("bsdf", (("type", kind),), tuple(params[i] for i in order))
-    if draw(st.booleans()):
+    if not transmits and draw(st.booleans()):  # Mitsuba's twosided takes no transmission (a principled's)
         inner = Element("bsdf", (("type", "twosided"),), (inner,))
     return inner.with_attr("id", ident) if ident else inner
 

@@ -232,7 +232,7 @@ def number_or_vector(values):
 # declarations, raytrace/scene/bsdfs.py, so that a BSDF or a parameter declared later is not left unfuzzed).
 REFLECTANCE_NAMES = {"diffuse": "reflectance", "conductor": "specular_reflectance",
                      "roughconductor": "specular_reflectance", "plastic": "diffuse_reflectance",
-                     "roughplastic": "diffuse_reflectance"}
+                     "roughplastic": "diffuse_reflectance", "principled": "base_color"}
 CONDUCTOR_KEYS = ("eta", "k", "material", "specular_reflectance")
 ROUGH_KEYS = ("distribution", "alpha", "alpha_u", "alpha_v")
 IOR_KEYS = ("int_ior", "ext_ior")
@@ -241,6 +241,10 @@ PATH_KEYS = {"diffuse": ("reflectance",), "conductor": CONDUCTOR_KEYS, "dielectr
              "roughconductor": CONDUCTOR_KEYS + ROUGH_KEYS, "thindielectric": IOR_KEYS,
              "roughdielectric": IOR_KEYS + ROUGH_KEYS, "plastic": PLASTIC_KEYS,
              "roughplastic": PLASTIC_KEYS + ROUGH_KEYS[:2]}
+PRINCIPLED_WEIGHTS = ("roughness", "anisotropic", "metallic", "spec_trans", "specular", "spec_tint", "sheen",
+                      "sheen_tint", "clearcoat", "clearcoat_gloss")
+PRINCIPLED_RATES = ("diffuse_reflectance_sampling_rate", "main_specular_sampling_rate", "clearcoat_sampling_rate")
+PATH_KEYS["principled"] = ("base_color", *PRINCIPLED_WEIGHTS, "eta", *PRINCIPLED_RATES)
 ANISOTROPIC = ("roughconductor", "roughdielectric")
 
 ALPHA_EDGES = (1.0, 0.999, 0.5, 0.1, 0.01, 2e-3, SMOOTH_ALPHA * (1 + 2.0**-20), SMOOTH_ALPHA,
@@ -308,7 +312,8 @@ def path_materials(draw):
     type's own name), eta and k anywhere or a named metal, alpha from 1 to float32's smallest (the effectively
     smooth region below SMOOTH_ALPHA included) or alpha_u != alpha_v, GGX or Beckmann, indices of refraction
     anywhere, above and below each other, near and far, numbers or named media, nonlinear or not, a coat's
-    specular_reflectance 0 to anywhere. Values beyond the rules between them are left to the checks."""
+    specular_reflectance 0 to anywhere; a principled's weights 0 to 1 (and their edges), its eta anywhere
+    (beside specular or not), its sampling rates 0 to 1024. Values beyond the rules between them are left to the checks."""
     bsdf = draw(st.sampled_from(BSDFS))
     material = {"type": bsdf} if bsdf != "diffuse" or draw(st.booleans()) else {}
     if bsdf in REFLECTANCE_NAMES and draw(st.booleans()):
@@ -339,6 +344,17 @@ def path_materials(draw):
             material["nonlinear"] = draw(st.booleans())
         if draw(st.booleans()):
             material["specular_reflectance"] = draw(reflectances())
+    if bsdf == "principled":
+        for key in PRINCIPLED_WEIGHTS:  # their edges, one ulp within them, anywhere between
+            if draw(st.booleans()):
+                edges = st.sampled_from([0.0, 1.0, 2.0**-24, 1 - 2.0**-24])
+                material[key] = draw(st.one_of(edges, finite(0.0, 1.0)))
+        if draw(st.booleans()):  # near 1 (1.001 with transmission), below it, to rule 6's edges and beyond
+            material["eta"] = draw(st.one_of(st.sampled_from([1.0, 1.001, 1 + 2.0**-23, 0.5, 2.0**-63, 2.0**63]),
+                                             finite(0.2, 5.0), magnitudes(1e-45)))
+        for key in PRINCIPLED_RATES:
+            if draw(st.booleans()):
+                material[key] = draw(st.one_of(st.sampled_from([0.0, 2.0**-10, 1.0, 1024.0]), finite(0.0, 1024.0)))
     return material
 
 

@@ -9,7 +9,7 @@ from .. import samplers, structs
 from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
-from ..scene import bsdfs, plastic_terms, rough_transmittance, texture_lookups
+from ..scene import bsdfs, plastic_terms, principled_terms, rough_transmittance, texture_lookups
 from ..scene.model import WRAPPERS, Material
 from .culling import light_sides
 from .geometry import DEFAULT_UV
@@ -190,6 +190,9 @@ def material_structs(materials):
             s["internal_reflectance"], s["specular_weight"] = plastic_terms.coat(m)
         if m.bsdf == "roughplastic":
             s["transmittance"] = rough_transmittance.table(m)
+        if m.bsdf == "principled":  # its eta, its main lobe's GGX alphas, its values (principled_terms.py)
+            s["eta"], s["distribution"] = (principled_terms.eta(m), 0.0, 0.0), structs.MICROFACETS["ggx"]
+            (s["alpha"], s["alpha_v"]), s["principled"] = principled_terms.alphas(m), principled_terms.parameters(m)
     return a
 
 

@@ -40,6 +40,19 @@ Ranges, argued where they are not simply Mitsuba's:
   reaches 1 (rule 5 counts what the fit adds to its albedo below that).
 - Reflectances (`colour` and its names, `specular_reflectance`) >= 0 with no upper bound, as `colour` always
   was: what an albedo above 1 does to a path is ranges.py's rule 5.
+- `principled`'s weights (roughness, anisotropic, metallic, specular, spec_tint, sheen, sheen_tint, clearcoat,
+  clearcoat_gloss, spec_trans) in [0, 1], as Mitsuba's documentation has them ("all of the parameters except
+  sampling rates and eta should take values between 0.0 and 1.0"; its code checks none): they are blend
+  weights, and outside [0, 1] a lobe's weight turns negative (1 - metallic, 1 - spec_trans) or anisotropic's
+  aspect sqrt(1 - 0.9 a) imaginary. Roughness 0 is allowed, unlike alpha's: Mitsuba clamps the main lobe's
+  alpha = roughness^2 to 1e-3 itself (principled_terms.py), which the microfacet terms are tested at. `eta`
+  > 0 (it divides), and within ranges.py's rule 6 as the other indices; not with `specular`, which sets it
+  (Mitsuba refuses both). The sampling rates are ratios of lobe choices: main_specular_sampling_rate in
+  [2^-10, 2^10] so that the main lobes are always sampled (the reflection and transmission inside, and the
+  front's when nothing else is, have no other lobe, and the probabilities' sum must not be 0), the other two
+  in [0, 2^10]: a rate 0 leaves its lobe to the others' samples, as Mitsuba's clearcoat_sampling_rate 0 of its
+  documentation does; the bound of 2^10 on their ratio to the main one keeps a sample's weight (f / pdf, the
+  main lobes' share of pdf at least 2^-20 / 3) finite.
 """
 from dataclasses import dataclass
 
@@ -90,6 +103,7 @@ class BSDF:
     example: str
     front_only: bool = True
     distinct_iors: bool = False
+    only_default: tuple = ()  # (name, Mitsuba's default) of Mitsuba's parameters raytrace takes at that value only
 
     @property
     def table(self):
@@ -184,6 +198,50 @@ def _plastic():
                           default=(1.0, 1.0, 1.0), length=3, low=0), mitsuba=1.0))
 
 
+def _weight(name, field, doc, default=0.0, mitsuba=SAME, also=""):
+    """A principled weight in [0, 1]."""
+    return Parameter(name, (field,), Key(name, "number", doc, default=default, low=0, high=1, also=also),
+                     mitsuba=mitsuba)
+
+
+def _principled():
+    """principled's parameters, in Mitsuba's order (its doc's); flatness is only_default."""
+    rate = "share in choosing which lobe to sample (a ratio to the other rates)"
+    return (_reflectance("base_color", "the diffuse base's albedo, the metal's normal-incidence reflectance, the "
+                         "tints' hue", (0.5, 0.5, 0.5), mitsuba=0.5),
+            _weight("roughness", "roughness", "the main lobes' roughness (their GGX alpha is its square, at "
+                    "least 1e-3); also the diffuse base's retro-reflection", default=0.5),
+            _weight("anisotropic", "anisotropic", "the main lobes' anisotropy: alpha along u over alpha along v is "
+                    "1 / (1 - 0.9 anisotropic)"),
+            _weight("metallic", "metallic", "the share of metal: a Schlick reflectance of the colour in place "
+                    "of the dielectric's lobes"),
+            _weight("spec_trans", "spec_trans", "the share of the dielectric that transmits (rough glass of the "
+                    "colour's square root) rather than reflecting diffusely"),
+            Parameter("eta", ("principled_eta",), Key("eta", "number", "the relative index of refraction, "
+                                                      "inside over outside", default=None, low=0, open_low=True,
+                                                      also="not with specular"), mitsuba=None),
+            _weight("specular", "principled_specular", "the dielectric's normal-incidence reflectance over "
+                    "0.08: sets eta = 2 / (1 - sqrt(0.08 specular)) - 1", default=None, mitsuba=0.5,
+                    also="not with eta; both absent: 0.5"),
+            _weight("spec_tint", "spec_tint", "the share of the dielectric's reflection tinted towards the "
+                    "colour's hue"),
+            _weight("sheen", "sheen", "a grazing sheen's weight (cloth)"),
+            _weight("sheen_tint", "sheen_tint", "the share of the sheen tinted towards the colour's hue"),
+            Parameter("flatness", (), mitsuba=0.0, note="0 only: raytrace has no fake subsurface lobe"),
+            _weight("clearcoat", "clearcoat", "a second, white, glossy coat's weight (GTR1 normals)"),
+            _weight("clearcoat_gloss", "clearcoat_gloss", "the coat's gloss: its GTR1 roughness from 0.1 (0) "
+                    "to 0.001 (1)"),
+            Parameter("diffuse_reflectance_sampling_rate", ("diffuse_reflectance_sampling_rate",),
+                      Key("diffuse_reflectance_sampling_rate", "number", f"the diffuse lobe's {rate}", default=1.0,
+                          low=0, high=1024)),
+            Parameter("main_specular_sampling_rate", ("main_specular_sampling_rate",),
+                      Key("main_specular_sampling_rate", "number", f"the main lobes' {rate}", default=1.0,
+                          low=2.0 ** -10, high=1024)),
+            Parameter("clearcoat_sampling_rate", ("clearcoat_sampling_rate",),
+                      Key("clearcoat_sampling_rate", "number", f"the clearcoat's {rate}", default=1.0, low=0,
+                          high=1024)))
+
+
 DECLARED = (
     BSDF("diffuse", "smooth diffuse (Lambertian)", """\
 An ideally diffuse surface: light arriving from any direction is scattered over the hemisphere with a density
@@ -242,6 +300,16 @@ reflecting glossily over the diffuse base. int_ior and ext_ior must differ.""",
 A surface that light passes straight through, unchanged, as if it were not there; what a `mask` is where its
 opacity lets light through. Shadow rays stop at it, as at any surface (Mitsuba's `path` does the same): light
 behind it reaches the scene through paths that pass it.""", (), "nulls", 'type = "null"', front_only=False),
+    BSDF("principled", "principled (Disney's)", """\
+Disney's principled BSDF (Burley 2012 and 2015) as Mitsuba 3 writes it: one colour and a handful of weights in
+[0, 1] that blend a diffuse base with retro-reflection and sheen, a rough dielectric's reflection (optionally
+tinted), a metal's, a rough transmission (spec_trans: rough glass) and a clear coat, for materials from metals
+to plastics, cloth and frosted glass. Its main lobes are anisotropic GGX microfacets of alpha = roughness^2;
+eta (or specular) sets the dielectric's index. An opaque principled reflects on both sides; one that transmits
+has an inside, as glass does. Mitsuba's flatness (a fake subsurface lobe) is not supported.""",
+         _principled(), "principled",
+         'type = "principled"\nbase_color = [0.8, 0.3, 0.2]\nroughness = 0.3\nmetallic = 0.2\nclearcoat = 0.5',
+         front_only=False, only_default=(("flatness", 0.0),)),
 )
 # Mitsuba's wrappers a material can be instead of a BSDF (model.WRAPPERS), with their own keys: a blend of two
 # materials, and a mask of one

@@ -61,7 +61,8 @@ def _bsdf_plugin(bsdf):
             return ""
         return "materials.NAME colour" if p.table_key == "colour" else f"{bsdf.table} {p.table_key}"
     return Plugin("bsdf", f"{bsdf.title}; [its page](bsdfs.md#{bsdf.name})",
-                  tuple(Param(p.name, p.mitsuba_default, key(p), p.note) for p in bsdf.parameters))
+                  tuple(Param(p.name, p.mitsuba_default, key(p), p.note) for p in bsdf.parameters
+                        if p.name not in dict(bsdf.only_default)), bsdf.only_default)
 
 
 _TRANSFORM = Param("to_world", "identity", "", "placement")
@@ -647,7 +648,9 @@ class _Translator:
                 put("bsdf", inner[0], "bsdf")
         else:
             self.bsdf_values(bsdfs.BY_NAME[kind], params, node, path, put)
-            if not two_sided and bsdfs.BY_NAME[kind].front_only:
+            # an opaque principled (no spec_trans) is one-sided in Mitsuba, as its other reflecting BSDFs
+            opaque = kind == "principled" and material.get("spec_trans", 0.0) == 0
+            if not two_sided and (bsdfs.BY_NAME[kind].front_only or opaque):
                 material["two_sided"] = False
             if perturb is not None:
                 wrapper, key, texture, scale = perturb
@@ -717,7 +720,8 @@ class _Translator:
         if colours:
             put("colour", values[0] or self.colour(colours[0].mitsuba_default, node, path, colours[0].name),
                 colours[0].name)
-        if "material" in params or "eta" in params or "k" in params:
+        conductor = "k" in bsdf.key_names()  # eta, k and material: a conductor's (principled's eta is a number)
+        if conductor and ("material" in params or "eta" in params or "k" in params):
             self.string(params.get("material", "none"), node, path, "material")
             if "eta" in params or "k" in params:  # Mitsuba's defaults of either, given the other: eta 0, k 1
                 put("eta", self.colour(params.get("eta", 0.0), node, path, "eta", unbounded=True), "eta")
@@ -725,7 +729,7 @@ class _Translator:
         for p in bsdf.parameters:
             if p.key is None and isinstance(p.mitsuba_default, bool) and p.name in params:  # sample_visible
                 self.boolean(params[p.name], node, path, p.name)
-            if p.key is None or p.fields == ("colour",) or p.name in ("eta", "k") or p in textured:
+            if p.key is None or p.fields == ("colour",) or (conductor and p.name in ("eta", "k")) or p in textured:
                 continue
             if p.name not in params:
                 if p.key.default is None or p.name == "material" or (

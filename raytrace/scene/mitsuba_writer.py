@@ -230,7 +230,8 @@ class _Writer:
         if self.ids[index] != name:
             root.append(_comment(f"material {name!r}"))
         declared = bsdfs.BY_NAME[material.bsdf]
-        if declared.front_only and material.two_sided:  # Mitsuba's are black from behind
+        opaque = material.bsdf == "principled" and material.spec_trans == 0  # Mitsuba's twosided takes it
+        if (declared.front_only or opaque) and material.two_sided:  # Mitsuba's are black from behind
             bsdf = ET.SubElement(ET.SubElement(root, "bsdf", type="twosided", id=self.ids[index]), "bsdf",
                                  type=material.bsdf)
         else:
@@ -246,6 +247,9 @@ class _Writer:
                 ET.SubElement(bsdf, "float", name=p.name, value=_number(getattr(material, p.fields[0])))
             elif p.name == "distribution":  # always written: Mitsuba's default is Beckmann, raytrace's GGX
                 ET.SubElement(bsdf, "string", name=p.name, value=material.distribution)
+            elif material.bsdf == "principled" and p.key is not None and p.key.kind == "number":
+                if getattr(material, p.fields[0]) is not None:  # eta or specular: the one given
+                    ET.SubElement(bsdf, "float", name=p.name, value=_number(getattr(material, p.fields[0])))
             elif p.name == "nonlinear":
                 ET.SubElement(bsdf, "boolean", name=p.name, value=str(bool(material.nonlinear)).lower())
 

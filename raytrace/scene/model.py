@@ -23,7 +23,7 @@ SHADINGS = ("phong", "direct", "path")
 # The BSDFs of the path model, with Mitsuba 3's plugin names, in the kernel's numbering (BSDF_* in
 # kernels/types.h): each is declared once, its parameters and doc, in bsdfs.py. Only "diffuse" elsewhere.
 BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor", "thindielectric", "roughdielectric", "plastic",
-         "roughplastic", "null")
+         "roughplastic", "null", "principled")
 # Mitsuba's BSDF wrappers a material can be besides a BSDF: a blend of two materials, and a mask (a blend of
 # the masked material and `null` by opacity); twosided is a material's `back` (Material).
 WRAPPERS = ("blendbsdf", "mask")
@@ -123,6 +123,21 @@ class Material:
     blend: tuple = ()                    # blendbsdf: the two materials it mixes; mask: the one it masks
     weight: float = 0.5                  # blendbsdf: the second one's share; mask: the opacity
     bump_scale: float = 1.0              # a bump map's (maps' "bump") scene units of relief per unit of height
+    # principled, by Mitsuba's names (colour: its base_color; bsdfs.py, principled_terms.py)
+    roughness: float = 0.5
+    anisotropic: float = 0.0
+    metallic: float = 0.0
+    principled_specular: float | None = None  # its `specular` (None: 0.5, unless principled_eta is given)
+    principled_eta: float | None = None       # its `eta`, int_ior / ext_ior (None: from principled_specular)
+    spec_tint: float = 0.0
+    sheen: float = 0.0
+    sheen_tint: float = 0.0
+    clearcoat: float = 0.0
+    clearcoat_gloss: float = 0.0
+    spec_trans: float = 0.0
+    main_specular_sampling_rate: float = 1.0
+    clearcoat_sampling_rate: float = 1.0
+    diffuse_reflectance_sampling_rate: float = 1.0
 
 
 @dataclass(frozen=True)

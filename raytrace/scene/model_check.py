@@ -28,7 +28,10 @@ MATERIAL = [("colour", "colour"), ("shininess", "shininess"), ("height_scale", "
             ("uv_scale", "uv_scale"), ("uv_offset", "uv_offset"), ("wrap", "wrap"), ("bsdf", "type")]
 # The BSDFs' fields (bsdfs.py): each checked under the key that sets it in its material's type, else under the
 # first type's that declares it (the kernel is given every field, whichever type reads it); alpha_v where set.
-BSDF_FIELDS = ("eta", "k", "int_ior", "ext_ior", "alpha", "alpha_v", "distribution", "specular", "nonlinear")
+BSDF_FIELDS = ("eta", "k", "int_ior", "ext_ior", "alpha", "alpha_v", "distribution", "specular", "nonlinear",
+               "roughness", "anisotropic", "metallic", "principled_specular", "principled_eta", "spec_tint", "sheen",
+               "sheen_tint", "clearcoat", "clearcoat_gloss", "spec_trans", "main_specular_sampling_rate",
+               "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate")
 
 
 _value = rules.value
@@ -56,6 +59,11 @@ def _check_bsdf(source, m):
         if p.key is not None and len(p.fields) == 1:
             own.setdefault(p.fields[0], p.key)  # alpha, not alpha_u: the first key of a field
     declared = {field: own.get(field) or bsdfs.declaring(field)[0] for field in BSDF_FIELDS}
+    # one key of each name: a principled's own eta (its principled_eta), else a conductor's (the field eta) where
+    # principled_eta is None, as it is on every other type
+    mine = {key.name: field for field, key in own.items()}
+    declared = {field: key for field, key in declared.items() if mine.get(key.name, field) == field
+                and not (field == "principled_eta" and getattr(m, field) is None)}
     r = Reader(source, {key.name: _value(getattr(m, field)) for field, key in declared.items()
                         if getattr(m, field) is not None}, f"materials.{m.name}.")
     r.spec = {key.name: key for key in declared.values()}

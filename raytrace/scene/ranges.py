@@ -40,7 +40,8 @@ scene_file.py and rules.py to every value with its key:
    - Each vertex multiplies the throughput by that weight, and a refraction by 1 / eta^2 (radiance, pbrt-v4
      section 9.5), which along a path through closed shapes multiply to the squared ratio of two of the
      scene's indices, at most R^2 (R the largest ratio of two of the smooth and rough dielectrics' int_ior and
-     ext_ior; 1 without glass; a thin dielectric leaves radiance as it was). With max_depth = D the throughput is then at most G = R^2 max(1, k)^(D - 1); with D = -1
+     ext_ior, and of a transmitting principled's eta and 1; 1 without glass; a thin dielectric leaves radiance
+     as it was). With max_depth = D the throughput is then at most G = R^2 max(1, k)^(D - 1); with D = -1
      (unbounded) k must be at most 1, and G = R^2.
    - Russian roulette divides the throughput by the probability q <= 0.95 it continues with (or sets it back
      to at most 1 where q is below 0.95), so after m continuations at 0.95 a vertex carries at most G 0.95^-m,
@@ -52,20 +53,27 @@ scene_file.py and rules.py to every value with its key:
    (1.8e-8), and only where each vertex's weight keeps the throughput at 0.95 or more (an albedo of 0.95 or
    more, or glass's 1 / eta^2); its square overflows float32 only past 2^64 (0.95^375 < 5e-9). A path that
    leaves glass it did not enter (an open glass mesh, overlapping shapes) gains 1 / eta^2 anew, which R^2
-   does not bound: a limit of the rule.
+   does not bound: a limit of the rule. So is a principled BSDF's k, taken as its colour's largest (the colour
+   its weights blend): Disney's lobes add rather than share the light (the dielectric's reflection over the
+   diffuse base, the clearcoat over both, the sheen), and Burley's retro-reflection gains energy towards
+   grazing angles, so its albedo exceeds its colour's (its white furnace test measures a white one at up to 1.4
+   at 85 degrees, 1.18 with the default dielectric over the diffuse) and its sample weights, with the lobe
+   choice's rates, may exceed k.
 6. The relative index eta = int_ior / ext_ior of every BSDF that has one (the glass and the plastics), which
    the kernel is given as a float32 (packing.py) and squares (Fresnel's (1 - cos^2) / eta^2, the radiance's 1
    / eta^2 under a plastic's coat), lies within [2^-63, 2^63] (ETA_LIMIT): eta^2 and 1 / eta^2 are then normal
    float32 numbers. Glass's ratio rule 5 bounds within 2^16; a thin dielectric's and a plastic's this. The
    fuzz suite found a plastic of int_ior 1e-30 (eta^2 = 0 in float32: its base's (1 - F)^2 / eta^2 was 0 / 0,
-   NaN) and a ratio beyond float32's range (int_ior 1, ext_ior 1e-45: eta packed as inf)."""
+   NaN) and a ratio beyond float32's range (int_ior 1, ext_ior 1e-45: eta packed as inf). A principled BSDF's
+   eta (given, or from its specular: within [1, 1.8]) is held to the same bounds: its Fresnel term squares it
+   and its transmission's half vector and Jacobian take eta^2."""
 import math
 
 import numpy as np
 
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
 from ..structs import ROUGH_TRANSMITTANCE_RES
-from . import bsdfs, plastic_terms, rough_transmittance
+from . import bsdfs, plastic_terms, principled_terms, rough_transmittance
 from .model import RADIOMETRIC, Camera, Ellipsoid, MeshShape, Rectangle, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
@@ -76,6 +84,7 @@ PATH_BRIGHTEST_LIMIT = 2.0 ** 32  # rule 5: 2^30 below BRIGHTEST_LIMIT, for Russ
 FIT_SLACK = 0.01  # rule 5: a plastic's base albedo above its colour by Mitsuba's fit of R, below this, is ignored
 ETA_LIMIT = 2.0 ** 63  # rule 6: int_ior / ext_ior within [1 / ETA_LIMIT, ETA_LIMIT]
 INDEXED = bsdfs.INDEXED  # the BSDFs with indices
+ETA_PROBLEM = ", beyond [2^-63, 2^63], within which float32 squares it and its reciprocal as normal numbers"
 
 
 def float32_problem(x):
@@ -293,9 +302,21 @@ def environment_brightest(scene):
     return 0.0
 
 
+def refracting(material):
+    """{key: index} of a material's refracting interface, as rule 5 counts them: a glass's int_ior and ext_ior,
+    a principled's eta (from its `eta` or `specular`) beside the outside's 1 where it transmits ((1 - metallic)
+    spec_trans > 0: its refraction scales radiance by 1 / eta^2 as glass's does); {} for the others."""
+    if material.bsdf in GLASS:
+        return {"int_ior": material.int_ior, "ext_ior": material.ext_ior}
+    if material.bsdf == "principled" and (1 - material.metallic) * material.spec_trans > 0:
+        key = "specular" if material.principled_eta is None else "eta"
+        return {key: principled_terms.eta(material), "": 1.0}
+    return {}
+
+
 def index_ratio(scene):
-    """R of rule 5: the largest ratio of two of the dielectrics' indices of refraction (1 without glass)."""
-    iors = [x for m in scene.materials if m.bsdf in GLASS for x in (m.int_ior, m.ext_ior)]
+    """R of rule 5: the largest ratio of two of the refracting materials' indices of refraction (1 without)."""
+    iors = [x for m in scene.materials for x in refracting(m).values()]
     return max(iors) / min(iors) if iors else 1.0
 
 
@@ -341,8 +362,8 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
                                                                                 float(np.max(material.specular))):
         albedo = (reader, "int_ior", material.int_ior)  # the coat's index, through Mitsuba's fit of R
     places = [(max(scene.max_depth, 1) * _log2(max(1.0, albedos[i])), albedo)]
-    indices = [(abs(_log2(getattr(m, key))), (r, key, getattr(m, key))) for m, r in zip(scene.materials,
-               material_readers) if m.bsdf in GLASS for key in ("int_ior", "ext_ior")]
+    indices = [(abs(_log2(x)), (r, key, x)) for m, r in zip(scene.materials, material_readers)
+               for key, x in refracting(m).items() if key]
     if indices:
         places.append((2 * _log2(index_ratio(scene)), max(indices, key=lambda x: x[0])[1]))
     lights = [float(light.colour.max()) for light in scene.lights] or [0.0]  # none: an environment lights it
@@ -384,14 +405,18 @@ def _check_path_brightness(scene, material_readers, light_readers, scene_reader)
 def _check_indices(scene, material_readers):
     """Rule 6, naming the index further from 1 (in ratio)."""
     for material, reader in zip(scene.materials, material_readers):
+        if material.bsdf == "principled":
+            eta = principled_terms.eta(material)
+            if not 1.0 / ETA_LIMIT <= eta <= ETA_LIMIT:
+                reader.fail("eta", _shown(reader, "eta", material.principled_eta), f"makes the relative index {eta:.4g}"
+                            + ETA_PROBLEM)
         if material.bsdf not in INDEXED or material.bsdf in GLASS:  # glass: rule 5's R, the tighter bound
             continue
         eta = float(material.int_ior) / float(material.ext_ior)
         if not 1.0 / ETA_LIMIT <= eta <= ETA_LIMIT:
             key = max(("int_ior", "ext_ior"), key=lambda k: abs(_log2(float(getattr(material, k)))))
             reader.fail(key, _shown(reader, key, getattr(material, key)), f"makes the relative index int_ior / "
-                        f"ext_ior {eta:.4g}, beyond [2^-63, 2^63], within which float32 squares it and its "
-                        "reciprocal as normal numbers")
+                        f"ext_ior {eta:.4g}" + ETA_PROBLEM)
         if material.bsdf in COATED and not material.nonlinear and plastic_excess(material, 1.0) == math.inf:
             reader.fail("int_ior", _shown(reader, "int_ior", material.int_ior), f"makes the coat's internal "
                         f"reflectance (Mitsuba's fit, for int_ior / ext_ior {eta:.4g}) 1 or more: the base's light "

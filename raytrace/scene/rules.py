@@ -80,6 +80,9 @@ def _bsdfs(scene, places):
             reader.fail("int_ior", value(material.int_ior), f'must differ from ext_ior for type = "{material.bsdf}" '
                         "(Mitsuba's rule for its rough interfaces: at equal indices the half-vector of refraction "
                         "vanishes)")
+        if material.bsdf == "principled" and None not in (material.principled_eta, material.principled_specular):
+            reader.fail("eta", value(material.principled_eta), "not with specular, which sets it (Mitsuba's rule: "
+                        "eta = 2 / (1 - sqrt(0.08 specular)) - 1); give one or the other")
 
 
 def _patterns(scene, render):

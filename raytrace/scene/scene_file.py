@@ -408,7 +408,8 @@ def _material(r, name, textures, names):
     sides = {"two_sided": r.boolean("two_sided")}
     if r.has("back"):
         sides["back"] = material_named(r, "back", {n: i for i, n in enumerate(names)})
-    if not sides["two_sided"] and kind in bsdfs.BY_NAME and not bsdfs.BY_NAME[kind].front_only:
+    if not sides["two_sided"] and kind in bsdfs.BY_NAME and not bsdfs.BY_NAME[kind].front_only and not (
+            kind == "principled" and r.table.get("spec_trans", 0.0) == 0):  # an opaque principled has a back
         r.fail("two_sided", False, f'type = "{kind}" scatters on both sides (it has no back to be black)')
     if kind in WRAPPERS:
         return _wrapper(r, name, kind, names, maps, sides)
