@@ -17,9 +17,9 @@ from raytrace.commands.stability.probe import planar
 # Each lane's shading point: the normal nrm (n and ng), the tangent tan (the anisotropic build's t), backface,
 # and the lane's material values (bsdf, k the colour, eta, k_imag, alpha, alpha_v, distribution, specular,
 # nonlinear, r_int, weight_s; material, its index into the table materials, for the rough plastic's
-# transmittance), each read where the build has the field. It computes the outputs a test wants (OUTPUTS, in
-# that order): output j goes to out + slot[j] n, its components one after another, and slot[j] = -1 is one not
-# wanted and not computed.
+# transmittance and the principled BSDF's values), each read where the build has the field. It computes the
+# outputs a test wants (OUTPUTS, in that order): output j goes to out + slot[j] n, its components one after
+# another, and slot[j] = -1 is one not wanted and not computed.
 KERNEL = """
 #include "bsdf.cl"
 enum { F, PDF, F_SWAPPED, DELTA_BSDF, S_WI, S_WEIGHT, S_PDF, S_DELTA, S_TRANSMIT, S_F, S_EVAL_PDF };
@@ -68,6 +68,14 @@ inline ShadingPoint lane_point(int n, __global const float *nrm, __global const 
 #endif
 #if HAS_BACKFACES
     sp.backface = VLOAD_INT(backface + I * LANES);
+#endif
+#if HAS_PRINCIPLED /* each lane's material's values, gathered from the table as material.cl does */
+    for (int j = 0; j < PRINCIPLED_PARAMETERS; ++j) {
+        float v[LANES];
+        for (int i = 0; i < LANES; ++i)
+            v[i] = materials[material[I * LANES + i]].principled[j];
+        sp.principled[j] = VLOAD(v);
+    }
 #endif
     return sp;
 }
