@@ -664,6 +664,12 @@ def test_scene_format_refuses_conflicting_maps_and_bad_scales(images):
     for scale, says in ((0, "must be > 0"), (-1, "must be > 0"), (float("nan"), "must be a finite number")):
         line = refusal(images, {**base, "bumpmap": bump, "bump_scale": scale})
         assert "\n" not in line and line.startswith(f"load_dict(): materials.m.bump_scale = {scale}: {says}"), line
+    # a map that is no texture's table, and a scale without a bump map, are refused rather than ignored
+    for extra, key, says in (({"normalmap": [0.9, 0.5, 0.5]}, "normalmap", "must be a texture's table"),
+                             ({"bumpmap": "height.png"}, "bumpmap", "must be a texture's table"),
+                             ({"bump_scale": 0.5}, "bump_scale", "only with bumpmap")):
+        line = refusal(images, {**base, **extra})
+        assert "\n" not in line and line.startswith(f"load_dict(): materials.m.{key} = ") and says in line, line
 
 
 XML = """<scene version="3.0.0">
@@ -689,7 +695,8 @@ def xml_scene(tmp_path, bsdf):
 def test_xml_maps_and_refusals(tmp_path, images):
     """The XML loader: a normalmap around a diffuse gives a material with the normal map's lookup, a bumpmap its
     bump lookup and scale; a normalmap without its texture, and a bumpmap without one, are refused in one line at
-    the wrapper's line; a normalmap inside a normalmap (or a bumpmap inside one) is unsupported, in one line."""
+    the wrapper's line; a normalmap inside a normalmap (or a bumpmap inside one), and a map inside twosided (whose
+    back Mitsuba mirrors through the surface: not rendered so yet), are unsupported, in one line."""
     texture = (f'<texture name="normalmap" type="bitmap"><string name="filename" value="{images["normals"][0]}"/>'
                '<boolean name="raw" value="true"/></texture>')
     height = texture.replace('"normalmap"', '"height"', 1).replace(images["normals"][0], images["bumps"][0])
@@ -705,7 +712,9 @@ def test_xml_maps_and_refusals(tmp_path, images):
                        (f'<bsdf type="normalmap">{texture}<bsdf type="normalmap">{texture}{diffuse}</bsdf></bsdf>',
                         "normalmap inside normalmap: one map tilts a material's normal"),
                        (f'<bsdf type="normalmap">{texture}<bsdf type="bumpmap">{height}{diffuse}</bsdf></bsdf>',
-                        "bumpmap inside normalmap: one map tilts a material's normal")):
+                        "bumpmap inside normalmap: one map tilts a material's normal"),
+                       (f'<bsdf type="twosided"><bsdf type="normalmap">{texture}{diffuse}</bsdf></bsdf>',
+                        "normalmap inside twosided: the back side of a map inside twosided")):
         with pytest.raises(InputError) as info:
             xml_scene(tmp_path, bsdf)
         assert "\n" not in line() and line().startswith(at) and says in line(), line()

@@ -615,6 +615,9 @@ class _Translator:
             if perturb is not None:
                 self.unsupported(self.where(node, path).at, f"{kind} inside {perturb[1]}",
                                  "one map tilts a material's normal")
+            if two_sided:  # Mitsuba's twosided mirrors the map's normal through the surface behind it
+                self.unsupported(self.where(node, path).at, f"{kind} inside twosided", "the back side of a map "
+                                 "inside twosided is not rendered as Mitsuba does: put the twosided inside the map")
             scale = float(self.number(params.get("scale", 1.0), node, path, "scale"))
             inner = (node, kind, self.texture(textures[0][1], textures[0][0]), scale)
             name = self.material(nested[0][1], nested[0][0], two_sided, back, own_id, inner)

@@ -448,6 +448,8 @@ def _textured(r, kind, textures):
     parameter takes a value only is refused."""
     table, maps = dict(r.table), []
     for key, value in r.table.items():
+        if key in PERTURBING and not texture_lookups.is_texture(value):
+            r.fail(key, value, "must be a texture's table (type = \"bitmap\" or \"checkerboard\")")
         if not texture_lookups.is_texture(value):
             continue
         if kind in WRAPPERS:
@@ -467,6 +469,8 @@ def _textured(r, kind, textures):
             del table[key]
         else:
             table[key] = mean if isinstance(mean, float) else mean.tolist()
+    if r.has("bump_scale") and not r.has("bumpmap"):
+        r.fail("bump_scale", r.raw("bump_scale"), "only with bumpmap")
     perturbing = [key for key in (*PERTURBING, "normal_map", "height_map") if r.has(key)]
     if len(perturbing) > 1 and set(perturbing) & set(PERTURBING):
         r.fail(perturbing[1], r.raw(perturbing[1]), f"not with {perturbing[0]}: one map tilts a material's normal")
