@@ -103,12 +103,18 @@ typedef struct {
     Surface surface;
     Frame frame;
     UVDerivatives duv;
+    vint kind, index;  /* the shapes hit, and a triangle's barycentrics (mesh attributes) */
+    vfloat b1, b2;
 } TexturedHits;
 
-inline TexturedHits textured_hits(const Scene *s, Surface surface, vec3 d, vec3 p, vec3 ng)
+inline TexturedHits textured_hits(const Scene *s, Hit hit, Surface surface, vec3 d, vec3 p, vec3 ng)
 {
     __constant const RenderParams *params = s->params;
     TexturedHits h;
+    h.kind = hit.kind;
+    h.index = hit.index;
+    h.b1 = hit.b1;
+    h.b2 = hit.b2;
     h.surface = surface;
     h.frame = shading_frame(h.surface);
     vec3 dpdx, dpdy;
@@ -216,6 +222,30 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
  * textured roughness is kept within [1e-3, 1], the range of the constant one (raytrace/scene/bsdfs.py; below
  * 1e-3 the host renders a constant roughness with the smooth BSDF, packing.SMOOTH_ALPHA): an image's 0 would be
  * a delta density, which the microfacet terms cannot evaluate, and values above 1 were never tested. */
+/* Lookup l at the hits h: lookups.cl's lookup_value at their (u, v), or a mesh attribute (Mitsuba's
+ * mesh_attribute: a colour, for colour parameters only) interpolated over each lane's triangle with the hit's
+ * barycentrics, times its scale. Lanes on other shapes get 0 (the host refuses such a material on them). */
+inline vec3 lookup_at(const Scene *s, TextureStore ts, int l, const TexturedHits *h, int filter)
+{
+    __global const TextureLookup *t = &ts.lookups[l];
+    if (t->kind != LOOKUP_MESH_ATTRIBUTE)
+        return lookup_value(ts, l, h->surface.uv, h->duv, filter);
+    int kind[LANES], index[LANES];
+    float b1[LANES], b2[LANES];
+    VSTORE(h->kind, kind);
+    VSTORE(h->index, index);
+    VSTORE(h->b1, b1);
+    VSTORE(h->b2, b2);
+    Lanes3 values = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
+    for (int i = 0; i < LANES; ++i) {
+        if (kind[i] != SHAPE_TRIANGLE)
+            continue;
+        __global const TriangleAttribute *a = &s->attributes[t->attribute + index[i]];
+        set_lane3(&values, i, (1.0f - b1[i] - b2[i]) * f3(a->a0) + b1[i] * f3(a->a1) + b2[i] * f3(a->a2));
+    }
+    return v3_scale(v3_fill(&values), t->scale);
+}
+
 #if HAS_PERTURBED_NORMALS
 /* Material m's normalmap or bumpmap on the lanes of `mask`, as Mitsuba 3's wrappers perturb the shading frame
  * (src/bsdfs/normalmap.cpp, bumpmap.cpp): the frame (s, t, n0) of the shading normal n0, facing the shape's
@@ -225,15 +255,15 @@ inline void texture_material(TextureStore ts, __global const Material *m, int fi
  * lie on different sides of n0 and of the perturbed normal, its tangential part is mirrored (Mitsuba's
  * flip_invalid_normals). sp->n becomes the perturbed normal, on sp->n0's side of the viewer; sp->n0 keeps the
  * shading normal for bsdf.cl's side condition and shadow terminator. */
-inline void perturb_normal(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
-                           vint mask, vec3 wo, ShadingPoint *sp)
+inline void perturb_normal(const Scene *s, TextureStore ts, __global const Material *m, int filter,
+                           const TexturedHits *h, vint mask, vec3 wo, ShadingPoint *sp)
 {
     vec3 outside = v3(h->surface.n.x, h->surface.n.y, h->surface.n.z);
     vfloat side = SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(sp->n, outside) < 0.0f);
     vec3 n0 = v3_scale(sp->n, side); /* the shading normal, facing out */
     vec3 dpdu = h->surface.dpdu, dpdv = h->surface.dpdv, n;
     if (m->maps[MAP_NORMAL] >= 0) {
-        vec3 c = lookup_value(ts, m->maps[MAP_NORMAL], h->surface.uv, h->duv, filter);
+        vec3 c = lookup_at(s, ts, m->maps[MAP_NORMAL], h, filter);
         vec3 s = v3_unit_or(v3_sub(dpdu, v3_scale(n0, v3_dot(n0, dpdu))), any_perpendicular(n0));
         vec3 t = v3_cross(n0, s);
         n = v3_scale(s, MAD(c.x, 2.0f, -1.0f));
@@ -255,27 +285,27 @@ inline void perturb_normal(TextureStore ts, __global const Material *m, int filt
 }
 #endif
 
-inline void lookup_material(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
-                            vint mask, vec3 wo, ShadingPoint *sp)
+inline void lookup_material(const Scene *s, TextureStore ts, __global const Material *m, int filter,
+                            const TexturedHits *h, vint mask, vec3 wo, ShadingPoint *sp)
 {
 #if HAS_PERTURBED_NORMALS
     if (m->maps[MAP_NORMAL] >= 0 || m->maps[MAP_BUMP] >= 0)
-        perturb_normal(ts, m, filter, h, mask, wo, sp);
+        perturb_normal(s, ts, m, filter, h, mask, wo, sp);
 #endif
     if (m->maps[MAP_COLOUR] >= 0)
-        sp->k = v3_select(sp->k, lookup_value(ts, m->maps[MAP_COLOUR], h->surface.uv, h->duv, filter), mask);
+        sp->k = v3_select(sp->k, lookup_at(s, ts, m->maps[MAP_COLOUR], h, filter), mask);
 #if HAS_COATS
     if (m->maps[MAP_SPECULAR] >= 0)
-        sp->specular = v3_select(sp->specular, lookup_value(ts, m->maps[MAP_SPECULAR], h->surface.uv, h->duv, filter),
+        sp->specular = v3_select(sp->specular, lookup_at(s, ts, m->maps[MAP_SPECULAR], h, filter),
                                  mask);
 #endif
 #if HAS_MICROFACETS
     if (m->maps[MAP_ALPHA] >= 0) {
-        vfloat a = lookup_value(ts, m->maps[MAP_ALPHA], h->surface.uv, h->duv, filter).x;
+        vfloat a = lookup_at(s, ts, m->maps[MAP_ALPHA], h, filter).x;
         sp->alpha = SELECT(sp->alpha, vmin(vmax(a, 1e-3f), 1.0f), mask);
     }
     if (m->maps[MAP_ALPHA_V] >= 0) {
-        vfloat a = lookup_value(ts, m->maps[MAP_ALPHA_V], h->surface.uv, h->duv, filter).x;
+        vfloat a = lookup_at(s, ts, m->maps[MAP_ALPHA_V], h, filter).x;
         sp->alpha_v = SELECT(sp->alpha_v, vmin(vmax(a, 1e-3f), 1.0f), mask);
     }
 #endif
@@ -477,7 +507,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_TEXTURES
     if (!any_textured)
         return with_tangent(s, hit, sp);
-    TexturedHits h = textured_hits(s, textured_surface(s, hit, textured), r.d, sp.p, sp.ng);
+    TexturedHits h = textured_hits(s, hit, textured_surface(s, hit, textured), r.d, sp.p, sp.ng);
     for (int i = 0; i < LANES; ++i) {
         if (!textured[i])
             continue;
@@ -489,7 +519,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         texture_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i], sp.ng,
                          &sp.k, &sp.n, &sp.p, &sp.err);
 #if HAS_LOOKUPS
-        lookup_material(ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i],
+        lookup_material(s, ts, &s->materials[m[i]], s->params->texture_filter, &h, hit.material == m[i],
                         v3_scale(r.d, -1.0f), &sp);
 #endif
     }

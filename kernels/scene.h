@@ -29,6 +29,7 @@ typedef struct {
     __global const Triangle *triangles;
     __global const TriangleUV *triangle_uvs;
     __global const TriangleNormals *triangle_normals;
+    __global const TriangleAttribute *attributes; /* mesh attributes, per triangle (LOOKUP_MESH_ATTRIBUTE) */
     __global const Ellipsoid *ellipsoids;
     __global const Light *lights;
     __global const Material *materials;
@@ -82,19 +83,21 @@ typedef struct {
     __constant const Camera *camera, __constant const RenderParams *params,                               \
     __global const Rectangle *rectangles, __global const Triangle *triangles,                              \
     __global const TriangleUV *triangle_uvs, __global const TriangleNormals *triangle_normals,             \
+    __global const TriangleAttribute *attributes,                                                          \
     __global const Ellipsoid *ellipsoids, __global const Light *lights, __global const Material *materials, \
     __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees,        \
     __global const float *environment_map
 #define SCENE_FROM_PARAMETERS                                                                               \
     {.rectangles = rectangles, .triangles = triangles, .triangle_uvs = triangle_uvs,                        \
-     .triangle_normals = triangle_normals, .ellipsoids = ellipsoids, .lights = lights, .materials = materials, \
+     .triangle_normals = triangle_normals, .attributes = attributes, .ellipsoids = ellipsoids, .lights = lights, .materials = materials, \
      .camera = camera, .params = params, .nodes = nodes, .prims = prims, .culled_subtrees = culled_subtrees, \
      .environment_map = environment_map}
 
 #define TEXTURE_PARAMETERS                                                                                  \
     __global const Texture *textures, __global const MipLevel *mip_levels, __global const uint *texels,    \
     __global const float *srgb_to_linear, __global const TextureLookup *lookups
-#define TEXTURES_FROM_PARAMETERS \
-    {.textures = textures, .levels = mip_levels, .texels = texels, .srgb_to_linear = srgb_to_linear, .lookups = lookups}
+#define TEXTURES_FROM_PARAMETERS                                                                            \
+    {.textures = textures, .levels = mip_levels, .texels = texels, .srgb_to_linear = srgb_to_linear,       \
+     .lookups = lookups}
 
 #endif

@@ -85,6 +85,7 @@ typedef struct {
 /* How a textured parameter finds its value at a surface point (Mitsuba's texture plugins; lookups.cl). */
 #define LOOKUP_BITMAP 0       /* an image, filtered */
 #define LOOKUP_CHECKERBOARD 1 /* colour0 and colour1 in alternate squares of a 2 x 2 tile of (s, t) */
+#define LOOKUP_MESH_ATTRIBUTE 2 /* a mesh's per-vertex attribute, interpolated over the triangle hit */
 
 typedef struct {
     int kind;              /* LOOKUP_* */
@@ -95,7 +96,12 @@ typedef struct {
     float to_uv[6];        /* (s, t) = rows (to_uv[0..2], to_uv[3..5]) . (u, v, 1): the texture's coordinates,
                             * s along the image's rows, t down its columns (the image's top-left is (0, 0)) */
     Vec3f colour0, colour1; /* LOOKUP_CHECKERBOARD */
+    int attribute;         /* LOOKUP_MESH_ATTRIBUTE: its first entry in the attribute table (one per triangle) */
+    float scale;           /* LOOKUP_MESH_ATTRIBUTE: a factor on its values */
 } TextureLookup;
+
+/* A mesh attribute's values at a triangle's corners v0, v1, v2 (LOOKUP_MESH_ATTRIBUTE). */
+typedef struct { Vec3f a0, a1, a2; } TriangleAttribute;
 
 typedef struct {
     Vec3f colour;                    /* ka = kd = ks = colour (the course's model), unless a colour map */

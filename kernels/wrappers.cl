@@ -48,15 +48,14 @@ inline vfloat blend_number(vec3 p, vec3 d, vint node)
 inline vfloat mapped_weights(const Scene *s, TextureStore ts, Ray r, Hit hit, const int *m, const int *mapped,
                              vfloat w)
 {
-    TexturedHits h = textured_hits(s, textured_surface(s, hit, mapped), r.d, hit.p, hit.n);
+    TexturedHits h = textured_hits(s, hit, textured_surface(s, hit, mapped), r.d, hit.p, hit.n);
     vint node = VLOAD_INT(m), on = VLOAD_INT(mapped) != 0;
     for (int i = 0; i < LANES; ++i) {
         int first = mapped[i]; /* each blend once, at its first lane */
         for (int j = 0; j < i; ++j)
             first &= !(mapped[j] && m[j] == m[i]);
         if (first) {
-            vfloat v = lookup_value(ts, s->materials[m[i]].maps[MAP_WEIGHT], h.surface.uv, h.duv,
-                                    s->params->texture_filter).x;
+            vfloat v = lookup_at(s, ts, s->materials[m[i]].maps[MAP_WEIGHT], &h, s->params->texture_filter).x;
             w = SELECT(w, v, on & (node == m[i]));
         }
     }

@@ -44,9 +44,11 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
 
 # kernels/types.h: MAP_* (Material.maps), LOOKUP_*
 MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4, "normal": 5, "bump": 6}
-LOOKUPS = {"bitmap": 0, "checkerboard": 1}
+LOOKUPS = {"bitmap": 0, "checkerboard": 1, "mesh_attribute": 2}
 TEXTURE_LOOKUP = np.dtype([("kind", "<i4"), ("texture", "<i4"), ("wrap", "<i4"), ("filter", "<i4"),
-                           ("luminance", "<i4"), ("to_uv", "<f4", (6,)), ("colour0", *VEC3F), ("colour1", *VEC3F)])
+                           ("luminance", "<i4"), ("to_uv", "<f4", (6,)), ("colour0", *VEC3F), ("colour1", *VEC3F),
+                           ("attribute", "<i4"), ("scale", "<f4")])
+TRIANGLE_ATTRIBUTE = np.dtype([("a0", *VEC3F), ("a1", *VEC3F), ("a2", *VEC3F)])
 
 TEXTURE = np.dtype([("first_level", "<i4"), ("n_levels", "<i4"), ("encoding", "<i4")])
 
@@ -89,7 +91,7 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
            "TriangleNormals": TRIANGLE_NORMALS,
            "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
-           "TextureLookup": TEXTURE_LOOKUP,
+           "TextureLookup": TEXTURE_LOOKUP, "TriangleAttribute": TRIANGLE_ATTRIBUTE,
            "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE}
 
 # kernels/limits.h

@@ -300,8 +300,9 @@ CHECKER = {"type": "checkerboard", "color0": 0.1, "color1": 0.3}
      'is not a parameter of type = "checkerboard"'),
     ({"type": "diffuse", "reflectance": {**BITMAP, "color1": 0.3}}, "materials.b.reflectance.color1", 0.3,
      'is not a parameter of type = "bitmap"'),
-    ({"type": "diffuse", "reflectance": {**BITMAP, "scale": 2.0}}, "materials.b.reflectance.scale", 2.0,
-     "unknown key (expected one of: color0, color1, filename, filter_type, raw, to_uv, type, wrap_mode)"),
+    ({"type": "diffuse", "reflectance": {**BITMAP, "offset": 2.0}}, "materials.b.reflectance.offset", 2.0,
+     "unknown key (expected one of: color0, color1, filename, filter_type, name, raw, scale, to_uv, type, "
+     "wrap_mode)"),
     ({"type": "mask", "bsdf": "d", "opacity": {**BITMAP, "wrap_mode": "periodic"}},
      "materials.b.opacity.wrap_mode", "periodic", "must be one of: repeat, mirror, clamp"),
 ], ids=["roughplastic-alpha", "plastic-ior", "no-filename", "checker-raw", "bitmap-color1", "unknown", "wrap"])

@@ -123,9 +123,11 @@ def scene_with(table_name, key_name=None):
         radiometric(scene, "path")
         scene["materials"]["b"] = {"type": kind, **copy.deepcopy(EVERY_WRAPPER_KEY[kind])}
         return scene, scene["materials"]["b"], "materials.b."
-    if table_name == TEXTURE:
+    if table_name == TEXTURE:  # a bitmap, or for a mesh_attribute's own keys, one of those
         radiometric(scene, "path")
-        scene["materials"]["b"] = {"type": "diffuse", "reflectance": copy.deepcopy(EVERY_TEXTURE_KEY)}
+        texture = ({"type": "mesh_attribute", "name": "vertex_color", "scale": 0.5} if key_name in ("name", "scale")
+                   else copy.deepcopy(EVERY_TEXTURE_KEY))
+        scene["materials"]["b"] = {"type": "diffuse", "reflectance": texture}
         return scene, scene["materials"]["b"]["reflectance"], "materials.b.reflectance."
     where, prefix = PLACES[table_name]
     node = scene

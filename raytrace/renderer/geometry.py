@@ -10,6 +10,7 @@ from . import bvh
 from .. import structs
 from ..errors import InputError
 from .culling import culled_subtrees
+from ..scene.texture_lookups import attribute_names
 
 DEFAULT_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # uv = (b1, b2)
 
@@ -24,6 +25,7 @@ class TriangleSoup:
     uv: np.ndarray
     normals: np.ndarray
     material: np.ndarray
+    attributes: dict  # {name: per-corner values (F, 3, 3)} of the mesh attributes the materials read, 0 elsewhere
 
 
 def triangle_soup(scene):
@@ -43,7 +45,13 @@ def triangle_soup(scene):
     flat = lambda part: np.repeat(face[part, None], 3, axis=1)  # noqa: E731
     starts = np.cumsum([0] + [len(a) for a in material])
     normals = [flat(slice(a, b)) if n is None else n for n, a, b in zip(normals, starts[:-1], starts[1:])]
-    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material))
+    attributes = {}
+    for name in attribute_names(scene.materials):
+        parts = [np.zeros((len(tris), 3, 3))] + [
+            np.zeros((len(shape.mesh.faces), 3, 3)) if name not in shape.mesh.attributes
+            else shape.mesh.attributes[name][shape.mesh.faces] for shape in scene.meshes]
+        attributes[name] = np.concatenate(parts)
+    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material), attributes)
 
 
 def primitive_boxes(scene, soup):
@@ -88,4 +96,5 @@ def in_leaf_order(soup, prims):
     order = prims[triangle] >> 2
     prims = prims.copy()
     prims[triangle] = np.arange(len(order), dtype=prims.dtype) * 4 + structs.SHAPES["triangle"]
-    return TriangleSoup(soup.v[order], soup.uv[order], soup.normals[order], soup.material[order]), prims
+    return TriangleSoup(soup.v[order], soup.uv[order], soup.normals[order], soup.material[order],
+                        {name: values[order] for name, values in soup.attributes.items()}), prims

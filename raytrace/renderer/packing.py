@@ -148,21 +148,36 @@ def material_table(materials):
     return list(materials) + [Material("null", np.zeros(3), bsdf="null")] * masks
 
 
-def lookup_structs(materials):
+def lookup_structs(materials, triangles=0):
     """(the TextureLookup table, each material's maps) of the materials' textured parameters: one lookup per
     parameter, a float parameter's reading its lookup's luminance. to_uv becomes the kernel's, whose t runs down
-    the image: t' = 1 - t."""
-    table, maps = [], []
+    the image: t' = 1 - t. A mesh attribute's lookup starts at its block of `triangles` entries in the attribute
+    table (attribute_table)."""
+    table, maps, names = [], [], texture_lookups.attribute_names(materials)
     for m in materials:
         slots = np.full(structs.MAPS, -1, np.int32)
         for slot, lookup in m.maps:
             a, b, c, d, e, f = lookup.to_uv
+            first = names.index(lookup.attribute) * triangles if lookup.kind == "mesh_attribute" else 0
             table.append((structs.LOOKUPS[lookup.kind], lookup.texture, structs.WRAP_MODES[lookup.wrap],
-                          -1 if lookup.filter is None else structs.FILTERS[lookup.filter], slot in texture_lookups.FLOAT_SLOTS,
-                          (a, b, c, -d, -e, 1.0 - f), lookup.colour0, lookup.colour1))
+                          -1 if lookup.filter is None else structs.FILTERS[lookup.filter],
+                          slot in texture_lookups.FLOAT_SLOTS, (a, b, c, -d, -e, 1.0 - f), lookup.colour0,
+                          lookup.colour1, first, lookup.scale))
             slots[structs.MAP_SLOTS[slot]] = len(table) - 1
         maps.append(slots)
-    return np.array(table or [(0, 0, 0, 0, 0, (0.0,) * 6, (0.0,) * 3, (0.0,) * 3)], structs.TEXTURE_LOOKUP), maps
+    return np.array(table or [(0, 0, 0, 0, 0, (0.0,) * 6, (0.0,) * 3, (0.0,) * 3, 0, 1.0)],
+                    structs.TEXTURE_LOOKUP), maps
+
+
+def attribute_table(attributes):
+    """The TriangleAttribute table of a triangle soup's attributes ({name: (F, 3, 3)}, geometry.TriangleSoup's, in
+    the kernel's order of triangles), a block of F entries per attribute in attribute_names' order."""
+    if not attributes:
+        return np.zeros(1, structs.TRIANGLE_ATTRIBUTE)
+    values = np.concatenate(list(attributes.values())).reshape(-1, 9)
+    table = np.zeros(len(values), structs.TRIANGLE_ATTRIBUTE)
+    table.view(np.float32).reshape(-1, 9)[:] = values
+    return table
 
 
 def material_structs(materials):
@@ -224,7 +239,7 @@ def texture_tables(scene):
     texels, levels, textures = pack_textures(scene.textures, scene.path)
     return {"textures": textures, "mip_levels": levels, "texels": texels,
             "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32),
-            "lookups": lookup_structs(material_table(scene.materials))[0]}
+            "lookups": lookup_structs(material_table(scene.materials), scene.triangle_count)[0]}
 
 
 def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear",

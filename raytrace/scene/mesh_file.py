@@ -35,13 +35,13 @@ def load_mesh(path, source=None, key="file"):
     except OSError as e:
         raise InputError(*where, str(path), e.strerror or "cannot be read") from None
     try:
-        vertices, faces, normals, uvs = readers[path.suffix.lower()](path, data)
-        return _checked(path, vertices, faces, normals, uvs)
+        vertices, faces, normals, uvs, *attributes = readers[path.suffix.lower()](path, data)
+        return _checked(path, vertices, faces, normals, uvs, *attributes)
     except MemoryError:
         raise InputError(path, "file", str(path), "does not fit in memory") from None
 
 
-def _checked(path, vertices, faces, normals, uvs):
+def _checked(path, vertices, faces, normals, uvs, attributes=None):
     """The validated Mesh (float64 arrays, int32 faces) and the number of degenerate faces dropped."""
     vertices = np.asarray(vertices, np.float64)
     if vertices.ndim != 2 or vertices.shape[1] != 3:
@@ -64,7 +64,12 @@ def _checked(path, vertices, faces, normals, uvs):
         normals = np.asarray(normals, np.float64)
         _check_values(path, "normals", normals, FLOAT32_MAX)
         normals = _unit_normals(normals, vertices, faces)
-    return Mesh(vertices, faces, normals, uvs), int(degenerate.sum())
+    for name, values in (attributes or {}).items():
+        _check_values(path, name, values, FLOAT32_MAX)
+        if (values < 0).any():  # a colour: a reflectance, or a radiance
+            row = int(np.argmax((values < 0).any(axis=1)))
+            raise InputError(path, f"{name}[{row}]", values[row].tolist(), "a colour must be >= 0")
+    return Mesh(vertices, faces, normals, uvs, dict(attributes or {})), int(degenerate.sum())
 
 
 def _check_values(path, name, values, limit):

@@ -13,7 +13,7 @@ mesh_file.py (load_mesh) dispatches to them and checks what they return.
 """
 import logging
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,6 +36,8 @@ class Mesh:
     faces: np.ndarray                 # (F, 3) int32, counter-clockwise seen from the front
     normals: np.ndarray | None = None  # (V, 3) float64 unit shading normals, per vertex
     uvs: np.ndarray | None = None     # (V, 2) float64 texture coordinates, per vertex
+    attributes: dict = field(default_factory=dict)  # {name: (V, 3) float64}: Mitsuba's mesh attributes, per
+                                                    # vertex ("vertex_color" of a PLY file's r, g, b)
 
     def triangle_bounds(self):
         """(lo, hi), each (F, 3): every triangle's axis-aligned box, the BVH's input."""

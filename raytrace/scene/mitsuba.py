@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import InputError, did_you_mean, printable
 from . import bsdfs, mesh_file, spectra
 from .mitsuba_xml import WHERE, Where
+from .model import LOOKUPS
 from .transform import AFFINE
 
 # Mitsuba's samplers, and raytrace's pattern that takes the place of each: the same estimate (every sampler is
@@ -91,6 +92,8 @@ PLUGINS = {
         Param("filter_type", "bilinear", "texture filter_type"), Param("wrap_mode", "repeat", "texture wrap_mode"),
         Param("to_uv", "identity", "texture to_uv", "its 2D part (x, y and the translation)"),
         Param("accel", True, "", "no effect"))),
+    "mesh_attribute": Plugin("texture", "a mesh's per-vertex attribute (a PLY file's vertex colours)", (
+        Param("name", None, "texture name", "vertex_color"), Param("scale", 1.0, "texture scale"))),
     "checkerboard": Plugin("texture", "two colours in alternate squares", (
         Param("color0", 0.4, "texture color0", "a number or an rgb"), Param("color1", 0.2, "texture color1"),
         Param("to_uv", "identity", "texture to_uv", "its 2D part (x, y and the translation)"))),
@@ -667,7 +670,7 @@ class _Translator:
     def float_or_texture(self, value, node, path, param):
         """A float parameter's value: a number, or a texture's table."""
         value = self.resolve(value, path)
-        if isinstance(value, dict) and _type(value) in ("bitmap", "checkerboard"):
+        if isinstance(value, dict) and _type(value) in LOOKUPS:
             return self.texture(value, f"{path}.{param}")
         return float(self.number(value, node, path, param))
 
@@ -677,6 +680,10 @@ class _Translator:
         kind = node["type"]
         params = self.params(node, path, kind)
         table = {"type": kind}
+        if kind == "mesh_attribute":
+            table["name"] = self.string(params.get("name"), node, path, "name")
+            table["scale"] = float(self.number(params.get("scale", 1.0), node, path, "scale"))
+            return table
         if "to_uv" in params:
             m = self.matrix(params["to_uv"], node, path, "to_uv")
             table["to_uv"] = [[m[0, 0], m[0, 1], m[0, 3]], [-m[1, 0], -m[1, 1], 1.0 - m[1, 3]]]
@@ -694,7 +701,7 @@ class _Translator:
         else:
             for key, default in (("color0", 0.4), ("color1", 0.2)):
                 value = self.resolve(params.get(key, default), path)
-                if isinstance(value, dict) and _type(value) in ("bitmap", "checkerboard"):
+                if isinstance(value, dict) and _type(value) in LOOKUPS:
                     self.unsupported(self.where(value, path).at, "a texture inside a checkerboard",
                                      "its colours must be numbers or rgb values")
                 table[key] = self.colour(value, node, path, key)
@@ -706,8 +713,8 @@ class _Translator:
         and resolves them as a TOML file's (named media and metals, Mitsuba's rules between alpha, alpha_u and
         alpha_v, and between eta, k and material)."""
         colours = [p for p in bsdf.parameters if p.fields == ("colour",)]
-        textured = [p for p in bsdf.parameters if p.name in params and _type(self.resolve(params[p.name], path)) in (
-            "bitmap", "checkerboard")]
+        textured = [p for p in bsdf.parameters if p.name in params and _type(self.resolve(params[p.name], path)) in
+                    LOOKUPS]
         for p in textured:
             if p.key is None or bsdfs.texture_slot(bsdf, p.key.name) is None:
                 self.fail(self.where(node, path).of(p.name), f"{path}.{p.name}", params[p.name]["type"],

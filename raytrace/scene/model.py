@@ -28,7 +28,7 @@ BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor", "thindielectric
 # the masked material and `null` by opacity); twosided is a material's `back` (Material).
 WRAPPERS = ("blendbsdf", "mask")
 # Mitsuba's texture plugins a textured parameter can be (TextureLookup); their wrap modes and filter types.
-LOOKUPS = ("bitmap", "checkerboard")
+LOOKUPS = ("bitmap", "checkerboard", "mesh_attribute")
 WRAP_MODES = ("repeat", "mirror", "clamp")
 FILTER_TYPES = ("nearest", "bilinear")
 DISTRIBUTIONS = ("ggx", "beckmann")  # the microfacet distributions of the rough BSDFs, with Mitsuba's names
@@ -80,7 +80,8 @@ class TextureLookup:
     texture filter; "nearest" or "bilinear": Mitsuba's filter_type, on the finest level), or `checkerboard`, colour0
     and colour1 in alternate squares. to_uv, rows (a, b, c), (d, e, f): the texture's coordinates (s, t) = (a u + b
     v + c, d u + e v + f) of the surface's (u, v), with t up the image, as the surface's v (the identity: the
-    image once over the course's rectangles, as a colour map)."""
+    image once over the course's rectangles, as a colour map). `mesh_attribute`: a mesh's per-vertex attribute
+    (`attribute`, interpolated over each triangle) times `scale`."""
     kind: str = "bitmap"
     texture: int = -1
     wrap: str = "repeat"
@@ -88,6 +89,8 @@ class TextureLookup:
     to_uv: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
     colour0: tuple = (0.4, 0.4, 0.4)
     colour1: tuple = (0.2, 0.2, 0.2)
+    attribute: str = ""  # mesh_attribute: the meshes' attribute (Mesh.attributes), times scale
+    scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -250,6 +253,11 @@ def fingerprint(scene):
             digest.update(b"[%d" % len(x))
             for y in x:
                 add(y)
+        elif isinstance(x, dict):
+            digest.update(b"{%d" % len(x))
+            for key in sorted(x):
+                add(key)
+                add(x[key])
         elif hasattr(x, "__dataclass_fields__"):
             digest.update(type(x).__name__.encode())
             for name in x.__dataclass_fields__:

@@ -40,8 +40,31 @@ def read_ply(path, data):
     faces = read.get("faces")
     if faces is None or not len(faces):
         raise InputError(path, "face", None, NO_FACES)
+    raw = read.get("metadata", {}).get("_ply_raw", {}).get("vertex", {}).get("data", {})
+    if isinstance(raw, np.ndarray):  # trimesh's binary reader: a structured array
+        raw = {name: raw[name] for name in raw.dtype.names or ()}
+    columns = {name: np.asarray(values).reshape(-1) for name, values in raw.items()
+               if np.asarray(values).size == len(read["vertices"])}
     return read["vertices"], fan(np.asarray(faces)), read.get("vertex_normals"), \
-        getattr(read.get("visual"), "uv", None)
+        getattr(read.get("visual"), "uv", None), vertex_attributes(columns)
+
+
+# A PLY file's vertex colour properties, as Mitsuba 3 groups them into its "vertex_color" attribute
+COLOUR_NAMES = (("r", "g", "b"), ("red", "green", "blue"))
+
+
+def vertex_attributes(columns):
+    """{"vertex_color": (V, 3) float64} of a PLY file's vertex properties ({name: values}) r, g, b (or red, green,
+    blue), as Mitsuba 3's PLY reader names them; {} without them. Integer colours (MeshLab's and Blender's 8-bit
+    ones) become code / the type's largest code, where Mitsuba takes the codes themselves as values (and warns
+    that it expects [0, 1]): a colour of 255 is no reflectance anyone means."""
+    for names in COLOUR_NAMES:
+        if all(name in columns for name in names):
+            rgb = np.stack([columns[name] for name in names], 1)
+            if np.issubdtype(rgb.dtype, np.integer):
+                return {"vertex_color": rgb / float(np.iinfo(rgb.dtype).max)}
+            return {"vertex_color": rgb.astype(np.float64)}
+    return {}
 
 
 def _uniform_face_lists(endian, elements, body):
@@ -204,7 +227,8 @@ def _read_binary_ply(path, endian, elements, body):
     sizes = np.array([len(p) for p in polygons])
     faces = [fan(np.array([p for p in polygons if len(p) == k])) for k in np.unique(sizes[sizes >= 3])]
     return (np.stack([vertex[k] for k in "xyz"], 1), np.concatenate(faces) if faces else np.zeros((0, 3), int),
-            normals, None if uv is None else np.stack([vertex[uv[0]], vertex[uv[1]]], 1))
+            normals, None if uv is None else np.stack([vertex[uv[0]], vertex[uv[1]]], 1),
+            vertex_attributes({name: vertex[name] for name in columns}))
 
 
 def _ply_elements(path, endian, elements, body):

@@ -106,11 +106,39 @@ def _camera(camera, reader):
         reader.fail("up", value(camera.ref_up), "must not be parallel to the view direction")
 
 
+def _read_attributes(scene, index, seen=()):
+    """The mesh attributes material `index` reads, through its wrappers (blends, masks, its back side)."""
+    m = scene.materials[index]
+    names = {lookup.attribute for _, lookup in m.maps if lookup.kind == "mesh_attribute"}
+    for other in (*m.blend, m.back):
+        if other >= 0 and other not in seen:
+            names |= _read_attributes(scene, other, (*seen, index))
+    return names
+
+
+def _mesh_attributes(scene, places):
+    """A material that reads a mesh attribute (a mesh_attribute texture) is on meshes that have it only, as
+    Mitsuba's shapes refuse an attribute they do not have."""
+    for reader, shape in places.shapes:
+        if shape.material < 0:
+            continue
+        names = _read_attributes(scene, shape.material)
+        have = set(shape.mesh.attributes) if hasattr(shape, "mesh") else set()
+        if names - have:
+            reader.fail("material", scene.materials[shape.material].name, f"reads the mesh attribute "
+                        f"{sorted(names - have)[0]}, which this shape does not have")
+    for light, reader in zip(scene.lights, places.lights):
+        if light.material >= 0 and _read_attributes(scene, light.material):
+            reader.fail("material", scene.materials[light.material].name, "reads a mesh attribute, which a light "
+                        "(a rectangle) does not have")
+
+
 def check(scene, places):
     """Raise InputError, through the reader of the value's table, at the first rule `scene` breaks."""
     _camera(scene.camera, places.camera)
     _shading(scene, places)
     _bsdfs(scene, places)
+    _mesh_attributes(scene, places)
     _patterns(scene, places.render)
     located = [(places.camera, scene.camera), *zip(places.lights, scene.lights), *places.shapes]
     ranges.check_scene(scene, located, places.materials, places.lights, places.top)

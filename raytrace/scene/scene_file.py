@@ -329,8 +329,8 @@ def _mesh_shape(r, material):
     uvs = mesh.uvs
     if r.boolean("flip_tex_coords") and uvs is not None:  # Mitsuba's OBJ default: v -> 1 - v
         uvs = np.column_stack([uvs[:, 0], 1.0 - uvs[:, 1]])
-    return MeshShape(meshes.Mesh(vertices, faces, normals, uvs), material, bool(smooth), dropped + collapsed,
-                     source)
+    return MeshShape(meshes.Mesh(vertices, faces, normals, uvs, mesh.attributes), material, bool(smooth),
+                     dropped + collapsed, source)
 
 
 # How a BSDF parameter's key is read, by its declared kind (bsdfs.py)

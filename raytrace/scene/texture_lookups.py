@@ -6,6 +6,10 @@ instead of a value, `bitmap` (an image) or `checkerboard`, with Mitsuba's names 
     material = "Al"
     alpha = { type = "bitmap", filename = "roughness.png", raw = true, to_uv = [[4, 0, 0], [0, 4, 0]] }
 
+`mesh_attribute` reads a mesh's per-vertex attribute (Mitsuba's name: "vertex_color", a PLY file's vertex
+colours), interpolated over each triangle, times `scale`; every shape of such a material must be a mesh that has
+it (rules.py).
+
 Which parameters take a texture: the reflectances (`colour` and Mitsuba's names of it, a plastic's
 `specular_reflectance`), the rough conductors' and dielectrics' `alpha`, `alpha_u` and `alpha_v`, a blend's
 `weight` and a mask's `opacity`; each BSDF's table in the manual says so (TEXTURED). A float parameter of an RGB
@@ -24,6 +28,10 @@ from .mipmap import SRGB8_TO_LINEAR
 from .model import FILTER_TYPES, LOOKUPS, WRAP_MODES, TextureLookup
 from .. import structs
 
+# The mesh attributes a mesh_attribute texture reads (raytrace/scene/ply_file.py reads a PLY file's vertex colours
+# as Mitsuba 3 names them)
+MESH_ATTRIBUTES = ("vertex_color",)
+
 # The scene format's table of a textured parameter's keys (keys.py lists it as "texture").
 KEYS = [
     Key("type", "string", "Mitsuba's texture plugin: an image, or a checkerboard", choices=LOOKUPS),
@@ -40,9 +48,12 @@ KEYS = [
     Key("color0", "number-or-vector", "checkerboard: the colour of the squares at (0, 0) and (1/2, 1/2)", length=3,
         low=0, default=0.4),
     Key("color1", "number-or-vector", "checkerboard: the other squares' colour", length=3, low=0, default=0.2),
+    Key("name", "string", "mesh_attribute: the meshes' attribute, as Mitsuba names it", choices=MESH_ATTRIBUTES,
+        default=None, also='required with type = "mesh_attribute"; every shape of the material a mesh that has it'),
+    Key("scale", "number", "mesh_attribute: a factor on its values", default=1.0, low=0),
 ]
 KIND_KEYS = {"bitmap": ("type", "filename", "raw", "filter_type", "wrap_mode", "to_uv"),
-             "checkerboard": ("type", "to_uv", "color0", "color1")}
+             "checkerboard": ("type", "to_uv", "color0", "color1"), "mesh_attribute": ("type", "name", "scale")}
 # The parameters whose value is one number (kernels/types.h's MAP_ALPHA, MAP_ALPHA_V, MAP_WEIGHT, MAP_BUMP): a
 # lookup's luminance
 FLOAT_SLOTS = ("alpha", "alpha_v", "weight", "bump")
@@ -63,7 +74,14 @@ def read(r, slot, textures, rgb, own_keys):
     own_keys(r, kind, KIND_KEYS[kind], [key.name for key in KEYS])
     rows = r.vectors("to_uv") if r.has("to_uv") else np.array(r.spec["to_uv"].default)
     to_uv = tuple(float(x) for x in rows.ravel())
-    if kind == "checkerboard":
+    if kind == "mesh_attribute":
+        if not r.has("name"):
+            r.fail("name", None, 'missing (type = "mesh_attribute" reads a mesh\'s attribute)')
+        if slot in FLOAT_SLOTS:  # Mitsuba's eval_1 reads one-channel attributes only
+            r.fail("name", r.raw("name"), "is a colour (three channels): not for a parameter of one number")
+        lookup = TextureLookup("mesh_attribute", to_uv=to_uv, attribute=r.string("name"), scale=r.number("scale"))
+        mean = np.full(3, 0.5 * lookup.scale)  # unknown until the meshes are read: a mid value
+    elif kind == "checkerboard":
         c0, c1 = rgb(r, "color0"), rgb(r, "color1")
         lookup = TextureLookup("checkerboard", to_uv=to_uv, colour0=tuple(c0.tolist()), colour1=tuple(c1.tolist()))
         mean = (c0 + c1) / 2
@@ -75,8 +93,14 @@ def read(r, slot, textures, rgb, own_keys):
         lookup = TextureLookup("bitmap", index, r.string("wrap_mode"), r.string("filter_type"), to_uv)
         mean = texture_mean(textures.textures[index])
     if slot in FLOAT_SLOTS:  # Mitsuba's eval_1: an image's luminance, an rgb colour's mean
-        return lookup, float(luminance(mean) if kind == "bitmap" else np.mean(mean))
+        return lookup, float(luminance(mean) if kind != "checkerboard" else np.mean(mean))
     return lookup, mean
+
+
+def attribute_names(materials):
+    """The mesh attributes the materials' textures read, in the order of the kernel's attribute table's blocks."""
+    return list(dict.fromkeys(lookup.attribute for m in materials for _, lookup in m.maps
+                              if lookup.kind == "mesh_attribute"))
 
 
 def luminance(rgb):
