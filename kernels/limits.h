@@ -9,12 +9,12 @@
  * MI_ROUGH_TRANSMITTANCE_RES. */
 #define ROUGH_TRANSMITTANCE_RES 64
 /* The textured parameters a material has room for (types.h's Material.maps, MAP_*). */
-#define MAPS 8
+#define MAPS 16
 /* The wrappers (blendbsdf, mask, twosided) a hit passes through to its BSDF, at most (wrappers.cl): the host
  * refuses deeper nesting. */
 #define WRAPPER_DEPTH 8
 /* The values of a principled BSDF in types.h's Material (PRINCIPLED_* there). */
-#define PRINCIPLED_PARAMETERS 11
+#define PRINCIPLED_PARAMETERS 13
 /* The lane widths lanes.h accepts: pixel samples a work-item holds at once. */
 #define LANE_WIDTH_ACCEPTED(n) ((n) == 1 || (n) == 4 || (n) == 8 || (n) == 16)
 

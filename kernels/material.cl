@@ -285,6 +285,46 @@ inline void perturb_normal(const Scene *s, TextureStore ts, __global const Mater
 }
 #endif
 
+#if HAS_PRINCIPLED_LOOKUPS
+/* principled's textured weights (MAP_ROUGHNESS .. MAP_SPEC_TRANS: a float each, a lookup's luminance or mean),
+ * clamped to [0, 1] (the host refuses textures beyond it; this catches the filters' last rounding), and the terms
+ * the host derives from them per material (principled_terms.py) derived here per lane in the same float32
+ * operations, so that a constant texture gives the constant parameter's values bit for bit: the clearcoat's GTR1
+ * roughness lerp(0.1, 0.001, clearcoat_gloss) as Dr.Jit's lerp, 0.001 t + (0.1 - 0.1 t), and where roughness or
+ * anisotropic is textured the main lobe's alphas, Mitsuba's calc_dist_params with has_anisotropic (a textured
+ * parameter is given: aspect = sqrt(1 - 0.9 anisotropic) is 1 exactly at anisotropic 0, the isotropic alpha):
+ * alpha_u = max(1e-3, roughness^2 / aspect), alpha_v = max(1e-3, roughness^2 aspect). No contraction into fmas,
+ * which the host's numpy does not do; sqrt and the division are correctly rounded where the device's are (pocl's
+ * CPU; OpenCL allows 3 and 2.5 ulp without -cl-fp32-correctly-rounded-divide-sqrt). */
+inline void principled_lookups(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
+                               vint mask, ShadingPoint *sp)
+{
+#pragma OPENCL FP_CONTRACT OFF
+    const vfloat zero = 0.0f, one = 1.0f;
+#define PRINCIPLED_LOOKUP(slot, value, derive)                                                                    \
+    if (m->maps[MAP_##slot] >= 0) {                                                                              \
+        vfloat t = vmin(vmax(lookup_value(ts, m->maps[MAP_##slot], h->surface.uv, h->duv, filter).x, zero), one); \
+        sp->principled[PRINCIPLED_##value] = SELECT(sp->principled[PRINCIPLED_##value], (derive), mask);          \
+    }
+    PRINCIPLED_LOOKUP(ROUGHNESS, ROUGHNESS, t)
+    PRINCIPLED_LOOKUP(ANISOTROPIC, ANISOTROPIC, t)
+    PRINCIPLED_LOOKUP(METALLIC, METALLIC, t)
+    PRINCIPLED_LOOKUP(SPEC_TINT, SPEC_TINT, t)
+    PRINCIPLED_LOOKUP(SHEEN, SHEEN, t)
+    PRINCIPLED_LOOKUP(SHEEN_TINT, SHEEN_TINT, t)
+    PRINCIPLED_LOOKUP(CLEARCOAT, CLEARCOAT, t)
+    PRINCIPLED_LOOKUP(CLEARCOAT_GLOSS, CLEARCOAT_ALPHA, 0.001f * t + (0.1f - 0.1f * t))
+    PRINCIPLED_LOOKUP(SPEC_TRANS, SPEC_TRANS, t)
+#undef PRINCIPLED_LOOKUP
+    if (m->maps[MAP_ROUGHNESS] >= 0 || m->maps[MAP_ANISOTROPIC] >= 0) {
+        vfloat r = sp->principled[PRINCIPLED_ROUGHNESS], r2 = r * r;
+        vfloat aspect = sqrt(1.0f - 0.9f * sp->principled[PRINCIPLED_ANISOTROPIC]);
+        sp->alpha = SELECT(sp->alpha, vmax((vfloat)(1e-3f), r2 / aspect), mask);
+        sp->alpha_v = SELECT(sp->alpha_v, vmax((vfloat)(1e-3f), r2 * aspect), mask);
+    }
+}
+#endif
+
 inline void lookup_material(const Scene *s, TextureStore ts, __global const Material *m, int filter,
                             const TexturedHits *h, vint mask, vec3 wo, ShadingPoint *sp)
 {
@@ -308,6 +348,9 @@ inline void lookup_material(const Scene *s, TextureStore ts, __global const Mate
         vfloat a = lookup_at(s, ts, m->maps[MAP_ALPHA_V], h, filter).x;
         sp->alpha_v = SELECT(sp->alpha_v, vmin(vmax(a, 1e-3f), 1.0f), mask);
     }
+#endif
+#if HAS_PRINCIPLED_LOOKUPS
+    principled_lookups(ts, m, filter, h, mask, sp);
 #endif
 }
 #endif

@@ -81,6 +81,17 @@ typedef struct {
 #define MAP_WEIGHT 4   /* a blend's weight: blendbsdf's weight, mask's opacity */
 #define MAP_NORMAL 5   /* Mitsuba's normalmap: a tangent-space normal, rgb = (n + 1) / 2 */
 #define MAP_BUMP 6     /* Mitsuba's bumpmap: a height field, whose gradient tilts the normal (times bump_scale) */
+/* principled's weights (Mitsuba's names; its base_color is MAP_COLOUR): a float each, read under
+ * HAS_PRINCIPLED_LOOKUPS (material.cl's principled_lookups), which derives the alphas and the clearcoat's too */
+#define MAP_ROUGHNESS 7
+#define MAP_ANISOTROPIC 8
+#define MAP_METALLIC 9
+#define MAP_SPEC_TINT 10
+#define MAP_SHEEN 11
+#define MAP_SHEEN_TINT 12
+#define MAP_CLEARCOAT 13
+#define MAP_CLEARCOAT_GLOSS 14
+#define MAP_SPEC_TRANS 15
 
 /* How a textured parameter finds its value at a surface point (Mitsuba's texture plugins; lookups.cl). */
 #define LOOKUP_BITMAP 0       /* an image, filtered */
@@ -147,6 +158,9 @@ typedef struct {
 #define PRINCIPLED_SPECULAR_RATE 8  /* main_specular_sampling_rate */
 #define PRINCIPLED_CLEARCOAT_RATE 9 /* clearcoat_sampling_rate */
 #define PRINCIPLED_DIFFUSE_RATE 10  /* diffuse_reflectance_sampling_rate */
+#define PRINCIPLED_ANISOTROPIC 11   /* anisotropic, which the alphas derive from where roughness or it is textured */
+#define PRINCIPLED_TRANSMITS 12     /* 1: Mitsuba's has_spec_trans (spec_trans given and not 0, or textured): the
+                                     * inside and the transmission exist, even where the weights make them 0 */
 
 /* The path model's BSDFs, one file each in kernels/bsdfs/ (bsdf.cl), numbered as raytrace/scene/model.py's BSDFS. */
 #define BSDF_DIFFUSE 0

@@ -7,9 +7,9 @@ VEC3F = ("<f4", (3,))
 
 # kernels/limits.h (with the others below)
 ROUGH_TRANSMITTANCE_RES = 64  # entries of a roughplastic's transmittance table (Material.transmittance)
-MAPS = 8  # textured parameters a material has room for (Material.maps)
+MAPS = 16  # textured parameters a material has room for (Material.maps)
 WRAPPER_DEPTH = 8  # nested wrappers (blendbsdf, mask, twosided) a hit passes through, at most
-PRINCIPLED_PARAMETERS = 11    # a principled BSDF's values (Material.principled: types.h's PRINCIPLED_*)
+PRINCIPLED_PARAMETERS = 13    # a principled BSDF's values (Material.principled: types.h's PRINCIPLED_*)
 
 CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F), ("up", *VEC3F),
                    ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4")])
@@ -43,7 +43,9 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
                      ("principled", "<f4", (PRINCIPLED_PARAMETERS,))])
 
 # kernels/types.h: MAP_* (Material.maps), LOOKUP_*
-MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4, "normal": 5, "bump": 6}
+MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4, "normal": 5, "bump": 6,
+             "roughness": 7, "anisotropic": 8, "metallic": 9, "spec_tint": 10, "sheen": 11, "sheen_tint": 12,
+             "clearcoat": 13, "clearcoat_gloss": 14, "spec_trans": 15}
 LOOKUPS = {"bitmap": 0, "checkerboard": 1, "mesh_attribute": 2}
 TEXTURE_LOOKUP = np.dtype([("kind", "<i4"), ("texture", "<i4"), ("wrap", "<i4"), ("filter", "<i4"),
                            ("luminance", "<i4"), ("to_uv", "<f4", (6,)), ("colour0", *VEC3F), ("colour1", *VEC3F),
@@ -69,7 +71,7 @@ BSDF_BLEND = 31  # not a BSDF: a blendbsdf's or mask's node, resolved per hit (k
 
 # kernels/types.h: PRINCIPLED_*, the order of Material.principled's values
 PRINCIPLED = ("roughness", "metallic", "spec_tint", "sheen", "sheen_tint", "clearcoat", "clearcoat_alpha",
-              "spec_trans", "specular_rate", "clearcoat_rate", "diffuse_rate")
+              "spec_trans", "specular_rate", "clearcoat_rate", "diffuse_rate", "anisotropic", "transmits")
 
 # kernels/types.h: MICROFACET_*
 MICROFACETS = {"ggx": 0, "beckmann": 1}

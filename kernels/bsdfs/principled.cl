@@ -26,9 +26,11 @@
  * its default 0 (raytrace/scene/bsdfs.py).
  *
  * Sides. The frame is Mitsuba's: z the outward normal, which is sp.n unless the hit is on the back of a
- * material that transmits (bsdf > 0: the viewer is inside; eta inverts, only the main reflection, weighted
- * bsdf F, and the transmission remain). An opaque principled (bsdf = 0) is the same on both sides, as raytrace's
- * other opaque BSDFs are (Mitsuba's `twosided` around it): its back hits take sp.n, towards the viewer.
+ * material that transmits (Mitsuba's has_spec_trans, PRINCIPLED_TRANSMITS: the viewer is inside; eta inverts,
+ * only the main reflection, weighted bsdf F, and the transmission remain, both 0 where bsdf is, as with metallic
+ * 1). An opaque principled (no spec_trans) is the same on both sides, as raytrace's other opaque BSDFs are
+ * (Mitsuba's `twosided` around it): its back hits take sp.n, towards the viewer. The weights may vary per lane
+ * (textured parameters: material.cl's principled_lookups), the sides not.
  *
  * Sampling (Mitsuba's): a lobe by u1 with probabilities proportional to, on the front, brdf
  * diffuse_reflectance_sampling_rate (cosine-weighted, warp.cl), clearcoat / 4 clearcoat_sampling_rate
@@ -50,10 +52,12 @@
 #define PRINCIPLED(sp, name) ((sp).principled[PRINCIPLED_##name])
 
 /* The local frame of Mitsuba's shading frame: z the outward normal (above), x the shading tangent in an
- * anisotropic build (alpha_u's axis; D and G1 are even in y, which turns over with z). */
-inline LocalFrame principled_frame(ShadingPoint sp, vfloat bsdf)
+ * anisotropic build (alpha_u's axis; D and G1 are even in y, which turns over with z). The inside is the
+ * material's (Mitsuba's has_spec_trans, PRINCIPLED_TRANSMITS), not the hit's weights: a textured spec_trans of 0
+ * at a hit from inside leaves no lobe there (black), as in Mitsuba, rather than the front's. */
+inline LocalFrame principled_frame(ShadingPoint sp)
 {
-    vec3 n = v3_select(sp.n, v3_scale(sp.n, -1.0f), (sp.backface != 0) & (bsdf > 0.0f));
+    vec3 n = v3_select(sp.n, v3_scale(sp.n, -1.0f), (sp.backface != 0) & (PRINCIPLED(sp, TRANSMITS) != 0.0f));
 #if HAS_ANISOTROPIC
     LocalFrame f = {sp.t, v3_cross(n, sp.t), n};
     return f;
@@ -89,7 +93,7 @@ inline vfloat principled_fresnel(vfloat cos_h, vfloat eta, vfloat *cos_t)
 }
 
 /* The lobes' sampling probabilities at the dielectric reflectance f (front, or inside), normalised. Inside, the
- * transmission only where spec_trans is not 0 (Mitsuba's has_spec_trans: a viewer below the shading normal of
+ * transmission only where the material transmits (Mitsuba's has_spec_trans: a viewer below the shading normal of
  * an opaque principled samples the main reflection alone, and nothing where F is 0, at eta 1: Mitsuba's 0 / 0,
  * here no density). */
 inline void principled_probabilities(ShadingPoint sp, vint front, vfloat f, vfloat brdf, vfloat bsdf, vfloat *ps,
@@ -97,7 +101,7 @@ inline void principled_probabilities(ShadingPoint sp, vint front, vfloat f, vflo
 {
     vfloat rate = PRINCIPLED(sp, SPECULAR_RATE), zero = 0.0f;
     *ps = SELECT(f, rate * (1.0f - bsdf * (1.0f - f)), front);
-    *pt = SELECT(SELECT(zero, 1.0f - f, PRINCIPLED(sp, SPEC_TRANS) != 0.0f), rate * bsdf * (1.0f - f), front);
+    *pt = SELECT(SELECT(zero, 1.0f - f, PRINCIPLED(sp, TRANSMITS) != 0.0f), rate * bsdf * (1.0f - f), front);
     *pc = SELECT(zero, 0.25f * PRINCIPLED(sp, CLEARCOAT) * PRINCIPLED(sp, CLEARCOAT_RATE), front);
     *pd = SELECT(zero, brdf * PRINCIPLED(sp, DIFFUSE_RATE), front);
     vfloat total = *ps + *pt + *pc + *pd; /* 0 inside an opaque principled of eta 1 (F = 0): no lobe at all */
@@ -122,7 +126,7 @@ inline vec3 principled_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
     vfloat zero = 0.0f, metallic = PRINCIPLED(sp, METALLIC), spec_trans = PRINCIPLED(sp, SPEC_TRANS);
     vfloat brdf = (1.0f - metallic) * (1.0f - spec_trans), bsdf = (1.0f - metallic) * spec_trans;
     vfloat eta = sp.eta.x, au = sp.alpha, av = sp.alpha_v, cos_t;
-    LocalFrame frame = principled_frame(sp, bsdf);
+    LocalFrame frame = principled_frame(sp);
     vec3 lo = to_local(frame, wo), li = to_local(frame, wi);
     vfloat co = lo.z, ci = li.z;
     vint front = co > 0.0f, reflect = co * ci > 0.0f, refract = co * ci < 0.0f, active = co != 0.0f;
@@ -199,7 +203,7 @@ inline BSDFSample principled_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2
     vfloat zero = 0.0f, metallic = PRINCIPLED(sp, METALLIC), spec_trans = PRINCIPLED(sp, SPEC_TRANS);
     vfloat brdf = (1.0f - metallic) * (1.0f - spec_trans), bsdf = (1.0f - metallic) * spec_trans;
     vfloat eta = sp.eta.x, au = sp.alpha, av = sp.alpha_v, cos_t;
-    LocalFrame frame = principled_frame(sp, bsdf);
+    LocalFrame frame = principled_frame(sp);
     vec3 lo = to_local(frame, wo);
     vfloat co = lo.z, side = SELECT((vfloat)(-1.0f), (vfloat)(1.0f), co > 0.0f);
     vint front = co > 0.0f, active = (co != 0.0f) & (front | (bsdf > 0.0f));

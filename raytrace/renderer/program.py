@@ -11,6 +11,7 @@ import pyopencl as cl
 
 from .cpu_target import current_llvm_cpu
 from ..scene import bsdfs
+from ..scene.bsdfs import PRINCIPLED_SLOTS
 from .packing import packed_bsdf
 from ..scene.model import WRAPPERS
 
@@ -59,6 +60,7 @@ class Features:
     wrappers: bool = False         # blendbsdf, mask, or a back side other than the front (kernels/wrappers.cl)
     nulls: bool = False            # a mask's null BSDF (type = "null", or a mask)
     perturbed_normals: bool = False  # Mitsuba's normalmap or bumpmap (a material's maps normal, bump)
+    principled_lookups: bool = False  # a principled material's textured weight (maps roughness .. spec_trans)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -87,11 +89,13 @@ class Features:
                                 for m in scene.materials),
                    anisotropic=any((packed_bsdf(m) in bsdfs.ROUGH and (m.alpha_v not in (None, m.alpha) or dict(
                                    m.maps).get("alpha") != dict(m.maps).get("alpha_v")))
-                                   or (m.bsdf == "principled" and m.anisotropic != 0) for m in scene.materials),
+                                   or (m.bsdf == "principled" and (m.anisotropic != 0 or "anisotropic" in dict(
+                                       m.maps))) for m in scene.materials),
                    lookups=any(m.maps for m in scene.materials),
                    wrappers=any(m.bsdf in WRAPPERS or m.back >= 0 or not m.two_sided for m in scene.materials),
                    nulls=any(m.bsdf in ("mask", "null") for m in scene.materials),
-                   perturbed_normals=any(slot in ("normal", "bump") for m in scene.materials for slot, _ in m.maps))
+                   perturbed_normals=any(slot in ("normal", "bump") for m in scene.materials for slot, _ in m.maps),
+                   principled_lookups=any(slot in PRINCIPLED_SLOTS for m in scene.materials for slot, _ in m.maps))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -104,7 +108,7 @@ class Features:
                  "ROUGH_PLASTICS": self.rough_plastics, "PRINCIPLED": self.principled, "BECKMANN": self.beckmann,
                  "ANISOTROPIC": self.anisotropic,
                  "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
-                 "PERTURBED_NORMALS": self.perturbed_normals}
+                 "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

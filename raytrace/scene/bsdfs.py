@@ -198,10 +198,11 @@ def _plastic():
                           default=(1.0, 1.0, 1.0), length=3, low=0), mitsuba=1.0))
 
 
-def _weight(name, field, doc, default=0.0, mitsuba=SAME, also=""):
-    """A principled weight in [0, 1]."""
+def _weight(name, field, doc, default=0.0, mitsuba=SAME, also="", texture=True):
+    """A principled weight in [0, 1]; a number or, where `texture`, a texture (Mitsuba's, but specular's)."""
+    doc = f"{doc} (a number or a texture)" if texture else doc
     return Parameter(name, (field,), Key(name, "number", doc, default=default, low=0, high=1, also=also),
-                     mitsuba=mitsuba)
+                     mitsuba=mitsuba, note="a number or a texture" if texture else "")
 
 
 def _principled():
@@ -222,7 +223,7 @@ def _principled():
                                                       also="not with specular"), mitsuba=None),
             _weight("specular", "principled_specular", "the dielectric's normal-incidence reflectance over "
                     "0.08: sets eta = 2 / (1 - sqrt(0.08 specular)) - 1", default=None, mitsuba=0.5,
-                    also="not with eta; both absent: 0.5"),
+                    also="not with eta; both absent: 0.5", texture=False),
             _weight("spec_tint", "spec_tint", "the share of the dielectric's reflection tinted towards the "
                     "colour's hue"),
             _weight("sheen", "sheen", "a grazing sheen's weight (cloth)"),
@@ -336,8 +337,13 @@ KEY_NAMES = tuple(dict.fromkeys([name for bsdf in DECLARED for name in bsdf.key_
 assert tuple(BY_NAME) == BSDFS, "model.BSDFS lists the declared BSDFs in the kernel's numbering"
 
 
+# principled's weights that take a texture, each its own map slot of its name (its base_color is the colour's;
+# its eta and specular are numbers, as in Mitsuba: a float property, not a texture)
+PRINCIPLED_SLOTS = ("roughness", "anisotropic", "metallic", "spec_tint", "sheen", "sheen_tint", "clearcoat",
+                    "clearcoat_gloss", "spec_trans")
 # The kernel's map slot (kernels/types.h's MAP_*) a texture on a parameter fills, by the Material fields it sets
-TEXTURED = {("colour",): "colour", ("specular",): "specular", ("alpha",): "alpha", ("alpha_v",): "alpha_v"}
+TEXTURED = {("colour",): "colour", ("specular",): "specular", ("alpha",): "alpha", ("alpha_v",): "alpha_v",
+            **{(name,): name for name in PRINCIPLED_SLOTS}}
 
 
 def texture_slot(bsdf, name):

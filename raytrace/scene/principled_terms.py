@@ -12,23 +12,31 @@ DEFAULT_SPECULAR = 0.5  # Mitsuba's, where neither specular nor eta is given
 MIN_ALPHA = 1e-3        # Mitsuba's clamp of the main lobe's roughness (calc_dist_params)
 
 
+def transmits(material):
+    """Mitsuba's has_spec_trans: spec_trans given and not 0, or given as a texture (whatever its values): the
+    inside and the transmission lobe exist, and eta avoids 1."""
+    return material.spec_trans != 0 or "spec_trans" in dict(material.maps)
+
+
 def eta(material):
     """eta = int_ior / ext_ior: `eta` where given (1.001 for 1 with transmission: Mitsuba's plugin, as eta 1 has
     no refraction half vector), else from `specular` s, the normal-incidence reflectance over 0.08 of Schlick's
     R0 = ((eta - 1) / (eta + 1))^2 inverted: eta = 2 / (1 - sqrt(0.08 s)) - 1 (s = 0 with transmission is 1e-3,
     Mitsuba's again)."""
-    transmits = material.spec_trans != 0
+    transmits_ = transmits(material)
     if material.principled_eta is not None:
         e = f32(material.principled_eta)
-        return float(f32(1.001) if transmits and e == 1 else e)
+        return float(f32(1.001) if transmits_ and e == 1 else e)
     s = f32(DEFAULT_SPECULAR if material.principled_specular is None else material.principled_specular)
-    s = f32(1e-3) if transmits and s == 0 else s
+    s = f32(1e-3) if transmits_ and s == 0 else s
     return float(f32(2.0) / (f32(1.0) - np.sqrt(f32(0.08) * s)) - f32(1.0))
 
 
 def alphas(material):
     """(alpha_u, alpha_v): roughness^2, stretched by aspect = sqrt(1 - 0.9 anisotropic) along u and shrunk along
-    v (Burley 2012's mapping), each at least MIN_ALPHA; anisotropic 0 is isotropic whatever the rounding."""
+    v (Burley 2012's mapping), each at least MIN_ALPHA; anisotropic 0 is isotropic whatever the rounding. Where
+    roughness or anisotropic is textured, the kernel derives them per hit in the same float32 operations
+    (material.cl's principled_lookups), which give these for a constant texture (aspect 1 exactly at 0)."""
     r2 = f32(material.roughness) * f32(material.roughness)
     if material.anisotropic == 0:
         a = max(f32(MIN_ALPHA), r2)
@@ -38,7 +46,8 @@ def alphas(material):
 
 
 def clearcoat_alpha(material):
-    """The clearcoat's GTR1 roughness, lerp(0.1, 0.001, clearcoat_gloss) (Dr.Jit's lerp: b t + (a - a t))."""
+    """The clearcoat's GTR1 roughness, lerp(0.1, 0.001, clearcoat_gloss) (Dr.Jit's lerp: b t + (a - a t)); the
+    kernel's of a textured clearcoat_gloss rounds the same operations (material.cl's principled_lookups)."""
     t = f32(material.clearcoat_gloss)
     return float(f32(0.001) * t + (f32(0.1) - f32(0.1) * t))
 
@@ -48,6 +57,6 @@ def parameters(material):
     values = (material.roughness, material.metallic, material.spec_tint, material.sheen, material.sheen_tint,
               material.clearcoat, clearcoat_alpha(material), material.spec_trans,
               material.main_specular_sampling_rate, material.clearcoat_sampling_rate,
-              material.diffuse_reflectance_sampling_rate)
+              material.diffuse_reflectance_sampling_rate, material.anisotropic, float(transmits(material)))
     assert len(values) == PRINCIPLED_PARAMETERS
     return np.array(values, np.float32)

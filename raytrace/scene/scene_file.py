@@ -404,12 +404,13 @@ def _material(r, name, textures, names):
     materials in order, which blends, masks and back sides name."""
     r.check_keys(sorted(set(r.spec) | set(bsdfs.KEY_NAMES)))
     kind = r.string("type")
+    # an opaque principled has a back (a textured spec_trans transmits, whatever its values: Mitsuba's flag)
+    opaque = kind == "principled" and r.table.get("spec_trans", 0.0) == 0
     r, maps = _textured(r, kind, textures)
     sides = {"two_sided": r.boolean("two_sided")}
     if r.has("back"):
         sides["back"] = material_named(r, "back", {n: i for i, n in enumerate(names)})
-    if not sides["two_sided"] and kind in bsdfs.BY_NAME and not bsdfs.BY_NAME[kind].front_only and not (
-            kind == "principled" and r.table.get("spec_trans", 0.0) == 0):  # an opaque principled has a back
+    if not sides["two_sided"] and kind in bsdfs.BY_NAME and not bsdfs.BY_NAME[kind].front_only and not opaque:
         r.fail("two_sided", False, f'type = "{kind}" scatters on both sides (it has no back to be black)')
     if kind in WRAPPERS:
         return _wrapper(r, name, kind, names, maps, sides)

@@ -23,6 +23,7 @@ texture's mean as its constant value, which the host uses where a BSDF needs one
 """
 import numpy as np
 
+from .bsdfs import PRINCIPLED_SLOTS
 from .declaration import Key
 from .mipmap import SRGB8_TO_LINEAR
 from .model import FILTER_TYPES, LOOKUPS, WRAP_MODES, TextureLookup
@@ -54,9 +55,9 @@ KEYS = [
 ]
 KIND_KEYS = {"bitmap": ("type", "filename", "raw", "filter_type", "wrap_mode", "to_uv"),
              "checkerboard": ("type", "to_uv", "color0", "color1"), "mesh_attribute": ("type", "name", "scale")}
-# The parameters whose value is one number (kernels/types.h's MAP_ALPHA, MAP_ALPHA_V, MAP_WEIGHT, MAP_BUMP): a
-# lookup's luminance
-FLOAT_SLOTS = ("alpha", "alpha_v", "weight", "bump")
+# The parameters whose value is one number (kernels/types.h's MAP_ALPHA, MAP_ALPHA_V, MAP_WEIGHT, MAP_BUMP and
+# principled's weights, MAP_ROUGHNESS .. MAP_SPEC_TRANS): a lookup's luminance
+FLOAT_SLOTS = ("alpha", "alpha_v", "weight", "bump", *PRINCIPLED_SLOTS)
 
 
 def is_texture(value):
@@ -92,6 +93,13 @@ def read(r, slot, textures, rgb, own_keys):
         index = textures.index(r.string("filename"), role, r.path, r.prefix + "filename")
         lookup = TextureLookup("bitmap", index, r.string("wrap_mode"), r.string("filter_type"), to_uv)
         mean = texture_mean(textures.textures[index])
+    if slot in PRINCIPLED_SLOTS:  # weights: every value the lookup can give in [0, 1], not only the mean
+        values = (np.mean(c0), np.mean(c1)) if kind == "checkerboard" else texture_luminances(
+            textures.textures[index])
+        low, high = float(np.min(values)), float(np.max(values))
+        if low < 0 or high > 1 + 1e-6:  # (white's weights sum to 1 within rounding; the kernel clamps to 1)
+            r.fail("", r.table, f"a principled weight's texture must lie in [0, 1] (its values span [{low:.6g}, "
+                   f"{high:.6g}])")
     if slot in FLOAT_SLOTS:  # Mitsuba's eval_1: an image's luminance, an rgb colour's mean
         return lookup, float(luminance(mean) if kind != "checkerboard" else np.mean(mean))
     return lookup, mean
@@ -110,6 +118,17 @@ def luminance(rgb):
 
 def texture_mean(texture):
     """The mean linear RGB of a texture's finest level, as the kernel decodes its texels."""
+    return texture_rgb(texture).mean(axis=0)
+
+
+def texture_luminances(texture):
+    """The luminance of every texel of a texture's finest level, as the kernel decodes them: the range a float
+    parameter's filtered lookups stay within (their weights are convex)."""
+    return texture_rgb(texture) @ np.array([0.212671, 0.715160, 0.072169])
+
+
+def texture_rgb(texture):
+    """The linear RGB of a texture's finest level's texels, (N, 3), as the kernel decodes them."""
     level = texture.levels[0]
     if texture.encoding == structs.TEXELS_SRGB8:
         rgb = SRGB8_TO_LINEAR[level[..., :3]]
@@ -117,4 +136,4 @@ def texture_mean(texture):
         rgb = level[..., :3] / 255.0
     else:
         rgb = level[..., :3].astype(np.float64)
-    return rgb.reshape(-1, 3).mean(axis=0)
+    return rgb.reshape(-1, 3)
