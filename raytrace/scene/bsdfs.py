@@ -92,9 +92,9 @@ class Parameter:
 class BSDF:
     """A BSDF: Mitsuba's plugin name, its one-line title and doc, its parameters (Parameter, in Mitsuba's
     order), the field of raytrace.renderer.program.Features that compiles it ("": always compiled), the body of
-    an example [materials.NAME] table, whether Mitsuba's plugin scatters from the front side only (it is then
-    wrapped in `twosided`: raytrace's BSDFs scatter on both sides), and whether int_ior and ext_ior must
-    differ."""
+    an example [materials.NAME] table, whether Mitsuba's plugin scatters from the front side only (a material of
+    it may then be one-sided, two_sided = false, and the writer wraps a two-sided one in `twosided`), and whether
+    int_ior and ext_ior must differ."""
     name: str
     title: str
     doc: str

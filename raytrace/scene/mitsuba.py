@@ -297,7 +297,7 @@ class _Translator:
             self.fail(at, f"{path}.{param}", value["type"], "a spectral plugin that Mitsuba's rgb variants do not "
                       "render either (they refuse it when rendering): give an rgb or a wavelength:value spectrum")
         if isinstance(value, dict) and isinstance(value.get("type"), str):
-            self.unsupported(at, f"texture {value['type']}", "textures are not supported yet (a number, rgb or "
+            self.unsupported(at, f"texture {value['type']}", "a texture here is not supported (a number, rgb or "
                              "spectrum only)")
             return None
         self.fail(at, f"{path}.{param}", _shown(value), "must be a number, an rgb or a spectrum")

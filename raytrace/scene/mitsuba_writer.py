@@ -5,8 +5,8 @@ written scene's model back. Mitsuba 3's plugin reference is the specification of
 What the XML holds: the integrator of the shading model (`path` with max_depth, `direct` with emitter_samples);
 a `perspective` sensor (fov_axis y: raytrace's fov is vertical) with an `hdrfilm` of box filter and the sampler
 nearest the pixel pattern; each material something uses, as a `bsdf` with the material's name as its id and
-its parameters by Mitsuba's names (raytrace/scene/bsdfs.py; those Mitsuba scatters from the front only inside
-`twosided`: raytrace's BSDFs reflect on both sides; glass unwrapped, its sides being its inside and outside;
+its parameters by Mitsuba's names (raytrace/scene/bsdfs.py; a two-sided material Mitsuba scatters from the
+front only inside `twosided`, a one-sided one bare; glass unwrapped, its sides being its inside and outside;
 the rough ones' distribution always written, Mitsuba's default being Beckmann and raytrace's GGX); each light
 a `rectangle` with an `area` emitter and a BSDF (its material, or a black diffuse: a raytrace light reflects
 nothing, and Mitsuba's default BSDF would be a grey diffuse); the shapes; the environment. Every number is
