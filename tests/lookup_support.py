@@ -126,3 +126,24 @@ def panel(material, center=(0.0, 0.0, 0.0), size=(4.0, 4.0), normal=(0.0, -1.0, 
     -y), u along +x and v along normal x tangent = +z."""
     return {"type": "rectangle", "material": material, "center": list(center), "size": list(size),
             "normal": list(normal), "tangent": list(tangent)}
+
+
+XML_SCENE = """<scene version="3.0.0">
+    <sensor type="perspective">
+        <transform name="to_world"><lookat origin="0, -4, 1" target="0, 0, 0" up="0, 0, 1"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
+            <rfilter type="box"/></film>
+    </sensor>
+    <emitter type="constant"/>
+    <shape type="rectangle">
+        BSDF
+    </shape>
+</scene>
+"""
+
+
+def xml_file(tmp_path, bsdf):
+    """A Mitsuba XML file of one rectangle of BSDF `bsdf` (XML text) under a constant sky, written in tmp_path."""
+    path = tmp_path / "scene.xml"
+    path.write_text(XML_SCENE.replace("BSDF", bsdf))
+    return path

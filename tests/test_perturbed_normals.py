@@ -672,26 +672,6 @@ def test_scene_format_refuses_conflicting_maps_and_bad_scales(images):
         assert "\n" not in line and line.startswith(f"load_dict(): materials.m.{key} = ") and says in line, line
 
 
-XML = """<scene version="3.0.0">
-    <sensor type="perspective">
-        <transform name="to_world"><lookat origin="0, -4, 1" target="0, 0, 0" up="0, 0, 1"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
-            <rfilter type="box"/></film>
-    </sensor>
-    <emitter type="constant"/>
-    <shape type="rectangle">
-        BSDF
-    </shape>
-</scene>
-"""
-
-
-def xml_scene(tmp_path, bsdf):
-    path = tmp_path / "scene.xml"
-    path.write_text(XML.replace("BSDF", bsdf))
-    return raytrace.load_file(path)
-
-
 def test_xml_maps_and_refusals(tmp_path, images):
     """The XML loader: a normalmap around a diffuse gives a material with the normal map's lookup, a bumpmap its
     bump lookup and scale; a normalmap without its texture, and a bumpmap without one, are refused in one line at
@@ -701,9 +681,10 @@ def test_xml_maps_and_refusals(tmp_path, images):
                '<boolean name="raw" value="true"/></texture>')
     height = texture.replace('"normalmap"', '"height"', 1).replace(images["normals"][0], images["bumps"][0])
     diffuse = '<bsdf type="diffuse"/>'
-    scene = xml_scene(tmp_path, f'<bsdf type="normalmap">{texture}{diffuse}</bsdf>')
+    scene = raytrace.load_file(mts.xml_file(tmp_path, f'<bsdf type="normalmap">{texture}{diffuse}</bsdf>'))
     assert [[slot for slot, _ in m.maps] for m in scene.materials] == [["normal"]]
-    scene = xml_scene(tmp_path, f'<bsdf type="bumpmap">{height}<float name="scale" value="0.25"/>{diffuse}</bsdf>')
+    bumped = f'<bsdf type="bumpmap">{height}<float name="scale" value="0.25"/>{diffuse}</bsdf>'
+    scene = raytrace.load_file(mts.xml_file(tmp_path, bumped))
     assert [([slot for slot, _ in m.maps], m.bump_scale) for m in scene.materials] == [(["bump"], 0.25)]
     line = lambda: str(info.value)  # noqa: E731
     at = f"{tmp_path / 'scene.xml'}:9: "
@@ -716,5 +697,5 @@ def test_xml_maps_and_refusals(tmp_path, images):
                        (f'<bsdf type="twosided"><bsdf type="normalmap">{texture}{diffuse}</bsdf></bsdf>',
                         "normalmap inside twosided: the back side of a map inside twosided")):
         with pytest.raises(InputError) as info:
-            xml_scene(tmp_path, bsdf)
+            raytrace.load_file(mts.xml_file(tmp_path, bsdf))
         assert "\n" not in line() and line().startswith(at) and says in line(), line()

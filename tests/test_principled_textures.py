@@ -294,24 +294,9 @@ def refusal(material, **scene):
     return str(info.value)
 
 
-XML = """<scene version="3.0.0">
-    <sensor type="perspective">
-        <transform name="to_world"><lookat origin="0, -4, 1" target="0, 0, 0" up="0, 0, 1"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
-            <rfilter type="box"/></film>
-    </sensor>
-    <emitter type="constant"/>
-    <shape type="rectangle">
-        <bsdf type="principled">BSDF</bsdf>
-    </shape>
-</scene>
-"""
-
-
-def xml_scene(tmp_path, inner):
-    path = tmp_path / "scene.xml"
-    path.write_text(XML.replace("BSDF", inner))
-    return raytrace.load_file(path)
+def principled_scene(tmp_path, inner):
+    """A Mitsuba XML scene of one principled rectangle, its parameters `inner` (XML text)."""
+    return raytrace.load_file(mts.xml_file(tmp_path, f'<bsdf type="principled">{inner}</bsdf>'))
 
 
 def test_refusals_and_xml_mapping(tmp_path):
@@ -340,12 +325,12 @@ def test_refusals_and_xml_mapping(tmp_path):
               '<float name="color1" value="0"/></texture>'
     for key in ("specular", "eta"):
         with pytest.raises(InputError) as info:
-            xml_scene(tmp_path, texture.replace("NAME", key))
+            principled_scene(tmp_path, texture.replace("NAME", key))
         line = str(info.value)
         assert "\n" not in line and line.startswith(f"{tmp_path / 'scene.xml'}:9: ") and \
             "takes a value here, not a texture" in line, line
     every = "".join(texture.replace("NAME", key) for key in ("base_color", *PRINCIPLED_SLOTS))
-    scene = xml_scene(tmp_path, every + '<float name="specular" value="0"/>')
+    scene = principled_scene(tmp_path, every + '<float name="specular" value="0"/>')
     (m,) = scene.materials
     assert sorted(slot for slot, _ in m.maps) == sorted(["colour", *PRINCIPLED_SLOTS])
     # a textured spec_trans of 0 still transmits (Mitsuba's has_spec_trans): no one-sided wrapper, the flag, and
@@ -359,5 +344,5 @@ def test_refusals_and_xml_mapping(tmp_path):
     options = Features.of(scene, 8).options()
     assert "-DHAS_PRINCIPLED_LOOKUPS=1" in options and "-DHAS_ANISOTROPIC=1" in options
     # a constant principled (no textured weight) compiles none of it
-    scene = xml_scene(tmp_path, texture.replace("NAME", "base_color"))
+    scene = principled_scene(tmp_path, texture.replace("NAME", "base_color"))
     assert "-DHAS_PRINCIPLED_LOOKUPS=0" in Features.of(scene, 8).options()

@@ -1,7 +1,6 @@
 """Every struct in kernels/types.h against its numpy mirror in raytrace/structs.py, and every constant of
 kernels/types.h and kernels/limits.h against its mirror: as this device's compiler lays them out and
 defines them."""
-import numpy as np
 import pyopencl as cl
 import pytest
 
