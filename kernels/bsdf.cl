@@ -67,6 +67,9 @@ typedef struct {
 #if HAS_PRINCIPLED
 #include "bsdfs/principled.cl"
 #endif
+#if HAS_PRINCIPLEDTHIN
+#include "bsdfs/principledthin.cl"
+#endif
 
 /* value and *pdf of NAME_eval where the lanes `on` (of `active`, BSDF `id`) hold that BSDF */
 #define BSDF_EVAL(name, id)                                                                                 \
@@ -120,6 +123,9 @@ inline vec3 lobes_eval_pdf(ShadingPoint sp, vec3 wo, vec3 wi, vint active, vfloa
 #endif
 #if HAS_PRINCIPLED
     BSDF_EVAL(principled, BSDF_PRINCIPLED)
+#endif
+#if HAS_PRINCIPLEDTHIN
+    BSDF_EVAL(principledthin, BSDF_PRINCIPLEDTHIN)
 #endif
     /* the delta BSDFs' (bsdf_is_delta) eval is 0: conductor_eval, dielectric_eval, thindielectric_eval */
     return f;
@@ -198,6 +204,9 @@ inline BSDFSample lobes_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2, vin
 #endif
 #if HAS_PRINCIPLED
     BSDF_SAMPLE(principled, BSDF_PRINCIPLED)
+#endif
+#if HAS_PRINCIPLEDTHIN
+    BSDF_SAMPLE(principledthin, BSDF_PRINCIPLEDTHIN)
 #endif
     return bs;
 #endif

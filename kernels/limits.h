@@ -13,8 +13,8 @@
 /* The wrappers (blendbsdf, mask, twosided) a hit passes through to its BSDF, at most (wrappers.cl): the host
  * refuses deeper nesting. */
 #define WRAPPER_DEPTH 8
-/* The values of a principled BSDF in types.h's Material (PRINCIPLED_* there). */
-#define PRINCIPLED_PARAMETERS 13
+/* The values of a principled or principledthin BSDF in types.h's Material (PRINCIPLED_* there). */
+#define PRINCIPLED_PARAMETERS 19
 /* The lane widths lanes.h accepts: pixel samples a work-item holds at once. */
 #define LANE_WIDTH_ACCEPTED(n) ((n) == 1 || (n) == 4 || (n) == 8 || (n) == 16)
 

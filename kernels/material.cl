@@ -55,7 +55,7 @@ typedef struct {
     vec3 n0;           /* the shading normal before the map, on the side of ng */
     vint perturbed;    /* n is the map's */
 #endif
-#if HAS_PRINCIPLED
+#if HAS_PRINCIPLED_VALUES
     vfloat principled[PRINCIPLED_PARAMETERS]; /* the principled BSDF's values (types.h's PRINCIPLED_*) */
 #endif
 } ShadingPoint;
@@ -467,7 +467,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_TEXTURES
     int textured[LANES], any_textured = 0;
 #endif
-#if HAS_PRINCIPLED
+#if HAS_PRINCIPLED_VALUES
     float principled[PRINCIPLED_PARAMETERS][LANES];
 #endif
     for (int i = 0; i < LANES; ++i) {
@@ -488,7 +488,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
         textured[i] = m[i] >= 0 && is_textured(&s->materials[m[i]]);
         any_textured |= textured[i];
 #endif
-#if HAS_PRINCIPLED
+#if HAS_PRINCIPLED_VALUES
         for (int j = 0; j < PRINCIPLED_PARAMETERS; ++j)
             principled[j][i] = m[i] < 0 ? 0.0f : s->materials[m[i]].principled[j];
 #endif
@@ -537,7 +537,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     sp.specular_weight = VLOAD(specular_weight);
     sp.specular = v3_fill(&specular);
 #endif
-#if HAS_PRINCIPLED
+#if HAS_PRINCIPLED_VALUES
     for (int j = 0; j < PRINCIPLED_PARAMETERS; ++j)
         sp.principled[j] = VLOAD(principled[j]);
 #endif

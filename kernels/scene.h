@@ -17,12 +17,14 @@
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
 /* the path model's BSDFs (bsdf.cl): with a microfacet distribution (microfacet.cl), with a coat over a diffuse
  * base, with hits that must know whether they come from inside (the index of refraction inverts; a back side) */
-#define HAS_MICROFACETS (HAS_ROUGH_CONDUCTORS || HAS_ROUGH_DIELECTRICS || HAS_ROUGH_PLASTICS || HAS_PRINCIPLED)
+/* principled.cl's values (ShadingPoint.principled) and helpers, which principledthin.cl shares */
+#define HAS_PRINCIPLED_VALUES (HAS_PRINCIPLED || HAS_PRINCIPLEDTHIN)
+#define HAS_MICROFACETS (HAS_ROUGH_CONDUCTORS || HAS_ROUGH_DIELECTRICS || HAS_ROUGH_PLASTICS || HAS_PRINCIPLED_VALUES)
 #define HAS_COATS (HAS_PLASTICS || HAS_ROUGH_PLASTICS)
-#define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS || HAS_WRAPPERS || HAS_PRINCIPLED)
+#define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS || HAS_WRAPPERS || HAS_PRINCIPLED_VALUES)
 /* shading points carry a BSDF's own values: any BSDF besides diffuse */
 #define HAS_BSDF_PARAMETERS (HAS_CONDUCTORS || HAS_DIELECTRICS || HAS_THIN_DIELECTRICS || HAS_MICROFACETS || HAS_COATS \
-                             || HAS_NULLS || HAS_PRINCIPLED)
+                             || HAS_NULLS || HAS_PRINCIPLED_VALUES)
 
 typedef struct {
     __global const Rectangle *rectangles;

@@ -161,6 +161,15 @@ typedef struct {
 #define PRINCIPLED_ANISOTROPIC 11   /* anisotropic, which the alphas derive from where roughness or it is textured */
 #define PRINCIPLED_TRANSMITS 12     /* 1: Mitsuba's has_spec_trans (spec_trans given and not 0, or textured): the
                                      * inside and the transmission exist, even where the weights make them 0 */
+/* principledthin's own (raytrace/scene/principled_terms.py; it shares ROUGHNESS, SPEC_TINT, SHEEN, SHEEN_TINT,
+ * SPEC_TRANS, SPECULAR_RATE as its specular_reflectance_sampling_rate and DIFFUSE_RATE; its eta in eta.x, its
+ * reflection's GGX roughness in alpha, alpha_v) */
+#define PRINCIPLED_FLATNESS 13
+#define PRINCIPLED_DIFF_TRANS 14       /* diff_trans / 2: the diffuse light's share transmitted, in [0, 1] */
+#define PRINCIPLED_TRANS_ALPHA_U 15    /* the transmission's GGX roughness, of (0.65 eta - 0.35) roughness */
+#define PRINCIPLED_TRANS_ALPHA_V 16
+#define PRINCIPLED_SPEC_TRANS_RATE 17  /* specular_transmittance_sampling_rate */
+#define PRINCIPLED_DIFF_TRANS_RATE 18  /* diffuse_transmittance_sampling_rate */
 
 /* The path model's BSDFs, one file each in kernels/bsdfs/ (bsdf.cl), numbered as raytrace/scene/model.py's BSDFS. */
 #define BSDF_DIFFUSE 0
@@ -173,6 +182,7 @@ typedef struct {
 #define BSDF_ROUGHPLASTIC 7
 #define BSDF_NULL 8
 #define BSDF_PRINCIPLED 9
+#define BSDF_PRINCIPLEDTHIN 10
 /* Not a BSDF: a node that mixes two materials (Mitsuba's blendbsdf, and mask: a null and the masked one),
  * resolved at each hit into one of them (wrappers.cl). */
 #define BSDF_BLEND 31

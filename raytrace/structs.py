@@ -9,7 +9,7 @@ VEC3F = ("<f4", (3,))
 ROUGH_TRANSMITTANCE_RES = 64  # entries of a roughplastic's transmittance table (Material.transmittance)
 MAPS = 16  # textured parameters a material has room for (Material.maps)
 WRAPPER_DEPTH = 8  # nested wrappers (blendbsdf, mask, twosided) a hit passes through, at most
-PRINCIPLED_PARAMETERS = 13    # a principled BSDF's values (Material.principled: types.h's PRINCIPLED_*)
+PRINCIPLED_PARAMETERS = 19    # a principled or principledthin BSDF's values (Material.principled: types.h's PRINCIPLED_*)
 
 CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F), ("up", *VEC3F),
                    ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4")])
@@ -66,12 +66,13 @@ FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 # kernels/types.h: BSDF_*
 BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2, "roughconductor": 3, "thindielectric": 4, "roughdielectric": 5,
-         "plastic": 6, "roughplastic": 7, "null": 8, "principled": 9}
+         "plastic": 6, "roughplastic": 7, "null": 8, "principled": 9, "principledthin": 10}
 BSDF_BLEND = 31  # not a BSDF: a blendbsdf's or mask's node, resolved per hit (kernels/wrappers.cl)
 
 # kernels/types.h: PRINCIPLED_*, the order of Material.principled's values
 PRINCIPLED = ("roughness", "metallic", "spec_tint", "sheen", "sheen_tint", "clearcoat", "clearcoat_alpha",
-              "spec_trans", "specular_rate", "clearcoat_rate", "diffuse_rate", "anisotropic", "transmits")
+              "spec_trans", "specular_rate", "clearcoat_rate", "diffuse_rate", "anisotropic", "transmits",
+              "flatness", "diff_trans", "trans_alpha_u", "trans_alpha_v", "spec_trans_rate", "diff_trans_rate")
 
 # kernels/types.h: MICROFACET_*
 MICROFACETS = {"ggx": 0, "beckmann": 1}

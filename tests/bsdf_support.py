@@ -69,7 +69,7 @@ inline ShadingPoint lane_point(int n, __global const float *nrm, __global const 
 #if HAS_BACKFACES
     sp.backface = VLOAD_INT(backface + I * LANES);
 #endif
-#if HAS_PRINCIPLED /* each lane's material's values, gathered from the table as material.cl does */
+#if HAS_PRINCIPLED_VALUES /* each lane's material's values, gathered from the table as material.cl does */
     for (int j = 0; j < PRINCIPLED_PARAMETERS; ++j) {
         float v[LANES];
         for (int i = 0; i < LANES; ++i)

@@ -220,7 +220,7 @@ def test_the_declarations_are_whole():
     (the scene format's), each parameter setting Material fields that exist; the kernel features distinct, the
     built ones fields of the renderer's Features; the front-only ones Mitsuba's one-sided plugins."""
     assert tuple(bsdfs.BY_NAME) == model.BSDFS == model.BSDFS[:4] + (
-        "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "principled")
+        "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "principled", "principledthin")
     fields = {f.name for f in dataclasses.fields(model.Material)}
     for bsdf in bsdfs.DECLARED:
         assert TABLES[bsdf.table] == bsdf.keys()
@@ -232,7 +232,7 @@ def test_the_declarations_are_whole():
     assert len(features) == len(set(features)) == len(bsdfs.DECLARED) - 1
     assert {"conductors", "dielectrics", "rough_conductors"} <= {f.name for f in dataclasses.fields(Features)}
     assert [bsdf.name for bsdf in bsdfs.DECLARED if not bsdf.front_only] == [
-        "dielectric", "thindielectric", "roughdielectric", "null", "principled"]
+        "dielectric", "thindielectric", "roughdielectric", "null", "principled", "principledthin"]
 
 
 def test_the_same_line_from_a_file_a_string_and_a_dict(tmp_path):

@@ -169,7 +169,7 @@ def test_a_misspelt_key_or_name_gets_a_suggestion():
         "white = { colour", "white = { color", 1))
     path = (ROOT / "scenes" / "cornell_path.toml").read_text().replace(
         "yellow = { colour = [1.0, 0.93, 0.6] }", 'yellow = { type = "dielectirc" }')
-    assert "roughplastic, null, principled, blendbsdf, mask; did you mean 'dielectric'?" in _error(path)
+    assert "roughplastic, null, principled, principledthin, blendbsdf, mask; did you mean 'dielectric'?" in _error(path)
 
 
 def test_a_long_value_is_cut_in_the_line():

@@ -83,7 +83,12 @@ EVERY_BSDF_KEY = {
     "principled": {"base_color": [0.8, 0.3, 0.2], "roughness": 0.3, "anisotropic": 0.2, "metallic": 0.1,
                    "spec_trans": 0.4, "specular": 0.6, "spec_tint": 0.3, "sheen": 0.5, "sheen_tint": 0.2,
                    "clearcoat": 0.7, "clearcoat_gloss": 0.8, "diffuse_reflectance_sampling_rate": 1.5,
-                   "main_specular_sampling_rate": 0.5, "clearcoat_sampling_rate": 2.0}}
+                   "main_specular_sampling_rate": 0.5, "clearcoat_sampling_rate": 2.0},
+    "principledthin": {"base_color": [0.3, 0.6, 0.2], "roughness": 0.4, "anisotropic": 0.3, "spec_trans": 0.2,
+                       "eta": 1.33, "spec_tint": 0.1, "sheen": 0.5, "sheen_tint": 0.2, "flatness": 0.4,
+                       "diff_trans": 1.1, "diffuse_reflectance_sampling_rate": 1.5,
+                       "specular_reflectance_sampling_rate": 0.5, "specular_transmittance_sampling_rate": 2.0,
+                       "diffuse_transmittance_sampling_rate": 0.75}}
 # A blend and a mask of material "m", every key given; a textured reflectance (a bitmap, every key of its kind)
 WRAPPER_TABLES = {bsdfs.table_name(name): name for name in bsdfs.WRAPPER_KEYS}
 EVERY_WRAPPER_KEY = {"blendbsdf": {"weight": 0.3, "bsdfs": ["m", "m"]}, "mask": {"opacity": 0.7, "bsdf": "m"}}

@@ -5,10 +5,11 @@ Valid scenes are built from the grammar of the plugins raytrace renders (PLUGINS
 perspective sensor (lookat or rotated, fov with each fov_axis or a focal length, clip planes), an hdrfilm of at most
 6 x 6 pixels with a box rfilter, each sampler, the path, direct and moment integrators, every BSDF raytrace declares
 (raytrace/scene/bsdfs.py: diffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic,
-roughplastic, principled; in twosided or not (a transmitting principled not), by reference or inline, reflectances
+roughplastic, principled, principledthin; in twosided or not (a transmitting principled not, a principledthin never),
+by reference or inline, reflectances
 as numbers, rgb and spectra, each parameter anywhere in its range: named metals and media, alpha from 1 to
 float32's smallest, alpha_u != alpha_v, GGX and Beckmann, indices above, below, near and far from each other, a
-principled's weights 0 to 1 with eta or specular), rectangle, sphere, obj and ply shapes, area
+principled's weights 0 to 1 with eta or specular, a principledthin's with diff_trans 0 to 2), rectangle, sphere, obj and ply shapes, area
 emitters on rectangles and quad meshes, constant and envmap environments; and the XML's own: $parameters given by
 <default> or -D, <include> (of a scene's objects, of one object, through <path>), <alias>, a version 0.6 file's
 camelCase names. An Element tree is written as text one element a line, and the same tree is made into Mitsuba's dict
@@ -203,10 +204,13 @@ def reflectances(draw, name, low=0.0, high=1.0):
 CONDUCTOR_NAMES = tuple(CONDUCTORS)  # every named metal, "none" (a perfect mirror) among them
 IOR_NAMES = tuple(IORS)  # every named medium
 XML_BSDFS = ("diffuse", "diffuse", "conductor", "roughconductor", "dielectric", "thindielectric", "roughdielectric",
-             "plastic", "roughplastic", "principled")
+             "plastic", "roughplastic", "principled", "principledthin")
 PRINCIPLED_WEIGHTS = ("roughness", "anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint",
                       "clearcoat", "clearcoat_gloss")
 PRINCIPLED_RATES = ("diffuse_reflectance_sampling_rate", "main_specular_sampling_rate", "clearcoat_sampling_rate")
+THIN_WEIGHTS = ("roughness", "anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness")
+THIN_RATES = ("diffuse_reflectance_sampling_rate", "specular_reflectance_sampling_rate",
+              "specular_transmittance_sampling_rate", "diffuse_transmittance_sampling_rate")
 GLASS_AND_COATS = ("dielectric", "thindielectric", "roughdielectric", "plastic", "roughplastic")
 # A roughness anywhere in (0, 1], written exactly: the tested 1e-3 .. 1 and the effectively smooth region below
 # packing.py's SMOOTH_ALPHA (a rough conductor or glass renders smooth there; roughplastic clamps at 1e-4).
@@ -311,6 +315,22 @@ def bsdfs(draw, direct, ident=None):
                 low = 2.0**-10 if name == "main_specular_sampling_rate" else 0.0
                 params.append(prop("float", name, num(draw(st.one_of(st.just(1.0), rounded(low, 16.0).filter(
                     lambda x: x >= low))))))
+    if kind == "principledthin":  # each weight 0 to 1, diff_trans 0 to 2, eta 0.2 to 5, rates 2^-10 to 16
+        transmits = True  # its diffuse transmission is a lobe whether it is 0 or not: Mitsuba's twosided refuses it
+        if draw(st.booleans()):
+            params.append(draw(reflectances("base_color")))
+        for name in THIN_WEIGHTS:
+            if draw(st.booleans()):
+                params.append(prop("float", name, num(draw(st.one_of(st.sampled_from([0.0, 1.0]), rounded(0.0, 1.0))))))
+        if draw(st.booleans()):
+            params.append(prop("float", "diff_trans", num(draw(st.one_of(st.sampled_from([0.0, 2.0]),
+                                                                         rounded(0.0, 2.0))))))
+        if draw(st.booleans()):
+            params.append(prop("float", "eta", num(draw(st.one_of(st.sampled_from([1.0, 0.5, 1.5]), rounded(0.2, 5.0))))))
+        for name in THIN_RATES:
+            if draw(st.booleans()):
+                params.append(prop("float", name, num(draw(st.one_of(st.just(1.0), rounded(2.0**-10, 16.0).filter(
+                    lambda x: x >= 2.0**-10))))))
     if kind.startswith("rough"):
         distribution = draw(st.sampled_from(["ggx", "beckmann", "GGX", None]))
         if distribution is not None:

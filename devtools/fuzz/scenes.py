@@ -232,7 +232,8 @@ def number_or_vector(values):
 # declarations, raytrace/scene/bsdfs.py, so that a BSDF or a parameter declared later is not left unfuzzed).
 REFLECTANCE_NAMES = {"diffuse": "reflectance", "conductor": "specular_reflectance",
                      "roughconductor": "specular_reflectance", "plastic": "diffuse_reflectance",
-                     "roughplastic": "diffuse_reflectance", "principled": "base_color"}
+                     "roughplastic": "diffuse_reflectance", "principled": "base_color",
+                     "principledthin": "base_color"}
 CONDUCTOR_KEYS = ("eta", "k", "material", "specular_reflectance")
 ROUGH_KEYS = ("distribution", "alpha", "alpha_u", "alpha_v")
 IOR_KEYS = ("int_ior", "ext_ior")
@@ -245,6 +246,11 @@ PRINCIPLED_WEIGHTS = ("roughness", "anisotropic", "metallic", "spec_trans", "spe
                       "sheen_tint", "clearcoat", "clearcoat_gloss")
 PRINCIPLED_RATES = ("diffuse_reflectance_sampling_rate", "main_specular_sampling_rate", "clearcoat_sampling_rate")
 PATH_KEYS["principled"] = ("base_color", *PRINCIPLED_WEIGHTS, "eta", *PRINCIPLED_RATES)
+THIN_WEIGHTS = ("roughness", "anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness")
+THIN_RATES = ("diffuse_reflectance_sampling_rate", "specular_reflectance_sampling_rate",
+              "specular_transmittance_sampling_rate", "diffuse_transmittance_sampling_rate")
+PATH_KEYS["principledthin"] = ("base_color", *THIN_WEIGHTS, "eta", "diff_trans", *THIN_RATES)
+PATH_KEYS["null"] = ()  # no parameters
 ANISOTROPIC = ("roughconductor", "roughdielectric")
 
 ALPHA_EDGES = (1.0, 0.999, 0.5, 0.1, 0.01, 2e-3, SMOOTH_ALPHA * (1 + 2.0**-20), SMOOTH_ALPHA,
@@ -313,7 +319,8 @@ def path_materials(draw):
     smooth region below SMOOTH_ALPHA included) or alpha_u != alpha_v, GGX or Beckmann, indices of refraction
     anywhere, above and below each other, near and far, numbers or named media, nonlinear or not, a coat's
     specular_reflectance 0 to anywhere; a principled's weights 0 to 1 (and their edges), its eta anywhere
-    (beside specular or not), its sampling rates 0 to 1024. Values beyond the rules between them are left to the checks."""
+    (beside specular or not), its sampling rates 0 to 1024; a principledthin's weights, diff_trans 0 to 2, eta
+    2^-16 to 2^16 and beyond, its rates 2^-10 to 1024. Values beyond the rules between them are left to the checks."""
     bsdf = draw(st.sampled_from(BSDFS))
     material = {"type": bsdf} if bsdf != "diffuse" or draw(st.booleans()) else {}
     if bsdf in REFLECTANCE_NAMES and draw(st.booleans()):
@@ -355,6 +362,18 @@ def path_materials(draw):
         for key in PRINCIPLED_RATES:
             if draw(st.booleans()):
                 material[key] = draw(st.one_of(st.sampled_from([0.0, 2.0**-10, 1.0, 1024.0]), finite(0.0, 1024.0)))
+    if bsdf == "principledthin":
+        for key in THIN_WEIGHTS:
+            if draw(st.booleans()):
+                material[key] = draw(st.one_of(st.sampled_from([0.0, 1.0, 2.0**-24, 1 - 2.0**-24]), finite(0.0, 1.0)))
+        if draw(st.booleans()):
+            material["diff_trans"] = draw(st.one_of(st.sampled_from([0.0, 1.0, 2.0, 2 - 2.0**-23]), finite(0.0, 2.0)))
+        if draw(st.booleans()):  # 1 (no reflection), below it, to its bounds and beyond
+            material["eta"] = draw(st.one_of(st.sampled_from([1.0, 0.5, 0.2, 2.0**-16, 2.0**16, 2.0**17]),
+                                             finite(0.2, 5.0), magnitudes(1e-45)))
+        for key in THIN_RATES:
+            if draw(st.booleans()):
+                material[key] = draw(st.one_of(st.sampled_from([2.0**-10, 1.0, 1024.0, 0.0]), finite(2.0**-10, 1024.0)))
     return material
 
 

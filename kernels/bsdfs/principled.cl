@@ -120,6 +120,32 @@ inline vfloat principled_gtr1(vfloat a, vfloat cos_h)
     return SELECT((vfloat)(0.0f), d, d * cos_h > 1e-20f);
 }
 
+/* The lobes principledthin.cl shares. The tint: the colour over its luminance (white where that is 0). */
+inline vec3 principled_tint(vec3 k)
+{
+    vfloat lum = MAD(0.212671f, k.x, MAD(0.715160f, k.y, 0.072169f * k.z));
+    return v3_select(v3_splat(1.0f, 1.0f, 1.0f), v3_scale(k, 1.0f / lum), lum > 0.0f);
+}
+
+/* Burley's diffuse with retro-reflection, (1 - Fi/2)(1 - Fo/2) + Rr (Fo + Fi + Fo Fi (Rr - 1)), of the Schlick
+ * weights fo, fi of the two cosines and Rr = 2 roughness cos_d^2. */
+inline vfloat principled_diffuse(vfloat fo, vfloat fi, vfloat rr)
+{
+    return (1.0f - 0.5f * fi) * (1.0f - 0.5f * fo) + rr * (fo + fi + fo * fi * (rr - 1.0f));
+}
+
+/* A sample of direction bs.wi, of value (eval's) and density pdf there: its weight eval / pdf where it is
+ * valid (`active`, pdf > 0), else weight and pdf 0; transmit where it is valid and crosses the surface. */
+inline BSDFSample principled_weighted(BSDFSample bs, vec3 value, vfloat pdf, vint active, vint transmit)
+{
+    vint valid = active & (pdf > 0.0f);
+    bs.pdf = SELECT((vfloat)(0.0f), pdf, valid);
+    bs.weight = v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_scale(value, 1.0f / pdf), valid);
+    bs.delta = (vint)(0);
+    bs.transmit = transmit & valid;
+    return bs;
+}
+
 inline vec3 principled_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
 {
     const vint ggx = (vint)(MICROFACET_GGX);
@@ -140,8 +166,7 @@ inline vec3 principled_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
     vfloat f = principled_fresnel(oh, eta, &cos_t);
     vfloat d = microfacet_d(ggx, au, av, h), g = microfacet_g(ggx, au, av, lo, li, h);
     vec3 k = sp.k, value = v3_splat(0.0f, 0.0f, 0.0f);
-    vfloat lum = MAD(0.212671f, k.x, MAD(0.715160f, k.y, 0.072169f * k.z));
-    vec3 tint = v3_select(v3_splat(1.0f, 1.0f, 1.0f), v3_scale(k, 1.0f / lum), lum > 0.0f);
+    vec3 tint = principled_tint(k);
 
     /* the main reflection: F_p, Schlick's metal and tinted dielectric beside the true dielectric's F */
     vfloat w = principled_schlick(oh, eta), spec_tint = PRINCIPLED(sp, SPEC_TINT);
@@ -173,7 +198,7 @@ inline vec3 principled_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
     vint diffuse_on = active & reflect & front & (brdf > 0.0f);
     vfloat fo = principled_schlick_weight(vabs(ci)), fi = principled_schlick_weight(vabs(co));
     vfloat rr = 2.0f * PRINCIPLED(sp, ROUGHNESS) * ih * ih;
-    vfloat lambert = (1.0f - 0.5f * fi) * (1.0f - 0.5f * fo) + rr * (fo + fi + fo * fi * (rr - 1.0f));
+    vfloat lambert = principled_diffuse(fo, fi, rr);
     vfloat diffuse = SELECT(zero, brdf * vabs(ci) * M_1_PI_F * lambert, diffuse_on);
     vfloat sheen = PRINCIPLED(sp, SHEEN), sheen_tint = PRINCIPLED(sp, SHEEN_TINT);
     vfloat sheen_w = SELECT(zero, sheen * (1.0f - metallic) * principled_schlick_weight(vabs(ih)) * vabs(ci),
@@ -234,12 +259,7 @@ inline BSDFSample principled_sample(ShadingPoint sp, vec3 wo, vfloat u1, vec2 u2
     active &= on_side & (diffuse | facing);
     vfloat pdf;
     vec3 value = principled_eval(sp, wo, bs.wi, &pdf);
-    vint valid = active & (pdf > 0.0f);
-    bs.pdf = SELECT(zero, pdf, valid);
-    bs.weight = v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_scale(value, 1.0f / pdf), valid);
-    bs.delta = (vint)(0);
-    bs.transmit = transmit & valid;
-    return bs;
+    return principled_weighted(bs, value, pdf, active, transmit);
 }
 
 #endif

@@ -205,7 +205,7 @@ def material_structs(materials):
             s["internal_reflectance"], s["specular_weight"] = plastic_terms.coat(m)
         if m.bsdf == "roughplastic":
             s["transmittance"] = rough_transmittance.table(m)
-        if m.bsdf == "principled":  # its eta, its main lobe's GGX alphas, its values (principled_terms.py)
+        if m.bsdf in ("principled", "principledthin"):  # its eta, its main lobe's alphas, its values
             s["eta"], s["distribution"] = (principled_terms.eta(m), 0.0, 0.0), structs.MICROFACETS["ggx"]
             (s["alpha"], s["alpha_v"]), s["principled"] = principled_terms.alphas(m), principled_terms.parameters(m)
     return a

@@ -54,6 +54,7 @@ class Features:
     plastics: bool = False         # the path model's smooth plastic (type = "plastic")
     rough_plastics: bool = False   # the path model's rough plastic (type = "roughplastic")
     principled: bool = False       # the path model's principled BSDF (type = "principled")
+    principledthin: bool = False   # the path model's thin principled BSDF (type = "principledthin")
     beckmann: bool = False         # a rough BSDF with distribution = "beckmann" (else GGX alone)
     anisotropic: bool = False      # a rough BSDF with alpha_v other than alpha: shading points carry a tangent
     lookups: bool = False          # textured BSDF parameters (a material's maps: kernels/lookups.cl)
@@ -84,12 +85,13 @@ class Features:
                    **{name: any(packed_bsdf(m) == bsdf for m in scene.materials)
                       for name, bsdf in (("thin_dielectrics", "thindielectric"),
                                          ("rough_dielectrics", "roughdielectric"), ("plastics", "plastic"),
-                                         ("rough_plastics", "roughplastic"), ("principled", "principled"))},
+                                         ("rough_plastics", "roughplastic"), ("principled", "principled"),
+                                         ("principledthin", "principledthin"))},
                    beckmann=any(packed_bsdf(m) in bsdfs.ROUGH and m.distribution == "beckmann"
                                 for m in scene.materials),
                    anisotropic=any((packed_bsdf(m) in bsdfs.ROUGH and (m.alpha_v not in (None, m.alpha) or dict(
                                    m.maps).get("alpha") != dict(m.maps).get("alpha_v")))
-                                   or (m.bsdf == "principled" and (m.anisotropic != 0 or "anisotropic" in dict(
+                                   or (m.bsdf in ("principled", "principledthin") and (m.anisotropic != 0 or "anisotropic" in dict(
                                        m.maps))) for m in scene.materials),
                    lookups=any(m.maps for m in scene.materials),
                    wrappers=any(m.bsdf in WRAPPERS or m.back >= 0 or not m.two_sided for m in scene.materials),
@@ -105,7 +107,8 @@ class Features:
                  "ROUGH_CONDUCTORS": self.rough_conductors, "ENVIRONMENT": self.environment,
                  "ENVIRONMENT_MAP": self.environment_map, "THIN_DIELECTRICS": self.thin_dielectrics,
                  "ROUGH_DIELECTRICS": self.rough_dielectrics, "PLASTICS": self.plastics,
-                 "ROUGH_PLASTICS": self.rough_plastics, "PRINCIPLED": self.principled, "BECKMANN": self.beckmann,
+                 "ROUGH_PLASTICS": self.rough_plastics, "PRINCIPLED": self.principled,
+                 "PRINCIPLEDTHIN": self.principledthin, "BECKMANN": self.beckmann,
                  "ANISOTROPIC": self.anisotropic,
                  "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
                  "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups}

@@ -53,6 +53,15 @@ Ranges, argued where they are not simply Mitsuba's:
   in [0, 2^10]: a rate 0 leaves its lobe to the others' samples, as Mitsuba's clearcoat_sampling_rate 0 of its
   documentation does; the bound of 2^10 on their ratio to the main one keeps a sample's weight (f / pdf, the
   main lobes' share of pdf at least 2^-20 / 3) finite.
+- `principledthin`'s weights are principled's, in [0, 1], but `diff_trans` in [0, 2] (Mitsuba's documentation:
+  the diffuse light's share transmitted is diff_trans / 2) and `flatness` (its fake subsurface lobe, which
+  raytrace's principledthin has) in [0, 1]. Its `eta` (default 1.5) in [2^-16, 2^16]: Mitsuba checks none, but
+  the transmission's roughness is (0.65 eta - 0.35) roughness, whose GGX terms square alpha and its product with
+  a grazing direction's tangent (2^16: alpha^2 tan^2 within float32 at 1e-7 of the horizon); the Fresnel term
+  squares 1 / eta. Its four sampling rates in [2^-10, 2^10], none 0: its lobes cover different directions (the
+  glossy and the diffuse, each reflecting or transmitting), so a rate 0 leaves one with value to no sample at
+  all, and at the edges of spec_trans and diff_trans the sum of the lobes' shares would be 0 (Mitsuba's 0 / 0);
+  the bound of 2^10 keeps a sample's weight finite as principled's does.
 """
 from dataclasses import dataclass
 
@@ -243,6 +252,38 @@ def _principled():
                           high=1024)))
 
 
+def _principledthin():
+    """principledthin's parameters, in Mitsuba's order (its doc's)."""
+    rate = "share in choosing which lobe to sample (a ratio to the other rates)"
+    rates = [Parameter(name, (name,), Key(name, "number", f"the {what}'s {rate}", default=1.0, low=2.0 ** -10,
+                                          high=1024))
+             for name, what in (("diffuse_reflectance_sampling_rate", "diffuse reflection"),
+                                ("specular_reflectance_sampling_rate", "glossy reflection"),
+                                ("specular_transmittance_sampling_rate", "glossy transmission"),
+                                ("diffuse_transmittance_sampling_rate", "diffuse transmission"))]
+    return (_reflectance("base_color", "the diffuse lobes' albedo, the transmission's colour, the tints' hue",
+                         (0.5, 0.5, 0.5), mitsuba=0.5),
+            _weight("roughness", "roughness", "the glossy lobes' roughness (GGX alpha its square, at least 1e-3; "
+                    "the transmission's of (0.65 eta - 0.35) roughness); also the diffuse's retro-reflection",
+                    default=0.5),
+            _weight("anisotropic", "anisotropic", "the glossy lobes' anisotropy: alpha along u over alpha along v "
+                    "is 1 / (1 - 0.9 anisotropic)"),
+            _weight("spec_trans", "spec_trans", "the share of the glossy lobes (a rough dielectric sheet's "
+                    "reflection and its transmission, undeflected) rather than the diffuse ones"),
+            Parameter("eta", ("principled_eta",), Key("eta", "number", "the sheet's relative index of refraction, "
+                                                      "for its Fresnel reflectance and its transmission's "
+                                                      "roughness", default=1.5, low=2.0 ** -16, high=2.0 ** 16)),
+            _weight("spec_tint", "spec_tint", "the share of the glossy reflection tinted towards the colour's hue"),
+            _weight("sheen", "sheen", "a grazing sheen's weight (cloth)"),
+            _weight("sheen_tint", "sheen_tint", "the share of the sheen tinted towards the colour's hue"),
+            _weight("flatness", "flatness", "the share of the diffuse reflection that is Hanrahan and Krueger's "
+                    "fake subsurface scattering (flatter, brighter towards grazing) rather than Burley's"),
+            Parameter("diff_trans", ("diff_trans",), Key("diff_trans", "number", "the diffuse light's share "
+                                                         "transmitted, times 2: 0 reflects it all, 1 half, 2 "
+                                                         "transmits it all", default=0.0, low=0, high=2)),
+            *rates)
+
+
 DECLARED = (
     BSDF("diffuse", "smooth diffuse (Lambertian)", """\
 An ideally diffuse surface: light arriving from any direction is scattered over the hemisphere with a density
@@ -311,6 +352,17 @@ has an inside, as glass does. Mitsuba's flatness (a fake subsurface lobe) is not
          _principled(), "principled",
          'type = "principled"\nbase_color = [0.8, 0.3, 0.2]\nroughness = 0.3\nmetallic = 0.2\nclearcoat = 0.5',
          front_only=False, only_default=(("flatness", 0.0),)),
+    BSDF("principledthin", "thin principled (Disney's, a sheet)", """\
+Disney's principled BSDF for thin sheets (Burley 2015) as Mitsuba 3 writes it: a surface of no thickness, the
+same from both sides, such as a leaf, paper, a curtain or a pane of frosted glass. One colour and a handful of
+weights blend a diffuse reflection with retro-reflection and sheen (flattened towards a fake subsurface look by
+flatness), a diffuse transmission (diff_trans), and a rough dielectric sheet's reflection and undeflected
+transmission (spec_trans), anisotropic GGX microfacets of alpha = roughness^2; eta sets the sheet's Fresnel
+reflectance and its transmission's roughness. Light passes it without bending: use it on open surfaces
+(rectangles, single-sided meshes), not to bound a volume.""",
+         _principledthin(), "principledthin",
+         'type = "principledthin"\nbase_color = [0.3, 0.6, 0.2]\nroughness = 0.4\ndiff_trans = 0.8\n'
+         'spec_trans = 0.2', front_only=False),
 )
 # Mitsuba's wrappers a material can be instead of a BSDF (model.WRAPPERS), with their own keys: a blend of two
 # materials, and a mask of one

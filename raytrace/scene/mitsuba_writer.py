@@ -247,7 +247,7 @@ class _Writer:
                 ET.SubElement(bsdf, "float", name=p.name, value=_number(getattr(material, p.fields[0])))
             elif p.name == "distribution":  # always written: Mitsuba's default is Beckmann, raytrace's GGX
                 ET.SubElement(bsdf, "string", name=p.name, value=material.distribution)
-            elif material.bsdf == "principled" and p.key is not None and p.key.kind == "number":
+            elif material.bsdf in ("principled", "principledthin") and p.key is not None and p.key.kind == "number":
                 if getattr(material, p.fields[0]) is not None:  # eta or specular: the one given
                     ET.SubElement(bsdf, "float", name=p.name, value=_number(getattr(material, p.fields[0])))
             elif p.name == "nonlinear":

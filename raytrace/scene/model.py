@@ -23,7 +23,7 @@ SHADINGS = ("phong", "direct", "path")
 # The BSDFs of the path model, with Mitsuba 3's plugin names, in the kernel's numbering (BSDF_* in
 # kernels/types.h): each is declared once, its parameters and doc, in bsdfs.py. Only "diffuse" elsewhere.
 BSDFS = ("diffuse", "conductor", "dielectric", "roughconductor", "thindielectric", "roughdielectric", "plastic",
-         "roughplastic", "null", "principled")
+         "roughplastic", "null", "principled", "principledthin")
 # Mitsuba's BSDF wrappers a material can be besides a BSDF: a blend of two materials, and a mask (a blend of
 # the masked material and `null` by opacity); twosided is a material's `back` (Material).
 WRAPPERS = ("blendbsdf", "mask")
@@ -141,6 +141,12 @@ class Material:
     main_specular_sampling_rate: float = 1.0
     clearcoat_sampling_rate: float = 1.0
     diffuse_reflectance_sampling_rate: float = 1.0
+    # principledthin's own beside those (its eta: principled_eta, None for Mitsuba's 1.5)
+    flatness: float = 0.0
+    diff_trans: float = 0.0
+    specular_reflectance_sampling_rate: float = 1.0
+    specular_transmittance_sampling_rate: float = 1.0
+    diffuse_transmittance_sampling_rate: float = 1.0
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,9 @@ MATERIAL = [("colour", "colour"), ("shininess", "shininess"), ("height_scale", "
 BSDF_FIELDS = ("eta", "k", "int_ior", "ext_ior", "alpha", "alpha_v", "distribution", "specular", "nonlinear",
                "roughness", "anisotropic", "metallic", "principled_specular", "principled_eta", "spec_tint", "sheen",
                "sheen_tint", "clearcoat", "clearcoat_gloss", "spec_trans", "main_specular_sampling_rate",
-               "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate")
+               "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate", "flatness", "diff_trans",
+               "specular_reflectance_sampling_rate", "specular_transmittance_sampling_rate",
+               "diffuse_transmittance_sampling_rate")
 
 
 _value = rules.value
