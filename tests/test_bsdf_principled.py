@@ -15,14 +15,15 @@ from raytrace.scene.model import Material
 
 import bsdf_support
 import principled_reference as pr
-from devtools.chi_square import SIGNIFICANCE, cell_integrals, chi_square
 from devtools.peers import mitsuba_bsdf
 from helpers import LANE_ENDS, ROOT, at_lane_ends, lane_id, runnable_lane_widths
+from principled_support import (U, check_against_reference, check_chi_square, check_reciprocity,
+                               check_sample_weights, d_conditioning, eval_case, f32, fresnel_conditioning, furnace_means,
+                               mitsuba_worst, random_case, xml_round_trip)
 
 DEFINES = dict(HAS_PATH_TRACING=1, HAS_PRINCIPLED=1, HAS_RECTANGLES=1)
 ANISOTROPIC = dict(DEFINES, HAS_ANISOTROPIC=1)  # a scene with anisotropic != 0: the tangent's frame
 OUTPUTS = ("f", "pdf", "s_wi", "s_weight", "s_pdf", "s_f", "s_eval_pdf", "s_transmit")
-U = 2.0**-24  # float32's unit roundoff
 RED, BLUE, WHITE = (0.8, 0.2, 0.1), (0.2, 0.5, 0.8), (1.0, 1.0, 1.0)
 
 # Materials by Mitsuba's names (base_color, eta, specular are principled_reference's; the rest model.Material's
@@ -74,60 +75,12 @@ def reference_material(row, entry=None):
     return p
 
 
-def f32(v):
-    return np.asarray(v, np.float32).astype(np.float64)
-
-
-def unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
 def frames(n, t, backface, entry_rows, table):
     """Each lane's local frame as the kernel takes it (rows x, y, z): z the outward normal, n turned over where
     the hit is from inside a material that transmits ((1 - metallic) spec_trans > 0), x the tangent t."""
     bsdf = np.array([(1 - table[j]["principled"][1]) * table[j]["principled"][7] for j in entry_rows])
     z = n * np.where((backface != 0) & (bsdf > 0), -1.0, 1.0)[:, None]
     return np.stack([t, np.cross(z, t), z], axis=1)
-
-
-def local(fr, v):
-    return np.einsum("nij,nj->ni", fr, v)
-
-
-def random_case(rng, count, rows):
-    """Normals, tangents (orthogonal to them), backface flags (a quarter), viewers wo on the normal's side (1/8
-    below it: a shading normal's), wi: half uniform on the sphere, a quarter within 2e-3 of wo's mirror image
-    and a quarter of its refraction by eta 1.5 or 1 / 1.5 (where narrow lobes lie); material rows; u."""
-    n = unit(rng.normal(size=(count, 3)))
-    t = unit(np.cross(n, rng.normal(size=(count, 3))))
-    wo = unit(rng.normal(size=(count, 3)))
-    side = np.where(rng.uniform(size=count) < 0.125, -1.0, 1.0)
-    wo *= (np.sign(np.sum(wo * n, axis=1)) * side)[:, None]
-    c = np.sum(wo * n, axis=1)[:, None]
-    mirror = 2 * c * n - wo
-    eta = np.where(rng.uniform(size=(count, 1)) < 0.5, 1.5, 1 / 1.5)
-    sin2 = (1 - c * c) / eta**2
-    refracted = -wo / eta + (c / eta - np.sign(c) * np.sqrt(np.maximum(1 - sin2, 0))) * n
-    wi = unit(rng.normal(size=(count, 3)))
-    pick = rng.uniform(size=count)
-    wi = np.where((pick < 0.25)[:, None], mirror, np.where((pick < 0.5)[:, None], refracted, wi))
-    wi = unit(wi + rng.normal(scale=2e-3, size=wi.shape) * (pick < 0.5)[:, None])
-    backface = (rng.uniform(size=count) < 0.25).astype(np.int32)
-    return f32(n), f32(unit(t - np.sum(t * n, axis=1)[:, None] * n)), backface, f32(wo), f32(wi), \
-        rng.choice(rows, count), rng.uniform(size=(count, 3))
-
-
-def d_conditioning(p, lh, anisotropic):
-    """The relative error of an isotropic build's GGX D that float32 cannot avoid (tests/test_bsdf_roughplastic.py's
-    d_conditioning): from cos^2(theta_h) alone, within 32 U, D moves by 2 |1 - alpha^2| dc / (c (alpha^2 - 1) +
-    1); at roughness 0's alpha 1e-3 that is 4 at the peak. The anisotropic build's D, from h's x and y, does
-    not cancel."""
-    if anisotropic:
-        return np.zeros(len(lh))
-    a2 = p["alpha_u"] ** 2
-    c = np.minimum(lh[:, 2] ** 2, 1.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.nan_to_num(2 * abs(1 - a2) / (c * (a2 - 1) + 1) * 32 * U)
 
 
 def gtr1_conditioning(p, lh):
@@ -139,21 +92,6 @@ def gtr1_conditioning(p, lh):
     c = np.minimum(lh[:, 2] ** 2, 1.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.nan_to_num(abs(1 - a2) / (1 + (a2 - 1) * c) * 32 * U) * (p["clearcoat"] > 0)
-
-
-def fresnel_conditioning(p, lo, h):
-    """The relative error of the dielectric Fresnel reflectance in float32 near eta = 1: its amplitudes'
-    numerators eta c - c_t and c - eta c_t (c = |wo . h|, c_t the refracted cosine) cancel, each term carrying
-    some 8 U of its size (the cosines' roundings, sqrt(1 - sin^2 / eta^2)), doubled by the square: 16 U (c + c_t)
-    (1 / |eta c - c_t| + 1 / |c - eta c_t|). At eta 1.001 (Mitsuba's for 1 with transmission) F is 2.5e-7 and
-    this some 1e-2; at 1.5, 1e-6. On the main reflection (F) and the pdf (its reflection's share, F inside or
-    with spec_trans 1)."""
-    c = np.abs(np.sum(lo * h, axis=1))
-    eta = np.where(np.sum(lo * h, axis=1) >= 0, p["eta"], 1 / p["eta"])
-    ct = np.sqrt(np.maximum(1 - (1 - c * c) / eta**2, 0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rel = 16 * U * (c + ct) * (1 / np.abs(eta * c - ct) + 1 / np.abs(c - eta * ct))
-    return np.nan_to_num(rel, posinf=0.0)
 
 
 def half_vector(p, lo, li):
@@ -202,10 +140,6 @@ def run(harness, table, which, n, t, backface, wo, wi, u, defines=DEFINES, outpu
                             **defines)
 
 
-def plugin_parameters(plugin):
-    return {k: (np.array(v["value"]) if isinstance(v, dict) else v) for k, v in plugin.items() if k != "type"}
-
-
 def test_reference_matches_mitsuba():
     """principled_reference's eval and pdf against Mitsuba 3.9.1's own (tests/data/mitsuba_principled_values.npz,
     recorded by devtools/peers/mitsuba_principled.py: 10 cases, 256 points each, a quarter of them or more with
@@ -220,26 +154,9 @@ def test_reference_matches_mitsuba():
     Deterministic (fixed inputs and seeds). It fails (each tried on the reference): the transmission's half
     vector wo + wi / eta' (the inverted index), the sheen without its tint, the clearcoat's pdf without the
     Jacobian of its half vector, and Burley's retro-reflection Rr without its factor 2."""
-    rng = np.random.default_rng(5)
     cases = mitsuba_bsdf.load(ROOT / "tests" / "data" / "mitsuba_principled_values.npz")
     assert len(cases) == 10
-    worst = 0.0
-    for name, plugin, v in cases:
-        p = pr.material(**plugin_parameters(plugin))
-        wi, wo = v["wo"].astype(float), v["wi"].astype(float)  # Mitsuba's si.wi (the viewer) is the fixture's wo
-        f, pdf, tol_f, tol_p = tolerance(p, wi, wo, rng, anisotropic=True)
-        ex_f = np.abs(f - v["eval"]) / tol_f
-        ex_p = np.abs(pdf - v["pdf"]) / tol_p
-        ok = (v["s_pdf"] > 0) & np.any(v["s_weight"] != 0, axis=1)  # a refused sample: weight 0 (its pdf may not be)
-        sf, sp, tol_sf, tol_sp = tolerance(p, wi[ok], v["s_wi"][ok].astype(float), rng, anisotropic=True)
-        ex_sp = np.abs(sp - v["s_pdf"][ok]) / tol_sp
-        weight = sf / sp[:, None]
-        tol_w = (tol_sf + np.abs(weight) * tol_sp[:, None]) / sp[:, None]
-        ex_w = np.abs(weight - v["s_weight"][ok]) / tol_w
-        for what, ex in (("eval", ex_f), ("pdf", ex_p), ("s_pdf", ex_sp), ("s_weight", ex_w)):
-            assert np.all(ex <= 1), (name, what, float(np.max(ex)), int(np.argmax(np.max(np.atleast_2d(ex.T), 0))))
-            worst = max(worst, float(np.max(ex)))
-        assert ok.mean() > 0.75, (name, ok.mean())
+    worst = mitsuba_worst(cases, pr.material, tolerance, np.random.default_rng(5), kept_share=0.75)
     assert worst > 0.02  # the tolerance is not so loose that nothing comes near it
 
 
@@ -267,24 +184,13 @@ def test_host_terms_match_reference():
 EVAL_DATA = {}
 
 
-def eval_case(anisotropic):
+def lanes_of(anisotropic):
     """The eval test's lanes (4096; isotropic materials only in the isotropic build), their references and
-    tolerances, computed once for every lane width."""
-    if anisotropic not in EVAL_DATA:
-        rng = np.random.default_rng(11 + anisotropic)
-        rows = list(range(len(MATERIALS))) if anisotropic else ISOTROPIC
-        table = packed()
-        n, t, backface, wo, wi, which, u = random_case(rng, 4096, rows)
-        fr = frames(n, t, backface, which, table)
-        lo, li = local(fr, wo), local(fr, wi)
-        ref_f, ref_p = np.zeros((len(n), 3)), np.zeros(len(n))
-        tol_f, tol_p = np.zeros((len(n), 3)), np.zeros(len(n))
-        for j in rows:
-            s = which == j
-            p = reference_material(MATERIALS[j], table[j])
-            ref_f[s], ref_p[s], tol_f[s], tol_p[s] = tolerance(p, lo[s], li[s], rng, anisotropic)
-        EVAL_DATA[anisotropic] = (table, (n, t, backface, wo, wi, which, u), (ref_f, ref_p, tol_f, tol_p), lo, li)
-    return EVAL_DATA[anisotropic]
+    tolerances (principled_support.eval_case), computed once for every lane width."""
+    table = packed()
+    return eval_case(EVAL_DATA, anisotropic, 11, list(range(len(MATERIALS))) if anisotropic else ISOTROPIC, table,
+                     [reference_material(row, entry) for row, entry in zip(MATERIALS, table)],
+                     lambda n, t, backface, which: frames(n, t, backface, which, table), tolerance)
 
 
 @pytest.mark.parametrize("lanes, anisotropic", [(n, False) for n in runnable_lane_widths()]
@@ -308,16 +214,10 @@ def test_eval_and_pdf_against_reference(harness, anisotropic):
     fails (each tried on the kernel): the transmission without sqrt(k), the clearcoat's Fresnel 0.4 + 0.6 Fw,
     the retro-reflection Rr without its factor 2, the inside's eta not inverted (eta_path = eta), the
     probabilities' clearcoat rate dropped, and the sheen's tint k / lum without lum."""
-    table, (n, t, backface, wo, wi, which, u), (ref_f, ref_p, tol_f, tol_p), lo, li = eval_case(anisotropic)
+    table, (n, t, backface, wo, wi, which, u), (ref_f, ref_p, tol_f, tol_p), lo, li = lanes_of(anisotropic)
     out = run(harness, table, which, n, t, backface, wo, wi, u, ANISOTROPIC if anisotropic else DEFINES,
               ("f", "pdf"))
-    ex_f = np.max(np.abs(out["f"] - ref_f) / tol_f, axis=1)
-    ex_p = np.abs(out["pdf"] - ref_p) / tol_p
-    assert np.all(ex_f <= 1), (np.max(ex_f), np.argmax(ex_f), which[np.argmax(ex_f)])
-    assert np.all(ex_p <= 1), (np.max(ex_p), np.argmax(ex_p), which[np.argmax(ex_p)])
-    assert np.mean(ref_p > 0) > 0.5 and np.mean(np.any(ref_f > 0, axis=1)) > 0.5
-    through = lo[:, 2] * li[:, 2] < 0
-    assert np.sum(through & (ref_f[:, 0] > 1e-3)) > 100  # the transmission is exercised
+    check_against_reference(out, ref_f, ref_p, tol_f, tol_p, which, lo, li)
 
 
 @pytest.mark.parametrize("lanes", runnable_lane_widths(), ids=lane_id)
@@ -332,15 +232,7 @@ def test_sample_weight_is_eval_over_pdf(harness):
     table = packed()
     n, t, backface, wo, wi, which, u = random_case(rng, 4096, list(range(len(MATERIALS))))
     out = run(harness, table, which, n, t, backface, wo, wi, u, ANISOTROPIC)
-    valid = out["s_pdf"] > 0
-    assert valid.mean() > 0.75, valid.mean()
-    np.testing.assert_allclose(out["s_pdf"][valid], out["s_eval_pdf"][valid], rtol=2e-5)
-    np.testing.assert_allclose(out["s_weight"][valid] * out["s_pdf"][valid, None], out["s_f"][valid], rtol=2e-5,
-                               atol=1e-7)
-    assert np.all(out["s_weight"][~valid] == 0)
-    crosses = np.sum(out["s_wi"] * n, axis=1) * np.sum(wo * n, axis=1) < 0
-    assert np.array_equal(out["s_transmit"][valid] == 1, crosses[valid])
-    assert np.sum(out["s_transmit"]) > 200
+    check_sample_weights(out, n, wo, valid_share=0.75, transmitted=200)
 
 
 @pytest.mark.parametrize("lanes", LANE_ENDS, ids=lane_id)
@@ -356,12 +248,7 @@ def test_reflection_is_reciprocal(harness):
     table = packed()
     n, t, backface, wo, wi, which, u = random_case(rng, 4096, list(range(len(MATERIALS))))
     out = run(harness, table, which, n, t, np.zeros_like(backface), wo, wi, u, ANISOTROPIC, ("f", "f_swapped"))
-    co, ci = np.sum(wo * n, axis=1), np.sum(wi * n, axis=1)
-    mirror = np.sum((2 * co[:, None] * n - wo) * wi, axis=1) > 0.999
-    keep = (co > 0) & (ci > 0) & ~mirror
-    assert keep.sum() > 1000
-    a, b = out["f"][keep] * co[keep, None], out["f_swapped"][keep] * ci[keep, None]
-    np.testing.assert_allclose(a, b, rtol=2e-4, atol=1e-6)
+    check_reciprocity(out, n, wo, wi)
 
 
 # (row, theta_o, backface) of the chi-square test: metal, glossy dielectric, clearcoat, diffuse with sheen, glass
@@ -397,7 +284,6 @@ def test_sampling_chi_square(harness, row, theta_o, backface):
     bf = np.full(m, backface, np.int32)
     out = run(harness, table, np.full(m, row), nrm, tan, bf, wo, wo, rng.uniform(size=(m, 3)),
               ANISOTROPIC if anisotropic else DEFINES, ("s_wi", "s_pdf"))
-    valid = out["s_pdf"] > 0
     fr = frames(nrm[:1], tan[:1], bf[:1], [row], table)[0]  # the local frame: z turned over inside
     p = reference_material(MATERIALS[row], table[row])
 
@@ -410,10 +296,7 @@ def test_sampling_chi_square(harness, row, theta_o, backface):
             _DENSITIES[key] = pr.eval_pdf(p, lo, w @ fr.T)[1].reshape(c.shape)
         return _DENSITIES[key]
 
-    mass = cell_integrals(density, np.linspace(-1, 1, 17), np.linspace(0, 2 * np.pi, 33)).sum()
-    pval, stat, total = chi_square(out["s_wi"][valid], lambda c, phi: density(c, phi) / mass)
-    assert abs(valid.mean() - mass) <= 5 * np.sqrt(mass * (1 - mass) / m) + 2e-3, (valid.mean(), mass)
-    assert pval > SIGNIFICANCE, (pval, stat, total)
+    check_chi_square(out, density)
 
 
 # (name, row of white-based materials, the bound of its albedo (None: none), backface): each lobe alone where the
@@ -456,27 +339,14 @@ def test_white_furnace(harness, name, row, bound, backface):
     table = material_structs([model(row)])
     p = reference_material(row, table[0])
     m = 1 << 15
-    rng = np.random.default_rng(23)
-    means = []
     fr = frames(np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]]), np.array([backface]), [0], table)[0]
-    for theta_o in np.radians([0, 20, 40, 60, 75, 85]):
-        nrm, tan = np.tile([0.0, 0.0, 1.0], (m, 1)), np.tile([1.0, 0.0, 0.0], (m, 1))
-        wo = np.repeat(f32([[np.sin(theta_o), 0.0, np.cos(theta_o)]]), m, axis=0)
-        out = run(harness, table, np.zeros(m, int), nrm, tan, np.full(m, backface, np.int32), wo, wo,
-                  rng.uniform(size=(m, 3)), DEFINES, ("s_wi", "s_weight", "s_pdf"))
-        w = out["s_weight"][:, 1]
-        valid = out["s_pdf"] > 0
-        f, pdf, _ = pr.eval_pdf(p, wo[valid] @ fr.T, out["s_wi"][valid] @ fr.T)
-        ref = np.zeros(m)
-        ref[valid] = f[:, 1] / pdf
-        diff = w - ref
-        se = max(diff.std(ddof=1) / np.sqrt(m), 1e-7)
-        assert abs(diff.mean()) <= 5 * se + 1e-4 * abs(ref.mean()), (theta_o, w.mean(), ref.mean(), se)
-        mean, se_w = w.mean(), w.std(ddof=1) / np.sqrt(m)
-        means.append(mean)
-        if bound is not None:
-            assert mean <= bound + 5 * se_w, (theta_o, mean, se_w)
-    assert max(means) > 0.01
+    nrm, tan = np.tile([0.0, 0.0, 1.0], (m, 1)), np.tile([1.0, 0.0, 0.0], (m, 1))
+
+    def sample(wo, u):
+        return run(harness, table, np.zeros(m, int), nrm, tan, np.full(m, backface, np.int32), wo, wo, u, DEFINES,
+                   ("s_wi", "s_weight", "s_pdf"))
+
+    furnace_means(sample, lambda wo, wi: pr.eval_pdf(p, wo @ fr.T, wi @ fr.T)[:2], bound, np.random.default_rng(23), m)
 
 
 PRINCIPLED_TOML = """
@@ -506,27 +376,14 @@ def test_scene_file_mitsuba_xml_and_writer(tmp_path):
     is refused (Mitsuba's rule: one sets the other), and so is a Mitsuba flatness other than 0 (raytrace has no
     fake subsurface lobe); flatness 0 is accepted. It fails (each tried): the writer leaving the opaque one bare,
     rules.py accepting eta beside specular, and the loader reading principled's eta as a conductor's."""
-    import warnings
-
     import raytrace
     from raytrace.errors import InputError
     from raytrace.renderer.program import Features
-    from raytrace.scene.mitsuba_writer import to_xml
     from raytrace.scene.model import fingerprint
     shapes = "".join(f'\n[[shapes]]\ntype = "ellipsoid"\ncenter = [{x!r}, 0.3, 0.3]\naxes = [[0.1, 0, 0], [0, 0.1, 0], '
                      f'[0, 0, 0.1]]\nmaterial = "{name}"\n' for x, name in ((0.3, "satin"), (0.6, "frost")))
-    toml = tmp_path / "cornell_box.toml"
-    toml.write_text((ROOT / "scenes" / "cornell_box.toml").read_text().replace('"../assets/', f'"{ROOT / "assets"}/')
-                    + PRINCIPLED_TOML + shapes)
-    scene = raytrace.load_file(toml)
-    (tmp_path / "out").mkdir()
-    text, extra = to_xml(scene, tmp_path / "out" / "scene.xml")
-    (tmp_path / "out" / "scene.xml").write_text(text)
-    for name, data in extra.items():  # the box's meshes
-        (tmp_path / "out" / name).write_bytes(data)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # no "outside twosided": the opaque one is wrapped
-        back = raytrace.load_file(tmp_path / "out" / "scene.xml")
+    # warnings are errors: no "outside twosided", the opaque one is wrapped
+    scene, back, text, toml = xml_round_trip(tmp_path, PRINCIPLED_TOML + shapes)
     assert fingerprint(back.materials) == fingerprint(scene.materials)
     satin = next(m for m in back.materials if m.name == "satin")
     assert (satin.bsdf, satin.principled_specular, satin.principled_eta, satin.anisotropic) == ("principled", 0.7,
