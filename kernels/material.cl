@@ -253,8 +253,9 @@ inline vec3 lookup_at(const Scene *s, TextureStore ts, int l, const TexturedHits
  * bump map's gradient g (times bump_scale) tilts dp/du and dp/dv out of the tangent plane, dp/du + n0 (g.x -
  * n0.dp/du), and the normal is their cross product, on the geometric normal's side. Where the viewer wo would
  * lie on different sides of n0 and of the perturbed normal, its tangential part is mirrored (Mitsuba's
- * flip_invalid_normals). sp->n becomes the perturbed normal, on sp->n0's side of the viewer; sp->n0 keeps the
- * shading normal for bsdf.cl's side condition and shadow terminator. */
+ * flip_invalid_normals). sp->n becomes the perturbed normal, on sp->n0's side of the viewer (mirrored through the
+ * surface on a back hit of mirrored_maps); sp->n0 keeps the shading normal for bsdf.cl's side condition and
+ * shadow terminator. */
 inline void perturb_normal(const Scene *s, TextureStore ts, __global const Material *m, int filter,
                            const TexturedHits *h, vint mask, vec3 wo, ShadingPoint *sp)
 {
@@ -276,11 +277,17 @@ inline void perturb_normal(const Scene *s, TextureStore ts, __global const Mater
         n = v3_unit_or(v3_cross(du, dv), n0);
         n = v3_scale(n, SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, outside) < 0.0f));
     }
+    /* Mitsuba's twosided around the map turns the directions over (z -> -z) before the map perturbs them: its
+     * back sees the map's normal mirrored through the surface, on the viewer's side, where a map around twosided
+     * turns it whole (side n) */
+    vint through = m->mirrored_maps ? side < 0.0f : (vint)(0);
+    n = v3_select(n, v3_madd(n, -2.0f * v3_dot(n, n0), n0), through);
     vfloat cos_n = v3_dot(n, n0);
     vec3 mirrored = v3_sub(v3_scale(n0, 2.0f * cos_n), n);
-    n = v3_select(n, mirrored, v3_dot(wo, n0) * v3_dot(wo, n) <= 0.0f);
+    vfloat cos_wo = v3_dot(wo, n0) * SELECT((vfloat)(1.0f), (vfloat)(-1.0f), through); /* the map's frame's */
+    n = v3_select(n, mirrored, cos_wo * v3_dot(wo, n) <= 0.0f);
     sp->n0 = v3_select(sp->n0, sp->n, mask);
-    sp->n = v3_select(sp->n, v3_scale(n, side), mask);
+    sp->n = v3_select(sp->n, v3_select(v3_scale(n, side), n, through), mask);
     sp->perturbed = SELECT(sp->perturbed, (vint)(-1), mask);
 }
 #endif

@@ -141,6 +141,8 @@ typedef struct {
     int blend[2];                    /* BSDF_BLEND: the materials it mixes (wrappers.cl) */
     float weight;                    /* BSDF_BLEND: the second one's share, unless maps[MAP_WEIGHT] */
     float bump_scale;                /* maps[MAP_BUMP]: scene units of relief per unit of the height field */
+    int mirrored_maps;               /* normalmap, bumpmap: the back side sees the map's normal mirrored through
+                                      * the surface (Mitsuba's twosided around the map), not turned whole */
     float principled[PRINCIPLED_PARAMETERS]; /* principled: its values, PRINCIPLED_* below (its eta in eta.x, its
                                       * main lobe's GGX roughness in alpha, alpha_v: principled_terms.py) */
 } Material;

@@ -40,6 +40,7 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
                      ("nonlinear", "<i4"), ("internal_reflectance", "<f4"), ("specular_weight", "<f4"),
                      ("transmittance", "<f4", (ROUGH_TRANSMITTANCE_RES,)), ("maps", "<i4", (MAPS,)),
                      ("back", "<i4"), ("blend", "<i4", (2,)), ("weight", "<f4"), ("bump_scale", "<f4"),
+                     ("mirrored_maps", "<i4"),
                      ("principled", "<f4", (PRINCIPLED_PARAMETERS,))])
 
 # kernels/types.h: MAP_* (Material.maps), LOOKUP_*

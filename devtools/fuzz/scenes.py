@@ -411,8 +411,10 @@ def wrapped_and_textured(draw, materials, shapes):
                 material[key] = textures(draw, is_float, files)
         if draw(st.integers(0, 5)) == 0:
             material[draw(st.sampled_from(["normalmap", "bumpmap"]))] = textures(draw, True, files)
-            if draw(st.booleans()):
+            if draw(st.booleans()) and "bumpmap" in material:
                 material["bump_scale"] = draw(st.one_of(magnitudes(1e-45), finite(1e-3, 10.0)))
+            if draw(st.booleans()):
+                material["mirrored_maps"] = draw(st.booleans())
         if BY_NAME[kind].front_only and draw(st.integers(0, 3)) == 0:
             material["two_sided"] = False
     for i in range(draw(st.integers(0, 3))):

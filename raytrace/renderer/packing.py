@@ -185,7 +185,7 @@ def material_structs(materials):
     a = np.zeros(len(materials), structs.MATERIAL)
     null = len(materials) - 1
     for i, (s, m, maps) in enumerate(zip(a, materials, lookup_structs(materials)[1])):
-        s["maps"], s["bump_scale"] = maps, m.bump_scale
+        s["maps"], s["bump_scale"], s["mirrored_maps"] = maps, m.bump_scale, m.mirrored_maps
         s["back"] = m.back if m.back >= 0 else i if m.two_sided else -1
         if m.bsdf in WRAPPERS:
             s["bsdf"], s["weight"] = structs.BSDF_BLEND, m.weight

@@ -120,7 +120,10 @@ TABLES = {
         Key("bumpmap", "table", "Mitsuba's bumpmap: a texture of heights whose gradient tilts the BSDF's shading "
             "normal", default=None, also="not with normalmap, normal_map or height_map"),
         Key("bump_scale", "number", "a bumpmap's scene units of relief per unit of its heights (Mitsuba's scale)",
-            default=1.0, low=0, open_low=True)],
+            default=1.0, low=0, open_low=True),
+        Key("mirrored_maps", "boolean", "the back side sees the normalmap's or bumpmap's normal mirrored through the "
+            "surface (Mitsuba's twosided around the map), not turned whole (the map around twosided)",
+            default=False, also="with normalmap or bumpmap")],
     "texture": texture_lookups.KEYS,  # a textured parameter's table (texture_lookups.py)
     **bsdfs.key_tables(),  # each BSDF's own keys ('materials.NAME type = "diffuse"', ...), declared in bsdfs.py
     "shapes[]": [Key("type", "string", "the kind of shape", choices=SHAPE_KINDS),

@@ -582,7 +582,8 @@ class _Translator:
         """The name of raytrace's material for BSDF `node` (None: Mitsuba's default diffuse), seen from both sides
         where `two_sided` (inside a twosided), with material `back` behind it (a twosided's second BSDF); named
         after its id, or the id of the twosided around it (`named`); `perturb`: a normalmap's or bumpmap's (its
-        node, its key and texture table, its scale) around it, which each BSDF inside takes."""
+        node, its key and texture table, its scale, whether a twosided is around it) around it, which each BSDF
+        inside takes."""
         if node is None:
             name = "mitsuba_default"
             self.table["materials"].setdefault(name, {"type": "diffuse", "colour": [DEFAULT_DIFFUSE] * 3,
@@ -618,11 +619,9 @@ class _Translator:
             if perturb is not None:
                 self.unsupported(self.where(node, path).at, f"{kind} inside {perturb[1]}",
                                  "one map tilts a material's normal")
-            if two_sided:  # Mitsuba's twosided mirrors the map's normal through the surface behind it
-                self.unsupported(self.where(node, path).at, f"{kind} inside twosided", "the back side of a map "
-                                 "inside twosided is not rendered as Mitsuba does: put the twosided inside the map")
             scale = float(self.number(params.get("scale", 1.0), node, path, "scale"))
-            inner = (node, kind, self.texture(textures[0][1], textures[0][0]), scale)
+            # the map inside a twosided (two_sided already): its back sees the map's normal mirrored
+            inner = (node, kind, self.texture(textures[0][1], textures[0][0]), scale, two_sided)
             name = self.material(nested[0][1], nested[0][0], two_sided, back, own_id, inner)
             self.materials[cached] = name
             return name
@@ -659,10 +658,12 @@ class _Translator:
             if not two_sided and (bsdfs.BY_NAME[kind].front_only or opaque):
                 material["two_sided"] = False
             if perturb is not None:
-                wrapper, key, texture, scale = perturb
+                wrapper, key, texture, scale, inside_twosided = perturb
                 put(key, texture, key if key == "normalmap" else "texture")
                 if key == "bumpmap":
                     put("bump_scale", scale, "scale")
+                if inside_twosided:
+                    put("mirrored_maps", True, "bsdf")
         if back is not None:
             material["back"] = back
         return name

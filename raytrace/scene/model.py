@@ -126,6 +126,8 @@ class Material:
     blend: tuple = ()                    # blendbsdf: the two materials it mixes; mask: the one it masks
     weight: float = 0.5                  # blendbsdf: the second one's share; mask: the opacity
     bump_scale: float = 1.0              # a bump map's (maps' "bump") scene units of relief per unit of height
+    mirrored_maps: bool = False          # its back sees the map's normal mirrored through the surface (Mitsuba's
+                                         # twosided around normalmap or bumpmap), not turned whole
     # principled, by Mitsuba's names (colour: its base_color; bsdfs.py, principled_terms.py)
     roughness: float = 0.5
     anisotropic: float = 0.0

@@ -436,7 +436,7 @@ def _material(r, name, textures, names):
                     course.get("texture", -1), course.get("normal_map", -1), course.get("height_map", -1),
                     r.number("height_scale") if "height_map" in course else 0.0,
                     tuple(uv_scale), tuple(uv_offset), r.string("wrap"), **bsdf, maps=tuple(maps),
-                    bump_scale=r.number("bump_scale"), **sides)
+                    bump_scale=r.number("bump_scale"), mirrored_maps=r.boolean("mirrored_maps"), **sides)
 
 
 # Mitsuba's wrappers that tilt a BSDF's shading normal, as a material's keys, and their map slots
@@ -472,6 +472,8 @@ def _textured(r, kind, textures):
             table[key] = mean if isinstance(mean, float) else mean.tolist()
     if r.has("bump_scale") and not r.has("bumpmap"):
         r.fail("bump_scale", r.raw("bump_scale"), "only with bumpmap")
+    if r.has("mirrored_maps") and not (r.has("normalmap") or r.has("bumpmap")):
+        r.fail("mirrored_maps", r.raw("mirrored_maps"), "only with normalmap or bumpmap")
     perturbing = [key for key in (*PERTURBING, "normal_map", "height_map") if r.has(key)]
     if len(perturbing) > 1 and set(perturbing) & set(PERTURBING):
         r.fail(perturbing[1], r.raw(perturbing[1]), f"not with {perturbing[0]}: one map tilts a material's normal")
@@ -482,7 +484,8 @@ def _wrapper(r, name, kind, names, maps, sides):
     """A blendbsdf's or a mask's material: the materials it wraps and its weight (a mask's opacity)."""
     own_keys(r, kind, [key.name for key in bsdfs.WRAPPER_KEYS[kind]], bsdfs.KEY_NAMES)
     # the materials it wraps have their own
-    own_keys(r, kind, (), ("colour", "texture", "normal_map", "height_map", *PERTURBING, "bump_scale"))
+    own_keys(r, kind, (), ("colour", "texture", "normal_map", "height_map", *PERTURBING, "bump_scale",
+                           "mirrored_maps"))
     own = Reader(r.path, r.table, r.prefix, bsdfs.table_name(kind))
     if kind == "blendbsdf":
         given = own.raw("bsdfs")
