@@ -316,3 +316,28 @@ def test_refusals(images, material, key, value, problem):
         raytrace.load_dict(mts.path_scene({"d": {"colour": [0.5] * 3}, "b": material}, [mts.panel("d")]))
     assert (e.value.source, e.value.key, e.value.value) == ("load_dict()", key, value)
     assert str(e.value).endswith(problem) and "\n" not in str(e.value), str(e.value)
+
+
+@pytest.mark.parametrize("texture", ["bitmap", "checkerboard"])
+def test_the_brightest_value_of_a_colour_texture_bounds_the_albedo(tmp_path, texture):
+    """Rule 5 (ranges.py) bounds a path's throughput by the largest albedo: of a textured colour, the texture's
+    brightest value (an image's brightest texel, a checkerboard's brighter colour), not the mean the material
+    keeps as its colour. An image of 2 x 2 texels, three of 0.01 and one of 50 (mean 12.5): refused with
+    max_depth = -1, naming the key that holds the texture; accepted with max_depth = 4; and a texture of values
+    up to 1 accepted either way. Mutation: ranges.base_albedo taking the mean (the lookup ignored): both cases
+    accept the bright texture and fail."""
+    pixels = np.full((2, 2, 3), 0.01, np.float32)
+    pixels[0, 0] = 50.0
+    oiio.ImageBuf(pixels).write(str(tmp_path / "hot.exr"))
+    hot = ({"type": "bitmap", "filename": str(tmp_path / "hot.exr")} if texture == "bitmap" else
+           {"type": "checkerboard", "color0": 0.01, "color1": 50.0})
+    cool = {"type": "checkerboard", "color0": 0.2, "color1": 1.0}
+    for material, max_depth, refused in ((hot, -1, True), (hot, 4, False), (cool, -1, False)):
+        table = mts.path_scene({"m": {"type": "diffuse", "reflectance": material}}, [mts.panel("m")],
+                               max_depth=max_depth)
+        if not refused:
+            raytrace.load_dict(table)
+            continue
+        with pytest.raises(raytrace.InputError) as e:
+            raytrace.load_dict(table)
+        assert e.value.key == "materials.m.reflectance" and "an albedo of 50" in str(e.value), str(e.value)

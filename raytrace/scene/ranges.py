@@ -140,10 +140,36 @@ def largest_albedo(scene, material):
 
 
 def base_albedo(scene, material):
-    """A material's largest colour, or the brightest texel of its colour map."""
+    """A material's largest colour, or the brightest value of its colour map or of its colour's texture (the
+    material keeps the texture's mean as its colour, which a brighter texel exceeds)."""
     if material.colour_map >= 0:
         return largest_texel(scene.textures[material.colour_map])
+    lookup = dict(material.maps).get("colour")
+    if lookup is not None:
+        return largest_lookup(scene, lookup)
     return float(np.max(material.colour))
+
+
+def colour_key(reader, material):
+    """The key of a material's table that gives its colour as a texture (its `colour`, `reflectance`, ...: the
+    value rules 4 and 5 name), else "colour"."""
+    for key, value in reader.table.items():
+        if isinstance(value, dict) and (key == "colour" or (material.bsdf in bsdfs.BY_NAME and bsdfs.texture_slot(
+                bsdfs.BY_NAME[material.bsdf], key) == "colour")):
+            return key
+    return "colour"
+
+
+def largest_lookup(scene, lookup):
+    """The largest value a texture (model.TextureLookup) gives: its image's brightest texel, a checkerboard's
+    brighter colour, a mesh attribute's largest value on any mesh, times its scale."""
+    if lookup.kind == "bitmap":
+        return largest_texel(scene.textures[lookup.texture])
+    if lookup.kind == "checkerboard":
+        return float(max(np.max(lookup.colour0), np.max(lookup.colour1)))
+    values = [float(np.max(shape.mesh.attributes[lookup.attribute])) for shape in scene.meshes
+              if lookup.attribute in shape.mesh.attributes]
+    return max(values, default=0.0) * lookup.scale
 
 
 COATED = ("plastic", "roughplastic")
@@ -274,7 +300,9 @@ def _check_brightness(scene, material_readers, light_readers, scene_reader):
     albedos = [largest_albedo(scene, m) for m in scene.materials]
     lights = [float(light.colour.max()) for light in scene.lights]
     brightest_material = int(np.argmax(albedos))
-    material_key = "texture" if scene.materials[brightest_material].colour_map >= 0 else "colour"
+    material = scene.materials[brightest_material]
+    material_key = "texture" if material.colour_map >= 0 else colour_key(material_readers[brightest_material],
+                                                                         material)
     terms = {(scene_reader, "ambient"): float(scene.ambient.max()),
              (light_readers[int(np.argmax(lights))], "radiance" if scene.shading in RADIOMETRIC else "colour"): max(lights),
              (material_readers[brightest_material], material_key): max(albedos)}
@@ -357,8 +385,8 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
     albedos = [largest_albedo(scene, m) for m in scene.materials]
     i = int(np.argmax(albedos))
     material, reader = scene.materials[i], material_readers[i]
-    albedo = (reader, "texture", material.colour_map) if material.colour_map >= 0 else (reader, "colour",
-                                                                                       material.colour)
+    albedo = (reader, "texture", material.colour_map) if material.colour_map >= 0 else (reader, colour_key(
+        reader, material), material.colour)
     if material.bsdf in COATED and not material.nonlinear and albedos[i] > max(base_albedo(scene, material),
                                                                                 float(np.max(material.specular))):
         albedo = (reader, "int_ior", material.int_ior)  # the coat's index, through Mitsuba's fit of R
