@@ -400,8 +400,8 @@ def map_placement(e):
 
 
 def _material(r, name, textures, names):
-    """A material table; texture paths are relative to the scene file and read here; `names` are the scene's
-    materials in order, which blends, masks and back sides name."""
+    """A material table; texture paths are relative to the scene file and read here; `names` ({name: index}) are
+    the scene's materials, which blends, masks and back sides name."""
     r.check_keys(sorted(set(r.spec) | set(bsdfs.KEY_NAMES)))
     kind = r.string("type")
     # an opaque principled has a back (a textured spec_trans transmits, whatever its values: Mitsuba's flag)
@@ -409,7 +409,7 @@ def _material(r, name, textures, names):
     r, maps = _textured(r, kind, textures)
     sides = {"two_sided": r.boolean("two_sided")}
     if r.has("back"):
-        sides["back"] = material_named(r, "back", {n: i for i, n in enumerate(names)})
+        sides["back"] = material_named(r, "back", names)
     if not sides["two_sided"] and kind in bsdfs.BY_NAME and not bsdfs.BY_NAME[kind].front_only and not opaque:
         r.fail("two_sided", False, f'type = "{kind}" scatters on both sides (it has no back to be black)')
     if kind in WRAPPERS:
@@ -491,11 +491,11 @@ def _wrapper(r, name, kind, names, maps, sides):
         given = own.raw("bsdfs")
         if not isinstance(given, list) or len(given) != 2:
             own.fail("bsdfs", given, "must be a list of two material names")
-        wrapped = tuple(material_named(own, "bsdfs", {n: i for i, n in enumerate(names)}, value) for value in given)
+        wrapped = tuple(material_named(own, "bsdfs", names, value) for value in given)
         weight = own.number("weight")
     else:
-        wrapped, weight = (material_named(own, "bsdf", {n: i for i, n in enumerate(names)}),), own.number("opacity")
-    if names.index(name) in wrapped:
+        wrapped, weight = (material_named(own, "bsdf", names),), own.number("opacity")
+    if names[name] in wrapped:
         own.fail("bsdfs" if kind == "blendbsdf" else "bsdf", own.raw("bsdfs" if kind == "blendbsdf" else "bsdf"),
                  "must not name the material itself")
     return Material(name, np.zeros(3), bsdf=kind, blend=wrapped, weight=weight, maps=tuple(maps), **sides)
@@ -527,10 +527,11 @@ def parse_scene(table, path="<scene>"):
         r.fail("materials", mats, "must be a table of named materials")
     textures = TextureCache(Path(path).parent)
     materials, material_index, material_readers = [], {}, []
+    every = {name: i for i, name in enumerate(mats)}  # what blends, masks and back sides may name
     for name in mats:
         material_index[name] = len(materials)
         material_readers.append(Reader(path, mats[name], f"materials.{name}.", "materials.NAME"))
-        materials.append(_material(material_readers[-1], name, textures, list(mats)))
+        materials.append(_material(material_readers[-1], name, textures, every))
 
     sampler, light_sampler = (render.string(key) if render.has(key) else samplers.default_pattern(shading)
                               for key in ("sampler", "light_sampler"))
