@@ -42,6 +42,7 @@ def linear_texels(pixels, raw=False):
     pixels = np.asarray(pixels)
     if pixels.ndim == 2:
         pixels = pixels[..., None]
+    assert pixels.ndim == 3 and 1 <= pixels.shape[2] <= 4, pixels.shape
     if pixels.dtype in (np.uint8, np.uint16):
         code = pixels / float(np.iinfo(pixels.dtype).max)
         x = code if raw else srgb_decode(code)
@@ -53,6 +54,7 @@ def linear_texels(pixels, raw=False):
 def tex_wrap(i, n, mode):
     """Dr.Jit's tex_wrap of integer texel indices i along a side of n texels, transcribed (C's division
     truncates towards 0)."""
+    assert mode in ("repeat", "mirror", "clamp"), mode
     i = np.asarray(i, np.int64)
     if mode == "clamp":
         return np.clip(i, 0, n - 1)
@@ -67,6 +69,7 @@ def tex_wrap(i, n, mode):
 
 def bitmap(texels, s, t, filter_type, wrap):
     """N x 3: Mitsuba's bitmap of linear `texels` (H x W x 3, row 0 the top) at its texture coordinates (s, t)."""
+    assert filter_type in ("nearest", "bilinear") and texels.ndim == 3 and texels.shape[2] == 3, filter_type
     h, w = texels.shape[:2]
     s, t = np.asarray(s, np.float64), np.asarray(t, np.float64)
     if filter_type == "nearest":

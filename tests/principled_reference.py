@@ -26,6 +26,7 @@ PARAMETERS = {"base_color": (0.5, 0.5, 0.5), "roughness": 0.5, "anisotropic": 0.
 def material(**given):
     """The parameters with Mitsuba's defaults, eta resolved (from specular unless given; 1.001 for 1, and
     specular 0 taken as 1e-3, where there is transmission), the main lobe's alphas and the clearcoat's."""
+    assert set(given) <= set(PARAMETERS), f"not a parameter: {sorted(set(given) - set(PARAMETERS))}"
     p = dict(PARAMETERS, **given)
     p["base_color"] = np.broadcast_to(np.asarray(p["base_color"], float), (3,)).copy()
     transmits = p["spec_trans"] != 0
@@ -97,8 +98,14 @@ def _common(p, wi, wo):
     return ci, co, front, reflect, refract, eta_path, h, compat_r, compat_t, f
 
 
+def unit_directions(v):
+    """Whether every row of v is a unit vector within float32's rounding (what the tests draw)."""
+    return bool(np.all(np.abs(np.linalg.norm(np.asarray(v, np.float64), axis=1) - 1.0) < 1e-5))
+
+
 def eval_pdf(p, wi, wo):
     """(value with its cosine (n, 3), pdf (n,), {lobe: value (n, 3)}): Mitsuba's eval and pdf."""
+    assert unit_directions(wi) and unit_directions(wo), "wi and wo must be unit vectors (float32 rounded)"
     k = p["base_color"]
     metallic, spec_trans, clearcoat, sheen = p["metallic"], p["spec_trans"], p["clearcoat"], p["sheen"]
     brdf, bsdf = (1 - metallic) * (1 - spec_trans), (1 - metallic) * spec_trans
@@ -155,4 +162,6 @@ def eval_pdf(p, wi, wo):
         cc_pdf = np.where(h[:, 2] < 0, 0.0, h[:, 2] * gtr1(p["clearcoat_alpha"], h[:, 2]))
         pdf = pdf + np.where(compat_r & reflect, pc * cc_pdf * jac, 0.0)
     clean = lambda a: np.nan_to_num(np.where(active[:, None] if a.ndim == 2 else active, a, 0.0))  # noqa: E731
-    return clean(value), clean(pdf), {name: clean(v) for name, v in lobes.items()}
+    value, pdf = clean(value), clean(pdf)
+    assert np.all(pdf >= 0) and np.all(value >= 0), "a density and a value are never negative"
+    return value, pdf, {name: clean(v) for name, v in lobes.items()}

@@ -32,6 +32,7 @@ def alphas(roughness, anisotropic):
 def material(**given):
     """The parameters with Mitsuba's defaults, the reflection's alphas and the transmission's (of (0.65 eta -
     0.35) roughness)."""
+    assert set(given) <= set(PARAMETERS), f"not a parameter: {sorted(set(given) - set(PARAMETERS))}"
     p = dict(PARAMETERS, **given)
     p["base_color"] = np.broadcast_to(np.asarray(p["base_color"], float), (3,)).copy()
     p["alpha_u"], p["alpha_v"] = alphas(p["roughness"], p["anisotropic"])
@@ -51,6 +52,7 @@ def probabilities(p):
 
 def eval_pdf(p, wi, wo):
     """(value with its cosine (n, 3), pdf (n,), {lobe: value (n, 3)}): Mitsuba's eval and pdf."""
+    assert pr.unit_directions(wi) and pr.unit_directions(wo), "wi and wo must be unit vectors (float32 rounded)"
     k = p["base_color"]
     st, dt, eta = p["spec_trans"], p["diff_trans"] / 2, p["eta"]
     active = wi[:, 2] != 0
@@ -103,4 +105,6 @@ def eval_pdf(p, wi, wo):
             pdf = pdf + np.where(compat_t & refract, pt * trans.pdf(wi, h) * jac, 0.0)
         pdf = pdf + np.where(reflect, pdr * co / np.pi, 0.0) + np.where(refract, pdt * -co / np.pi, 0.0)
     clean = lambda a: np.nan_to_num(np.where(active[:, None] if a.ndim == 2 else active, a, 0.0))  # noqa: E731
-    return clean(value), clean(pdf), {name: clean(v) for name, v in lobes.items()}
+    value, pdf = clean(value), clean(pdf)
+    assert np.all(pdf >= 0) and np.all(value >= 0), "a density and a value are never negative"
+    return value, pdf, {name: clean(v) for name, v in lobes.items()}
