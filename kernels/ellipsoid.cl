@@ -26,7 +26,9 @@ inline vec3 mat3_apply_transposed(const __global float *m, vec3 v)
 }
 
 /* t of the hit (the near root if it is ahead, else the far one; +inf for none) and *q, the hit in unit-sphere
- * space. A hit must be ahead, t > 0; the root that is the surface a ray leaves is no hit.
+ * space; *t_beyond and *q_beyond, the far root where the hit is the near one (+inf elsewhere): where a shadow
+ * ray passes a see-through ellipsoid it crosses the surface again there. A hit must be ahead, t > 0; the root
+ * that is the surface a ray leaves is no hit.
  *
  * Stable quadratic (Haines et al., Ray Tracing Gems ch. 7): with a = d.d, h = o.d, c = o.o - 1 the
  * discriminant h^2 - a c is rewritten as a (1 - |o - (h/a) d|^2), which does not cancel when the ray
@@ -38,7 +40,7 @@ inline vec3 mat3_apply_transposed(const __global float *m, vec3 v)
  * 2 |o|.that + gamma(4) (o.o + 1). Where |c| is within that bound the origin lies on the surface and the
  * root c/q, the one near 0, is the surface itself: only the root q/a can be a hit (ahead when the ray goes
  * inwards: the far side). */
-inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
+inline vfloat ellipsoid_roots(__global const Ellipsoid *e, Ray r, vec3 *q, vfloat *t_beyond, vec3 *q_beyond)
 {
     vec3 oc = v3_sub(r.o, v3_uniform(e->center));
     vec3 o = mat3_apply(e->world_to_unit, oc);
@@ -46,7 +48,8 @@ inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
     vfloat a = v3_dot(d, d), h = v3_dot(o, d), c = v3_dot(o, o) - 1.0f;
     vec3 f = v3_madd(o, -h / a, d);
     vfloat disc = a * (1.0f - v3_dot(f, f));
-    *q = o;
+    *q = *q_beyond = o;
+    *t_beyond = (vfloat)(INFINITY);
     if (!ANY(disc >= 0.0f)) /* missed by every lane: skip the roots and the bound */
         return (vfloat)(INFINITY);
     vfloat dc = 2.0f * GAMMA(5) * v3_dot(v3_abs(o), mat3_apply_abs(e->world_to_unit, v3_abs(oc)))
@@ -57,7 +60,17 @@ inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
     vfloat t_near = vmin(t_far_side, t_near_origin), t_far = vmax(t_far_side, t_near_origin);
     vfloat t = SELECT(t_far, t_near, t_near > 0.0f);
     *q = v3_madd(o, t, d);
+    *t_beyond = SELECT((vfloat)(INFINITY), t_far, (disc >= 0.0f) & (t_near > 0.0f));
+    *q_beyond = v3_madd(o, t_far, d);
     return SELECT((vfloat)(INFINITY), t, (disc >= 0.0f) & (t > 0.0f));
+}
+
+/* ellipsoid_roots' hit alone: the closest-hit and any-hit tests' (the other root is not formed). */
+inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
+{
+    vfloat t_beyond;
+    vec3 q_beyond;
+    return ellipsoid_roots(e, r, q, &t_beyond, &q_beyond);
 }
 
 /* World-space unit normal at unit-sphere point q: the inverse-transpose of [a b c] applied to q. */

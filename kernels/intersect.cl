@@ -86,13 +86,14 @@ inline uint rectangles_out_of_reach(const Scene *s, __global const Light *light,
  * rectangles: for planes and triangles conservatively inside, so neither the surface it leaves nor one it
  * ends on counts (ray.h); an ellipsoid blocks for 0 < t < 1, the segment's end being already pushed off the
  * light (shading.cl). Lights do not block. Only the `active` lanes are traced (the others answer 0), and the
- * test stops as soon as every one of them is blocked. */
-inline vint occluded(const Scene *s, Ray r, uint skip, vint active)
+ * test stops as soon as every one of them is blocked. With HAS_NULLS a segment may pass `passes` see-through
+ * surfaces (primitive.cl). */
+inline vint occluded(const Scene *s, Ray r, uint skip, vint active PASSES_PARAMETER)
 {
 #if HAS_BVH
-    return bvh_occluded(s, 0, r, skip, active);
+    return bvh_occluded(s, 0, r, skip, active PASSES(passes));
 #else
-    PrimitiveRay p = primitive_ray(r);
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(passes));
     vint settled = !active;
     for (int kind = SHAPE_RECTANGLE; kind <= SHAPE_ELLIPSOID; ++kind)
         for (int i = 0; i < shape_count(s, kind) && !ALL(settled); ++i)
@@ -121,12 +122,13 @@ inline SweptLeaves shadow_candidates(const Scene *s, __global const Light *light
 }
 
 /* occluded() of a segment among the shadow candidates of its packet and light. */
-inline vint occluded_among(const Scene *s, const SweptLeaves *candidates, Ray r, uint skip, vint active)
+inline vint occluded_among(const Scene *s, const SweptLeaves *candidates, Ray r, uint skip, vint active
+                           PASSES_PARAMETER)
 {
 #if HAS_BVH
-    return swept_occluded(s, candidates, r, skip, active);
+    return swept_occluded(s, candidates, r, skip, active PASSES(passes));
 #else
-    return occluded(s, r, skip, active);
+    return occluded(s, r, skip, active PASSES(passes));
 #endif
 }
 

@@ -86,7 +86,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
                 *rays += MASK_TO_ONE(lit[g]);
                 if (candidates.n != 0) /* else nothing can block the light */
                     lit[g] &= !occluded_among(s, &candidates, shadow_segment(origin, q[g], q_err, light_normal), skip,
-                                              lit[g]);
+                                              lit[g] PASSES(sp.passes));
 #if LIGHT_VALUE_VEC3
                 vec3 weight = sample_weight(sp, w[g], l[g], light_normal, v, area, n_samples,
                                             lit[g] SOLID_ANGLE_ARGUMENT);

@@ -58,6 +58,10 @@ typedef struct {
 #if HAS_PRINCIPLED_VALUES
     vfloat principled[PRINCIPLED_PARAMETERS]; /* the principled BSDF's values (types.h's PRINCIPLED_*) */
 #endif
+#if HAS_NULLS
+    vint passes;       /* the see-through surfaces its shadow rays may pass (primitive.cl): 0 unless the path
+                        * model's max_depth leaves more */
+#endif
 } ShadingPoint;
 
 #if HAS_TEXTURES
@@ -368,6 +372,23 @@ inline void lookup_material(const Scene *s, TextureStore ts, __global const Mate
 #include "wrappers.cl"
 #endif
 
+#if HAS_NULLS
+/* The lanes of `hit` (a shadow segment's crossing, primitive.cl) whose material there is `null`: its
+ * wrappers resolved as a ray meeting the surface resolves them, with the scene's textures for textured
+ * opacities and weights. */
+vint passes_through(const Scene *s, Ray r, Hit hit)
+{
+#if HAS_WRAPPERS
+    hit.material = wrapped_materials(s, s->textures, r, hit);
+#endif
+    int m[LANES], null[LANES];
+    VSTORE(hit.material, m);
+    for (int i = 0; i < LANES; ++i)
+        null[i] = m[i] >= 0 && s->materials[m[i]].bsdf == BSDF_NULL;
+    return VLOAD_INT(null) != 0;
+}
+#endif
+
 #if HAS_SMOOTH_NORMALS
 /* The shading normal of a smooth triangle at barycentrics (b1, b2): its corner normals interpolated (Phong
  * shading of normals). They lie on the side of the face's own normal (the mesh's winding, kept
@@ -433,6 +454,9 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     ShadingPoint sp;
     sp.p = hit.p;
     sp.err = hit.err;
+#if HAS_NULLS
+    sp.passes = (vint)(0);
+#endif
     sp.ng = sp.n = hit.n;
     int m[LANES];
     float sh[LANES];

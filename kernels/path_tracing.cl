@@ -129,10 +129,10 @@ inline vfloat hit_light_solid_angle(const Scene *s, Hit hit, vec3 o)
 /* The lanes of `active` whose ray from o along the unit d leaves the scene: no shape and no light meets it
  * before it is beyond every coordinate the scene has (the segment to o + 4 extent d, |o| being within
  * sqrt(3) extent of the origin). */
-inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active)
+inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active PASSES_PARAMETER)
 {
     Ray r = {o, v3_scale(d, 4.0f * s->params->scene_extent)};
-    vint blocked = occluded(s, r, 0u, active);
+    vint blocked = occluded(s, r, 0u, active PASSES(passes));
     vfloat dt, u, v;
     for (int i = 0; i < s->params->n_lights; ++i) {
         vfloat t = intersect_rectangle(&s->lights[i].shape, r, (vfloat)(1.0f), &dt, &u, &v);
@@ -149,12 +149,18 @@ inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active)
  * sample's density, whether no light sample could have met its direction (`specular`, weight 1: the camera's
  * ray, a delta lobe's, or a direction through the surface, since the lights and the environment are sampled on
  * the side the vertex is seen from only), and for a constant environment the sample's cosine (p_env = cos /
- * pi), for solid-angle light sampling the vertex. */
+ * pi), for solid-angle light sampling the vertex. A pass through a see-through surface (a mask's `null`) is
+ * no such vertex: the weights of light the ray reaches after it are those of the vertex before, whose light
+ * samples pass the surface too (primitive.cl), and `travelled` is the distance from that vertex to the ray's
+ * origin. */
 typedef struct {
     Ray r;
     vec3 beta, radiance;
     vint depth, specular;
     vfloat pdf;
+#if HAS_NULLS
+    vfloat travelled;
+#endif
 #if HAS_ENVIRONMENT
     vfloat cos_s;
 #endif
@@ -173,6 +179,9 @@ inline void start_paths(PathState *path, Ray r, vint lanes)
     path->depth = SELECT(path->depth, (vint)(0), lanes);
     path->specular = SELECT(path->specular, (vint)(-1), lanes) != 0; /* a mask, whatever the lane width */
     path->pdf = SELECT(path->pdf, (vfloat)(1.0f), lanes);
+#if HAS_NULLS
+    path->travelled = SELECT(path->travelled, (vfloat)(0.0f), lanes);
+#endif
 }
 
 /* The BSDF's and roulette's numbers: sobol's sequence, else independent points (a table pattern is a light's,
@@ -196,8 +205,12 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes)
     const vfloat pdf = path->pdf;
     /* light reached by the BSDF's sample, weighted against the lights' samples of the same direction: x = n
      * p_light / p_bsdf = n r^2 / (A cos(theta_l) p_bsdf) (0 where no light was hit: weight 1) */
-    vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi));
-    vfloat x = (float)n_light * hit.t * hit.t / (area * cos_l * pdf);
+    vfloat area = hit_light_area(s, hit), cos_l = vabs(v3_dot(hit.n, wi)), distance = hit.t;
+#if HAS_NULLS
+    distance += path->travelled;
+    path->travelled = distance;
+#endif
+    vfloat x = (float)n_light * distance * distance / (area * cos_l * pdf);
 #if LIGHT_SOLID_ANGLE
     vfloat solid_angle = hit_light_solid_angle(s, hit, path->p); /* p_light = 1 / solid_angle there */
     x = SELECT(x, (float)n_light / (solid_angle * pdf), solid_angle > 0.0f);
@@ -235,6 +248,12 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
 {
     const Sampler bounce = bounce_sampler(s);
     const Ray r = path->r;
+#if HAS_NULLS
+    /* a shadow ray may pass as many see-through surfaces as max_depth leaves vertices after its light's, since
+     * Mitsuba counts each pass as a vertex (path_hit: a ray leaves vertex depth d while d < max_depth) */
+    const int max_depth = s->params->max_depth;
+    sp.passes = max_depth < 0 ? (vint)(INT_MAX) : (vint)(max_depth) - path->depth - 1;
+#endif
     vec3 beta = path->beta, radiance = path->radiance;
     COUNT_VISITS_ADD(s, VISITS_PATH_LANES, count_lanes(alive));
     COUNT_VISITS_ADD(s, VISITS_PATH_LANE_STEPS, LANES);
@@ -261,7 +280,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
             vint sampled = smooth & (v3_dot(sp.ng, we) > 0.0f) & (cos_e > 0.0f) & (pdf_e > 0.0f);
             vec3 f = bsdf_eval_pdf(sp, wo, we, sampled, &pdf_b);
             vfloat w = power_weight(pdf_b / pdf_e);
-            vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled);
+            vint open = escapes(s, offset_ray_origin(sp.p, sp.err, sp.ng), we, sampled PASSES(sp.passes));
             *rays += MASK_TO_ONE(sampled);
             if (ANY(open)) {
                 vec3 e = v3_mul(v3_mul(beta, f), environment_radiance(s, we, open));
@@ -293,13 +312,20 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
     path->r = next;
     path->beta = beta;
     path->radiance = radiance;
-    path->specular = bs.delta | transmit; /* no light sample meets these: light they reach counts whole */
-    path->pdf = bs.pdf;
+#if HAS_NULLS
+    const vint passing = sp.bsdf == BSDF_NULL; /* the MIS state stays the vertex's before */
+    path->travelled = SELECT((vfloat)(0.0f), path->travelled, passing);
+#else
+    const vint passing = (vint)(0);
+#endif
+    /* no light sample meets these: light they reach counts whole */
+    path->specular = SELECT(bs.delta | transmit, path->specular, passing);
+    path->pdf = SELECT(bs.pdf, path->pdf, passing);
 #if HAS_ENVIRONMENT
-    path->cos_s = cos_s;
+    path->cos_s = SELECT(cos_s, path->cos_s, passing);
 #endif
 #if LIGHT_SOLID_ANGLE
-    path->p = sp.p;
+    path->p = v3_select(sp.p, path->p, passing);
 #endif
     return alive;
 }

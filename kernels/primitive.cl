@@ -1,7 +1,17 @@
 /* One primitive, tested by all lanes at once (every lane tests the same shape; the lanes' own results are
  * merged with SELECT()): the closest-hit test and the any-hit test of shadow rays, for each kind of shape,
  * and the one dispatch on a primitive's kind that the BVH's leaves (bvh.cl) and the loop over every shape
- * (intersect.cl) both use. */
+ * (intersect.cl) both use.
+ *
+ * See-through surfaces (HAS_NULLS: a `mask`, or Mitsuba's `null`): a shadow segment that crosses one passes
+ * where the wrappers at that crossing resolve to `null` (material.cl's passes_through: the same choice by a
+ * hash of the crossing that a ray meeting the surface makes, with the mask's opacity there), and is blocked
+ * elsewhere. That is pbrt-v4's stochastic alpha test of shadow rays (section 7.1.1's alpha, HashFloat over
+ * the ray): the expected visibility is the product of the crossings' transparencies. Mitsuba 3's `path`
+ * stops shadow rays at every surface, and light behind a leaf reaches a point only through its BSDF's
+ * samples passing the `null` bounce; here the light samples reach it too, and the two are weighted by MIS
+ * (path_tracing.cl keeps the MIS state of the vertex before the passes). As Mitsuba counts a pass as a
+ * vertex of the path, a shadow segment may pass at most `passes` such surfaces (max_depth's vertices left). */
 #ifndef PRIMITIVE_CL
 #define PRIMITIVE_CL
 
@@ -101,29 +111,6 @@ inline void hit_ellipsoid(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
 }
 #endif
 
-/* The any-hit test of one primitive of each kind against a shadow segment (t in (0, 1), ray.h). */
-inline vint blocks_rectangle(const Scene *s, Ray r, int i)
-{
-    vfloat dt, u, v;
-    return hit_on_segment(intersect_rectangle(&s->rectangles[i], r, (vfloat)(1.0f), &dt, &u, &v), dt);
-}
-
-#if HAS_TRIANGLES
-ALWAYS_INLINE vint blocks_triangle(const Scene *s, Ray r, RayShear shear, int i)
-{
-    vfloat dt, b0, b1, b2;
-    return hit_on_segment(intersect_triangle(&s->triangles[i], r, shear, &dt, &b0, &b1, &b2), dt);
-}
-#endif
-
-#if HAS_ELLIPSOIDS
-inline vint blocks_ellipsoid(const Scene *s, Ray r, int i)
-{
-    vec3 q;
-    return hit_on_segment(intersect_ellipsoid(&s->ellipsoids[i], r, &q), (vfloat)(0.0f));
-}
-#endif
-
 /* Rectangle i is among the `skipped` ones (bit i of the first CULLED_RECTANGLES). */
 inline int skipped(uint rectangles, int i) { return i < CULLED_RECTANGLES && ((rectangles >> i) & 1u); }
 
@@ -145,12 +132,16 @@ inline Hit no_hit(void)
 }
 
 /* A ray with what the primitive tests derive from it once: the triangle test's shear, formed at the first
- * triangle the ray meets (most rays of a room never reach a mesh's leaves). */
+ * triangle the ray meets (most rays of a room never reach a mesh's leaves); and for a shadow segment, the
+ * see-through surfaces it has passed so far and how many it may pass. */
 typedef struct {
     Ray r;
 #if HAS_TRIANGLES
     RayShear shear;
     int sheared;
+#endif
+#if HAS_NULLS
+    vint passed, passes;
 #endif
 } PrimitiveRay;
 
@@ -160,6 +151,27 @@ inline PrimitiveRay primitive_ray(Ray r)
     p.r = r;
 #if HAS_TRIANGLES
     p.sheared = 0;
+#endif
+#if HAS_NULLS
+    p.passed = p.passes = (vint)(0);
+#endif
+    return p;
+}
+
+/* A shadow segment's PrimitiveRay. With HAS_NULLS the shadow tests take the number of see-through surfaces
+ * their segments may pass, as one more parameter, PASSES_PARAMETER, and argument, PASSES(x); without, none. */
+#if HAS_NULLS
+#define PASSES(x) , x
+#define PASSES_PARAMETER , vint passes
+#else
+#define PASSES(x)
+#define PASSES_PARAMETER
+#endif
+inline PrimitiveRay shadow_primitive_ray(Ray r PASSES_PARAMETER)
+{
+    PrimitiveRay p = primitive_ray(r);
+#if HAS_NULLS
+    p.passes = passes;
 #endif
     return p;
 }
@@ -172,6 +184,99 @@ inline RayShear triangle_shear(PrimitiveRay *p)
         p->sheared = 1;
     }
     return p->shear;
+}
+#endif
+
+#if HAS_NULLS
+/* The lanes of `hit` whose material lets a shadow ray pass (material.cl). */
+vint passes_through(const Scene *s, Ray r, Hit hit);
+
+/* Whether material m may resolve to `null` at a hit on either side: it, or its back, is a blend (a mask) or
+ * `null`. Only then are its crossings resolved. */
+inline int see_through(const Scene *s, int m)
+{
+    if (m < 0)
+        return 0;
+    int bsdf = s->materials[m].bsdf, back = s->materials[m].back;
+    int back_bsdf = back >= 0 ? s->materials[back].bsdf : BSDF_DIFFUSE;
+    return bsdf == BSDF_BLEND || bsdf == BSDF_NULL || back_bsdf == BSDF_BLEND || back_bsdf == BSDF_NULL;
+}
+
+/* The lanes of `crossed` that a crossing of a see-through surface at t (point p, normal n: shape `index` of
+ * `kind`) blocks: those whose material there is not `null`, and those that have passed more such surfaces
+ * than they may; the others pass, and are counted. */
+inline vint crossing_blocks(const Scene *s, PrimitiveRay *p, vint crossed, vfloat t, vec3 q, vec3 n,
+                            int material, int kind, int index, vfloat b1, vfloat b2)
+{
+    Hit hit = no_hit();
+    hit_update(&hit, p->r, SELECT((vfloat)(INFINITY), t, crossed), q, 0.0f, n, material,
+               (Vec3f){0.0f, 0.0f, 0.0f}, kind, index, b1, b2);
+    vint through = crossed & passes_through(s, p->r, hit);
+    p->passed = SELECT(p->passed, p->passed + 1, through);
+    return crossed & (!through | (p->passed > p->passes));
+}
+#endif
+
+/* The any-hit test of one primitive of each kind against a shadow segment (t in (0, 1), ray.h). */
+inline vint blocks_rectangle(const Scene *s, PrimitiveRay *p, int i)
+{
+    __global const Rectangle *rect = &s->rectangles[i];
+    vfloat dt, u, v;
+    vfloat t = intersect_rectangle(rect, p->r, (vfloat)(1.0f), &dt, &u, &v);
+    vint crossed = hit_on_segment(t, dt);
+#if HAS_NULLS
+    if (ANY(crossed) && see_through(s, rect->material)) {
+        vfloat err;
+        return crossing_blocks(s, p, crossed, t, rectangle_point(rect, u, v, &err), v3_uniform(rect->normal),
+                               rect->material, SHAPE_RECTANGLE, i, (vfloat)(0.0f), (vfloat)(0.0f));
+    }
+#endif
+    return crossed;
+}
+
+#if HAS_TRIANGLES
+ALWAYS_INLINE vint blocks_triangle(const Scene *s, PrimitiveRay *p, RayShear shear, int i)
+{
+    __global const Triangle *tri = &s->triangles[i];
+    vfloat dt, b0, b1, b2;
+    vfloat t = intersect_triangle(tri, p->r, shear, &dt, &b0, &b1, &b2);
+    vint crossed = hit_on_segment(t, dt);
+#if HAS_NULLS
+    if (ANY(crossed) && see_through(s, tri->material)) {
+        vfloat err;
+        return crossing_blocks(s, p, crossed, t, triangle_point(tri, b0, b1, b2, &err), v3_uniform(tri->normal),
+                               tri->material, SHAPE_TRIANGLE, i, b1, b2);
+    }
+#endif
+    return crossed;
+}
+#endif
+
+#if HAS_ELLIPSOIDS
+/* A see-through ellipsoid is crossed twice by a segment that passes it: at the hit, and at the far root. */
+inline vint blocks_ellipsoid(const Scene *s, PrimitiveRay *p, int i)
+{
+    __global const Ellipsoid *e = &s->ellipsoids[i];
+    vec3 q, q_beyond;
+    vfloat t_beyond;
+    vfloat t = ellipsoid_roots(e, p->r, &q, &t_beyond, &q_beyond);
+    vint crossed = hit_on_segment(t, (vfloat)(0.0f));
+#if HAS_NULLS
+    if (ANY(crossed) && see_through(s, e->material)) {
+        vfloat err;
+        vec3 n = ellipsoid_normal(e, q);
+        vint blocked = crossing_blocks(s, p, crossed, t, ellipsoid_point(e, q, n, &err), n, e->material,
+                                       SHAPE_ELLIPSOID, i, (vfloat)(0.0f), (vfloat)(0.0f));
+        vint again = crossed & !blocked & hit_on_segment(t_beyond, (vfloat)(0.0f));
+        if (ANY(again)) {
+            n = ellipsoid_normal(e, q_beyond);
+            blocked |= crossing_blocks(s, p, again, t_beyond, ellipsoid_point(e, q_beyond, n, &err), n,
+                                       e->material, SHAPE_ELLIPSOID, i, (vfloat)(0.0f), (vfloat)(0.0f));
+        }
+        return blocked;
+    }
+#endif
+    return crossed;
 }
 #endif
 
@@ -199,15 +304,15 @@ ALWAYS_INLINE vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, i
 {
 #if HAS_TRIANGLES
     if (kind == SHAPE_TRIANGLE)
-        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_triangle(s, p->r, triangle_shear(p), index));
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_triangle(s, p, triangle_shear(p), index));
 #endif
 #if HAS_RECTANGLES
     if (kind == SHAPE_RECTANGLE && !skipped(skip, index))
-        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_rectangle(s, p->r, index));
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_rectangle(s, p, index));
 #endif
 #if HAS_ELLIPSOIDS
     if (kind == SHAPE_ELLIPSOID)
-        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p->r, index));
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p, index));
 #endif
     return (vint)(0);
 }

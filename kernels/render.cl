@@ -215,14 +215,15 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
                      __global const uint2 *light_samples, int sample0, int n_samples, int n_first, int row0,
                      int row1, __global float *out)
 {
+    Scene scene = SCENE_FROM_PARAMETERS;
+    const TextureStore ts = TEXTURES_FROM_PARAMETERS;
 #if COUNT_VISITS
     int visits[VISIT_KINDS] = {0};
-    Scene scene = SCENE_FROM_PARAMETERS;
     scene.visits = visits;
-#else
-    const Scene scene = SCENE_FROM_PARAMETERS;
 #endif
-    const TextureStore ts = TEXTURES_FROM_PARAMETERS;
+#if HAS_NULLS
+    scene.textures = ts;
+#endif
     const int width = params->width, height = params->height;
     const Tile tile = work_item_tile(row0, n_samples);
     const vint x = tile.x, y = tile.y, active = (x < width) & (y < row1);

@@ -26,6 +26,15 @@
 #define HAS_BSDF_PARAMETERS (HAS_CONDUCTORS || HAS_DIELECTRICS || HAS_THIN_DIELECTRICS || HAS_MICROFACETS || HAS_COATS \
                              || HAS_NULLS || HAS_PRINCIPLED_VALUES)
 
+/* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */
+typedef struct {
+    __global const Texture *textures;
+    __global const MipLevel *levels;
+    __global const uint *texels;
+    __global const float *srgb_to_linear; /* 256 entries: 8-bit sRGB code to linear */
+    __global const TextureLookup *lookups; /* the textured parameters' lookups (lookups.cl) */
+} TextureStore;
+
 typedef struct {
     __global const Rectangle *rectangles;
     __global const Triangle *triangles;
@@ -42,6 +51,9 @@ typedef struct {
     __global const uint *culled_subtrees; /* per node: the bits of the rectangles it holds when it holds only
                                            * rectangles shadow rays may skip (intersect.cl), else 0 */
     __global const float *environment_map; /* HAS_ENVIRONMENT_MAP: texels and sampling tables (environment.cl) */
+#if HAS_NULLS
+    TextureStore textures; /* for shadow rays, the masks' opacities (primitive.cl; the kernel sets it) */
+#endif
 #if COUNT_VISITS
     int *visits; /* a measuring build's counts of the work-item's traversal work, VISITS_* below */
 #endif
@@ -67,15 +79,6 @@ typedef struct {
 #define COUNT_VISIT(s, kind) ((void)0)
 #define COUNT_VISITS_ADD(s, kind, n) ((void)0)
 #endif
-
-/* Every texture's levels, packed into one buffer of 32-bit words (textures.cl). */
-typedef struct {
-    __global const Texture *textures;
-    __global const MipLevel *levels;
-    __global const uint *texels;
-    __global const float *srgb_to_linear; /* 256 entries: 8-bit sRGB code to linear */
-    __global const TextureLookup *lookups; /* the textured parameters' lookups (lookups.cl) */
-} TextureStore;
 
 /* The scene and its textures as kernel parameters, declared once: the render kernel (render.cl) and the test
  * kernels that take a whole scene list SCENE_PARAMETERS and TEXTURE_PARAMETERS among their parameters and

@@ -158,12 +158,13 @@ inline SweptLeaves swept_leaves(const Scene *s, const Sweep *w, uint skip)
 
 /* occluded() of one sample's segment r, given the leaves its packet's sweep met: their boxes and shapes only,
  * or the whole tree when there were too many. */
-inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uint skip, vint active)
+inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uint skip, vint active
+                           PASSES_PARAMETER)
 {
     if (leaves->n < 0)
-        return bvh_occluded(s, leaves->start, r, skip, active);
+        return bvh_occluded(s, leaves->start, r, skip, active PASSES(passes));
     BoxRay b = box_ray(r);
-    PrimitiveRay p = primitive_ray(r);
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(passes));
     vint settled = !active;
     for (int l = 0; l < leaves->n; ++l) {
         int i = leaves->leaf[l];

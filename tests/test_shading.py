@@ -173,7 +173,8 @@ __kernel void reach(int n, SCENE_PARAMETERS, __global const float *o, __global c
     uint skip = rectangles_out_of_reach(&s, lights, origin, (vint)(-1));
     OUT(skipped, (vfloat)(((skip >> index) & 1u) ? 1.0f : 0.0f));
     Ray r = shadow_segment(origin, IN3(q), light_point_error(lights), v3_uniform(lights->shape.normal));
-    OUT(blocked, MASK_TO_ONE(blocks_rectangle(&s, r, index)));
+    PrimitiveRay p = primitive_ray(r);
+    OUT(blocked, MASK_TO_ONE(blocks_rectangle(&s, &p, index)));
 }
 """
 

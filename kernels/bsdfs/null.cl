@@ -1,8 +1,8 @@
 /* `null`: no surface at all for the light (Mitsuba 3's `null`), what a `mask` is where its opacity lets light
  * through (wrappers.cl chooses it there): every sample passes straight on, wi = -wo, with weight 1 and the whole
  * probability, a delta lobe that crosses the surface. As in Mitsuba 3's `path`, the pass counts as a vertex of
- * the path (max_depth) and shadow rays stop at the surface: light behind it reaches a point through BSDF
- * samples only, whose emitter hits after a delta lobe count whole (path_tracing.cl). */
+ * the path (max_depth); unlike there, shadow rays pass the surface too (primitive.cl), and light a ray reaches
+ * after the pass is weighted by MIS as from the vertex before it (path_tracing.cl). */
 #ifndef BSDFS_NULL_CL
 #define BSDFS_NULL_CL
 

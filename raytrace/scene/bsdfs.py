@@ -340,8 +340,8 @@ reflecting glossily over the diffuse base. int_ior and ext_ior must differ.""",
          'nonlinear = true', distinct_iors=True),
     BSDF("null", "no surface for light", """\
 A surface that light passes straight through, unchanged, as if it were not there; what a `mask` is where its
-opacity lets light through. Shadow rays stop at it, as at any surface (Mitsuba's `path` does the same): light
-behind it reaches the scene through paths that pass it.""", (), "nulls", 'type = "null"', front_only=False),
+opacity lets light through. A pass counts as a bounce (`max_depth`), as in Mitsuba's `path`; shadow rays pass
+it too (Mitsuba's stop), so light behind a leaf is sampled directly, with less noise.""", (), "nulls", 'type = "null"', front_only=False),
     BSDF("principled", "principled (Disney's)", """\
 Disney's principled BSDF (Burley 2012 and 2015) as Mitsuba 3 writes it: one colour and a handful of weights in
 [0, 1] that blend a diffuse base with retro-reflection and sheen, a rough dielectric's reflection (optionally
