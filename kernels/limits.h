@@ -9,7 +9,7 @@
  * MI_ROUGH_TRANSMITTANCE_RES. */
 #define ROUGH_TRANSMITTANCE_RES 64
 /* The textured parameters a material has room for (types.h's Material.maps, MAP_*). */
-#define MAPS 16
+#define MAPS 21
 /* The wrappers (blendbsdf, mask, twosided) a hit passes through to its BSDF, at most (wrappers.cl): the host
  * refuses deeper nesting. */
 #define WRAPPER_DEPTH 8

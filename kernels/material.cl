@@ -297,16 +297,18 @@ inline void perturb_normal(const Scene *s, TextureStore ts, __global const Mater
 #endif
 
 #if HAS_PRINCIPLED_LOOKUPS
-/* principled's textured weights (MAP_ROUGHNESS .. MAP_SPEC_TRANS: a float each, a lookup's luminance or mean),
- * clamped to [0, 1] (the host refuses textures beyond it; this catches the filters' last rounding), and the terms
- * the host derives from them per material (principled_terms.py) derived here per lane in the same float32
- * operations, so that a constant texture gives the constant parameter's values bit for bit: the clearcoat's GTR1
- * roughness lerp(0.1, 0.001, clearcoat_gloss) as Dr.Jit's lerp, 0.001 t + (0.1 - 0.1 t), and where roughness or
- * anisotropic is textured the main lobe's alphas, Mitsuba's calc_dist_params with has_anisotropic (a textured
- * parameter is given: aspect = sqrt(1 - 0.9 anisotropic) is 1 exactly at anisotropic 0, the isotropic alpha):
- * alpha_u = max(1e-3, roughness^2 / aspect), alpha_v = max(1e-3, roughness^2 aspect). No contraction into fmas,
- * which the host's numpy does not do; sqrt and the division are correctly rounded where the device's are (pocl's
- * CPU; OpenCL allows 3 and 2.5 ulp without -cl-fp32-correctly-rounded-divide-sqrt). */
+/* principled's textured weights (MAP_ROUGHNESS .. MAP_SPEC_TRANS, and principledthin's MAP_FLATNESS ..
+ * MAP_PRINCIPLED_ETA: a float each, a lookup's luminance or mean), clamped to their ranges, [0, 1] but
+ * diff_trans's [0, 2] and eta's [2^-16, 2^16] (the host refuses textures beyond them; this catches the filters'
+ * last rounding), and the terms the host derives from them per material (principled_terms.py) derived here per
+ * lane in the same float32 operations, so that a constant texture gives the constant parameter's values bit for
+ * bit: the clearcoat's GTR1 roughness lerp(0.1, 0.001, clearcoat_gloss) as Dr.Jit's lerp, 0.001 t + (0.1 - 0.1
+ * t); where roughness or anisotropic is textured the main lobe's alphas, Mitsuba's calc_dist_params with
+ * has_anisotropic (a textured parameter is given: aspect = sqrt(1 - 0.9 anisotropic) is 1 exactly at anisotropic
+ * 0, the isotropic alpha): alpha_u = max(1e-3, roughness^2 / aspect), alpha_v = max(1e-3, roughness^2 aspect);
+ * and where either or principledthin's eta is textured, its transmission's, of (0.65 eta - 0.35) roughness. No
+ * contraction into fmas, which the host's numpy does not do; sqrt and the division are correctly rounded where
+ * the device's are (pocl's CPU; OpenCL allows 3 and 2.5 ulp without -cl-fp32-correctly-rounded-divide-sqrt). */
 inline void principled_lookups(TextureStore ts, __global const Material *m, int filter, const TexturedHits *h,
                                vint mask, ShadingPoint *sp)
 {
@@ -326,14 +328,36 @@ inline void principled_lookups(TextureStore ts, __global const Material *m, int 
     PRINCIPLED_LOOKUP(CLEARCOAT, CLEARCOAT, t)
     PRINCIPLED_LOOKUP(CLEARCOAT_GLOSS, CLEARCOAT_ALPHA, 0.001f * t + (0.1f - 0.1f * t))
     PRINCIPLED_LOOKUP(SPEC_TRANS, SPEC_TRANS, t)
+    PRINCIPLED_LOOKUP(FLATNESS, FLATNESS, t)
 #undef PRINCIPLED_LOOKUP
-    if (m->maps[MAP_ROUGHNESS] >= 0 || m->maps[MAP_ANISOTROPIC] >= 0) {
+    if (m->maps[MAP_DIFF_TRANS] >= 0) { /* in [0, 2], halved */
+        vfloat t = vmin(vmax(lookup_value(ts, m->maps[MAP_DIFF_TRANS], h->surface.uv, h->duv, filter).x, zero), 2.0f);
+        sp->principled[PRINCIPLED_DIFF_TRANS] = SELECT(sp->principled[PRINCIPLED_DIFF_TRANS], t / 2.0f, mask);
+    }
+    if (m->maps[MAP_PRINCIPLED_ETA] >= 0) { /* in [2^-16, 2^16], as the host holds it */
+        vfloat e = lookup_value(ts, m->maps[MAP_PRINCIPLED_ETA], h->surface.uv, h->duv, filter).x;
+        sp->eta.x = SELECT(sp->eta.x, vmin(vmax(e, 0x1p-16f), 0x1p16f), mask);
+    }
+    const int rough = m->maps[MAP_ROUGHNESS] >= 0 || m->maps[MAP_ANISOTROPIC] >= 0;
+    vfloat aspect = sqrt(1.0f - 0.9f * sp->principled[PRINCIPLED_ANISOTROPIC]);
+    if (rough) {
         vfloat r = sp->principled[PRINCIPLED_ROUGHNESS], r2 = r * r;
-        vfloat aspect = sqrt(1.0f - 0.9f * sp->principled[PRINCIPLED_ANISOTROPIC]);
         sp->alpha = SELECT(sp->alpha, vmax((vfloat)(1e-3f), r2 / aspect), mask);
         sp->alpha_v = SELECT(sp->alpha_v, vmax((vfloat)(1e-3f), r2 * aspect), mask);
     }
+    if (m->bsdf == BSDF_PRINCIPLEDTHIN && (rough || m->maps[MAP_PRINCIPLED_ETA] >= 0)) {
+        /* the transmission's, of the roughness scaled by 0.65 eta - 0.35 (principled_terms.transmission_alphas) */
+        vfloat r = (0.65f * sp->eta.x - 0.35f) * sp->principled[PRINCIPLED_ROUGHNESS], r2 = r * r;
+        sp->principled[PRINCIPLED_TRANS_ALPHA_U] = SELECT(sp->principled[PRINCIPLED_TRANS_ALPHA_U],
+                                                          vmax((vfloat)(1e-3f), r2 / aspect), mask);
+        sp->principled[PRINCIPLED_TRANS_ALPHA_V] = SELECT(sp->principled[PRINCIPLED_TRANS_ALPHA_V],
+                                                          vmax((vfloat)(1e-3f), r2 * aspect), mask);
+    }
 }
+#endif
+
+#if HAS_CONDUCTORS || HAS_ROUGH_CONDUCTORS
+inline vec3 non_negative(vec3 a) { return v3(vmax(a.x, 0.0f), vmax(a.y, 0.0f), vmax(a.z, 0.0f)); }
 #endif
 
 inline void lookup_material(const Scene *s, TextureStore ts, __global const Material *m, int filter,
@@ -345,6 +369,13 @@ inline void lookup_material(const Scene *s, TextureStore ts, __global const Mate
 #endif
     if (m->maps[MAP_COLOUR] >= 0)
         sp->k = v3_select(sp->k, lookup_at(s, ts, m->maps[MAP_COLOUR], h, filter), mask);
+#if HAS_CONDUCTORS || HAS_ROUGH_CONDUCTORS
+    /* (the host refuses images and checkerboards with negative values; a mesh attribute's are clamped) */
+    if (m->maps[MAP_ETA] >= 0)
+        sp->eta = v3_select(sp->eta, non_negative(lookup_at(s, ts, m->maps[MAP_ETA], h, filter)), mask);
+    if (m->maps[MAP_K] >= 0)
+        sp->k_imag = v3_select(sp->k_imag, non_negative(lookup_at(s, ts, m->maps[MAP_K], h, filter)), mask);
+#endif
 #if HAS_COATS
     if (m->maps[MAP_SPECULAR] >= 0)
         sp->specular = v3_select(sp->specular, lookup_at(s, ts, m->maps[MAP_SPECULAR], h, filter),

@@ -92,6 +92,14 @@ typedef struct {
 #define MAP_CLEARCOAT 13
 #define MAP_CLEARCOAT_GLOSS 14
 #define MAP_SPEC_TRANS 15
+/* principledthin's own textured parameters besides those: flatness, diff_trans (its lookup halved, as Mitsuba
+ * takes it) and its eta, from which the transmission's alphas derive too */
+#define MAP_FLATNESS 16
+#define MAP_DIFF_TRANS 17
+#define MAP_PRINCIPLED_ETA 18
+/* the conductors' eta and k, a colour each */
+#define MAP_ETA 19
+#define MAP_K 20
 
 /* How a textured parameter finds its value at a surface point (Mitsuba's texture plugins; lookups.cl). */
 #define LOOKUP_BITMAP 0       /* an image, filtered */

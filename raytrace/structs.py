@@ -7,7 +7,7 @@ VEC3F = ("<f4", (3,))
 
 # kernels/limits.h (with the others below)
 ROUGH_TRANSMITTANCE_RES = 64  # entries of a roughplastic's transmittance table (Material.transmittance)
-MAPS = 16  # textured parameters a material has room for (Material.maps)
+MAPS = 21  # textured parameters a material has room for (Material.maps)
 WRAPPER_DEPTH = 8  # nested wrappers (blendbsdf, mask, twosided) a hit passes through, at most
 PRINCIPLED_PARAMETERS = 19    # a principled or principledthin BSDF's values (Material.principled: types.h's PRINCIPLED_*)
 
@@ -46,7 +46,8 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
 # kernels/types.h: MAP_* (Material.maps), LOOKUP_*
 MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4, "normal": 5, "bump": 6,
              "roughness": 7, "anisotropic": 8, "metallic": 9, "spec_tint": 10, "sheen": 11, "sheen_tint": 12,
-             "clearcoat": 13, "clearcoat_gloss": 14, "spec_trans": 15}
+             "clearcoat": 13, "clearcoat_gloss": 14, "spec_trans": 15, "flatness": 16, "diff_trans": 17,
+             "principled_eta": 18, "eta": 19, "k": 20}
 LOOKUPS = {"bitmap": 0, "checkerboard": 1, "mesh_attribute": 2}
 TEXTURE_LOOKUP = np.dtype([("kind", "<i4"), ("texture", "<i4"), ("wrap", "<i4"), ("filter", "<i4"),
                            ("luminance", "<i4"), ("to_uv", "<f4", (6,)), ("colour0", *VEC3F), ("colour1", *VEC3F),

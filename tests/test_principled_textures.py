@@ -3,9 +3,13 @@ anisotropic, metallic, spec_tint, sheen, sheen_tint, clearcoat, clearcoat_gloss 
 specular are floats): base_color through the colour's lookup (MAP_COLOUR), the weights through their own
 (MAP_ROUGHNESS .. MAP_SPEC_TRANS), and the terms the host derives from them per material (principled_terms.py:
 the main lobe's alphas, the clearcoat's GTR1 roughness, Mitsuba's has_spec_trans) derived per hit in the kernel
-(material.cl's principled_lookups, under HAS_PRINCIPLED_LOOKUPS).
+(material.cl's principled_lookups, under HAS_PRINCIPLED_LOOKUPS). The same for `principledthin` (Mitsuba's takes a
+texture for every parameter but its sampling rates: besides principled's shared weights, flatness, diff_trans,
+halved as Mitsuba takes it, and eta, from which with roughness and anisotropic its transmission's alphas derive),
+and the conductors' eta and k (colours: material.cl's lookup_material).
 
-(1) A constant texture (a checkerboard of two equal colours) gives what the constant parameter gives, bit for bit:
+(1) A constant texture (a checkerboard of two equal colours) gives what the constant parameter gives, bit for bit
+(principled, principledthin, conductor and roughconductor):
 each parameter's own, and all of them at once, over the shading points of whole scenes (camera rays into a wall
 of panels, half of them seen from behind: a transmitting principled's inside), at every lane width: the shading
 point's values and alphas, bsdf_eval_pdf's value and density towards random directions, bsdf_sample's direction,
@@ -23,10 +27,12 @@ lookups swap the checkerboard's colours: lookup_support.checkerboard), hits with
 left out; and a checkerboard spec_trans of 0 and 1 makes the material transmit, whose squares of 0 seen from
 inside scatter nothing (Mitsuba's has_spec_trans; types.h's PRINCIPLED_TRANSMITS).
 (3) Refusals, one line each: a texture on principled's eta, specular or a sampling rate (Mitsuba takes floats
-there), a weight's texture outside [0, 1] (a checkerboard colour's mean, a bitmap's luminance), in the scene
-file and the XML loader; and the XML loader's mapping of each textured parameter.
-(4) The corpus scene scenes/mitsuba/principled_textures.xml against Mitsuba 3.9.1 is tests/test_mitsuba_corpus.py's
-(its reference in scenes/mitsuba/references).
+there), a weight's texture outside [0, 1] (a checkerboard colour's mean, a bitmap's luminance), principledthin's
+diff_trans outside [0, 2] and eta outside [2^-16, 2^16] (a conductor's eta and k, like every texture, are
+refused below 0 by textures.py), in the scene file and the XML loader; and the XML loader's mapping of each textured parameter.
+(4) The corpus scenes scenes/mitsuba/principled_textures.xml, principledthin_textures.xml and
+conductor_textures.xml against Mitsuba 3.9.1 are tests/test_mitsuba_corpus.py's (references in
+scenes/mitsuba/references).
 
 Mutations tried (each applied to the checkout, the file restored after; every one failed the tests named, at
 every lane width unless said):
@@ -46,7 +52,14 @@ every lane width unless said):
   test_textured_spec_trans_has_an_inside (its density);
 - lookups.cl: a float parameter's checkerboard without eval_1's swap: test_checkerboard_regions and
   test_textured_spec_trans_has_an_inside;
+- material.cl: principledthin's transmission alphas not derived, or derived with eta 1.5 for the lane's, its
+  diff_trans not halved, its flatness or eta not looked up: test_constant_texture_is_the_constant[principledthin];
+- material.cl: a conductor's eta not looked up, its k written on every lane: test_constant_texture_is_the_constant
+  [conductor, roughconductor] (the k mutation at 4, 8 and 16 lanes);
 - texture_lookups.py: the [0, 1] check dropped: test_refusals_and_xml_mapping;
+- mitsuba.py: a conductor's eta (k) given as a value putting Mitsuba's default k (eta) over the other's texture
+  (the loader's bug that the corpus scene conductor_textures.xml found: 869 values over, |z| 17.6):
+  test_refusals_and_xml_mapping;
 - principled_terms.py: transmits() without the textured spec_trans: test_refusals_and_xml_mapping (the flag, and
   specular 0 taken as 1e-3).
 """
@@ -71,7 +84,8 @@ KERNEL = """
 __kernel void shade(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const float *xy,
                     __global const float *wi_, __global const float *u, __global float *f, __global float *pdf,
                     __global float *s_wi, __global float *s_weight, __global float *s_pdf, __global float *alpha,
-                    __global float *values, __global float *k, __global float *pos, __global float *material)
+                    __global float *values, __global float *k, __global float *eta, __global float *eta_k,
+                    __global float *pos, __global float *material)
 {
     const Scene s = SCENE_FROM_PARAMETERS;
     const TextureStore ts = TEXTURES_FROM_PARAMETERS;
@@ -91,15 +105,25 @@ __kernel void shade(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const 
     OUT3(s_weight, bs.weight);
     OUT(s_pdf, bs.pdf);
     OUT(alpha, sp.alpha);
+#if HAS_MICROFACETS
     OUT(alpha + n, sp.alpha_v);
+#else
+    OUT(alpha + n, (vfloat)(0.0f));
+#endif
     for (int j = 0; j < PRINCIPLED_PARAMETERS; ++j)
+#if HAS_PRINCIPLED_VALUES
         OUT(values + j * n, sp.principled[j]);
+#else
+        OUT(values + j * n, (vfloat)(0.0f));
+#endif
     OUT3(k, sp.k);
+    OUT3(eta, sp.eta);
+    OUT3(eta_k, sp.k_imag);
 }
 """
 OUTPUTS = {"f": 3, "pdf": 1, "s_wi": 3, "s_weight": 3, "s_pdf": 1, "alpha": 2, "values": structs.PRINCIPLED_PARAMETERS,
-           "k": 3, "pos": 3, "material": 1}
-COMPARED = ("f", "pdf", "s_wi", "s_weight", "s_pdf", "alpha", "values", "k")
+           "k": 3, "eta": 3, "eta_k": 3, "pos": 3, "material": 1}
+COMPARED = ("f", "pdf", "s_wi", "s_weight", "s_pdf", "alpha", "values", "k", "eta", "eta_k")
 N = 4096  # camera rays per scene
 
 # Every weight away from 0 and 1 (each lobe present; all transmit, so the panels seen from behind are insides),
@@ -111,6 +135,20 @@ BASE = {"type": "principled", "base_color": [0.6, 0.4, 0.3], "roughness": 0.375,
 VALUES = {"base_color": [0.25, 0.5, 0.75], "roughness": 0.625, "anisotropic": 0.75, "metallic": 0.125,
           "spec_tint": 0.75, "sheen": 0.875, "sheen_tint": 0.25, "clearcoat": 0.5, "clearcoat_gloss": 0.875,
           "spec_trans": 0.75}
+# principledthin: every weight away from 0 and 1, and its own textured parameters (flatness, diff_trans, eta)
+BASE_THIN = {"type": "principledthin", "base_color": [0.6, 0.4, 0.3], "roughness": 0.375, "anisotropic": 0.5,
+             "spec_trans": 0.5, "eta": 1.25, "spec_tint": 0.5, "sheen": 0.5, "sheen_tint": 0.5, "flatness": 0.25,
+             "diff_trans": 0.75}
+VALUES_THIN = {"base_color": [0.25, 0.5, 0.75], "roughness": 0.625, "anisotropic": 0.75, "spec_trans": 0.75,
+               "eta": 1.625, "spec_tint": 0.75, "sheen": 0.875, "sheen_tint": 0.25, "flatness": 0.625,
+               "diff_trans": 1.375}
+# the conductors' eta and k, colours (their lookups' own values, no mean to take)
+BASE_METAL = {"eta": [0.25, 0.5, 1.5], "k": [3.0, 2.5, 2.0]}
+VALUES_METAL = {"eta": [1.5, 0.75, 0.125], "k": [1.25, 3.5, 4.0], "specular_reflectance": [0.875, 0.75, 0.625]}
+FAMILIES = {"principled": (BASE, VALUES), "principledthin": (BASE_THIN, VALUES_THIN),
+            "roughconductor": ({"type": "roughconductor", "alpha_u": 0.25, "alpha_v": 0.125, **BASE_METAL},
+                               VALUES_METAL),
+            "conductor": ({"type": "conductor", **BASE_METAL}, VALUES_METAL)}
 TO_UV = [[3.0, 0.5, 0.25], [-0.5, 2.0, 0.0]]
 CAMERA = {"position": [0.0, -2.1, 0.0], "look_at": [0.0, 0.0, 0.0], "up": [0.0, 0.0, 1.0], "fov": 40.0}  # the wall
 
@@ -149,8 +187,7 @@ def blinded(scene):
     from) replaced by another, 1/16: what the kernel then shows of the parameter it found by its lookups only."""
     materials = []
     for m in scene.materials:
-        fields = {("colour" if slot == "colour" else slot): (np.full(3, 0.0625) if slot == "colour" else 0.0625)
-                  for slot, _ in m.maps}
+        fields = {slot: (np.full(3, 0.0625) if slot in ("colour", "eta", "k") else 0.0625) for slot, _ in m.maps}
         materials.append(dataclasses.replace(m, **fields))
     return dataclasses.replace(scene, materials=materials)
 
@@ -184,35 +221,45 @@ def same(a, b, lanes=slice(None), compared=COMPARED):
 def test_values_are_exact():
     """The float values the textures below take are their checkerboards' float parameters exactly (and one that
     is not: the check can fail)."""
-    assert all(exact(v) for v in [*VALUES.values(), 0.25, 0.75, 0.125, 0.875] if isinstance(v, float))
+    assert all(exact(v) for v in [*VALUES.values(), *VALUES_THIN.values(), 0.25, 0.75, 0.125, 0.875]
+               if isinstance(v, float))
     assert not exact(0.1)
 
 
-def test_constant_texture_is_the_constant(harness):
-    """(1): per textured parameter and all at once, a checkerboard of two equal colours against the value."""
-    names = [*VALUES, "all"]
-    constant = {name: {**BASE, **({name: VALUES[name]} if name in VALUES else VALUES)} for name in names}
-    textured = {name: {**BASE, **{p: checkerboard(v, v) for p, v in VALUES.items() if name in (p, "all")}}
+@pytest.mark.parametrize("family", FAMILIES)
+def test_constant_texture_is_the_constant(harness, family):
+    """(1): per textured parameter and all at once, a checkerboard of two equal colours against the value, for
+    principled, principledthin (whose transmission's alphas derive from its roughness, anisotropic and eta) and the
+    conductors' eta and k."""
+    base, values = FAMILIES[family]
+    names = [*values, "all"]
+    constant = {name: {**base, **({name: values[name]} if name in values else values)} for name in names}
+    textured = {name: {**base, **{p: checkerboard(v, v) for p, v in values.items() if name in (p, "all")}}
                 for name in names}
     a, scene_a, defines_a = shade(harness, mts.path_scene(constant, wall(names), CAMERA, width=48, height=32))
     b, scene_b, defines_b = shade(harness, mts.path_scene(textured, wall(names), CAMERA, width=48, height=32),
                                   blind=True)
-    assert defines_a["HAS_LOOKUPS"] == 0 and defines_b["HAS_PRINCIPLED_LOOKUPS"] == 1
-    assert defines_a["HAS_ANISOTROPIC"] == defines_b["HAS_ANISOTROPIC"] == 1
-    assert [slot for slot, _ in scene_b.materials[names.index("all")].maps] == \
-        ["colour", *[p for p in VALUES if p != "base_color"]]
+    assert defines_a["HAS_LOOKUPS"] == 0 and defines_b["HAS_LOOKUPS"] == 1
+    assert defines_b["HAS_PRINCIPLED_LOOKUPS"] == family.startswith("principled")
+    assert defines_a["HAS_ANISOTROPIC"] == defines_b["HAS_ANISOTROPIC"] == (family != "conductor")
+    slots = {"base_color": "colour", "specular_reflectance": "colour", "eta": "principled_eta"
+             if family == "principledthin" else "eta"}
+    assert [slot for slot, _ in scene_b.materials[names.index("all")].maps] == [slots.get(p, p) for p in values]
     assert np.array_equal(a["material"], b["material"]) and np.array_equal(a["pos"], b["pos"])
-    # the blinded materials' host terms differ from the constant's: only the kernel's lookups can agree
+    # the blinded materials' host values differ from the constant's: only the kernel's lookups can agree
     table_a, table_b = material_structs(scene_a.materials), material_structs(scene_b.materials)
     for i, name in enumerate(names):
-        assert not np.array_equal(table_a[i]["principled"], table_b[i]["principled"]) or name == "base_color"
+        field = "principled" if family.startswith("principled") and name != "eta" else "eta"
+        assert not np.array_equal(table_a[i][field], table_b[i][field]) or name in ("base_color", "k",
+                                                                                   "specular_reflectance")
         lanes = a["material"] == i
         assert np.count_nonzero(lanes) > 40, (name, np.count_nonzero(lanes))
         assert same(a, b, lanes) == [], (name, same(a, b, lanes))
     assert same(a, b) == []
     hit = a["material"] >= 0
-    assert np.count_nonzero(hit) > 0.7 * N
-    assert np.count_nonzero(a["pdf"][hit] > 0) > 0.5 * np.count_nonzero(hit)  # the lobes are there to compare
+    assert np.count_nonzero(hit) > 0.7 * N * len(names) / 12  # (the wall's 24 places, 2 per name)
+    if family != "conductor":  # (a delta BSDF has no density to compare)
+        assert np.count_nonzero(a["pdf"][hit] > 0) > 0.5 * np.count_nonzero(hit)  # the lobes are there to compare
     assert np.count_nonzero(a["s_pdf"][hit] > 0) > 0.5 * np.count_nonzero(hit)
 
 
@@ -314,6 +361,12 @@ def test_refusals_and_xml_mapping(tmp_path):
                                                     "color1": [1.2, 1.2, 1.5]}})
         assert "\n" not in line and line.startswith(f"load_dict(): materials.m.{key} = ") and \
             "must lie in [0, 1] (its values span [0.7, 1.3])" in line, line
+    for key, value, span in (("diff_trans", (0.5, 2.5), "[0, 2] (its values span [0.5, 2.5])"),
+                             ("eta", (0.0, 2.5), "[1.52588e-05, 65536] (its values span [0, 2.5])")):
+        line = refusal({"type": "principledthin", key: {"type": "checkerboard", "color0": value[0],
+                                                         "color1": value[1]}})
+        assert "\n" not in line and line.startswith(f"load_dict(): materials.m.{key} = ") and \
+            f"this parameter's texture must lie in {span}" in line, line
     sky = str(ROOT / "assets" / "textures" / "sky.exr")  # an HDR sky: luminance up to 25
     line = refusal({"type": "principled", "roughness": {"type": "bitmap", "filename": sky}})
     assert "\n" not in line and "materials.m.roughness" in line and "must lie in [0, 1]" in line, line
@@ -346,3 +399,20 @@ def test_refusals_and_xml_mapping(tmp_path):
     # a constant principled (no textured weight) compiles none of it
     scene = principled_scene(tmp_path, texture.replace("NAME", "base_color"))
     assert "-DHAS_PRINCIPLED_LOOKUPS=0" in Features.of(scene, 8).options()
+    # principledthin's own textured parameters (floats: luminance lookups), and a conductor's eta or k textured
+    # beside the other given as a value: the value kept, the texture too (the loader once put Mitsuba's default
+    # of the textured one over its texture)
+    for bsdf, inner, maps, luminance in (
+            ("principledthin", "".join(texture.replace("NAME", key) for key in ("flatness", "diff_trans")) +
+             texture.replace("NAME", "eta").replace('value="0"', 'value="1.5"'),
+             ["flatness", "diff_trans", "principled_eta"], [1, 1, 1]),
+            ("conductor", '<rgb name="eta" value="0.2, 0.9, 1.1"/>' + texture.replace("NAME", "k"), ["k"], [0]),
+            ("roughconductor", texture.replace("NAME", "eta") + '<float name="k" value="3.2"/>', ["eta"], [0])):
+        scene = raytrace.load_file(str(mts.xml_file(tmp_path, f'<bsdf type="{bsdf}">{inner}</bsdf>')))
+        (m,) = scene.materials
+        assert sorted(slot for slot, _ in m.maps) == sorted(maps), bsdf
+        assert texture_tables(scene)["lookups"]["luminance"].tolist() == luminance, bsdf
+        if bsdf == "conductor":
+            assert m.eta == (0.2, 0.9, 1.1), m.eta
+        if bsdf == "roughconductor":
+            assert m.k == (3.2, 3.2, 3.2), m.k

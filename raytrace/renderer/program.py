@@ -11,7 +11,7 @@ import pyopencl as cl
 
 from .cpu_target import current_llvm_cpu
 from ..scene import bsdfs
-from ..scene.bsdfs import PRINCIPLED_SLOTS
+from ..scene.bsdfs import PRINCIPLED_SLOTS, THIN_SLOTS
 from .packing import packed_bsdf
 from ..scene.model import WRAPPERS
 
@@ -61,7 +61,7 @@ class Features:
     wrappers: bool = False         # blendbsdf, mask, or a back side other than the front (kernels/wrappers.cl)
     nulls: bool = False            # a mask's null BSDF (type = "null", or a mask)
     perturbed_normals: bool = False  # Mitsuba's normalmap or bumpmap (a material's maps normal, bump)
-    principled_lookups: bool = False  # a principled material's textured weight (maps roughness .. spec_trans)
+    principled_lookups: bool = False  # a principled(thin) material's textured weight (maps roughness .. eta)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -97,7 +97,8 @@ class Features:
                    wrappers=any(m.bsdf in WRAPPERS or m.back >= 0 or not m.two_sided for m in scene.materials),
                    nulls=any(m.bsdf in ("mask", "null") for m in scene.materials),
                    perturbed_normals=any(slot in ("normal", "bump") for m in scene.materials for slot, _ in m.maps),
-                   principled_lookups=any(slot in PRINCIPLED_SLOTS for m in scene.materials for slot, _ in m.maps))
+                   principled_lookups=any(slot in PRINCIPLED_SLOTS + THIN_SLOTS for m in scene.materials
+                                          for slot, _ in m.maps))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,

@@ -176,10 +176,10 @@ def _roughness(anisotropic):
 def _conductor():
     """A conductor's index of refraction, by its parts or by a named metal, and a factor on its reflectance."""
     return (Parameter("eta", ("eta",), Key("eta", "number-or-vector", "the real part of the index of refraction, "
-                                           "per channel", length=3, low=0, default=(0.0, 0.0, 0.0),
+                                           "per channel (or a texture)", length=3, low=0, default=(0.0, 0.0, 0.0),
                                            also="with k; both 0: a perfect mirror"), mitsuba=0.0),
-            Parameter("k", ("k",), Key("k", "number-or-vector", "the imaginary part (absorption), per channel",
-                                       length=3, low=0, default=(0.0, 0.0, 0.0)), mitsuba=1.0),
+            Parameter("k", ("k",), Key("k", "number-or-vector", "the imaginary part (absorption), per channel (or a "
+                                       "texture)", length=3, low=0, default=(0.0, 0.0, 0.0)), mitsuba=1.0),
             Parameter("material", ("eta", "k"), Key("material", "string", "a named metal, eta and k in RGB as "
                                                     "Mitsuba's rgb variants have them; none: a perfect mirror",
                                                     default="none", choices=tuple(CONDUCTORS),
@@ -272,7 +272,8 @@ def _principledthin():
                     "reflection and its transmission, undeflected) rather than the diffuse ones"),
             Parameter("eta", ("principled_eta",), Key("eta", "number", "the sheet's relative index of refraction, "
                                                       "for its Fresnel reflectance and its transmission's "
-                                                      "roughness", default=1.5, low=2.0 ** -16, high=2.0 ** 16)),
+                                                      "roughness (a number or a texture)", default=1.5,
+                                                      low=2.0 ** -16, high=2.0 ** 16)),
             _weight("spec_tint", "spec_tint", "the share of the glossy reflection tinted towards the colour's hue"),
             _weight("sheen", "sheen", "a grazing sheen's weight (cloth)"),
             _weight("sheen_tint", "sheen_tint", "the share of the sheen tinted towards the colour's hue"),
@@ -280,7 +281,8 @@ def _principledthin():
                     "fake subsurface scattering (flatter, brighter towards grazing) rather than Burley's"),
             Parameter("diff_trans", ("diff_trans",), Key("diff_trans", "number", "the diffuse light's share "
                                                          "transmitted, times 2: 0 reflects it all, 1 half, 2 "
-                                                         "transmits it all", default=0.0, low=0, high=2)),
+                                                         "transmits it all (a number or a texture)", default=0.0,
+                                                         low=0, high=2)),
             *rates)
 
 
@@ -393,16 +395,17 @@ assert tuple(BY_NAME) == BSDFS, "model.BSDFS lists the declared BSDFs in the ker
 # its eta and specular are numbers, as in Mitsuba: a float property, not a texture)
 PRINCIPLED_SLOTS = ("roughness", "anisotropic", "metallic", "spec_tint", "sheen", "sheen_tint", "clearcoat",
                     "clearcoat_gloss", "spec_trans")
+THIN_SLOTS = ("flatness", "diff_trans", "principled_eta")  # principledthin's own, besides those it shares
 # The kernel's map slot (kernels/types.h's MAP_*) a texture on a parameter fills, by the Material fields it sets
 TEXTURED = {("colour",): "colour", ("specular",): "specular", ("alpha",): "alpha", ("alpha_v",): "alpha_v",
-            **{(name,): name for name in PRINCIPLED_SLOTS}}
+            ("eta",): "eta", ("k",): "k", **{(name,): name for name in PRINCIPLED_SLOTS + THIN_SLOTS}}
 
 
 def texture_slot(bsdf, name):
-    """The map slot a texture given for parameter `name` of `bsdf` fills, or None where it takes a value only: a
-    roughplastic's alpha is a number (its coat's transmittance table is found for it), as in Mitsuba."""
+    """The map slot a texture given for parameter `name` of `bsdf` fills, or None where it takes a value only, as
+    in Mitsuba: a roughplastic's alpha (its coat's transmittance table is found for it), principled's eta."""
     p = next((p for p in bsdf.parameters if p.key is not None and p.key.name == name), None)
-    if p is None or (bsdf.name == "roughplastic" and name == "alpha"):
+    if p is None or (bsdf.name, name) in (("roughplastic", "alpha"), ("principled", "eta")):
         return None
     return TEXTURED.get(p.fields)
 

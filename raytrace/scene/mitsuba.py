@@ -732,11 +732,12 @@ class _Translator:
             put("colour", values[0] or self.colour(colours[0].mitsuba_default, node, path, colours[0].name),
                 colours[0].name)
         conductor = "k" in bsdf.key_names()  # eta, k and material: a conductor's (principled's eta is a number)
-        if conductor and ("material" in params or "eta" in params or "k" in params):
+        if conductor and ("material" in original or "eta" in original or "k" in original):
             self.string(params.get("material", "none"), node, path, "material")
-            if "eta" in params or "k" in params:  # Mitsuba's defaults of either, given the other: eta 0, k 1
-                put("eta", self.colour(params.get("eta", 0.0), node, path, "eta", unbounded=True), "eta")
-                put("k", self.colour(params.get("k", 1.0), node, path, "k", unbounded=True), "k")
+            if "eta" in original or "k" in original:  # Mitsuba's defaults of either, given the other: eta 0, k 1
+                for name, default in (("eta", 0.0), ("k", 1.0)):
+                    if name not in {p.name for p in textured}:  # (a texture is put above)
+                        put(name, self.colour(params.get(name, default), node, path, name, unbounded=True), name)
         for p in bsdf.parameters:
             if p.key is None and isinstance(p.mitsuba_default, bool) and p.name in params:  # sample_visible
                 self.boolean(params[p.name], node, path, p.name)

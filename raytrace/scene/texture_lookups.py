@@ -11,8 +11,9 @@ colours), interpolated over each triangle, times `scale`; every shape of such a 
 it (rules.py).
 
 Which parameters take a texture: the reflectances (`colour` and Mitsuba's names of it, a plastic's
-`specular_reflectance`), the rough conductors' and dielectrics' `alpha`, `alpha_u` and `alpha_v`, a blend's
-`weight` and a mask's `opacity`; each BSDF's table in the manual says so (TEXTURED). A float parameter of an RGB
+`specular_reflectance`), the conductors' `eta` and `k`, the rough conductors' and dielectrics' `alpha`, `alpha_u`
+and `alpha_v`, principled's weights and principledthin's parameters, a blend's `weight` and a mask's `opacity`;
+each BSDF's table in the manual says so (bsdfs.TEXTURED). A float parameter of an RGB
 image takes its luminance, of a checkerboard the mean of its colour's channels, as Mitsuba's eval_1 does.
 
 `to_uv` is the texture's coordinates (s, t) of the surface's (u, v): two rows of Mitsuba's 3 x 3 matrix, (s, t) =
@@ -23,7 +24,7 @@ texture's mean as its constant value, which the host uses where a BSDF needs one
 """
 import numpy as np
 
-from .bsdfs import PRINCIPLED_SLOTS
+from .bsdfs import PRINCIPLED_SLOTS, THIN_SLOTS
 from .declaration import Key
 from .mipmap import SRGB8_TO_LINEAR
 from .model import FILTER_TYPES, LOOKUPS, WRAP_MODES, TextureLookup
@@ -57,7 +58,12 @@ KIND_KEYS = {"bitmap": ("type", "filename", "raw", "filter_type", "wrap_mode", "
              "checkerboard": ("type", "to_uv", "color0", "color1"), "mesh_attribute": ("type", "name", "scale")}
 # The parameters whose value is one number (kernels/types.h's MAP_ALPHA, MAP_ALPHA_V, MAP_WEIGHT, MAP_BUMP and
 # principled's weights, MAP_ROUGHNESS .. MAP_SPEC_TRANS): a lookup's luminance
-FLOAT_SLOTS = ("alpha", "alpha_v", "weight", "bump", *PRINCIPLED_SLOTS)
+FLOAT_SLOTS = ("alpha", "alpha_v", "weight", "bump", *PRINCIPLED_SLOTS, *THIN_SLOTS)
+# The ranges every value of a texture must lie in, for the parameters whose kernel code needs more than a mean in
+# range (ranges.py checks the mean as the material's value): principled's weights, [0, 1], but principledthin's
+# diff_trans and eta (their keys' ranges). (Every texture's values are >= 0: textures.py.)
+VALUE_RANGES = {**{slot: (0.0, 1.0) for slot in PRINCIPLED_SLOTS + THIN_SLOTS}, "diff_trans": (0.0, 2.0),
+                "principled_eta": (2.0 ** -16, 2.0 ** 16)}
 
 
 def is_texture(value):
@@ -93,13 +99,15 @@ def read(r, slot, textures, rgb, own_keys):
         index = textures.index(r.string("filename"), role, r.path, r.prefix + "filename")
         lookup = TextureLookup("bitmap", index, r.string("wrap_mode"), r.string("filter_type"), to_uv)
         mean = texture_mean(textures.textures[index])
-    if slot in PRINCIPLED_SLOTS:  # weights: every value the lookup can give in [0, 1], not only the mean
+    if slot in VALUE_RANGES and kind != "mesh_attribute":  # every value the lookup can give, not only the mean
         values = (np.mean(c0), np.mean(c1)) if kind == "checkerboard" else texture_luminances(
             textures.textures[index])
         low, high = float(np.min(values)), float(np.max(values))
-        if low < 0 or high > 1 + 1e-6:  # (white's weights sum to 1 within rounding; the kernel clamps to 1)
-            r.fail("", r.table, f"a principled weight's texture must lie in [0, 1] (its values span [{low:.6g}, "
-                   f"{high:.6g}])")
+        bottom, top = VALUE_RANGES[slot]
+        # (white's principled weights sum to 1 within rounding; the kernel clamps to the range)
+        if not (low >= bottom and high <= top * (1 + 1e-6)):
+            r.fail("", r.table, f"this parameter's texture must lie in [{bottom:.6g}, {top:.6g}] (its values span "
+                   f"[{low:.6g}, {high:.6g}])")
     if slot in FLOAT_SLOTS:  # Mitsuba's eval_1: an image's luminance, an rgb colour's mean
         return lookup, float(luminance(mean) if kind != "checkerboard" else np.mean(mean))
     return lookup, mean
