@@ -26,6 +26,7 @@ class TriangleSoup:
     normals: np.ndarray
     material: np.ndarray
     attributes: dict  # {name: per-corner values (F, 3, 3)} of the mesh attributes the materials read, 0 elsewhere
+                      # (a face attribute's value at its triangle's three corners: constant over it)
 
 
 def triangle_soup(scene):
@@ -46,10 +47,11 @@ def triangle_soup(scene):
     starts = np.cumsum([0] + [len(a) for a in material])
     normals = [flat(slice(a, b)) if n is None else n for n, a, b in zip(normals, starts[:-1], starts[1:])]
     attributes = {}
-    for name in attribute_names(scene.materials):
+    for name in attribute_names(scene.materials):  # one value broadcast to three channels, as Mitsuba's eval
         parts = [np.zeros((len(tris), 3, 3))] + [
             np.zeros((len(shape.mesh.faces), 3, 3)) if name not in shape.mesh.attributes
-            else shape.mesh.attributes[name][shape.mesh.faces] for shape in scene.meshes]
+            else np.broadcast_to(shape.mesh.corner_values(name), (len(shape.mesh.faces), 3, 3))
+            for shape in scene.meshes]
         attributes[name] = np.concatenate(parts)
     return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material), attributes)
 

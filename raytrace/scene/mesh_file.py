@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import InputError
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX
 from . import obj_file, ply_file
-from .meshes import Mesh, degenerate_faces, value_problem, vertex_normals
+from .meshes import Mesh, degenerate_faces, kept_faces, value_problem, vertex_normals
 
 
 def load_mesh(path, source=None, key="file"):
@@ -64,12 +64,8 @@ def _checked(path, vertices, faces, normals, uvs, attributes=None):
         normals = np.asarray(normals, np.float64)
         _check_values(path, "normals", normals, FLOAT32_MAX)
         normals = _unit_normals(normals, vertices, faces)
-    for name, values in (attributes or {}).items():
-        _check_values(path, name, values, FLOAT32_MAX)
-        if (values < 0).any():  # a colour: a reflectance, or a radiance
-            row = int(np.argmax((values < 0).any(axis=1)))
-            raise InputError(path, f"{name}[{row}]", values[row].tolist(), "a colour must be >= 0")
-    return Mesh(vertices, faces, normals, uvs, dict(attributes or {})), int(degenerate.sum())
+    attributes = kept_faces(attributes or {}, ~degenerate)  # values checked where a material reads them (rules)
+    return Mesh(vertices, faces, normals, uvs, attributes), int(degenerate.sum())
 
 
 def _check_values(path, name, values, limit):

@@ -36,8 +36,16 @@ class Mesh:
     faces: np.ndarray                 # (F, 3) int32, counter-clockwise seen from the front
     normals: np.ndarray | None = None  # (V, 3) float64 unit shading normals, per vertex
     uvs: np.ndarray | None = None     # (V, 2) float64 texture coordinates, per vertex
-    attributes: dict = field(default_factory=dict)  # {name: (V, 3) float64}: Mitsuba's mesh attributes, per
-                                                    # vertex ("vertex_color" of a PLY file's r, g, b)
+    attributes: dict = field(default_factory=dict)  # {name: (N, dim) float64}: Mitsuba's mesh attributes, a
+    # row per vertex for names "vertex_...", per face (of `faces`) for "face_..." (ply_file.element_attributes)
+
+    def corner_values(self, name):
+        """(F, 3, dim): attribute `name` at each face's three corners; a face attribute's value at all three, so
+        that interpolating the corners gives the face's value, constant over it (Mitsuba's face attributes)."""
+        values = self.attributes[name]
+        if is_face_attribute(name):
+            return np.repeat(values[:, None, :], 3, axis=1)
+        return values[self.faces]
 
     def triangle_bounds(self):
         """(lo, hi), each (F, 3): every triangle's axis-aligned box, the BVH's input."""
@@ -97,6 +105,35 @@ def degenerate_faces(vertices, faces):
     longest = np.max([np.sum((a - b) ** 2, axis=1) for a, b in ((v1, v0), (v2, v1), (v0, v2))], axis=0)
     repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
     return repeated | ~(twice_area > DEGENERATE * longest)
+
+
+def is_face_attribute(name):
+    """Whether a mesh attribute is per face: Mitsuba's names start with "face_" (else "vertex_")."""
+    return name.startswith("face_")
+
+
+def kept_faces(attributes, keep):
+    """Mesh attributes after a mesh keeps the faces of the mask `keep` (degenerate ones dropped): face
+    attributes keep their rows, aligned with the faces left."""
+    return {name: values[keep] if is_face_attribute(name) else values for name, values in attributes.items()}
+
+
+def fan_polygons(polygons):
+    """(triangles (T, 3), the polygon of each triangle (T,)) of polygons of any sizes (a sequence of index
+    sequences, or an (F, k) array), each fanned (fan), in the file's order: a polygon's triangles consecutive,
+    polygons of fewer than three indices dropped. Grouped by size, so that each group is one numpy fan."""
+    if isinstance(polygons, np.ndarray) and polygons.ndim == 2 and polygons.dtype != object:
+        count = max(polygons.shape[1] - 2, 0)
+        return (fan(polygons) if count else np.zeros((0, 3), np.int64)), np.repeat(np.arange(len(polygons)), count)
+    sizes = np.array([len(p) for p in polygons], np.int64)
+    triangles, source = [np.zeros((0, 3), np.int64)], [np.zeros(0, np.int64)]
+    for k in np.unique(sizes[sizes >= 3]):
+        which = np.flatnonzero(sizes == k)
+        triangles.append(fan(np.array([polygons[i] for i in which], np.int64).reshape(-1, k)))
+        source.append(np.repeat(which, k - 2))
+    source = np.concatenate(source)
+    order = np.argsort(source, kind="stable")
+    return np.concatenate(triangles)[order], source[order]
 
 
 def fan(polygons):

@@ -92,8 +92,10 @@ PLUGINS = {
         Param("filter_type", "bilinear", "texture filter_type"), Param("wrap_mode", "repeat", "texture wrap_mode"),
         Param("to_uv", "identity", "texture to_uv", "its 2D part (x, y and the translation)"),
         Param("accel", True, "", "no effect"))),
-    "mesh_attribute": Plugin("texture", "a mesh's per-vertex attribute (a PLY file's vertex colours)", (
-        Param("name", None, "texture name", "vertex_color"), Param("scale", 1.0, "texture scale"))),
+    "mesh_attribute": Plugin("texture", "a mesh's attribute: a PLY file's vertex or face properties, as Mitsuba's "
+                             "PLY reader groups and names them", (
+        Param("name", None, "texture name", "vertex_color, face_color, vertex_PREFIX or face_PREFIX"),
+        Param("scale", 1.0, "texture scale"))),
     "checkerboard": Plugin("texture", "two colours in alternate squares", (
         Param("color0", 0.4, "texture color0", "a number or an rgb"), Param("color1", 0.2, "texture color1"),
         Param("to_uv", "identity", "texture to_uv", "its 2D part (x, y and the translation)"))),

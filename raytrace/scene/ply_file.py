@@ -1,6 +1,11 @@
-"""Reading PLY files for raytrace.scene.mesh_file.load_mesh: the file's vertices, polygons, normals and uvs,
-before the checks shared with OBJ (mesh_file._checked). Limits: texture coordinates stored per face corner
-("texcoord" lists) keep one uv per vertex.
+"""Reading PLY files for raytrace.scene.mesh_file.load_mesh: the file's vertices, polygons (fanned into
+triangles in the file's order), normals, uvs and mesh attributes, before the checks shared with OBJ
+(mesh_file._checked). Limits: texture coordinates stored per face corner ("texcoord" lists) keep one uv per
+vertex.
+
+Mesh attributes are Mitsuba 3's: the vertex and face properties beyond the geometry, grouped and named as its PLY
+reader does ("vertex_color", "face_color", "vertex_<prefix>", ...: attribute_groups), for its mesh_attribute
+texture. A face attribute has a row per triangle, its polygon's value.
 
 One gap in trimesh is filled here: its binary PLY reader needs all face lists to have one length, so
 binary files mixing triangles, quads and n-gons are read by a small reader of our own.
@@ -17,11 +22,13 @@ import struct
 import numpy as np
 
 from ..errors import InputError
-from .meshes import NO_FACES, fan, quiet, why
+from .meshes import NO_FACES, fan_polygons, quiet, why
 
 
 def read_ply(path, data):
-    """The file's (vertices, polygons, normals, uvs). fix_texture=False keeps the file's vertex order."""
+    """The file's (vertices, triangles, normals, uvs, attributes). fix_texture=False keeps the file's vertex
+    order; the faces come from trimesh's raw lists, fanned here in the file's order, so that the face
+    attributes' rows follow them."""
     endian, elements, body = _ply_header(path, data)
     _check_ply_size(path, endian, elements, body)
     from trimesh.exchange.ply import load_ply
@@ -37,34 +44,152 @@ def read_ply(path, data):
         raise InputError(path, "file", None, f"cannot be read as PLY ({why(e)})") from None
     if endian and not _uniform_face_lists(endian, elements, body):  # trimesh took every face as the first's
         return _read_binary_ply(path, endian, elements, body)
-    faces = read.get("faces")
-    if faces is None or not len(faces):
+    raw = read.get("metadata", {}).get("_ply_raw", {})
+    vertex_data, face_data = (_columns(raw.get(name, {}).get("data", {})) for name in ("vertex", "face"))
+    indices = next((face_data[name] for name in PLY_INDEX_NAMES if name in face_data), read.get("faces", []))
+    if isinstance(indices, np.ndarray) and indices.dtype.names:  # the binary reader's (count, indices) records
+        indices = indices["f1"]
+    faces, polygon = fan_polygons(indices)  # trimesh's own fan puts mixed sizes out of the file's order
+    if not len(faces):
         raise InputError(path, "face", None, NO_FACES)
-    raw = read.get("metadata", {}).get("_ply_raw", {}).get("vertex", {}).get("data", {})
-    if isinstance(raw, np.ndarray):  # trimesh's binary reader: a structured array
-        raw = {name: raw[name] for name in raw.dtype.names or ()}
-    columns = {name: np.asarray(values).reshape(-1) for name, values in raw.items()
-               if np.asarray(values).size == len(read["vertices"])}
-    return read["vertices"], fan(np.asarray(faces)), read.get("vertex_normals"), \
-        getattr(read.get("visual"), "uv", None), vertex_attributes(columns)
+    attributes = element_attributes(path, elements, "vertex", vertex_data, len(read["vertices"]))
+    attributes |= {name: values[polygon] for name, values in element_attributes(
+        path, elements, "face", face_data, len(indices)).items()}  # each triangle its polygon's value
+    return read["vertices"], faces, read.get("vertex_normals"), getattr(read.get("visual"), "uv", None), attributes
 
 
-# A PLY file's vertex colour properties, as Mitsuba 3 groups them into its "vertex_color" attribute
-COLOUR_NAMES = (("r", "g", "b"), ("red", "green", "blue"))
+def _columns(data):
+    """{property: values} of trimesh's raw data of an element (a dict, or its binary reader's structured array)."""
+    if isinstance(data, np.ndarray):
+        return {name: data[name] for name in data.dtype.names or ()}
+    return dict(data)
 
 
-def vertex_attributes(columns):
-    """{"vertex_color": (V, 3) float64} of a PLY file's vertex properties ({name: values}) r, g, b (or red, green,
-    blue), as Mitsuba 3's PLY reader names them; {} without them. Integer colours (MeshLab's and Blender's 8-bit
-    ones) become code / the type's largest code, where Mitsuba takes the codes themselves as values (and warns
-    that it expects [0, 1]): a colour of 255 is no reflectance anyone means."""
-    for names in COLOUR_NAMES:
-        if all(name in columns for name in names):
-            rgb = np.stack([columns[name] for name in names], 1)
-            if np.issubdtype(rgb.dtype, np.integer):
-                return {"vertex_color": rgb / float(np.iinfo(rgb.dtype).max)}
-            return {"vertex_color": rgb.astype(np.float64)}
-    return {}
+# Mitsuba 3's PLY reader (find_other_fields, in the header beside src/shapes/ply.cpp) groups an element's
+# properties into attributes: r, g, b (or red, green, blue), and a (alpha), into "<element>_color"; then
+# consecutive properties <prefix>_<postfix> whose postfixes run through one of these schemes, from its first
+# letter, into "<element>_<prefix>" (the rgba scheme's "<element>_<prefix>_color"), of one or three values (two
+# or four are ignored, as Mitsuba ignores them with a warning); names without "_" are ignored.
+POSTFIXES = ("xr01", "yg12", "zb23", "wa34")  # a scheme's k-th postfix: POSTFIXES[k][scheme]
+# The fields Mitsuba reads as geometry, which no attribute takes (lists become NAME.count, i0, i1, i2)
+RESERVED = {"vertex": {"x", "y", "z", "nx", "ny", "nz", "u", "v", "r", "g", "b", "a"},
+            "face": {"vertex_index.count", "vertex_indices.count", "i0", "i1", "i2", "r", "g", "b", "a"}}
+
+
+def element_attributes(path, elements, element, columns, count):
+    """{name: (count, dim) float64} of the mesh attributes Mitsuba 3 reads from a PLY element ("vertex" or
+    "face"; `columns`: {property: values}), with its names (attribute_groups). Values as Mitsuba reads them,
+    except integer colours (attributes whose name has "color", Mitsuba's test for a colour: MeshLab's and
+    Blender's 8-bit vertex colours), which become code / the type's largest code: Mitsuba takes an 8-bit code
+    as it is (and warns that it expects [0, 1]), and a 16- or 32-bit one as sRGB, decoded from code / largest
+    code, which no one means by a colour of 255. Other integer attributes as Mitsuba reads them: uchar codes as
+    they are, other integer types sRGB-decoded (its PLY header marks every integer property normalised and
+    gamma-encoded, and its conversion applies that to all but 8-bit ones)."""
+    properties = next((p for name, _, p in elements if name == element), [])
+    types = {p[-1]: p[0] for p in properties if p[0] != "list"}
+    attributes = {}
+    for name, fields in attribute_groups(element, properties):
+        if name in attributes:  # Mitsuba's add_attribute refuses a second one
+            raise InputError(path, element, name, "two groups of properties make this mesh attribute (r, g, b and "
+                             "a prefixed group named color), which Mitsuba refuses")
+        missing = [field for field in fields if field not in columns]
+        if missing:  # after its slip on a malformed sequence (attribute_groups), Mitsuba's reader fails so
+            raise InputError(path, element, name, f"Mitsuba's PLY reader makes this attribute of properties "
+                             f"{', '.join(fields)}, and refuses the file, which has no {missing[0]}")
+        values = []
+        for field in fields:
+            column = np.asarray(columns[field]).reshape(-1)
+            if column.size != count:
+                break  # trimesh could not read the element's records (a list of another length in them)
+            values.append(_attribute_values(column, types[field], "color" in name))
+        else:
+            attributes[name] = np.stack(values, 1)
+    return attributes
+
+
+def _attribute_values(column, kind, colour):
+    """A property's values as a mesh attribute reads them (element_attributes)."""
+    if PLY_TYPES[kind] in "fd":
+        return column.astype(np.float64)
+    largest = float(np.iinfo(np.dtype(PLY_TYPES[kind])).max)
+    if colour:
+        return column / largest
+    if PLY_TYPES[kind] == "B":
+        return column.astype(np.float64)
+    x = column / largest  # sRGB's decoding, as Mitsuba applies it
+    return np.where(x <= 0.04045, x / 12.92, ((np.abs(x) + 0.055) / 1.055) ** 2.4 * np.sign(x))
+
+
+def attribute_groups(element, properties):
+    """[(attribute name, [its properties])] of a PLY element's header properties (words after `property`), as
+    Mitsuba 3.9.1's find_other_fields groups them, in its order: the colour first, then the prefixed groups.
+    Ported line by line, with its slips on malformed sequences: after a prefix met before, or a postfix out of
+    its scheme, it passes over the prefix's fields and then over one more field, and in the second case counts
+    that field into the next group, which then mostly has 2 or 4 values and is dropped, or names a property the
+    file lacks (element_attributes refuses the file then, as Mitsuba's reader does)."""
+    fields = []
+    for p in properties:
+        fields += [f"{p[-1]}.count", "i0", "i1", "i2"] if p[0] == "list" else [p[-1]]
+    names = set(fields)
+    renames = {}
+    if element == "vertex" and not {"u", "v"} <= names:  # Mitsuba's uv names, renamed to u and v
+        pair = next((pair for pair in (("texture_u", "texture_v"), ("s", "t")) if set(pair) <= names), None)
+        renames |= dict(zip(pair, ("u", "v"))) if pair else {}
+    if not {"r", "g", "b"} <= names and {"red", "green", "blue"} <= names:
+        renames |= {"red": "r", "green": "g", "blue": "b", "alpha": "a"}
+    original = {renames.get(f, f): f for f in fields}
+    fields = [renames.get(f, f) for f in fields]
+    groups = []
+    if {"r", "g", "b"} <= set(fields):
+        groups.append((f"{element}_color", [original[c] for c in ("r", "g", "b", "a") if c in fields]))
+    reserved, seen = RESERVED[element], set()
+    prefix, scheme, level, reading = "", 0, 0, False
+    i = 0
+    while i < len(fields):
+        name = fields[i]
+        if name in reserved:
+            i += 1
+            continue
+        head, underscore, postfix = name.rpartition("_")
+        if not underscore or len(postfix) != 1:  # no postfix, or a longer one: ignored
+            if reading:
+                groups += _group(element, prefix, scheme, level, seen, original)
+                prefix, level, reading = "", 0, False
+            i += 1
+            continue
+        if reading and head != prefix:
+            groups += _group(element, prefix, scheme, level, seen, original)
+            prefix, level, reading = "", 0, False
+        if not reading and head in seen:  # a prefix met before: its fields ignored (and one more, as Mitsuba's)
+            while i < len(fields) and fields[i].startswith(head):
+                i += 1
+            i += 1
+            continue
+        if not reading:
+            if postfix not in POSTFIXES[0]:  # no scheme starts with it
+                i += 1
+                continue
+            prefix, scheme, reading = head, POSTFIXES[0].index(postfix), True
+        elif level >= len(POSTFIXES) or postfix != POSTFIXES[level][scheme]:  # out of sequence: the group dropped
+            prefix, level, reading = "", 0, False
+            while i < len(fields) and fields[i].startswith(head):
+                i += 1
+            if i == len(fields):
+                break
+        level += 1
+        i += 1
+    if reading:
+        groups += _group(element, prefix, scheme, level, seen, original)
+    return groups
+
+
+def _group(element, prefix, scheme, level, seen, original):
+    """attribute_groups' group of `level` properties `prefix`_postfix, if it has 1 or 3 (Mitsuba's flush)."""
+    if level not in (1, 3):
+        return []
+    seen.add(prefix)
+    fields = [f"{prefix}_{POSTFIXES[k][scheme]}" for k in range(level)]
+    return [(f"{element}_{prefix}{'_color' if scheme == 1 else ''}", [original.get(f, f) for f in fields])]
 
 
 def _uniform_face_lists(endian, elements, body):
@@ -224,11 +349,13 @@ def _read_binary_ply(path, endian, elements, body):
     columns = vertex.dtype.names
     normals = np.stack([vertex[k] for k in ("nx", "ny", "nz")], 1) if {"nx", "ny", "nz"} <= set(columns) else None
     uv = next(((u, v) for u, v in PLY_UV_NAMES if u in columns and v in columns), None)
-    sizes = np.array([len(p) for p in polygons])
-    faces = [fan(np.array([p for p in polygons if len(p) == k])) for k in np.unique(sizes[sizes >= 3])]
-    return (np.stack([vertex[k] for k in "xyz"], 1), np.concatenate(faces) if faces else np.zeros((0, 3), int),
-            normals, None if uv is None else np.stack([vertex[uv[0]], vertex[uv[1]]], 1),
-            vertex_attributes({name: vertex[name] for name in columns}))
+    faces, polygon = fan_polygons(polygons)
+    attributes = element_attributes(path, elements, "vertex", {name: vertex[name] for name in columns}, len(vertex))
+    face = tables["face"][0]
+    attributes |= {name: values[polygon] for name, values in element_attributes(
+        path, elements, "face", {name: face[name] for name in face.dtype.names or ()}, len(polygons)).items()}
+    return (np.stack([vertex[k] for k in "xyz"], 1), faces, normals,
+            None if uv is None else np.stack([vertex[uv[0]], vertex[uv[1]]], 1), attributes)
 
 
 def _ply_elements(path, endian, elements, body):

@@ -20,9 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import bsdfs, ranges
+from . import bsdfs, meshes, ranges, texture_lookups
 from .. import samplers
 from .model import RADIOMETRIC, normalize
+from ..numerics import FLOAT32_MAX
 
 
 @dataclass
@@ -107,26 +108,48 @@ def _camera(camera, reader):
 
 
 def _read_attributes(scene, index, seen=()):
-    """The mesh attributes material `index` reads, through its wrappers (blends, masks, its back side)."""
+    """{(slot, name)} of the mesh attributes material `index` reads, through its wrappers (blends, masks, its back
+    side), and the parameter (map slot) each textures."""
     m = scene.materials[index]
-    names = {lookup.attribute for _, lookup in m.maps if lookup.kind == "mesh_attribute"}
+    reads = {(slot, lookup.attribute) for slot, lookup in m.maps if lookup.kind == "mesh_attribute"}
     for other in (*m.blend, m.back):
         if other >= 0 and other not in seen:
-            names |= _read_attributes(scene, other, (*seen, index))
-    return names
+            reads |= _read_attributes(scene, other, (*seen, index))
+    return reads
+
+
+# The sizes of attribute a parameter takes, as Mitsuba's texture evaluations do (src/render/mesh.cpp): eval_1 (a
+# float parameter) one value, eval_3 (normalmap's normals) three, eval (a colour) three or one for all channels
+_SIZES = {**{slot: (1,) for slot in texture_lookups.FLOAT_SLOTS}, "normal": (3,)}
+_SIZE_WORDS = {(1,): "one value", (3,): "three values", (1, 3): "one value or three"}
 
 
 def _mesh_attributes(scene, places):
     """A material that reads a mesh attribute (a mesh_attribute texture) is on meshes that have it only, as
-    Mitsuba's shapes refuse an attribute they do not have."""
+    Mitsuba's shapes refuse an attribute they do not have; of a size its parameter takes (an rgba colour's four
+    values are no reflectance: Mitsuba's eval throws in its scalar variants and gives 0 in its vectorised ones);
+    with values the renderer can use: finite numbers within float32's range, and >= 0 (a colour's, a roughness's,
+    a weight's)."""
     for reader, shape in places.shapes:
         if shape.material < 0:
             continue
-        names = _read_attributes(scene, shape.material)
-        have = set(shape.mesh.attributes) if hasattr(shape, "mesh") else set()
-        if names - have:
-            reader.fail("material", scene.materials[shape.material].name, f"reads the mesh attribute "
-                        f"{sorted(names - have)[0]}, which this shape does not have")
+        material = scene.materials[shape.material].name
+        have = shape.mesh.attributes if hasattr(shape, "mesh") else {}
+        for slot, name in sorted(_read_attributes(scene, shape.material)):
+            reads = f"reads the mesh attribute {name}"
+            if name not in have:
+                reader.fail("material", material, f"{reads}, which this shape does not have")
+            values, sizes = have[name], _SIZES.get(slot, (1, 3))
+            if values.shape[1] not in sizes:
+                reader.fail("material", material, f"{reads}, of {values.shape[1]} values a {name.split('_')[0]}, for "
+                            f"its {slot}, which takes {_SIZE_WORDS[sizes]}")
+            bad = ~((values >= 0) & (values <= FLOAT32_MAX)).all(axis=1)  # also NaN
+            if bad.any():
+                row = int(np.argmax(bad))
+                value = next(v for v in values[row] if not 0 <= v <= FLOAT32_MAX)
+                problem = meshes.value_problem(f"{value:g}", value, FLOAT32_MAX) or f"{value:g} is below 0"
+                reader.fail("file", reader.raw("file"), f"its {name}[{row}] = {values[row].tolist()}: {problem}, "
+                            f"where material {material} reads it (as finite numbers >= 0)")
     for light, reader in zip(scene.lights, places.lights):
         if light.material >= 0 and _read_attributes(scene, light.material):
             reader.fail("material", scene.materials[light.material].name, "reads a mesh attribute, which a light "

@@ -295,8 +295,9 @@ def _transform(r):
 
 
 def _transformed_faces(r, key, vertices, faces):
-    """The faces that keep an area once the transformed vertices are stored in float32, and how many do not;
-    a transform that leaves a vertex outside float32's range, or no face at all, is an error."""
+    """The faces that keep an area once the transformed vertices are stored in float32, how many do not, and
+    the mask of those kept; a transform that leaves a vertex outside float32's range, or no face at all, is an
+    error."""
     if not np.abs(vertices).max() <= ranges.COORDINATE_LIMIT:  # also NaN
         r.fail(key, r.raw(key), f"puts the mesh beyond {ranges.COORDINATE_LIMIT:.4g} (2^60) of the origin, "
                "outside the range float32 arithmetic allows")
@@ -304,7 +305,7 @@ def _transformed_faces(r, key, vertices, faces):
     degenerate = meshes.degenerate_faces(stored.astype(np.float64), faces)
     if degenerate.all():
         r.fail(key, r.raw(key), "leaves every face without area in float32")
-    return faces[~degenerate], int(degenerate.sum())
+    return faces[~degenerate], int(degenerate.sum()), ~degenerate
 
 
 def _mesh_shape(r, material):
@@ -312,7 +313,7 @@ def _mesh_shape(r, material):
     m = _transform(r)
     vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
     key = "matrix" if r.has("matrix") else "scale"
-    faces, collapsed = _transformed_faces(r, key, vertices, mesh.faces)
+    faces, collapsed, kept = _transformed_faces(r, key, vertices, mesh.faces)
     if np.linalg.det(m[:3, :3]) < 0:  # a mirror: keep the faces counter-clockwise seen from the front
         faces = faces[:, ::-1]
     smooth = r.boolean("smooth")
@@ -329,7 +330,8 @@ def _mesh_shape(r, material):
     uvs = mesh.uvs
     if r.boolean("flip_tex_coords") and uvs is not None:  # Mitsuba's OBJ default: v -> 1 - v
         uvs = np.column_stack([uvs[:, 0], 1.0 - uvs[:, 1]])
-    return MeshShape(meshes.Mesh(vertices, faces, normals, uvs, mesh.attributes), material, bool(smooth),
+    attributes = meshes.kept_faces(mesh.attributes, kept)  # a face attribute's rows follow the faces kept
+    return MeshShape(meshes.Mesh(vertices, faces, normals, uvs, attributes), material, bool(smooth),
                      dropped + collapsed, source)
 
 

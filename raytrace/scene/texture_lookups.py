@@ -6,9 +6,12 @@ instead of a value, `bitmap` (an image) or `checkerboard`, with Mitsuba's names 
     material = "Al"
     alpha = { type = "bitmap", filename = "roughness.png", raw = true, to_uv = [[4, 0, 0], [0, 4, 0]] }
 
-`mesh_attribute` reads a mesh's per-vertex attribute (Mitsuba's name: "vertex_color", a PLY file's vertex
-colours), interpolated over each triangle, times `scale`; every shape of such a material must be a mesh that has
-it (rules.py).
+`mesh_attribute` reads a mesh's attribute by Mitsuba's name (a PLY file's properties, ply_file.attribute_groups:
+"vertex_color", "face_color", "vertex_<prefix>", "face_<prefix>"), times `scale`: a vertex attribute interpolated
+over each triangle, a face attribute constant over its face. Every shape of such a material must be a mesh that
+has it, of a size the parameter takes (rules.py): a colour parameter one value (for all three channels) or three,
+a float parameter one (Mitsuba's eval and eval_1, src/render/mesh.cpp's eval_attribute: any other size is an
+exception in its scalar variants and 0 in its vectorised ones).
 
 Which parameters take a texture: the reflectances (`colour` and Mitsuba's names of it, a plastic's
 `specular_reflectance`), the conductors' `eta` and `k`, the rough conductors' and dielectrics' `alpha`, `alpha_u`
@@ -30,9 +33,8 @@ from .mipmap import SRGB8_TO_LINEAR
 from .model import FILTER_TYPES, LOOKUPS, WRAP_MODES, TextureLookup
 from .. import structs
 
-# The mesh attributes a mesh_attribute texture reads (raytrace/scene/ply_file.py reads a PLY file's vertex colours
-# as Mitsuba 3 names them)
-MESH_ATTRIBUTES = ("vertex_color",)
+# A mesh attribute's name starts with one of these (Mitsuba's Mesh::add_attribute: a value per vertex, or per face)
+ATTRIBUTE_KINDS = ("vertex_", "face_")
 
 # The scene format's table of a textured parameter's keys (keys.py lists it as "texture").
 KEYS = [
@@ -50,8 +52,9 @@ KEYS = [
     Key("color0", "number-or-vector", "checkerboard: the colour of the squares at (0, 0) and (1/2, 1/2)", length=3,
         low=0, default=0.4),
     Key("color1", "number-or-vector", "checkerboard: the other squares' colour", length=3, low=0, default=0.2),
-    Key("name", "string", "mesh_attribute: the meshes' attribute, as Mitsuba names it", choices=MESH_ATTRIBUTES,
-        default=None, also='required with type = "mesh_attribute"; every shape of the material a mesh that has it'),
+    Key("name", "string", "mesh_attribute: the meshes' attribute, as Mitsuba names it (vertex_color, face_color, "
+        "vertex_PREFIX, face_PREFIX)", default=None, also='required with type = "mesh_attribute"; every shape of '
+        'the material a mesh that has it'),
     Key("scale", "number", "mesh_attribute: a factor on its values", default=1.0, low=0),
 ]
 KIND_KEYS = {"bitmap": ("type", "filename", "raw", "filter_type", "wrap_mode", "to_uv"),
@@ -64,6 +67,9 @@ FLOAT_SLOTS = ("alpha", "alpha_v", "weight", "bump", *PRINCIPLED_SLOTS, *THIN_SL
 # diff_trans and eta (their keys' ranges). (Every texture's values are >= 0: textures.py.)
 VALUE_RANGES = {**{slot: (0.0, 1.0) for slot in PRINCIPLED_SLOTS + THIN_SLOTS}, "diff_trans": (0.0, 2.0),
                 "principled_eta": (2.0 ** -16, 2.0 ** 16)}
+# The parameters a mesh attribute cannot texture: a bump map's gradient (Mitsuba's mesh_attribute has no
+# eval_1_grad, which its bumpmap calls), principled(thin)'s weights (material.cl reads them by (u, v) only)
+UNATTRIBUTED = ("bump", *PRINCIPLED_SLOTS, *THIN_SLOTS)
 
 
 def is_texture(value):
@@ -84,10 +90,15 @@ def read(r, slot, textures, rgb, own_keys):
     if kind == "mesh_attribute":
         if not r.has("name"):
             r.fail("name", None, 'missing (type = "mesh_attribute" reads a mesh\'s attribute)')
-        if slot in FLOAT_SLOTS:  # Mitsuba's eval_1 reads one-channel attributes only
-            r.fail("name", r.raw("name"), "is a colour (three channels): not for a parameter of one number")
+        if slot in UNATTRIBUTED:
+            r.fail("type", kind, "cannot texture " + ("a bump map: Mitsuba's bumpmap needs its gradient, which "
+                   "a mesh attribute does not give" if slot == "bump" else "a principled weight: raytrace's "
+                   "kernel reads those by (u, v) only"))
+        if not r.string("name").startswith(ATTRIBUTE_KINDS):
+            r.fail("name", r.raw("name"), 'must start with "vertex_" or "face_", as Mitsuba\'s mesh attributes do')
         lookup = TextureLookup("mesh_attribute", to_uv=to_uv, attribute=r.string("name"), scale=r.number("scale"))
-        mean = np.full(3, 0.5 * lookup.scale)  # unknown until the meshes are read: a mid value
+        # Unknown until the meshes are read: a mid value; a float parameter's unscaled, a roughness inside (0, 1]
+        mean = np.full(3, 0.5 if slot in FLOAT_SLOTS else 0.5 * lookup.scale)
     elif kind == "checkerboard":
         c0, c1 = rgb(r, "color0"), rgb(r, "color1")
         lookup = TextureLookup("checkerboard", to_uv=to_uv, colour0=tuple(c0.tolist()), colour1=tuple(c1.tolist()))
