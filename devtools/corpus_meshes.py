@@ -5,6 +5,11 @@ writes them into scenes/mitsuba/meshes.
   cos(2 y), whose vertices carry float colours r, g, b (Mitsuba's `vertex_color` attribute, read by its
   `mesh_attribute` texture): a hue wheel around the centre, saturated towards the rim, every channel in [0.05,
   0.9]. Floats, because Mitsuba takes a PLY file's colour values as they are (8-bit codes would be 0 to 255).
+- `face_attributes.ply` (binary PLY, 9 x 9 vertices, 128 triangles): a sheet over [-1, 1]^2 folded into a low
+  ridge, z = 0.25 (1 - |x|) cos(1.5 y), whose faces carry float colours r, g, b (Mitsuba's `face_color`: one
+  colour per triangle, constant over it, the two triangles of each square apart, so that a renderer which
+  interpolated them, or gave a square one colour, shows it) and whose vertices carry one value roughness_0
+  (Mitsuba's one-value `vertex_roughness`), 0.08 at x = -1 rising to 0.5 at x = 1, for a rough conductor's alpha.
 
 Nothing is random: the same bytes each run.
 """
@@ -16,8 +21,17 @@ import numpy as np
 OUT = Path(__file__).resolve().parents[1] / "scenes" / "mitsuba" / "meshes"
 
 
+def grid(n):
+    """(x, y, triangles) of an n x n grid of vertices over [-1, 1]^2, each square two triangles (a, b, c), (a, c, d),
+    counter-clockwise seen from +z, one square's two after each other."""
+    xs, ys = np.meshgrid(np.linspace(-1.0, 1.0, n), np.linspace(-1.0, 1.0, n))
+    quads = np.array([(j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i)
+                      for j in range(n - 1) for i in range(n - 1)])
+    return xs.ravel(), ys.ravel(), np.stack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], 1).reshape(-1, 3)
+
+
 def vertex_colours(n=12):
-    """(vertices (V, 3), colours (V, 3), quads (F, 4)) of the sheet."""
+    """(vertices (V, 3), colours (V, 3), triangles (F, 3)) of the sheet."""
     xs, ys = np.meshgrid(np.linspace(-1.0, 1.0, n), np.linspace(-1.0, 1.0, n))
     x, y = xs.ravel(), ys.ravel()
     vertices = np.stack([x, y, 0.12 * np.sin(3.0 * x) * np.cos(2.0 * y)], 1)
@@ -29,16 +43,32 @@ def vertex_colours(n=12):
     return vertices, colours, np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
 
 
-def write_ply(path, vertices, colours, triangles):
-    """A binary little-endian PLY of triangles: Mitsuba 3.9.1's reader takes neither quads ("is this a triangle
-    mesh?!") nor this file in ASCII (its faces read as trailing tokens)."""
+def face_attributes(n=9):
+    """(vertices (V, 3), roughness (V,), triangles (F, 3), face colours (F, 3)) of the ridge."""
+    x, y, triangles = grid(n)
+    vertices = np.stack([x, y, 0.25 * (1 - np.abs(x)) * np.cos(1.5 * y)], 1)
+    roughness = 0.08 + 0.42 * (x + 1) / 2
+    square, half = np.arange(len(triangles)) // 2, np.arange(len(triangles)) % 2
+    hue = (square % (n - 1) + 2 * (square // (n - 1))) / (n - 1) / 3 + 0.5 * half  # along the rows and columns
+    wheel = 0.5 + 0.5 * np.cos(2 * np.pi * (hue[:, None] - np.array([0.0, 1 / 3, 2 / 3])))
+    colours = 0.08 + 0.8 * wheel
+    return vertices, roughness, triangles, colours
+
+
+def write_ply(path, vertices, triangles, vertex=(), face=()):
+    """A binary little-endian PLY of triangles with float properties, vertex and face [(name, values)]: Mitsuba
+    3.9.1's reader takes neither quads ("is this a triangle mesh?!") nor these files in ASCII (its faces read as
+    trailing tokens)."""
     header = "\n".join(["ply", "format binary_little_endian 1.0", f"element vertex {len(vertices)}",
-                        "property float x", "property float y", "property float z", "property float r",
-                        "property float g", "property float b", f"element face {len(triangles)}",
-                        "property list uchar int vertex_indices", "end_header"]) + "\n"
-    rows = np.hstack([vertices, colours]).astype("<f4").tobytes()
-    faces = np.zeros(len(triangles), [("n", "u1"), ("i", "<i4", (3,))])
+                        "property float x", "property float y", "property float z",
+                        *[f"property float {name}" for name, _ in vertex], f"element face {len(triangles)}",
+                        "property list uchar int vertex_indices", *[f"property float {name}" for name, _ in face],
+                        "end_header"]) + "\n"
+    rows = np.column_stack([vertices, *[values for _, values in vertex]]).astype("<f4").tobytes()
+    faces = np.zeros(len(triangles), [("n", "u1"), ("i", "<i4", (3,)), ("p", "<f4", (len(face),))])
     faces["n"], faces["i"] = 3, triangles
+    if face:
+        faces["p"] = np.column_stack([values for _, values in face])
     Path(path).write_bytes(header.encode() + rows + faces.tobytes())
 
 
@@ -47,8 +77,13 @@ def main(argv=None):
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    write_ply(args.out / "vertex_colours.ply", *vertex_colours())
-    print(args.out / "vertex_colours.ply")
+    vertices, colours, triangles = vertex_colours()
+    write_ply(args.out / "vertex_colours.ply", vertices, triangles, vertex=list(zip("rgb", colours.T)))
+    vertices, roughness, triangles, colours = face_attributes()
+    write_ply(args.out / "face_attributes.ply", vertices, triangles, vertex=[("roughness_0", roughness)],
+              face=list(zip("rgb", colours.T)))
+    for name in ("vertex_colours.ply", "face_attributes.ply"):
+        print(args.out / name)
 
 
 if __name__ == "__main__":
