@@ -10,6 +10,7 @@ from ..errors import InputError
 from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
 from ..scene import bsdfs, plastic_terms, principled_terms, rough_transmittance, texture_lookups
+from ..scene.course_maps import kernel_materials
 from ..scene.model import WRAPPERS, Material
 from .culling import light_sides
 from .geometry import DEFAULT_UV
@@ -239,7 +240,7 @@ def texture_tables(scene):
     texels, levels, textures = pack_textures(scene.textures, scene.path)
     return {"textures": textures, "mip_levels": levels, "texels": texels,
             "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32),
-            "lookups": lookup_structs(material_table(scene.materials), scene.triangle_count)[0]}
+            "lookups": lookup_structs(material_table(kernel_materials(scene)), scene.triangle_count)[0]}
 
 
 def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear",

@@ -12,6 +12,7 @@ import pyopencl as cl
 from .cpu_target import current_llvm_cpu
 from ..scene import bsdfs
 from ..scene.bsdfs import PRINCIPLED_SLOTS, THIN_SLOTS
+from ..scene.course_maps import kernel_materials
 from .packing import packed_bsdf
 from ..scene.model import WRAPPERS
 
@@ -71,33 +72,34 @@ class Features:
 
     @classmethod
     def of(cls, scene, lanes):
-        used = lambda attribute: any(getattr(m, attribute) >= 0 for m in scene.materials)  # noqa: E731
+        materials = kernel_materials(scene)  # (the course's maps, in the path model: course_maps.py)
+        used = lambda attribute: any(getattr(m, attribute) >= 0 for m in materials)  # noqa: E731
         shapes = len(scene.rectangles) + scene.triangle_count + len(scene.ellipsoids)
         return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
                    used("colour_map"), used("normal_map"), used("height_map"),
                    any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
                    scene.shading == "direct", scene.shading == "path",
-                   any(packed_bsdf(m) == "conductor" for m in scene.materials),
-                   any(packed_bsdf(m) == "dielectric" for m in scene.materials),
-                   any(packed_bsdf(m) == "roughconductor" for m in scene.materials),
+                   any(packed_bsdf(m) == "conductor" for m in materials),
+                   any(packed_bsdf(m) == "dielectric" for m in materials),
+                   any(packed_bsdf(m) == "roughconductor" for m in materials),
                    scene.environment is not None or scene.environment_map is not None,
                    scene.environment_map is not None,
-                   **{name: any(packed_bsdf(m) == bsdf for m in scene.materials)
+                   **{name: any(packed_bsdf(m) == bsdf for m in materials)
                       for name, bsdf in (("thin_dielectrics", "thindielectric"),
                                          ("rough_dielectrics", "roughdielectric"), ("plastics", "plastic"),
                                          ("rough_plastics", "roughplastic"), ("principled", "principled"),
                                          ("principledthin", "principledthin"))},
                    beckmann=any(packed_bsdf(m) in bsdfs.ROUGH and m.distribution == "beckmann"
-                                for m in scene.materials),
+                                for m in materials),
                    anisotropic=any((packed_bsdf(m) in bsdfs.ROUGH and (m.alpha_v not in (None, m.alpha) or dict(
                                    m.maps).get("alpha") != dict(m.maps).get("alpha_v")))
                                    or (m.bsdf in ("principled", "principledthin") and (m.anisotropic != 0 or "anisotropic" in dict(
-                                       m.maps))) for m in scene.materials),
-                   lookups=any(m.maps for m in scene.materials),
-                   wrappers=any(m.bsdf in WRAPPERS or m.back >= 0 or not m.two_sided for m in scene.materials),
-                   nulls=any(m.bsdf in ("mask", "null") for m in scene.materials),
-                   perturbed_normals=any(slot in ("normal", "bump") for m in scene.materials for slot, _ in m.maps),
-                   principled_lookups=any(slot in PRINCIPLED_SLOTS + THIN_SLOTS for m in scene.materials
+                                       m.maps))) for m in materials),
+                   lookups=any(m.maps for m in materials),
+                   wrappers=any(m.bsdf in WRAPPERS or m.back >= 0 or not m.two_sided for m in materials),
+                   nulls=any(m.bsdf in ("mask", "null") for m in materials),
+                   perturbed_normals=any(slot in ("normal", "bump") for m in materials for slot, _ in m.maps),
+                   principled_lookups=any(slot in PRINCIPLED_SLOTS + THIN_SLOTS for m in materials
                                           for slot, _ in m.maps))
 
     def options(self):

@@ -5,6 +5,7 @@ import weakref
 import numpy as np
 
 from .. import structs
+from ..scene.course_maps import kernel_materials
 from .culling import scene_extent
 from .geometry import bvh_structs, in_leaf_order, triangle_soup
 from .packing import (attribute_table, camera_struct, ellipsoid_structs, environment_table, light_structs, material_structs, params_struct,
@@ -57,7 +58,7 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
             "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
             "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
             "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
-            "materials": material_structs(scene.materials), "nodes": nodes, "prims": prims,
+            "materials": material_structs(kernel_materials(scene)), "nodes": nodes, "prims": prims,
             "culled_subtrees": culled, "attributes": attributes,
             "environment_map": environment_table(scene) if features is None or features.environment_map
             else np.zeros(1, np.float32)}

@@ -97,8 +97,10 @@ TABLES = {
             default=(1.0, 1.0, 1.0), also="required without texture for type = diffuse; 0.5 for the plastics"),
         Key("shininess", "number", "the Phong exponent", default=DEFAULT_SHININESS, low=0, open_low=True),
         Key("texture", "path", "colour map (from the scene file's folder)", default=None),
-        Key("normal_map", "path", "tangent-space normal map, rgb = (n + 1) / 2", default=None),
-        Key("height_map", "path", "relief >= 0 (first channel; 8-bit codes read as [0, 1])", default=None,
+        Key("normal_map", "path", "tangent-space normal map, rgb = (n + 1) / 2 (the path model's normalmap)",
+            default=None),
+        Key("height_map", "path", "relief >= 0 (first channel; 8-bit codes read as [0, 1]; the path model's "
+            "bumpmap, not with normal_map there)", default=None,
             also="with height_scale"),
         Key("height_scale", "number", "scene units of relief per unit of the height map", default=None, low=0,
             also="with height_map"),
