@@ -10,7 +10,8 @@ has_* flags (a parameter given and nonzero) are the parameters being nonzero: wh
 they change nothing but the pdf inside a material without spec_trans, which the flag then follows as Mitsuba's
 (its inside has no lobe but the main reflection there). Where Mitsuba divides 0 by 0 (the lobes' probabilities
 inside an opaque material of eta 1, whose F is 0: no lobe at all) or meets a zero half vector, the reference
-gives 0. flatness is Mitsuba's default 0 (raytrace has none).
+gives 0. flatness lerps the diffuse lobe towards Hanrahan and Krueger's fake subsurface where it is given and not 0
+(Mitsuba's m_has_flatness; its lerp at flatness 0 is the diffuse itself, so the flag is the value's being nonzero).
 The microfacet distribution and the dielectric Fresnel term are tests/bsdf_reference.py's (Mitsuba's
 MicrofacetDistribution, GGX, visible normals; fresnel())."""
 import numpy as np
@@ -18,9 +19,9 @@ import numpy as np
 import bsdf_reference as ref
 
 PARAMETERS = {"base_color": (0.5, 0.5, 0.5), "roughness": 0.5, "anisotropic": 0.0, "metallic": 0.0, "spec_trans": 0.0,
-              "eta": None, "specular": 0.5, "spec_tint": 0.0, "sheen": 0.0, "sheen_tint": 0.0, "clearcoat": 0.0,
-              "clearcoat_gloss": 0.0, "main_specular_sampling_rate": 1.0, "clearcoat_sampling_rate": 1.0,
-              "diffuse_reflectance_sampling_rate": 1.0}
+              "eta": None, "specular": 0.5, "spec_tint": 0.0, "sheen": 0.0, "sheen_tint": 0.0, "flatness": 0.0,
+              "clearcoat": 0.0, "clearcoat_gloss": 0.0, "main_specular_sampling_rate": 1.0,
+              "clearcoat_sampling_rate": 1.0, "diffuse_reflectance_sampling_rate": 1.0}
 
 
 def material(**given):
@@ -136,7 +137,12 @@ def eval_pdf(p, wi, wo):
         lobes["clearcoat"] = np.where(on[:, None], coat[:, None] * np.ones(3), 0.0)
         fo, fi = schlick_weight(np.abs(co)), schlick_weight(np.abs(ci))
         rr = 2 * p["roughness"] * oh**2
-        diffuse = brdf * np.abs(co) / np.pi * ((1 - 0.5 * fi) * (1 - 0.5 * fo) + rr * (fo + fi + fo * fi * (rr - 1)))
+        burley = (1 - 0.5 * fi) * (1 - 0.5 * fo) + rr * (fo + fi + fo * fi * (rr - 1))
+        if p["flatness"] != 0:  # Hanrahan-Krueger's fake subsurface, Fss90 flattening the retro-reflection
+            fss = (1 + (rr / 2 - 1) * fo) * (1 + (rr / 2 - 1) * fi)
+            f_ss = 1.25 * (fss * (1 / (np.abs(co) + np.abs(ci)) - 0.5) + 0.5)
+            burley = burley + (f_ss - burley) * p["flatness"]
+        diffuse = brdf * np.abs(co) / np.pi * burley
         diffuse_on = active & (brdf > 0) & reflect & front
         lobes["diffuse"] = np.where(diffuse_on[:, None], diffuse[:, None] * k, 0.0)
         c_sheen = 1 + p["sheen_tint"] * (tint - 1)

@@ -1,7 +1,7 @@
 """principled's textured parameters (Mitsuba 3's `principled` takes a texture for each of base_color, roughness,
-anisotropic, metallic, spec_tint, sheen, sheen_tint, clearcoat, clearcoat_gloss and spec_trans; its eta and
-specular are floats): base_color through the colour's lookup (MAP_COLOUR), the weights through their own
-(MAP_ROUGHNESS .. MAP_SPEC_TRANS), and the terms the host derives from them per material (principled_terms.py:
+anisotropic, metallic, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss and spec_trans; its eta
+and specular are floats): base_color through the colour's lookup (MAP_COLOUR), the weights through their own
+(MAP_ROUGHNESS .. MAP_SPEC_TRANS, and flatness through principledthin's MAP_FLATNESS), and the terms the host derives from them per material (principled_terms.py:
 the main lobe's alphas, the clearcoat's GTR1 roughness, Mitsuba's has_spec_trans) derived per hit in the kernel
 (material.cl's principled_lookups, under HAS_PRINCIPLED_LOOKUPS). The same for `principledthin` (Mitsuba's takes a
 texture for every parameter but its sampling rates: besides principled's shared weights, flatness, diff_trans,
@@ -54,6 +54,8 @@ every lane width unless said):
   test_textured_spec_trans_has_an_inside;
 - material.cl: principledthin's transmission alphas not derived, or derived with eta 1.5 for the lane's, its
   diff_trans not halved, its flatness or eta not looked up: test_constant_texture_is_the_constant[principledthin];
+- material.cl: flatness not looked up: test_constant_texture_is_the_constant[principled] (and [principledthin]);
+- bsdfs.py: principled's flatness a value only (texture_slot None for it): test_refusals_and_xml_mapping;
 - material.cl: a conductor's eta not looked up, its k written on every lane: test_constant_texture_is_the_constant
   [conductor, roughconductor] (the k mutation at 4, 8 and 16 lanes);
 - texture_lookups.py: the [0, 1] check dropped: test_refusals_and_xml_mapping;
@@ -77,6 +79,8 @@ from raytrace.renderer.program import Features
 from raytrace.renderer.scene_tables import scene_tables
 from raytrace.scene.bsdfs import PRINCIPLED_SLOTS
 from helpers import ROOT
+
+WEIGHTS = (*PRINCIPLED_SLOTS, "flatness")  # principled's textured weights (flatness's slot is principledthin's too)
 
 KERNEL = """
 #include "camera.cl"
@@ -129,12 +133,12 @@ N = 4096  # camera rays per scene
 # Every weight away from 0 and 1 (each lobe present; all transmit, so the panels seen from behind are insides),
 # anisotropic: the tangent's frame in both builds
 BASE = {"type": "principled", "base_color": [0.6, 0.4, 0.3], "roughness": 0.375, "anisotropic": 0.5,
-        "metallic": 0.25, "spec_tint": 0.5, "sheen": 0.5, "sheen_tint": 0.5, "clearcoat": 0.75,
+        "metallic": 0.25, "spec_tint": 0.5, "sheen": 0.5, "sheen_tint": 0.5, "flatness": 0.25, "clearcoat": 0.75,
         "clearcoat_gloss": 0.5, "spec_trans": 0.5, "specular": 0.6}
 # each textured parameter's constant value, other than BASE's
 VALUES = {"base_color": [0.25, 0.5, 0.75], "roughness": 0.625, "anisotropic": 0.75, "metallic": 0.125,
-          "spec_tint": 0.75, "sheen": 0.875, "sheen_tint": 0.25, "clearcoat": 0.5, "clearcoat_gloss": 0.875,
-          "spec_trans": 0.75}
+          "spec_tint": 0.75, "sheen": 0.875, "sheen_tint": 0.25, "flatness": 0.625, "clearcoat": 0.5,
+          "clearcoat_gloss": 0.875, "spec_trans": 0.75}
 # principledthin: every weight away from 0 and 1, and its own textured parameters (flatness, diff_trans, eta)
 BASE_THIN = {"type": "principledthin", "base_color": [0.6, 0.4, 0.3], "roughness": 0.375, "anisotropic": 0.5,
              "spec_trans": 0.5, "eta": 1.25, "spec_tint": 0.5, "sheen": 0.5, "sheen_tint": 0.5, "flatness": 0.25,
@@ -356,7 +360,7 @@ def test_refusals_and_xml_mapping(tmp_path):
         line = refusal({"type": "principled", key: cb})
         assert "\n" not in line and line.startswith(f"load_dict(): materials.m.{key} = ") and \
             'takes a value, not a texture, in type = "principled"' in line, line
-    for key in PRINCIPLED_SLOTS:
+    for key in WEIGHTS:
         line = refusal({"type": "principled", key: {"type": "checkerboard", "color0": [0.2, 0.4, 1.5],
                                                     "color1": [1.2, 1.2, 1.5]}})
         assert "\n" not in line and line.startswith(f"load_dict(): materials.m.{key} = ") and \
@@ -382,10 +386,10 @@ def test_refusals_and_xml_mapping(tmp_path):
         line = str(info.value)
         assert "\n" not in line and line.startswith(f"{tmp_path / 'scene.xml'}:9: ") and \
             "takes a value here, not a texture" in line, line
-    every = "".join(texture.replace("NAME", key) for key in ("base_color", *PRINCIPLED_SLOTS))
+    every = "".join(texture.replace("NAME", key) for key in ("base_color", *WEIGHTS))
     scene = principled_scene(tmp_path, every + '<float name="specular" value="0"/>')
     (m,) = scene.materials
-    assert sorted(slot for slot, _ in m.maps) == sorted(["colour", *PRINCIPLED_SLOTS])
+    assert sorted(slot for slot, _ in m.maps) == sorted(["colour", *WEIGHTS])
     # a textured spec_trans of 0 still transmits (Mitsuba's has_spec_trans): no one-sided wrapper, the flag, and
     # specular 0 taken as 1e-3 (eta 1.0179, not 1)
     assert m.two_sided and m.spec_trans == 0
@@ -393,7 +397,7 @@ def test_refusals_and_xml_mapping(tmp_path):
     assert entry["principled"][structs.PRINCIPLED.index("transmits")] == 1
     f32 = np.float32
     assert entry["eta"][0] == f32(2) / (f32(1) - np.sqrt(f32(0.08) * f32(1e-3))) - f32(1)
-    assert texture_tables(scene)["lookups"]["luminance"].tolist() == [0] + [1] * len(PRINCIPLED_SLOTS)
+    assert texture_tables(scene)["lookups"]["luminance"].tolist() == [0] + [1] * len(WEIGHTS)
     options = Features.of(scene, 8).options()
     assert "-DHAS_PRINCIPLED_LOOKUPS=1" in options and "-DHAS_ANISOTROPIC=1" in options
     # a constant principled (no textured weight) compiles none of it

@@ -34,7 +34,7 @@ POINTS = 256
 RED = {"type": "rgb", "value": [0.8, 0.2, 0.1]}
 BLUE = {"type": "rgb", "value": [0.2, 0.5, 0.8]}
 
-# (name, plugin dict): each lobe alone and mixed, the extremes of roughness, metal, glass and eta below 1.
+# (name, plugin dict): each lobe alone and mixed, the extremes of roughness, metal, glass and eta below 1, flatness.
 CASES = [
     ("default", {"type": "principled"}),
     ("diffuse rough sheen tinted", {"type": "principled", "base_color": RED, "roughness": 1.0, "sheen": 1.0,
@@ -59,6 +59,13 @@ CASES = [
                            "sheen_tint": 0.3, "clearcoat": 0.7, "clearcoat_gloss": 0.4,
                            "main_specular_sampling_rate": 0.5, "clearcoat_sampling_rate": 0.3,
                            "diffuse_reflectance_sampling_rate": 2.0}),
+    # flatness (the fake subsurface): all of it, half at roughness 0 (Fss90 = 0) with a sheen, and among the other
+    # lobes with transmission (last, so that the cases above keep their inputs)
+    ("flatness 1 roughness 0.8", {"type": "principled", "base_color": RED, "roughness": 0.8, "flatness": 1.0}),
+    ("flatness 0.5 roughness 0 sheen", {"type": "principled", "base_color": BLUE, "roughness": 0.0,
+                                        "flatness": 0.5, "sheen": 0.4, "specular": 0.3}),
+    ("flatness 0.7 mixed", {"type": "principled", "base_color": RED, "roughness": 0.6, "flatness": 0.7,
+                            "metallic": 0.3, "spec_trans": 0.4, "clearcoat": 0.5, "anisotropic": 0.3}),
 ]
 
 GREEN = {"type": "rgb", "value": [0.3, 0.6, 0.2]}

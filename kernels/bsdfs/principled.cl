@@ -8,13 +8,15 @@
  *   main reflection   F_p(wo . h) D(h) G(wo, wi, h) / (4 |cos_o|)           GGX, alpha_u and alpha_v (anisotropic)
  *   transmission      sqrt(k) bsdf (1 - F) D G |(wo . h)(wi . h)| / (|cos_o| (wo . h + eta' wi . h)^2)  (across)
  *   clearcoat         clearcoat / 4 F_s(0.04) D_GTR1(h) G1(wo) G1(wi) |cos_i|  (Smith GGX of alpha 0.25)
- *   diffuse           brdf k / pi ((1 - Fo/2)(1 - Fi/2) + Rr (Fo + Fi + Fo Fi (Rr - 1))) |cos_i|
+ *   diffuse           brdf k / pi lerp((1 - Fo/2)(1 - Fi/2) + Rr (Fo + Fi + Fo Fi (Rr - 1)), f_ss, flatness) |cos_i|
  *   sheen             sheen (1 - metallic) (1 + sheen_tint (k / lum(k) - 1)) Fw(wi . h) |cos_i|
  * with F the dielectric Fresnel reflectance of eta = sp.eta.x (fresnel.cl; eta' = eta seen from the front,
  * 1 / eta from inside), F_p = (1 - metallic)(1 - spec_tint) F + metallic F_s(k) + (1 - metallic) spec_tint
  * F_s(k / lum R0(eta)) on the front and bsdf F inside, F_s(R0) = R0 + (1 - R0) Fw Schlick's approximation
  * (Fw(c) = (1 - c)^5 of the cosine outside the denser side, else of the refracted one), Fo = Fw(|cos_i|),
- * Fi = Fw(|cos_o|), Rr = 2 roughness (wi . h)^2 (Burley's retro-reflection) and lum the luminance. The
+ * Fi = Fw(|cos_o|), Rr = 2 roughness (wi . h)^2 (Burley's retro-reflection), f_ss = 1.25 (Fss (1 / (|cos_o| +
+ * |cos_i|) - 0.5) + 0.5) with Fss = lerp(1, Rr / 2, Fo) lerp(1, Rr / 2, Fi) (Mitsuba's `flatness`: Hanrahan and
+ * Krueger's fake subsurface, principled_flatten, which principledthin.cl shares) and lum the luminance. The
  * refraction's half vector is wo + eta' wi. Mitsuba's transmission has a factor 1 / eta'^2 (radiance mode) and
  * one eta'^2 that cancel: neither is here; its albedo still carries the radiance's 1 / eta'^2 (by the
  * Jacobian of refraction), as roughdielectric.cl's does. The clearcoat's form (no 1 / (cos_o cos_i), cos_i in their place)
@@ -22,8 +24,8 @@
  * diffuse, sheen and clearcoat lobes reflect on the front only; the lobes are each 0 where their side or
  * their half vector's side is wrong (Mitsuba's mac_mic_compatibility: wo and wi each see h's front for
  * reflection, wo sees it and wi its back for refraction), the main reflection where F = 0, the transmission
- * where F = 1. Mitsuba's `flatness` (its fake subsurface lobe) is not here: raytrace's principled has it at
- * its default 0 (raytrace/scene/bsdfs.py).
+ * where F = 1. flatness changes the diffuse lobe's value only: its samples stay cosine-weighted (Mitsuba's
+ * sample), their weight eval / pdf.
  *
  * Sides. The frame is Mitsuba's: z the outward normal, which is sp.n unless the hit is on the back of a
  * material that transmits (Mitsuba's has_spec_trans, PRINCIPLED_TRANSMITS: the viewer is inside; eta inverts,
@@ -134,6 +136,19 @@ inline vfloat principled_diffuse(vfloat fo, vfloat fi, vfloat rr)
     return (1.0f - 0.5f * fi) * (1.0f - 0.5f * fo) + rr * (fo + fi + fo * fi * (rr - 1.0f));
 }
 
+/* Burley's diffuse `lambert` (principled_diffuse's) flattened towards Hanrahan and Krueger's fake subsurface
+ * f_ss = 1.25 (Fss (1 / (|cos_o| + |cos_i|) - 0.5) + 0.5), Fss = lerp(1, Rr / 2, Fo) lerp(1, Rr / 2, Fi), by
+ * flatness: lerp(lambert, f_ss, flatness). Mitsuba computes it only where flatness is given (its m_has_flatness:
+ * a texture, or a number not 0); its lerp at flatness 0 is lambert exactly, and so is this one ((f_ss - lambert)
+ * 0 + lambert, fused or not) wherever f_ss is finite (cos_sum > 0: the lobe's lanes), so a material without
+ * flatness needs no flag to keep its bits. */
+inline vfloat principled_flatten(vfloat lambert, vfloat fo, vfloat fi, vfloat rr, vfloat cos_sum, vfloat flatness)
+{
+    vfloat fss90 = 0.5f * rr, fss = MAD(fss90 - 1.0f, fo, 1.0f) * MAD(fss90 - 1.0f, fi, 1.0f);
+    vfloat f_ss = 1.25f * (fss * (1.0f / cos_sum - 0.5f) + 0.5f);
+    return MAD(f_ss - lambert, flatness, lambert);
+}
+
 /* A sample of direction bs.wi, of value (eval's) and density pdf there: its weight eval / pdf where it is
  * valid (`active`, pdf > 0), else weight and pdf 0; transmit where it is valid and crosses the surface. */
 inline BSDFSample principled_weighted(BSDFSample bs, vec3 value, vfloat pdf, vint active, vint transmit)
@@ -194,11 +209,13 @@ inline vec3 principled_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
     vfloat coat = 0.25f * clearcoat * MAD(0.96f, principled_schlick(oh, eta), 0.04f) * d_cc * g_cc * vabs(ci);
     coat = SELECT(zero, coat, compatible_r & front & (clearcoat > 0.0f));
 
-    /* the diffuse base (Burley's retro-reflection) and the sheen, on the front */
+    /* the diffuse base (Burley's retro-reflection, flattened towards the fake subsurface) and the sheen, on the
+     * front */
     vint diffuse_on = active & reflect & front & (brdf > 0.0f);
     vfloat fo = principled_schlick_weight(vabs(ci)), fi = principled_schlick_weight(vabs(co));
     vfloat rr = 2.0f * PRINCIPLED(sp, ROUGHNESS) * ih * ih;
-    vfloat lambert = principled_diffuse(fo, fi, rr);
+    vfloat lambert = principled_flatten(principled_diffuse(fo, fi, rr), fo, fi, rr, vabs(ci) + vabs(co),
+                                        PRINCIPLED(sp, FLATNESS));
     vfloat diffuse = SELECT(zero, brdf * vabs(ci) * M_1_PI_F * lambert, diffuse_on);
     vfloat sheen = PRINCIPLED(sp, SHEEN), sheen_tint = PRINCIPLED(sp, SHEEN_TINT);
     vfloat sheen_w = SELECT(zero, sheen * (1.0f - metallic) * principled_schlick_weight(vabs(ih)) * vabs(ci),

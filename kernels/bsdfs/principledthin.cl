@@ -15,12 +15,13 @@
  * with F the dielectric Fresnel reflectance of eta (fresnel.cl: 0 at eta 1; beyond the critical angle 1 where
  * eta < 1), F_t = lerp(F, F_s(k / lum R0(eta)), spec_tint) with Schlick's F_s (principled.cl's), Burley's
  * diffuse with retro-reflection and the sheen principled.cl's (principled_diffuse, Rr = 2 roughness (wi . h)^2,
- * Fw the Schlick weight), and Mitsuba's flatness (Hanrahan-Krueger's fake subsurface): f_ss = 1.25 (Fss (1 /
- * (|cos_o| + |cos_i|) - 0.5) + 0.5), Fss = lerp(1, Rr / 2, Fo) lerp(1, Rr / 2, Fi). The specular lobes are 0
- * where wo and wi do not see h's front and back as Mitsuba's mac_mic_compatibility asks (the reflection: wo . h
- * and wi . h > 0; the transmission: wo . h > 0, wi . h < 0), which with wi' in h leaves part of the transmission's
- * directions without value. The sheen's lack of a 1 / pi and the transmission's k (not sqrt(k) as principled's)
- * are Mitsuba's, kept. Nothing crosses from one medium to another: no 1 / eta^2.
+ * Fw the Schlick weight), and Mitsuba's flatness (Hanrahan-Krueger's fake subsurface, principled.cl's
+ * principled_flatten): f_ss = 1.25 (Fss (1 / (|cos_o| + |cos_i|) - 0.5) + 0.5), Fss = lerp(1, Rr / 2, Fo)
+ * lerp(1, Rr / 2, Fi). The specular lobes are 0 where wo and wi do not see h's front and back as Mitsuba's
+ * mac_mic_compatibility asks (the reflection: wo . h and wi . h > 0; the transmission: wo . h > 0, wi . h < 0),
+ * which with wi' in h leaves part of the transmission's directions without value. The sheen's lack of a 1 / pi
+ * and the transmission's k (not sqrt(k) as principled's) are Mitsuba's, kept. Nothing crosses from one medium
+ * to another: no 1 / eta^2.
  *
  * Sampling (Mitsuba's): a lobe by u1 with probabilities proportional to st specular_reflectance_sampling_rate /
  * 2 (the reflection: GGX's visible normals from wo, mirrored), st specular_transmittance_sampling_rate / 2 (the
@@ -93,9 +94,7 @@ inline vec3 principledthin_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
     vint diffuse_on = active & reflect & (st < 1.0f) & (dt < 1.0f);
     vfloat fo = principled_schlick_weight(aci), fi = principled_schlick_weight(co);
     vfloat rr = 2.0f * PRINCIPLED(sp, ROUGHNESS) * ih * ih, flatness = PRINCIPLED(sp, FLATNESS);
-    vfloat fss90 = 0.5f * rr, fss = MAD(fss90 - 1.0f, fo, 1.0f) * MAD(fss90 - 1.0f, fi, 1.0f);
-    vfloat f_ss = 1.25f * (fss * (1.0f / (aci + co) - 0.5f) + 0.5f), lambert = principled_diffuse(fo, fi, rr);
-    lambert = MAD(f_ss - lambert, flatness, lambert);
+    vfloat lambert = principled_flatten(principled_diffuse(fo, fi, rr), fo, fi, rr, aci + co, flatness);
     vfloat diffuse = SELECT(zero, base * aci * M_1_PI_F * lambert, diffuse_on);
     vfloat sheen = PRINCIPLED(sp, SHEEN), sheen_tint = PRINCIPLED(sp, SHEEN_TINT);
     vfloat sheen_w = SELECT(zero, sheen * base * principled_schlick_weight(vabs(ih)) * aci, diffuse_on & (sheen > 0.0f));

@@ -40,28 +40,27 @@ Ranges, argued where they are not simply Mitsuba's:
   reaches 1 (rule 5 counts what the fit adds to its albedo below that).
 - Reflectances (`colour` and its names, `specular_reflectance`) >= 0 with no upper bound, as `colour` always
   was: what an albedo above 1 does to a path is ranges.py's rule 5.
-- `principled`'s weights (roughness, anisotropic, metallic, specular, spec_tint, sheen, sheen_tint, clearcoat,
-  clearcoat_gloss, spec_trans) in [0, 1], as Mitsuba's documentation has them ("all of the parameters except
-  sampling rates and eta should take values between 0.0 and 1.0"; its code checks none): they are blend
+- `principled`'s weights (roughness, anisotropic, metallic, specular, spec_tint, sheen, sheen_tint, flatness,
+  clearcoat, clearcoat_gloss, spec_trans) in [0, 1], as Mitsuba's documentation has them ("all of the parameters
+  except sampling rates and eta should take values between 0.0 and 1.0"; its code checks none): they are blend
   weights, and outside [0, 1] a lobe's weight turns negative (1 - metallic, 1 - spec_trans) or anisotropic's
-  aspect sqrt(1 - 0.9 a) imaginary. Roughness 0 is allowed, unlike alpha's: Mitsuba clamps the main lobe's
-  alpha = roughness^2 to 1e-3 itself (principled_terms.py), which the microfacet terms are tested at. `eta`
-  > 0 (it divides), and within ranges.py's rule 6 as the other indices; not with `specular`, which sets it
-  (Mitsuba refuses both). The sampling rates are ratios of lobe choices: main_specular_sampling_rate in
-  [2^-10, 2^10] so that the main lobes are always sampled (the reflection and transmission inside, and the
-  front's when nothing else is, have no other lobe, and the probabilities' sum must not be 0), the other two
-  in [0, 2^10]: a rate 0 leaves its lobe to the others' samples, as Mitsuba's clearcoat_sampling_rate 0 of its
-  documentation does; the bound of 2^10 on their ratio to the main one keeps a sample's weight (f / pdf, the
-  main lobes' share of pdf at least 2^-20 / 3) finite.
-- `principledthin`'s weights are principled's, in [0, 1], but `diff_trans` in [0, 2] (Mitsuba's documentation:
-  the diffuse light's share transmitted is diff_trans / 2) and `flatness` (its fake subsurface lobe, which
-  raytrace's principledthin has) in [0, 1]. Its `eta` (default 1.5) in [2^-16, 2^16]: Mitsuba checks none, but
-  the transmission's roughness is (0.65 eta - 0.35) roughness, whose GGX terms square alpha and its product with
-  a grazing direction's tangent (2^16: alpha^2 tan^2 within float32 at 1e-7 of the horizon); the Fresnel term
-  squares 1 / eta. Its four sampling rates in [2^-10, 2^10], none 0: its lobes cover different directions (the
-  glossy and the diffuse, each reflecting or transmitting), so a rate 0 leaves one with value to no sample at
-  all, and at the edges of spec_trans and diff_trans the sum of the lobes' shares would be 0 (Mitsuba's 0 / 0);
-  the bound of 2^10 keeps a sample's weight finite as principled's does.
+  aspect sqrt(1 - 0.9 a) imaginary. Roughness 0 is allowed, unlike alpha's: Mitsuba clamps the main lobe's alpha =
+  roughness^2 to 1e-3 itself (principled_terms.py), which the microfacet terms are tested at. `eta` > 0 (it
+  divides), and within ranges.py's rule 6 as the other indices; not with `specular`, which sets it (Mitsuba
+  refuses both). The sampling rates are ratios of lobe choices: main_specular_sampling_rate in [2^-10, 2^10] so
+  that the main lobes are always sampled (the reflection and transmission inside, and the front's when nothing
+  else is, have no other lobe, and the probabilities' sum must not be 0), the other two in [0, 2^10]: a rate 0
+  leaves its lobe to the others' samples, as Mitsuba's clearcoat_sampling_rate 0 of its documentation does; the
+  bound of 2^10 on their ratio to the main one keeps a sample's weight (f / pdf, the main lobes' share of pdf at
+  least 2^-20 / 3) finite.
+- `principledthin`'s weights are principled's, in [0, 1], but `diff_trans` in [0, 2] (Mitsuba's documentation: the
+  diffuse light's share transmitted is diff_trans / 2). Its `eta` (default 1.5) in [2^-16, 2^16]: Mitsuba checks
+  none, but the transmission's roughness is (0.65 eta - 0.35) roughness, whose GGX terms square alpha and its
+  product with a grazing direction's tangent (2^16: alpha^2 tan^2 within float32 at 1e-7 of the horizon); the
+  Fresnel term squares 1 / eta. Its four sampling rates in [2^-10, 2^10], none 0: its lobes cover different
+  directions (the glossy and the diffuse, each reflecting or transmitting), so a rate 0 leaves one with value to
+  no sample at all, and at the edges of spec_trans and diff_trans the sum of the lobes' shares would be 0
+  (Mitsuba's 0 / 0); the bound of 2^10 keeps a sample's weight finite as principled's does.
 """
 from dataclasses import dataclass
 
@@ -215,7 +214,7 @@ def _weight(name, field, doc, default=0.0, mitsuba=SAME, also="", texture=True):
 
 
 def _principled():
-    """principled's parameters, in Mitsuba's order (its doc's); flatness is only_default."""
+    """principled's parameters, in Mitsuba's order (its doc's)."""
     rate = "share in choosing which lobe to sample (a ratio to the other rates)"
     return (_reflectance("base_color", "the diffuse base's albedo, the metal's normal-incidence reflectance, the "
                          "tints' hue", (0.5, 0.5, 0.5), mitsuba=0.5),
@@ -237,7 +236,8 @@ def _principled():
                     "colour's hue"),
             _weight("sheen", "sheen", "a grazing sheen's weight (cloth)"),
             _weight("sheen_tint", "sheen_tint", "the share of the sheen tinted towards the colour's hue"),
-            Parameter("flatness", (), mitsuba=0.0, note="0 only: raytrace has no fake subsurface lobe"),
+            _weight("flatness", "flatness", "the share of the diffuse reflection that is Hanrahan and Krueger's "
+                    "fake subsurface scattering (flatter, brighter towards grazing) rather than Burley's"),
             _weight("clearcoat", "clearcoat", "a second, white, glossy coat's weight (GTR1 normals)"),
             _weight("clearcoat_gloss", "clearcoat_gloss", "the coat's gloss: its GTR1 roughness from 0.1 (0) "
                     "to 0.001 (1)"),
@@ -350,10 +350,11 @@ Disney's principled BSDF (Burley 2012 and 2015) as Mitsuba 3 writes it: one colo
 tinted), a metal's, a rough transmission (spec_trans: rough glass) and a clear coat, for materials from metals
 to plastics, cloth and frosted glass. Its main lobes are anisotropic GGX microfacets of alpha = roughness^2;
 eta (or specular) sets the dielectric's index. An opaque principled reflects on both sides; one that transmits
-has an inside, as glass does. Mitsuba's flatness (a fake subsurface lobe) is not supported.""",
+has an inside, as glass does. flatness turns the diffuse base towards a fake subsurface look (Hanrahan and
+Krueger's).""",
          _principled(), "principled",
          'type = "principled"\nbase_color = [0.8, 0.3, 0.2]\nroughness = 0.3\nmetallic = 0.2\nclearcoat = 0.5',
-         front_only=False, only_default=(("flatness", 0.0),)),
+         front_only=False),
     BSDF("principledthin", "thin principled (Disney's, a sheet)", """\
 Disney's principled BSDF for thin sheets (Burley 2015) as Mitsuba 3 writes it: a surface of no thickness, the
 same from both sides, such as a leaf, paper, a curtain or a pane of frosted glass. One colour and a handful of

@@ -67,9 +67,9 @@ def transmission_alphas(material):
 
 def parameters(material):
     """Material.principled: the values in types.h's PRINCIPLED_* order, float32 (principled: its main rate in
-    SPECULAR_RATE, 0 in principledthin's own; principledthin: its specular_reflectance_sampling_rate there, its
-    diff_trans halved, as Mitsuba takes it, 0 for the clearcoat and for TRANSMITS, which principled's textures
-    read)."""
+    SPECULAR_RATE, its flatness, 0 in principledthin's other own; principledthin: its
+    specular_reflectance_sampling_rate there, its diff_trans halved, as Mitsuba takes it, 0 for the clearcoat and
+    for TRANSMITS, which principled's textures read)."""
     if material.bsdf == "principledthin":
         values = (material.roughness, 0.0, material.spec_tint, material.sheen, material.sheen_tint, 0.0, 0.0,
                   material.spec_trans, material.specular_reflectance_sampling_rate, 0.0,
@@ -83,6 +83,6 @@ def parameters(material):
               material.clearcoat, clearcoat_alpha(material), material.spec_trans,
               material.main_specular_sampling_rate, material.clearcoat_sampling_rate,
               material.diffuse_reflectance_sampling_rate, material.anisotropic, float(transmits(material)),
-              0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+              material.flatness, 0.0, 0.0, 0.0, 0.0, 0.0)
     assert len(values) == PRINCIPLED_PARAMETERS
     return np.array(values, np.float32)

@@ -57,9 +57,9 @@ scene_file.py and rules.py to every value with its key:
    its weights blend): Disney's lobes add rather than share the light (the dielectric's reflection over the
    diffuse base, the clearcoat over both, the sheen), and Burley's retro-reflection gains energy towards
    grazing angles, so its albedo exceeds its colour's (its white furnace test measures a white one at up to 1.4
-   at 85 degrees, 1.18 with the default dielectric over the diffuse) and its sample weights, with the lobe
-   choice's rates, may exceed k. A principledthin's k is the same, for the same reasons (up to 1.4 too, and
-   1.28 with flatness's fake subsurface).
+   at 85 degrees, 1.18 with the default dielectric over the diffuse, 1.28 with flatness's fake subsurface) and
+   its sample weights, with the lobe choice's rates, may exceed k. A principledthin's k is the same, for the
+   same reasons (up to 1.4 too, and 1.28 with flatness).
 6. The relative index eta = int_ior / ext_ior of every BSDF that has one (the glass and the plastics), which
    the kernel is given as a float32 (packing.py) and squares (Fresnel's (1 - cos^2) / eta^2, the radiance's 1
    / eta^2 under a plastic's coat), lies within [2^-63, 2^63] (ETA_LIMIT): eta^2 and 1 / eta^2 are then normal
