@@ -92,8 +92,8 @@ typedef struct {
 #define MAP_CLEARCOAT 13
 #define MAP_CLEARCOAT_GLOSS 14
 #define MAP_SPEC_TRANS 15
-/* principledthin's own textured parameters besides those: flatness, diff_trans (its lookup halved, as Mitsuba
- * takes it) and its eta, from which the transmission's alphas derive too */
+/* flatness (principled's and principledthin's), then principledthin's own: diff_trans (its lookup halved, as
+ * Mitsuba takes it) and its eta, from which the transmission's alphas derive too */
 #define MAP_FLATNESS 16
 #define MAP_DIFF_TRANS 17
 #define MAP_PRINCIPLED_ETA 18
@@ -174,7 +174,7 @@ typedef struct {
 /* principledthin's own (raytrace/scene/principled_terms.py; it shares ROUGHNESS, SPEC_TINT, SHEEN, SHEEN_TINT,
  * SPEC_TRANS, SPECULAR_RATE as its specular_reflectance_sampling_rate and DIFFUSE_RATE; its eta in eta.x, its
  * reflection's GGX roughness in alpha, alpha_v) */
-#define PRINCIPLED_FLATNESS 13
+#define PRINCIPLED_FLATNESS 13        /* flatness (principled's too: its fake subsurface lobe) */
 #define PRINCIPLED_DIFF_TRANS 14       /* diff_trans / 2: the diffuse light's share transmitted, in [0, 1] */
 #define PRINCIPLED_TRANS_ALPHA_U 15    /* the transmission's GGX roughness, of (0.65 eta - 0.35) roughness */
 #define PRINCIPLED_TRANS_ALPHA_V 16
