@@ -251,11 +251,13 @@ inline vec3 lookup_at(const Scene *s, TextureStore ts, int l, const TexturedHits
 }
 
 #if HAS_PERTURBED_NORMALS
-/* Material m's normalmap or bumpmap on the lanes of `mask`, as Mitsuba 3's wrappers perturb the shading frame
+/* Material m's normalmap, bumpmap or both on the lanes of `mask`, as Mitsuba 3's wrappers perturb the shading frame
  * (src/bsdfs/normalmap.cpp, bumpmap.cpp): the frame (s, t, n0) of the shading normal n0, facing the shape's
  * outside, and s along dp/du made orthogonal to it; a normal map's rgb is (x, y, z) / 2 + 1/2 in that frame; a
  * bump map's gradient g (times bump_scale) tilts dp/du and dp/dv out of the tangent plane, dp/du + n0 (g.x -
- * n0.dp/du), and the normal is their cross product, on the geometric normal's side. Where the viewer wo would
+ * n0.dp/du), and the normal is their cross product, on the geometric normal's side; with both (Mitsuba's
+ * bumpmap around a normalmap, bumpmap.cpp's frame passed to the normalmap inside), the normal map's frame is the
+ * bump's: its normal, and s along its tilted dp/du. Where the viewer wo would
  * lie on different sides of n0 and of the perturbed normal, its tangential part is mirrored (Mitsuba's
  * flip_invalid_normals). sp->n becomes the perturbed normal, on sp->n0's side of the viewer (mirrored through the
  * surface on a back hit of mirrored_maps); sp->n0 keeps the shading normal for bsdf.cl's side condition and
@@ -266,20 +268,22 @@ inline void perturb_normal(const Scene *s, TextureStore ts, __global const Mater
     vec3 outside = v3(h->surface.n.x, h->surface.n.y, h->surface.n.z);
     vfloat side = SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(sp->n, outside) < 0.0f);
     vec3 n0 = v3_scale(sp->n, side); /* the shading normal, facing out */
-    vec3 dpdu = h->surface.dpdu, dpdv = h->surface.dpdv, n;
-    if (m->maps[MAP_NORMAL] >= 0) {
-        vec3 c = lookup_at(s, ts, m->maps[MAP_NORMAL], h, filter);
-        vec3 s = v3_unit_or(v3_sub(dpdu, v3_scale(n0, v3_dot(n0, dpdu))), any_perpendicular(n0));
-        vec3 t = v3_cross(n0, s);
-        n = v3_scale(s, MAD(c.x, 2.0f, -1.0f));
-        n = v3_madd(n, MAD(c.y, 2.0f, -1.0f), t);
-        n = v3_unit_or(v3_madd(n, MAD(c.z, 2.0f, -1.0f), n0), n0);
-    } else {
+    vec3 dpdu = h->surface.dpdu, dpdv = h->surface.dpdv, n = n0;
+    if (m->maps[MAP_BUMP] >= 0) { /* with both maps, Mitsuba's bumpmap around a normalmap: the bump first */
         vec2 g = lookup_gradient(ts, m->maps[MAP_BUMP], h->surface.uv);
         vec3 du = v3_madd(dpdu, m->bump_scale * g.x - v3_dot(n0, dpdu), n0);
         vec3 dv = v3_madd(dpdv, m->bump_scale * g.y - v3_dot(n0, dpdv), n0);
         n = v3_unit_or(v3_cross(du, dv), n0);
         n = v3_scale(n, SELECT((vfloat)(1.0f), (vfloat)(-1.0f), v3_dot(n, outside) < 0.0f));
+        dpdu = du; /* the bumped frame's s, which a normal map inside it takes */
+    }
+    if (m->maps[MAP_NORMAL] >= 0) { /* in the frame (s, t, n) of the normal so far */
+        vec3 c = lookup_at(s, ts, m->maps[MAP_NORMAL], h, filter);
+        vec3 s = v3_unit_or(v3_sub(dpdu, v3_scale(n, v3_dot(n, dpdu))), any_perpendicular(n));
+        vec3 t = v3_cross(n, s);
+        vec3 mapped = v3_scale(s, MAD(c.x, 2.0f, -1.0f));
+        mapped = v3_madd(mapped, MAD(c.y, 2.0f, -1.0f), t);
+        n = v3_unit_or(v3_madd(mapped, MAD(c.z, 2.0f, -1.0f), n), n);
     }
     /* Mitsuba's twosided around the map turns the directions over (z -> -z) before the map perturbs them: its
      * back sees the map's normal mirrored through the surface, on the viewer's side, where a map around twosided

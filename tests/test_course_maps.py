@@ -14,7 +14,10 @@ Mutations tried (each in a copy of the checkout; every one failed the tests name
 - course_maps.py: bump_scale left at its default 1 (not height_scale): test_height_map_is_bumpmap;
 - scene_tables.py: the material table packed from the scene's materials (not kernel_materials): both equivalence
   tests (the maps' lookups missing: flat walls);
-- rules.py: the rule against both maps in the path model dropped: test_both_maps_are_refused_in_the_path_model.
+- material.cl, perturb_normal: the normal map's frame from the unbumped dp/du with both maps:
+  test_both_maps_are_bumpmap_around_normalmap does not see it (both sides run the same kernel code), the float64
+  reference in test_perturbed_normals.py does;
+- scene_file.py: a mix of the course's and Mitsuba's maps let through: test_both_maps_are_bumpmap_around_normalmap.
 """
 import numpy as np
 import pytest
@@ -86,14 +89,19 @@ def test_other_models_keep_the_course_maps(shading):
     assert "-DHAS_PERTURBED_NORMALS=1" in stats.build_options and "-DHAS_NORMAL_MAPS=0" in stats.build_options
 
 
-def test_both_maps_are_refused_in_the_path_model():
-    """One line naming the material's height_map, from a path scene and from a Phong scene rendered in the path
-    model."""
-    both = {"normal_map": NORMALS, "height_map": HEIGHTS, "height_scale": 0.03}
-    for make in (lambda: scene(both), lambda: raytrace.render(scene(both, "phong"), spp=1, shading="path",
-                                                                             light_sampler="sobol")):
-        with pytest.raises(InputError) as info:
-            make()
-        line = str(info.value)
-        assert "\n" not in line and "materials.m.height_map = " in line and \
-            "not with normal_map in the path model" in line, line
+@at_lane_ends
+def test_both_maps_are_bumpmap_around_normalmap(lanes):
+    """Both course maps: the TOML's normalmap and bumpmap together (Mitsuba's bumpmap around a normalmap, the
+    normal map in the bumped frame: test_perturbed_normals.py checks that against float64), bit for bit; a mix of
+    the course's and Mitsuba's maps is refused in one line."""
+    a, _ = render({"normal_map": NORMALS, "height_map": HEIGHTS, "height_scale": 0.03, **UV}, lanes)
+    b, _ = render({"normalmap": {"type": "bitmap", "filename": NORMALS, "raw": True, "to_uv": TO_UV,
+                                 "wrap_mode": "mirror"},
+                   "bumpmap": {"type": "bitmap", "filename": HEIGHTS, "raw": True, "to_uv": TO_UV,
+                               "wrap_mode": "mirror"}, "bump_scale": 0.03}, lanes)
+    normal_only, _ = render({"normal_map": NORMALS, **UV}, lanes)
+    assert np.array_equal(a, b) and not np.array_equal(a, normal_only)
+    with pytest.raises(InputError) as info:
+        scene({"normal_map": NORMALS, "bumpmap": {"type": "bitmap", "filename": HEIGHTS, "raw": True}})
+    line = str(info.value)
+    assert "\n" not in line and "materials.m.normal_map = " in line and "not with bumpmap" in line, line

@@ -261,13 +261,16 @@ def shading_scene(images):
     """A floor (normalmap, seen at grazing angles so that many views fall behind its tilted normals), a wall
     facing away from the camera (bumpmap: its back side), and two ellipsoids with negated axes (as the XML loader
     makes Mitsuba's spheres: dp/du x dp/dv points in, where the rectangles' points out), one under the bump map,
-    whose cross product must be turned out, one under the normal map, whose frame is n0's, not dp/dv's."""
+    whose cross product must be turned out, one under the normal map, whose frame is n0's, not dp/dv's; and a panel
+    under both (Mitsuba's bumpmap around a normalmap: the normal map in the bumped frame)."""
     normal = {"type": "bitmap", "filename": images["normals"][0], "raw": True, "wrap_mode": "repeat",
               "to_uv": NORMAL_ROWS}
     bump = {"type": "bitmap", "filename": images["bumps"][0], "raw": True, "wrap_mode": "mirror",
             "to_uv": BUMP_ROWS}
     materials = {"nm": {"type": "diffuse", "colour": [0.6] * 3, "normalmap": normal},
-                 "bm": {"type": "diffuse", "colour": [0.6] * 3, "bumpmap": bump, "bump_scale": BUMP_SCALE}}
+                 "bm": {"type": "diffuse", "colour": [0.6] * 3, "bumpmap": bump, "bump_scale": BUMP_SCALE},
+                 "both": {"type": "diffuse", "colour": [0.6] * 3, "normalmap": normal, "bumpmap": bump,
+                          "bump_scale": BUMP_SCALE}}
     shapes = [{"type": "rectangle", "material": "nm", "center": [0.0, 0.5, 0.0], "size": [5.0, 4.0],
                "normal": [0.0, 0.0, 1.0], "tangent": [1.0, 0.0, 0.0]},
               {"type": "rectangle", "material": "bm", "center": [1.3, 1.2, 0.9], "size": [1.6, 1.8],
@@ -275,7 +278,9 @@ def shading_scene(images):
               {"type": "ellipsoid", "material": "bm", "center": [-0.9, 0.2, 0.55],
                "axes": [[-0.5, -0.1, 0.0], [0.0, -0.45, -0.1], [-0.05, 0.0, -0.5]]},
               {"type": "ellipsoid", "material": "nm", "center": [0.35, -0.3, 0.45],
-               "axes": [[-0.4, 0.0, 0.0], [0.0, -0.4, 0.0], [0.0, 0.0, -0.4]]}]
+               "axes": [[-0.4, 0.0, 0.0], [0.0, -0.4, 0.0], [0.0, 0.0, -0.4]]},
+              {"type": "rectangle", "material": "both", "center": [-1.1, 1.3, 1.2], "size": [1.4, 1.2],
+               "normal": [0.3, -0.95, 0.1], "tangent": [0.95, 0.3, 0.0]}]
     camera = {"position": [0.0, -3.0, 0.7], "look_at": [0.0, 0.3, 0.4], "up": [0.0, 0.0, 1.0], "fov": 55.0}
     table = mts.path_scene(materials, shapes, camera, width=48, height=40)
     return raytrace.load_dict(table)
@@ -341,6 +346,7 @@ def perturbed_reference(scene, images, p, d, hit):
     n0, dpdu, dpdv = surface["normal"], surface["dpdu"], surface["dpdv"]
     wo = -unit(d)
     n, bound = n0.copy(), np.full(len(p), np.inf)
+    both = material == names.index("both")
     nm, bm = material == names.index("nm"), material == names.index("bm")
     # the normal map
     texels = mts.linear_texels(images["normals"][1], True)
@@ -377,12 +383,20 @@ def perturbed_reference(scene, images, p, d, hit):
     tilt = (grad_error[:, 0] * np.linalg.norm(dv, axis=1) + grad_error[:, 1] * np.linalg.norm(du, axis=1)) / size
     bound[bm] = (2 * tilt + 64 * U * np.linalg.norm(du, axis=1) * np.linalg.norm(dv, axis=1) / size)[bm]
     bound[bm & (g["border"] <= 1e-3)] = np.inf  # the gradient jumps at cell borders: not compared
+    # both: the normal map in the bumped frame (its normal, s along the bumped dp/du); the bump's tilt error turns
+    # the frame, and the normal map's result with it, so the two bounds add
+    both_s = unit(du - bumped * dot(bumped, du)[:, None])
+    both_t = np.cross(bumped, both_s)
+    n[both] = unit(m[:, :1] * both_s + m[:, 1:2] * both_t + m[:, 2:] * bumped)[both]
+    bound[both] = (2 * tilt + 64 * U * np.linalg.norm(du, axis=1) * np.linalg.norm(dv, axis=1) / size)[both] + \
+        (4 * np.sqrt(3) * colour_error / np.linalg.norm(m, axis=1) + 64 * U)[both]
+    bound[both & (g["border"] <= 1e-3)] = np.inf
     # flip_invalid_normals, then the viewer's side
     decide = dot(wo, n0) * dot(wo, n)
-    mirrored = (decide <= 0) & (nm | bm)
+    mirrored = (decide <= 0) & (nm | bm | both)
     n[mirrored] = (2 * dot(n, n0)[:, None] * n0 - n)[mirrored]
     side = np.where(dot(wo, n0) < 0, -1.0, 1.0)[:, None]
-    return {"which": which, "nm": nm, "bm": bm, "n": n * side, "n0": n0 * side, "bound": bound,
+    return {"which": which, "nm": nm, "bm": bm, "both": both, "n": n * side, "n0": n0 * side, "bound": bound,
             "mirrored": mirrored, "decide": decide}
 
 
@@ -390,7 +404,7 @@ def perturbed_reference(scene, images, p, d, hit):
 def test_perturbed_normal_matches_mitsuba(cl_env, images, lanes):
     """shading_point's sp.n on 2048 random pixels of shading_scene against the float64 frame construction from
     the kernel's own hit points (so only the texturing is compared), sp.n0 the facing shading normal before the
-    map, sp.perturbed on exactly the mapped lanes; the lanes mix the two maps, four shapes and misses.
+    map, sp.perturbed on exactly the mapped lanes; the lanes mix the two maps and both, five shapes and misses.
 
     Bound per lane (perturbed_reference): the normal map's colour moves by the texel position's float32 error
     (delta: 16 U E + 64 U |to_uv| for u, v formed from the float32 hit, times the resolution) times the texels'
@@ -407,12 +421,13 @@ def test_perturbed_normal_matches_mitsuba(cl_env, images, lanes):
     x, y = rng.uniform(0, scene.width, 2048), rng.uniform(0, scene.height, 2048)
     got = kernel_shading(harness, scene, x, y)
     want = perturbed_reference(scene, images, got["pos"], got["dir"], np.isfinite(got["t"]))
-    mapped = want["nm"] | want["bm"]
+    mapped = want["nm"] | want["bm"] | want["both"]
     assert np.array_equal(got["perturbed"] == 1, mapped)
     hit = want["which"] >= 0
     assert np.count_nonzero(want["nm"]) > 400 and np.count_nonzero(want["bm"]) > 300
+    assert np.count_nonzero(want["both"]) > 60
     assert np.count_nonzero(want["mirrored"]) > 0.05 * np.count_nonzero(mapped)
-    for shape in range(4):
+    for shape in range(5):
         assert np.count_nonzero(want["which"] == shape) > 50, shape
     np.testing.assert_allclose(got["n0"][hit], want["n0"][hit], atol=64 * U)
     np.testing.assert_allclose(got["nrm"][~mapped & hit], got["n0"][~mapped & hit], atol=0)
@@ -646,15 +661,17 @@ def refusal(images, material):
 
 
 def test_scene_format_refuses_conflicting_maps_and_bad_scales(images):
-    """One map tilts a material's normal: normalmap with bumpmap, with the course's normal_map or height_map,
-    bumpmap with either, is refused in one line naming the second key and its value (a long one elided but
-    for its ends: the file's name shows); bump_scale must be > 0 and
-    finite."""
+    """Mitsuba's maps or the course's, not a mix: normalmap or bumpmap with the course's normal_map or
+    height_map is refused in one line naming the course's key and its value (a long one elided but for its ends:
+    the file's name shows); normalmap with bumpmap is Mitsuba's bumpmap around a normalmap (accepted: both
+    maps); bump_scale must be > 0 and finite."""
     normal = {"type": "bitmap", "filename": images["normals"][0], "raw": True}
     bump = {"type": "bitmap", "filename": images["bumps"][0], "raw": True}
     base = {"type": "diffuse", "colour": [0.5, 0.5, 0.5]}
-    for extra, key, first in (({"normalmap": normal, "bumpmap": bump}, "bumpmap", "normalmap"),
-                              ({"normalmap": normal, "normal_map": images["normals"][0]}, "normal_map", "normalmap"),
+    scene = raytrace.load_dict(mts.path_scene({"m": {**base, "normalmap": normal, "bumpmap": bump}},
+                                              [mts.panel("m")]))
+    assert sorted(slot for slot, _ in scene.materials[0].maps) == ["bump", "normal"]
+    for extra, key, first in (({"normalmap": normal, "normal_map": images["normals"][0]}, "normal_map", "normalmap"),
                               ({"bumpmap": bump, "height_map": images["bumps"][0]}, "height_map", "bumpmap"),
                               ({"bumpmap": bump, "normal_map": images["normals"][0]}, "normal_map", "bumpmap")):
         line = refusal(images, {**base, **extra})

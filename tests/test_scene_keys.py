@@ -98,13 +98,9 @@ EVERY_TEXTURE_KEY = {"type": "bitmap", "filename": "../assets/textures/bricks_co
 
 
 def radiometric(scene, shading):
-    """every_table() turned to a radiometric model: no ambient term, the light's colour a radiance; in the path
-    model, material m's normal map alone (its course maps are Mitsuba's wrappers there, one a material:
-    raytrace/scene/course_maps.py)."""
+    """every_table() turned to a radiometric model: no ambient term, the light's colour a radiance."""
     del scene["ambient"]
     scene["render"]["shading"] = shading
-    if shading == "path":
-        del scene["materials"]["m"]["height_map"], scene["materials"]["m"]["height_scale"]
     light = scene["lights"][0]
     light["radiance"] = light.pop("colour")
 

@@ -6,12 +6,13 @@ specifies (kernels/material.cl's texture_material: the normal in the uv frame of
 gradient by finite differences over the pixel's footprint, and the shading point displaced by the relief). In
 the path model they become the wrappers every BSDF there takes (material.cl's perturb_normal, bsdf.cl's
 perturbed_factor): the normal map a `normalmap`, the height map a `bumpmap` of scale height_scale, both reading
-the same image through the material's uv transform and wrap mode with the render's filter. So the path model has
-one way to tilt a shading normal, Mitsuba's: its frame (dp/du made orthogonal to the shading normal), its
-invalid-normal mirror, its side rule, the shadowing term at the tilted normal's terminator, and a bump's
-gradient from the finest level's bilinear cell. What the path model leaves out of the course's: the
-displacement (a bump map moves no point, as in Mitsuba and pbrt-v4) and the two maps together (a material is
-given one map that tilts its normal: rules.py refuses both in the path model).
+the same image through the material's uv transform and wrap mode with the render's filter; both maps together,
+Mitsuba's bumpmap around a normalmap (the normal map in the bumped frame, where the course tilts the
+normal-mapped normal by the height's gradient). So the path model has one way to tilt a shading normal,
+Mitsuba's: its frame (dp/du made orthogonal to the shading normal), its invalid-normal mirror, its side rule, the
+shadowing term at the tilted normal's terminator, and a bump's gradient from the finest level's bilinear cell.
+What the path model leaves out of the course's: the displacement (a bump map moves no point, as in Mitsuba and
+pbrt-v4).
 
 The scene keeps the course's fields; the kernel's materials are derived here, for the model the render renders
 (render() may change the shading model of a scene), by Features.of and the packing alike."""

@@ -100,7 +100,7 @@ TABLES = {
         Key("normal_map", "path", "tangent-space normal map, rgb = (n + 1) / 2 (the path model's normalmap)",
             default=None),
         Key("height_map", "path", "relief >= 0 (first channel; 8-bit codes read as [0, 1]; the path model's "
-            "bumpmap, not with normal_map there)", default=None,
+            "bumpmap)", default=None,
             also="with height_scale"),
         Key("height_scale", "number", "scene units of relief per unit of the height map", default=None, low=0,
             also="with height_map"),

@@ -69,10 +69,6 @@ def _shading(scene, places):
     for material, reader in zip(scene.materials, places.materials):
         if material.bsdf != "diffuse":
             _path_only(reader, "type", material.bsdf, scene.shading)
-        if scene.shading == "path" and material.normal_map >= 0 and material.height_map >= 0:
-            reader.fail("height_map", scene.textures[material.height_map].path, "not with normal_map in the path "
-                        "model, where they are Mitsuba's normalmap and bumpmap and one map tilts a material's "
-                        "normal (course_maps.py): give one")
     for light, reader in zip(scene.lights, places.lights):
         if light.material != -1:
             _path_only(reader, "material", scene.materials[light.material].name, scene.shading)

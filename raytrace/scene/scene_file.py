@@ -476,9 +476,12 @@ def _textured(r, kind, textures):
         r.fail("bump_scale", r.raw("bump_scale"), "only with bumpmap")
     if r.has("mirrored_maps") and not (r.has("normalmap") or r.has("bumpmap")):
         r.fail("mirrored_maps", r.raw("mirrored_maps"), "only with normalmap or bumpmap")
-    perturbing = [key for key in (*PERTURBING, "normal_map", "height_map") if r.has(key)]
-    if len(perturbing) > 1 and set(perturbing) & set(PERTURBING):
-        r.fail(perturbing[1], r.raw(perturbing[1]), f"not with {perturbing[0]}: one map tilts a material's normal")
+    # Mitsuba's maps (both: its bumpmap around a normalmap) or the course's (both: the course's pair), not a mix
+    mitsuba = [key for key in PERTURBING if r.has(key)]
+    course = [key for key in ("normal_map", "height_map") if r.has(key)]
+    if mitsuba and course:
+        r.fail(course[0], r.raw(course[0]), f"not with {mitsuba[0]}: a material's normal is tilted by Mitsuba's "
+               "maps or by the course's, not both")
     return Reader(r.path, table, r.prefix, "materials.NAME"), maps
 
 
