@@ -29,7 +29,8 @@ kept_faces keeping every row fails it too, and _mesh_shape's attributes left unf
 test_faces_dropped_by_the_scenes_transform_take_their_values; attribute_groups without the extra field passed
 over after a prefix met before, or without the rgba scheme's "_color", fails the grouping table; integer colours
 taken as codes fails the face colours' test; rules' size check left out lets the alpha, rgba and normal map
-cases through.
+cases through; geometry.triangle_soup packing an unread rgba attribute fails
+test_an_unread_rgba_mesh_beside_a_reading_one.
 """
 import struct
 
@@ -384,3 +385,21 @@ def test_attribute_refusals(tmp_path):
             raytrace.load_dict(table)
         assert (e.value.key, e.value.value) == (key, value) and words in str(e.value), str(e.value)
         assert "\n" not in str(e.value)
+
+
+def test_an_unread_rgba_mesh_beside_a_reading_one(tmp_path):
+    """A mesh whose vertex_color has four values (MeshLab writes red, green, blue, alpha) under a plain material,
+    beside a mesh whose material reads vertex_color (three values): the scene renders, each mesh as its own,
+    the rgba values unread (they once broke the attribute table's packing with a numpy error)."""
+    vertices, quads = quad_sheet()
+    colours = np.full((len(vertices), 3), 0.5)
+    rgba = write_polygons(tmp_path / "rgba.ply", vertices, quads, vertex=rgb_properties(
+        "float", ("red", "green", "blue", "alpha"), np.hstack([colours, colours[:, :1]])))
+    rgb = write_polygons(tmp_path / "rgb.ply", vertices, quads, vertex=rgb_properties(
+        "float", ("red", "green", "blue"), colours))
+    table = scene(rgb)
+    table["materials"]["plain"] = {"type": "diffuse", "reflectance": 0.25}
+    table["shapes"].append({"type": "mesh", "file": str(rgba), "material": "plain", "translate": [0.0, 0.0, -1.0]})
+    image, stats = raytrace.render(raytrace.load_dict(table), lanes=1)
+    assert stats.extra["nonfinite_values"] == 0 and np.asarray(image).max() > 0.4
+

@@ -48,11 +48,15 @@ def triangle_soup(scene):
     normals = [flat(slice(a, b)) if n is None else n for n, a, b in zip(normals, starts[:-1], starts[1:])]
     attributes = {}
     for name in attribute_names(scene.materials):  # one value broadcast to three channels, as Mitsuba's eval
-        parts = [np.zeros((len(tris), 3, 3))] + [
-            np.zeros((len(shape.mesh.faces), 3, 3)) if name not in shape.mesh.attributes
-            else np.broadcast_to(shape.mesh.corner_values(name), (len(shape.mesh.faces), 3, 3))
-            for shape in scene.meshes]
-        attributes[name] = np.concatenate(parts)
+        def corners(mesh):
+            """A mesh's values of `name` per corner; zeros where it has none, or has them in a size no material
+            of its reads (rules.py checks the sizes of those its materials read: an rgba colour unread is no
+            error, and no lookup reaches it)."""
+            values = mesh.corner_values(name) if name in mesh.attributes else None
+            if values is None or values.shape[-1] not in (1, 3):
+                return np.zeros((len(mesh.faces), 3, 3))
+            return np.broadcast_to(values, (len(mesh.faces), 3, 3))
+        attributes[name] = np.concatenate([np.zeros((len(tris), 3, 3))] + [corners(s.mesh) for s in scene.meshes])
     return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material), attributes)
 
 
