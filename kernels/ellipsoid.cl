@@ -65,7 +65,8 @@ inline vfloat ellipsoid_roots(__global const Ellipsoid *e, Ray r, vec3 *q, vfloa
     return SELECT((vfloat)(INFINITY), t, (disc >= 0.0f) & (t > 0.0f));
 }
 
-/* ellipsoid_roots' hit alone: the closest-hit and any-hit tests' (the other root is not formed). */
+/* ellipsoid_roots' hit alone: the closest-hit and any-hit tests' (the other root's outputs are unused, and
+ * inlined, dropped by the compiler). */
 inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
 {
     vfloat t_beyond;

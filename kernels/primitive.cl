@@ -4,9 +4,9 @@
  * (intersect.cl) both use.
  *
  * See-through surfaces (HAS_NULLS: a `mask`, or Mitsuba's `null`): a shadow segment that crosses one passes
- * where the wrappers at that crossing resolve to `null` (material.cl's passes_through: the same choice by a
- * hash of the crossing that a ray meeting the surface makes, with the mask's opacity there), and is blocked
- * elsewhere. That is pbrt-v4's stochastic alpha test of shadow rays (section 7.1.1's alpha, HashFloat over
+ * where the wrappers at that crossing resolve to `null` (material.cl's passes_through: resolved as for a ray
+ * meeting the surface, with the blends' probabilities and the mask's opacity there, drawn by a hash of the
+ * crossing and the segment, a draw of the shadow ray's own), and is blocked elsewhere. That is pbrt-v4's stochastic alpha test of shadow rays (section 7.1.1's alpha, HashFloat over
  * the ray): the expected visibility is the product of the crossings' transparencies. Mitsuba 3's `path`
  * stops shadow rays at every surface, and light behind a leaf reaches a point only through its BSDF's
  * samples passing the `null` bounce; here the light samples reach it too, and the two are weighted by MIS
@@ -203,17 +203,20 @@ inline int see_through(const Scene *s, int m)
 }
 
 /* The lanes of `crossed` that a crossing of a see-through surface at t (point p, normal n: shape `index` of
- * `kind`) blocks: those whose material there is not `null`, and those that have passed more such surfaces
- * than they may; the others pass, and are counted. */
+ * `kind`) blocks: those that have passed as many such surfaces as they may (their crossings are not resolved),
+ * and those whose material there is not `null`; the others pass, and are counted. */
 inline vint crossing_blocks(const Scene *s, PrimitiveRay *p, vint crossed, vfloat t, vec3 q, vec3 n,
                             int material, int kind, int index, vfloat b1, vfloat b2)
 {
+    vint spare = crossed & (p->passed < p->passes);
+    if (!ANY(spare))
+        return crossed;
     Hit hit = no_hit();
-    hit_update(&hit, p->r, SELECT((vfloat)(INFINITY), t, crossed), q, 0.0f, n, material,
+    hit_update(&hit, p->r, SELECT((vfloat)(INFINITY), t, spare), q, 0.0f, n, material,
                (Vec3f){0.0f, 0.0f, 0.0f}, kind, index, b1, b2);
-    vint through = crossed & passes_through(s, p->r, hit);
+    vint through = spare & passes_through(s, p->r, hit);
     p->passed = SELECT(p->passed, p->passed + 1, through);
-    return crossed & (!through | (p->passed > p->passes));
+    return crossed & !through;
 }
 #endif
 

@@ -1,6 +1,7 @@
 """Shadow rays through see-through surfaces (kernels/primitive.cl's crossing_blocks, material.cl's
-passes_through): a shadow segment passes a crossing of a `mask` where the wrappers there resolve to `null` (the
-choice a ray meeting the surface makes, by a hash of the crossing), at most `passes` times; and the path model's
+passes_through): a shadow segment passes a crossing of a `mask` where the wrappers there resolve to `null` (as for
+a ray meeting the surface, with the mask's opacity there, drawn by a hash of the crossing and the segment), at
+most `passes` times; and the path model's
 use of it (kernels/path_tracing.cl): light samples through masks, MIS against the BSDF's samples that pass the
 `null` bounce as from the vertex before, and max_depth counting each pass as Mitsuba does.
 
@@ -20,10 +21,10 @@ the variances from 16 independent renders of 8 spp, each scale at a false-failur
 
 Mutations tried (each in a copy of the kernels; every one failed the tests named, and the copy was discarded):
 - primitive.cl, crossing_blocks: every crossing blocks (Mitsuba's shadow rays): every test;
-- primitive.cl, crossing_blocks: `p->passed > p->passes` -> `>=` (one pass fewer): the pass fractions, the null,
-  the budgets, the sphere's crossings, the checkerboard;
-- primitive.cl, crossing_blocks: the budget ignored: the pass fractions (a budget of 0), the budgets, the floor
-  inside the sphere at max_depth 2;
+- primitive.cl, crossing_blocks: one pass fewer allowed (`passed > passes` then, now `passed < passes - 1`): the
+  pass fractions, the null, the budgets, the sphere's crossings, the checkerboard;
+- primitive.cl, crossing_blocks: one pass more allowed (`passed <= passes`): the pass fractions (a budget of 0),
+  the budgets, the floor inside the sphere at max_depth 2;
 - primitive.cl, blocks_ellipsoid: the far root not tested (one crossing per ellipsoid): the sphere's crossings;
 - path_tracing.cl: the MIS state not kept at a pass (`passing` never set): both renders (light counted twice);
 - path_tracing.cl: `travelled` not added to the light's distance: the light through the plane;
@@ -229,8 +230,8 @@ def lit_floor_scene(opacity):
 
 @at_lane_ends
 def test_light_through_a_masked_plane(lanes):
-    """The floor lit through a plane of opacity 0.5 against 0.5 times the floor without it: per-pixel and
-    image-mean z within 5. The BSDF samples that pass the plane's null bounce reach the light at the distance
+    """The floor lit through a plane of opacity 0.5 against 0.5 times the floor without it, judged per pixel and
+    per tile at ALPHA. The BSDF samples that pass the plane's null bounce reach the light at the distance
     from the floor (`travelled`), which their MIS weight against the light samples needs."""
     opacity = 0.5
     masked, masked_var = chunked(lit_floor_scene(opacity), lanes, 8)
