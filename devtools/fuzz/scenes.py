@@ -243,7 +243,7 @@ PATH_KEYS = {"diffuse": ("reflectance",), "conductor": CONDUCTOR_KEYS, "dielectr
              "roughdielectric": IOR_KEYS + ROUGH_KEYS, "plastic": PLASTIC_KEYS,
              "roughplastic": PLASTIC_KEYS + ROUGH_KEYS[:2]}
 PRINCIPLED_WEIGHTS = ("roughness", "anisotropic", "metallic", "spec_trans", "specular", "spec_tint", "sheen",
-                      "sheen_tint", "clearcoat", "clearcoat_gloss")
+                      "sheen_tint", "flatness", "clearcoat", "clearcoat_gloss")
 PRINCIPLED_RATES = ("diffuse_reflectance_sampling_rate", "main_specular_sampling_rate", "clearcoat_sampling_rate")
 PATH_KEYS["principled"] = ("base_color", *PRINCIPLED_WEIGHTS, "eta", *PRINCIPLED_RATES)
 THIN_WEIGHTS = ("roughness", "anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness")
