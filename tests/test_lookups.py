@@ -305,13 +305,21 @@ CHECKER = {"type": "checkerboard", "color0": 0.1, "color1": 0.3}
      "wrap_mode)"),
     ({"type": "mask", "bsdf": "d", "opacity": {**BITMAP, "wrap_mode": "periodic"}},
      "materials.b.opacity.wrap_mode", "periodic", "must be one of: repeat, mirror, clamp"),
-], ids=["roughplastic-alpha", "plastic-ior", "no-filename", "checker-raw", "bitmap-color1", "unknown", "wrap"])
+    ({"type": "dielectric", "colour": CHECKER, "texture": "FILE"}, "materials.b.texture", "FILE",
+     "not with a textured colour: one texture gives a material's colour"),
+    ({"type": "principled", "base_color": CHECKER, "texture": "FILE"}, "materials.b.texture", "FILE",
+     "not with a textured base_color: one texture gives a material's colour"),
+], ids=["roughplastic-alpha", "plastic-ior", "no-filename", "checker-raw", "bitmap-color1", "unknown", "wrap",
+        "colour-map-and-colour", "colour-map-and-base_color"])
 def test_refusals(images, material, key, value, problem):
     """A texture where the parameter takes a value only (a roughplastic's alpha, whose transmittance table is
     found for one number, as in Mitsuba; an index of refraction), a bitmap without its image, another kind's key,
-    an unknown key, an unknown wrap mode: one line naming the key's path and its value."""
+    an unknown key, an unknown wrap mode, a colour map (the course's `texture`) beside a textured colour (the
+    kernel read the one and the range checks the other: the fuzz suite found a colour of 2^31 rendering inf):
+    one line naming the key's path and its value."""
     material = {k: {**v, "filename": images["rgb8"][0]} if isinstance(v, dict) and v.get("filename") == "FILE"
-                else v for k, v in material.items()}
+                else images["rgb8"][0] if v == "FILE" else v for k, v in material.items()}
+    value = images["rgb8"][0] if value == "FILE" else value
     with pytest.raises(raytrace.InputError) as e:
         raytrace.load_dict(mts.path_scene({"d": {"colour": [0.5] * 3}, "b": material}, [mts.panel("d")]))
     assert (e.value.source, e.value.key, e.value.value) == ("load_dict()", key, value)

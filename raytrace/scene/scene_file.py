@@ -476,6 +476,12 @@ def _textured(r, kind, textures):
         r.fail("bump_scale", r.raw("bump_scale"), "only with bumpmap")
     if r.has("mirrored_maps") and not (r.has("normalmap") or r.has("bumpmap")):
         r.fail("mirrored_maps", r.raw("mirrored_maps"), "only with normalmap or bumpmap")
+    coloured = [key for key, value in r.table.items() if texture_lookups.is_texture(value) and
+                (key == "colour" or (kind not in WRAPPERS and key not in PERTURBING and
+                                     bsdfs.texture_slot(bsdfs.BY_NAME[kind], key) == "colour"))]
+    if coloured and r.has("texture"):  # the kernel would read the one, the range checks the other
+        r.fail("texture", r.raw("texture"), f"not with a textured {coloured[0]}: one texture gives a material's "
+               "colour")
     # Mitsuba's maps (both: its bumpmap around a normalmap) or the course's (both: the course's pair), not a mix
     mitsuba = [key for key in PERTURBING if r.has(key)]
     course = [key for key in ("normal_map", "height_map") if r.has(key)]
