@@ -402,7 +402,7 @@ def test_a_sheared_rectangle_is_two_triangles(tmp_path):
 
 
 @pytest.mark.parametrize("extra, where, message", [
-    ('<shape type="cube"/>', "shape cube", "not supported (raytrace renders: rectangle, obj, ply, sphere)"),
+    ('<shape type="disk"/>', "shape disk", "not supported (raytrace renders: rectangle, obj, ply, cube, sphere)"),
     ('<shape type="rectangle"><bsdf type="pplastic"/></shape>', "bsdf pplastic", "raytrace renders: diffuse"),
     ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
     ('<shape type="sphere"><emitter type="area"/></shape>', "area emitter on sphere", "lights are rectangles"),
@@ -508,17 +508,17 @@ def test_convert_to_toml_renders_the_same_bits(tmp_path):
 
 
 def test_bad_input_on_the_command_line_is_exit_2_and_no_file(tmp_path):
-    write(tmp_path, scene_text('<shape type="cube"/>'))
+    write(tmp_path, scene_text('<shape type="disk"/>'))
     cases = [(("-D", "depth"), "command line: -D = 'depth': must be NAME=VALUE"),
              ((), "scene.xml:3: <integer> value = '$depth': undefined parameter $depth"),
-             (("-D", "depth=2"), "shape cube: not supported")]
+             (("-D", "depth=2"), "shape disk: not supported")]
     for extra, message in cases:
         r = run("render", "scene.xml", *extra, "-o", "out.exr", cwd=tmp_path)
         assert r.returncode == 2 and message in r.stderr and r.stderr.count("\n") == 1, r.stderr
         assert not (tmp_path / "out.exr").exists()
     r = run("render", "scene.xml", "-D", "depth=2", "--ignore-unsupported", "--spp", 1, "-o", "out.exr",
             "--no-progress", cwd=tmp_path)
-    assert r.returncode == 0 and "raytrace: warning:" in r.stderr and "shape cube" in r.stderr
+    assert r.returncode == 0 and "raytrace: warning:" in r.stderr and "shape disk" in r.stderr
     assert (tmp_path / "out.exr").exists()
 
 
@@ -537,3 +537,51 @@ def test_convert_to_xml_and_its_refusals(tmp_path):
         r = run("convert", *args, cwd=tmp_path)
         assert r.returncode == 2 and message in r.stderr and r.stderr.count("\n") == 1, r.stderr
     assert not (tmp_path / "c.xml").exists() and not (tmp_path / "box.toml").exists()
+
+
+@pytest.mark.parametrize("matrix, flip, outward", [
+    ("1 0 0 0  0 1 0 0  0 0 1 0  0 0 0 1", False, True),
+    ("1 0 0 0  0 1 0 0  0 0 1 0  0 0 0 1", True, False),
+    ("-0.5 0 0 0.2  0 0.3 0.1 0  0 0 0.4 0  0 0 0 1", False, True),  # mirrored (det < 0) and sheared
+    ("-0.5 0 0 0.2  0 0.3 0.1 0  0 0 0.4 0  0 0 0 1", True, False)], ids=["plain", "flipped", "mirror", "both"])
+def test_cube_is_mitsubas_mesh(tmp_path, matrix, flip, outward):
+    """Mitsuba's cube (src/shapes/cube.cpp): 12 triangles of the 24 corners [-1, 1]^3 under to_world, each face's
+    uv over [0, 1]^2 as Mitsuba's texcoords; every triangle's front (its winding's normal) points out of the cube
+    (from its centre), also under a mirroring to_world, and in where flip_normals turns Mitsuba's normals. The
+    corpus scene scenes/mitsuba/cube.xml judges the rendering (the uv's orientation, flip_normals) against
+    Mitsuba."""
+    extra = (f'<shape type="cube"><boolean name="flip_normals" value="{str(flip).lower()}"/>'
+             f'<transform name="to_world"><matrix value="{matrix}"/></transform><ref id="white"/></shape>')
+    scene = load(tmp_path, extra)
+    m = np.array(matrix.split(), float).reshape(4, 4)
+    triangles = scene.triangles[-12:]
+    assert len(scene.triangles) == 12
+    centre = m[:3, 3]
+    corners = np.c_[np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float), np.ones(8)]
+    np.testing.assert_allclose(sorted(map(tuple, np.unique(np.round(np.concatenate(
+        [t.vertices for t in triangles]), 12), axis=0))), sorted(map(tuple, np.round((corners @ m.T)[:, :3], 12))))
+    for t in triangles:
+        v = np.asarray(t.vertices)
+        normal = np.cross(v[1] - v[0], v[2] - v[0])
+        assert (np.dot(normal, v.mean(axis=0) - centre) > 0) == outward
+        assert sorted(map(tuple, np.asarray(t.uv).tolist())) in ([(0, 0), (0, 1), (1, 0)], [(0, 1), (1, 0), (1, 1)],
+                                                                 [(0, 0), (1, 0), (1, 1)], [(0, 0), (0, 1), (1, 1)])
+
+
+def test_inline_mesh_uv_must_match_the_vertices():
+    """A scene file's inline mesh takes per-vertex uv (the cube's), one pair per vertex: another count is refused
+    in one line; given, each triangle carries its corners' pairs."""
+    table = {"camera": {"position": [0.0, -3.0, 0.0], "look_at": [0.0, 0.0, 0.0], "up": [0.0, 0.0, 1.0],
+                        "fov": 40.0},
+             "image": {"width": 4, "height": 4}, "render": {"shading": "path"},
+             "environment": {"type": "constant", "radiance": 1.0}, "lights": [],
+             "materials": {"m": {"colour": [0.5, 0.5, 0.5]}},
+             "shapes": [{"type": "mesh", "material": "m", "vertices": [[0, 0, 0], [1, 0, 0], [0, 0, 1]],
+                         "faces": [[0, 1, 2]], "uv": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]}]}
+    scene = raytrace.load_dict(table)
+    np.testing.assert_array_equal(scene.triangles[0].uv, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    table["shapes"][0]["uv"] = [[0.0, 0.0], [1.0, 0.0]]
+    with pytest.raises(InputError) as info:
+        raytrace.load_dict(table)
+    assert str(info.value) == ("load_dict(): shapes[0].uv = [[0.0, 0.0], [1.0, 0.0]]: must hold one pair per vertex "
+                               "(3), not 2")

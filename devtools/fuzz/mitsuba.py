@@ -771,7 +771,7 @@ INCLUDED = (  # the files an <include> may name, with what they hold
     ("empty.xml", TextFile("empty.xml", "")), ("folder", Directory("folder")), ("/dev/null", None), ("", None),
     (".", None), ("bytes.xml", BytesFile("bytes.xml", b"\xff\xfe<\x00s\x00")), ("mesh0.obj", None),
     ("object.xml", TextFile("object.xml", '<bsdf type="diffuse" id="m0"/>')),
-    ("unsupported.xml", TextFile("unsupported.xml", '<scene version="3.0.0"><shape type="cube"/></scene>')),
+    ("unsupported.xml", TextFile("unsupported.xml", '<scene version="3.0.0"><shape type="disk"/></scene>')),
     ("lone.xml", TextFile("lone.xml", '<float name="fov" value="30"/>')),
     ("deep.xml", TextFile("deep.xml", '<scene version="3.0.0">' + '<bsdf type="twosided">' * 3000
                           + '<bsdf type="diffuse"/>' + "</bsdf>" * 3000 + "</scene>")),

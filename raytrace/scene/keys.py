@@ -137,7 +137,8 @@ TABLES = {
         Key("uv", "vectors", "per-vertex texture coordinates", length=2, count=3, default=None)],
     'shapes[] type = "mesh"': [
         Key("vertices", "vectors", "the vertices", length=3),
-        Key("faces", "faces", "triples of vertex indices", also="indices in range, faces with an area")],
+        Key("faces", "faces", "triples of vertex indices", also="indices in range, faces with an area"),
+        Key("uv", "vectors", "per-vertex texture coordinates", length=2, default=None, also="one per vertex")],
     'shapes[] type = "mesh", from a file or generated': [
         Key("file", "path", "an OBJ or PLY file (ascii or binary), from the scene file's folder", default=None,
             also="exactly one of file and generate"),

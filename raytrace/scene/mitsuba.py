@@ -118,6 +118,10 @@ PLUGINS = {
         Param("bsdf", "diffuse", "shapes[] material"),
         Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
         only_default=(("flip_normals", False),)),
+    "cube": Plugin("shape", "[-1, 1]^3 as Mitsuba's mesh of 12 triangles, each face's uv over [0, 1]^2, under "
+                   "to_world", (
+        _TRANSFORM, Param("flip_normals", False, 'shapes[] type = "mesh" faces', "turns the faces inside out"),
+        Param("bsdf", "diffuse", "shapes[] material"))),
     "sphere": Plugin("shape", "a sphere (raytrace's ellipsoid)", (
         Param("center", (0.0, 0.0, 0.0), 'shapes[] type = "ellipsoid" center'),
         Param("radius", 1.0, 'shapes[] type = "ellipsoid" axes'), _TRANSFORM,
@@ -796,6 +800,12 @@ class _Translator:
                 shape = {"type": "rectangle", **frame}
             for k in shape:
                 self.origin(f"{prefix}.{k}", node, key, "to_world")
+        elif name == "cube":
+            vertices, faces, uv = _cube(m, self.boolean(params.get("flip_normals", False), node, key,
+                                                        "flip_normals"))
+            shape = {"type": "mesh", "vertices": vertices, "faces": faces, "uv": uv}
+            for k in ("vertices", "faces", "uv"):
+                self.origin(f"{prefix}.{k}", node, key, "to_world")
         elif name in ("obj", "ply"):
             filename = self.string(params.get("filename"), node, key, "filename")
             smooth = not params.get("face_normals", False)
@@ -904,6 +914,28 @@ class _Translator:
             for k, param in (("filename", "filename"), ("scale", "scale"), ("up", "to_world"), ("forward", "to_world")):
                 self.origin(f"environment.{k}", node, key, param)
         self.table["environment"] = env
+
+
+# Mitsuba 3's cube (src/shapes/cube.cpp): 24 vertices, four per face, each face's (u, v) over [0, 1]^2, 12 triangles
+# wound counter-clockwise seen from outside
+CUBE_VERTICES = [(1, -1, -1), (1, -1, 1), (-1, -1, 1), (-1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, 1, 1), (1, 1, 1),
+                 (1, -1, -1), (1, 1, -1), (1, 1, 1), (1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1), (-1, -1, 1),
+                 (-1, -1, 1), (-1, 1, 1), (-1, 1, -1), (-1, -1, -1), (1, 1, -1), (1, -1, -1), (-1, -1, -1),
+                 (-1, 1, -1)]
+CUBE_UV = [(0, 1), (1, 1), (1, 0), (0, 0)] * 6
+CUBE_FACES = [(0, 1, 2), (3, 0, 2), (4, 5, 6), (7, 4, 6), (8, 9, 10), (11, 8, 10), (12, 13, 14), (15, 12, 14),
+              (16, 17, 18), (19, 16, 18), (20, 21, 22), (23, 20, 22)]
+
+
+def _cube(m, flip):
+    """(vertices, faces, uv) of Mitsuba's cube under the 4 x 4 matrix m, as a scene table's mesh. Its shading
+    normals are to_world's normals of the faces, outwards; a triangle's front is its winding's, which a mirroring
+    to_world turns: the faces are turned back then, and turned over where flip_normals turns Mitsuba's normals
+    in."""
+    vertices = (np.c_[np.array(CUBE_VERTICES, np.float64), np.ones(24)] @ m.T)[:, :3]
+    inward = (np.linalg.det(m[:3, :3]) < 0) != bool(flip)
+    faces = [[a, c, b] if inward else [a, b, c] for a, b, c in CUBE_FACES]
+    return vertices.tolist(), faces, [list(map(float, t)) for t in CUBE_UV]
 
 
 def _rectangle(m, flip):

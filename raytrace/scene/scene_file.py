@@ -238,6 +238,9 @@ def _add_shape(scene, r, material_index):
     elif kind == "mesh":
         vertices = r.vectors("vertices")
         faces = r.raw("faces")
+        uv = r.vectors("uv") if r.has("uv") else None
+        if uv is not None and len(uv) != len(vertices):
+            r.fail("uv", r.raw("uv"), f"must hold one pair per vertex ({len(vertices)}), not {len(uv)}")
         if not isinstance(faces, list) or not faces:
             r.fail("faces", faces, "must be a list of index triples")
         for i, face in enumerate(faces):
@@ -245,7 +248,7 @@ def _add_shape(scene, r, material_index):
                     isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(vertices) for k in face)):
                 r.fail(f"faces[{i}]", face, f"must be 3 vertex indices in [0, {len(vertices) - 1}]")
             check_triangle(r, f"faces[{i}]", vertices[face])
-            scene.triangles.append(Triangle(vertices[face], m))
+            scene.triangles.append(Triangle(vertices[face], m, None if uv is None else uv[face]))
     else:
         axes = r.vectors("axes")
         check_axes(r, axes)
