@@ -585,3 +585,17 @@ def test_inline_mesh_uv_must_match_the_vertices():
         raytrace.load_dict(table)
     assert str(info.value) == ("load_dict(): shapes[0].uv = [[0.0, 0.0], [1.0, 0.0]]: must hold one pair per vertex "
                                "(3), not 2")
+
+
+def test_flip_normals_turns_a_mesh_file_inside_out(tmp_path):
+    """flip_normals on an obj or ply shape (Mitsuba's Mesh flip_normals): every triangle wound the other way, and
+    a smooth mesh's normals turned, against the same file unflipped."""
+    for kind, mesh in (("obj", "cube.obj"), ("ply", "torus.ply")):
+        path = ROOT / "scenes" / "mitsuba" / "meshes" / mesh
+        shapes = {flip: load(tmp_path, f'<shape type="{kind}"><string name="filename" value="{path}"/>'
+                                       f'<boolean name="flip_normals" value="{str(flip).lower()}"/>'
+                                       '<ref id="white"/></shape>').meshes[-1].mesh
+                  for flip in (False, True)}
+        np.testing.assert_array_equal(shapes[True].faces, shapes[False].faces[:, ::-1])
+        if shapes[False].normals is not None:
+            np.testing.assert_array_equal(shapes[True].normals, -shapes[False].normals)

@@ -155,7 +155,9 @@ TABLES = {
             "around each position: no seam where a file splits a vertex) or angle (angle-weighted over the faces "
             "around each vertex of the file, as Mitsuba 3 computes them)", default="area", choices=("area", "angle")),
         Key("flip_tex_coords", "boolean", "turn the file's texture coordinates upside down: v -> 1 - v (Mitsuba's "
-            "OBJ reader does by default)", default=False)],
+            "OBJ reader does by default)", default=False),
+        Key("flip_normals", "boolean", "turn every face inside out: its front becomes its back, its normals turn "
+            "(Mitsuba's flip_normals)", default=False)],
     "generate": [Key("shape", "string", "the procedural mesh", choices=GENERATED_SHAPES),
                  Key("triangles", "integer", "about this many triangles", low=2, high=MAX_GENERATED_TRIANGLES,
                      also="within the memory there is")],

@@ -107,17 +107,17 @@ PLUGINS = {
         _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
                           "false: smooth (smooth = true)"),
         Param("flip_tex_coords", True, 'shapes[] type = "mesh", from a file or generated flip_tex_coords'),
+        Param("flip_normals", False, 'shapes[] type = "mesh", from a file or generated flip_normals'),
         Param("bsdf", "diffuse", "shapes[] material"),
-        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
-        only_default=(("flip_normals", False),)),
+        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle"))),
     "ply": Plugin("shape", "a PLY mesh (ascii or binary)", (
         Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
         Param("flip_tex_coords", False, 'shapes[] type = "mesh", from a file or generated flip_tex_coords'),
         _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
                           "false: smooth (smooth = true)"),
+        Param("flip_normals", False, 'shapes[] type = "mesh", from a file or generated flip_normals'),
         Param("bsdf", "diffuse", "shapes[] material"),
-        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle")),
-        only_default=(("flip_normals", False),)),
+        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle"))),
     "cube": Plugin("shape", "[-1, 1]^3 as Mitsuba's mesh of 12 triangles, each face's uv over [0, 1]^2, under "
                    "to_world", (
         _TRANSFORM, Param("flip_normals", False, 'shapes[] type = "mesh" faces', "turns the faces inside out"),
@@ -810,8 +810,10 @@ class _Translator:
             filename = self.string(params.get("filename"), node, key, "filename")
             smooth = not params.get("face_normals", False)
             flip = self.boolean(params.get("flip_tex_coords", name == "obj"), node, key, "flip_tex_coords")
+            flip_normals = self.boolean(params.get("flip_normals", False), node, key, "flip_normals")
             shape = {"type": "mesh", "file": self.path(filename), "matrix": m.tolist(), "smooth": smooth,
-                     **({"vertex_normals": "angle"} if smooth else {}), **({"flip_tex_coords": True} if flip else {})}
+                     **({"vertex_normals": "angle"} if smooth else {}), **({"flip_tex_coords": True} if flip else {}),
+                     **({"flip_normals": True} if flip_normals else {})}
             self.origin(f"{prefix}.file", node, key, "filename")
             self.origin(f"{prefix}.matrix", node, key, "to_world")
         else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius
@@ -855,7 +857,8 @@ class _Translator:
             at = self.where(node, key).of("filename")
             mesh, _ = mesh_file.load_mesh(Path(self.folder, filename), at, "filename")
             vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
-            frame = _quad(vertices, mesh.faces)
+            flip = self.boolean(params.get("flip_normals", False), node, key, "flip_normals")
+            frame = _quad(vertices, mesh.faces[:, ::-1] if flip else mesh.faces)
         else:
             frame, at = None, self.where(node, key).at
         if frame is None:

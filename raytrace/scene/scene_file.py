@@ -317,8 +317,9 @@ def _mesh_shape(r, material):
     vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
     key = "matrix" if r.has("matrix") else "scale"
     faces, collapsed, kept = _transformed_faces(r, key, vertices, mesh.faces)
-    if np.linalg.det(m[:3, :3]) < 0:  # a mirror: keep the faces counter-clockwise seen from the front
-        faces = faces[:, ::-1]
+    flip = r.boolean("flip_normals")
+    if (np.linalg.det(m[:3, :3]) < 0) != flip:  # a mirror keeps the faces counter-clockwise seen from the front,
+        faces = faces[:, ::-1]                 # flip_normals turns them
     smooth = r.boolean("smooth")
     computed = r.string("vertex_normals")
     if r.has("vertex_normals") and not smooth:
@@ -326,7 +327,7 @@ def _mesh_shape(r, material):
     normals = None
     if smooth:  # normals transform by the inverse transpose
         computed = {"area": meshes.vertex_normals, "angle": meshes.angle_weighted_normals}[computed]
-        normals = (mesh.normals @ np.linalg.inv(m[:3, :3]) if mesh.normals is not None
+        normals = (mesh.normals @ np.linalg.inv(m[:3, :3]) * (-1.0 if flip else 1.0) if mesh.normals is not None
                    else computed(vertices, faces))
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
