@@ -8,12 +8,14 @@ Every test runs on fixed inputs and seeds: each passes or fails deterministicall
 import numpy as np
 import pytest
 
+import raytrace
 from raytrace import structs
 from raytrace.renderer.packing import material_structs
 from raytrace.scene import principled_terms
 from raytrace.scene.model import Material
 
 import bsdf_support
+import lookup_support as mts
 import principled_reference as pr
 from devtools.peers import mitsuba_bsdf
 from helpers import LANE_ENDS, ROOT, at_lane_ends, lane_id, runnable_lane_widths
@@ -416,3 +418,19 @@ def test_scene_file_mitsuba_xml_and_writer(tmp_path):
     with pytest.raises(InputError, match="eta = 1.33: not with specular"):
         raytrace.load_file(both)
     assert '<float name="flatness" value="0.3" />' in text  # Mitsuba's m_has_flatness: given, not 0
+
+
+@at_lane_ends
+@pytest.mark.parametrize("bsdf", ["principled", "principledthin"])
+def test_a_colour_below_float32s_normals_renders_finite(lanes, bsdf):
+    """A base colour whose luminance lies below float32's smallest normal number (a texel of 1e-39, found by the
+    fuzz suite through a colour texture): the tint's 1 / lum overflowed to inf and k inf to inf or NaN in every
+    pixel; the tint is white there, as where lum is 0, and every value is finite. Mutation-checked: the tint's
+    test back at lum > 0 makes every pixel non-finite."""
+    for colour in ([1e-39, 0.0, 0.0], [0.0, 0.0, 5e-39]):
+        table = mts.path_scene({"m": {"type": bsdf, "base_color": colour, "spec_tint": 1.0, "sheen": 1.0,
+                                      "sheen_tint": 1.0}},
+                               [mts.panel("m"), {"type": "ellipsoid", "material": "m", "center": [0.0, -0.8, 0.0],
+                                                 "axes": [[0.3, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, 0.0, 0.3]]}])
+        image, stats = raytrace.render(raytrace.load_dict(table), spp=4, lanes=lanes)
+        assert stats.extra["nonfinite_values"] == 0 and np.all(np.isfinite(np.asarray(image))), colour

@@ -122,11 +122,13 @@ inline vfloat principled_gtr1(vfloat a, vfloat cos_h)
     return SELECT((vfloat)(0.0f), d, d * cos_h > 1e-20f);
 }
 
-/* The lobes principledthin.cl shares. The tint: the colour over its luminance (white where that is 0). */
+/* The lobes principledthin.cl shares. The tint: the colour over its luminance (white where that is 0, as
+ * Mitsuba's, and where it is below float32's smallest normal number: 1 / lum would overflow to inf, and k inf
+ * to inf or NaN, where each k / lum is at most 1 / 0.072169; the fuzz suite found such a colour texture). */
 inline vec3 principled_tint(vec3 k)
 {
     vfloat lum = MAD(0.212671f, k.x, MAD(0.715160f, k.y, 0.072169f * k.z));
-    return v3_select(v3_splat(1.0f, 1.0f, 1.0f), v3_scale(k, 1.0f / lum), lum > 0.0f);
+    return v3_select(v3_splat(1.0f, 1.0f, 1.0f), v3_scale(k, 1.0f / lum), lum >= 0x1p-126f);
 }
 
 /* Burley's diffuse with retro-reflection, (1 - Fi/2)(1 - Fo/2) + Rr (Fo + Fi + Fo Fi (Rr - 1)), of the Schlick
