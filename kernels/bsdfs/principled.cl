@@ -208,7 +208,7 @@ inline vec3 principled_eval(ShadingPoint sp, vec3 wo, vec3 wi, vfloat *pdf)
     vfloat clearcoat = PRINCIPLED(sp, CLEARCOAT), cc_alpha = PRINCIPLED(sp, CLEARCOAT_ALPHA);
     vfloat d_cc = principled_gtr1(cc_alpha, h.z);
     vfloat g_cc = microfacet_g(ggx, (vfloat)(0.25f), (vfloat)(0.25f), lo, li, h);
-    vfloat coat = 0.25f * clearcoat * MAD(0.96f, principled_schlick(oh, eta), 0.04f) * d_cc * g_cc * vabs(ci);
+    vfloat coat = 0.25f * clearcoat * MAD(0.96f, w, 0.04f) * d_cc * g_cc * vabs(ci); /* (w: the main lobe's) */
     coat = SELECT(zero, coat, compatible_r & front & (clearcoat > 0.0f));
 
     /* the diffuse base (Burley's retro-reflection, flattened towards the fake subsurface) and the sheen, on the
