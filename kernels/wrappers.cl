@@ -14,32 +14,23 @@
 #ifndef WRAPPERS_CL
 #define WRAPPERS_CL
 
+#include "samplers.cl"
 #if HAS_LOOKUPS
 #include "lookups.cl"
 #endif
 
-/* One round of a 32-bit integer hash (Wellons' lowbias32 finaliser) over h and the word x. */
-inline vuint hash_word(vuint h, vuint x)
-{
-    h ^= x;
-    h ^= h >> 16;
-    h *= 0x7feb352dU;
-    h ^= h >> 15;
-    h *= 0x846ca68bU;
-    return h ^ (h >> 16);
-}
-
-/* A number in [0, 1) from the bits of p, d and the node: 24 bits of the hash. */
+/* A number in [0, 1) from the bits of p, d and the node: samplers.cl's hash folded over each word, 24 bits of
+ * the result. */
 inline vfloat blend_number(vec3 p, vec3 d, vint node)
 {
     vuint h = AS_VUINT(node) * 0x9e3779b9U;
-    h = hash_word(h, AS_VUINT(p.x));
-    h = hash_word(h, AS_VUINT(p.y));
-    h = hash_word(h, AS_VUINT(p.z));
-    h = hash_word(h, AS_VUINT(d.x));
-    h = hash_word(h, AS_VUINT(d.y));
-    h = hash_word(h, AS_VUINT(d.z));
-    return CONVERT_VFLOAT(AS_VINT(h >> 8)) * (1.0f / 16777216.0f);
+    h = hash(h ^ AS_VUINT(p.x));
+    h = hash(h ^ AS_VUINT(p.y));
+    h = hash(h ^ AS_VUINT(p.z));
+    h = hash(h ^ AS_VUINT(d.x));
+    h = hash(h ^ AS_VUINT(d.y));
+    h = hash(h ^ AS_VUINT(d.z));
+    return fixed_to_unit(h);
 }
 
 #if HAS_LOOKUPS
