@@ -12,10 +12,6 @@
 #include "mipmap.cl"
 #include "surface.cl"
 
-/* Luminance of linear sRGB (Rec. 709 primaries, as Mitsuba's `luminance`): a float parameter's value of an RGB
- * texture, Mitsuba's eval_1. Grey stays grey: the weights sum to 1. */
-inline vfloat luminance(vec3 c) { return MAD(c.x, 0.212671f, MAD(c.y, 0.715160f, c.z * 0.072169f)); }
-
 /* Lookup l's colour at uv, whose pixel sample's footprint in (u, v) is duv; render_filter is the render's
  * texture filter (FILTER_*), which a lookup of filter -1 takes. Every lane computes. A float parameter's lookup
  * (luminance set) gives its value thrice: an image's luminance, a checkerboard colour's mean, as Mitsuba's

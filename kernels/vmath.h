@@ -120,4 +120,8 @@ inline int normal_square(float d) { return d >= 0x1p-126f && d < INFINITY; }
 inline float3 normalize3(float3 v) { float d = dot3(v, v); return normal_square(d) ? v * rsqrt1(d) : normalize(v); }
 inline float length_of(float2 v) { float d = v.x * v.x + v.y * v.y; return normal_square(d) ? d * rsqrt1(d) : length(v); }
 
+/* Luminance of linear sRGB (Rec. 709 primaries, as Mitsuba's `luminance`): a float parameter's value of an RGB
+ * texture (lookups.cl, Mitsuba's eval_1), the principled BSDFs' tint. Grey stays grey: the weights sum to 1. */
+inline vfloat luminance(vec3 c) { return MAD(c.x, 0.212671f, MAD(c.y, 0.715160f, c.z * 0.072169f)); }
+
 #endif

@@ -127,7 +127,7 @@ inline vfloat principled_gtr1(vfloat a, vfloat cos_h)
  * to inf or NaN, where each k / lum is at most 1 / 0.072169; the fuzz suite found such a colour texture). */
 inline vec3 principled_tint(vec3 k)
 {
-    vfloat lum = MAD(0.212671f, k.x, MAD(0.715160f, k.y, 0.072169f * k.z));
+    vfloat lum = luminance(k);
     return v3_select(v3_splat(1.0f, 1.0f, 1.0f), v3_scale(k, 1.0f / lum), lum >= 0x1p-126f);
 }
 

@@ -130,9 +130,12 @@ def attribute_names(materials):
                               if lookup.kind == "mesh_attribute"))
 
 
+LUMINANCE = (0.212671, 0.715160, 0.072169)  # Mitsuba's luminance weights (kernels/vmath.h's luminance)
+
+
 def luminance(rgb):
-    """Mitsuba's luminance of linear sRGB (kernels/lookups.cl's)."""
-    return float(np.dot(rgb, (0.212671, 0.715160, 0.072169)))
+    """Mitsuba's luminance of linear sRGB (kernels/vmath.h's)."""
+    return float(np.dot(rgb, LUMINANCE))
 
 
 def texture_mean(texture):
@@ -143,7 +146,7 @@ def texture_mean(texture):
 def texture_luminances(texture):
     """The luminance of every texel of a texture's finest level, as the kernel decodes them: the range a float
     parameter's filtered lookups stay within (their weights are convex)."""
-    return texture_rgb(texture) @ np.array([0.212671, 0.715160, 0.072169])
+    return texture_rgb(texture) @ np.array(LUMINANCE)
 
 
 def texture_rgb(texture):
