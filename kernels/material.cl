@@ -343,15 +343,16 @@ inline void principled_lookups(TextureStore ts, __global const Material *m, int 
         sp->eta.x = SELECT(sp->eta.x, vmin(vmax(e, 0x1p-16f), 0x1p16f), mask);
     }
     const int rough = m->maps[MAP_ROUGHNESS] >= 0 || m->maps[MAP_ANISOTROPIC] >= 0;
+    const int thin = m->bsdf == BSDF_PRINCIPLEDTHIN && (rough || m->maps[MAP_PRINCIPLED_ETA] >= 0);
+    if (!rough && !thin)
+        return;
+    vfloat aspect = sqrt(1.0f - 0.9f * sp->principled[PRINCIPLED_ANISOTROPIC]);
     if (rough) {
-        vfloat aspect = sqrt(1.0f - 0.9f * sp->principled[PRINCIPLED_ANISOTROPIC]);
         vfloat r = sp->principled[PRINCIPLED_ROUGHNESS], r2 = r * r;
         sp->alpha = SELECT(sp->alpha, vmax((vfloat)(1e-3f), r2 / aspect), mask);
         sp->alpha_v = SELECT(sp->alpha_v, vmax((vfloat)(1e-3f), r2 * aspect), mask);
     }
-    if (m->bsdf == BSDF_PRINCIPLEDTHIN && (rough || m->maps[MAP_PRINCIPLED_ETA] >= 0)) {
-        /* the transmission's, of the roughness scaled by 0.65 eta - 0.35 (principled_terms.transmission_alphas) */
-        vfloat aspect = sqrt(1.0f - 0.9f * sp->principled[PRINCIPLED_ANISOTROPIC]);
+    if (thin) { /* the transmission's, of the roughness scaled by 0.65 eta - 0.35 (principled_terms.py) */
         vfloat r = (0.65f * sp->eta.x - 0.35f) * sp->principled[PRINCIPLED_ROUGHNESS], r2 = r * r;
         sp->principled[PRINCIPLED_TRANS_ALPHA_U] = SELECT(sp->principled[PRINCIPLED_TRANS_ALPHA_U],
                                                           vmax((vfloat)(1e-3f), r2 / aspect), mask);
