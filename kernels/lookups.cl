@@ -12,6 +12,13 @@
 #include "mipmap.cl"
 #include "surface.cl"
 
+/* A lookup's texture coordinates (s, t) of the surface's (u, v): its to_uv rows m (t down the image). */
+inline vec2 lookup_st(__global const float *m, vec2 uv)
+{
+    vec2 st = {MAD(uv.x, m[0], MAD(uv.y, m[1], m[2])), MAD(uv.x, m[3], MAD(uv.y, m[4], m[5]))};
+    return st;
+}
+
 /* Lookup l's colour at uv, whose pixel sample's footprint in (u, v) is duv; render_filter is the render's
  * texture filter (FILTER_*), which a lookup of filter -1 takes. Every lane computes. A float parameter's lookup
  * (luminance set) gives its value thrice: an image's luminance, a checkerboard colour's mean, as Mitsuba's
@@ -20,7 +27,7 @@ inline vec3 lookup_value(TextureStore ts, int l, vec2 uv, UVDerivatives duv, int
 {
     __global const TextureLookup *t = &ts.lookups[l];
     __global const float *m = t->to_uv;
-    vec2 st = {MAD(uv.x, m[0], MAD(uv.y, m[1], m[2])), MAD(uv.x, m[3], MAD(uv.y, m[4], m[5]))};
+    vec2 st = lookup_st(m, uv);
     vec3 c;
     if (t->kind == LOOKUP_CHECKERBOARD) {
         /* Mitsuba's checkerboard: colour0 where the fractions of s and t lie on the same side of 1/2 (its
@@ -61,7 +68,7 @@ inline vec2 lookup_gradient(TextureStore ts, int l, vec2 uv)
     Levels level = mip_levels(ts, t->texture, (vint)(0));
     int encoding = ts.textures[t->texture].encoding;
     vfloat w = CONVERT_VFLOAT(level.width), hgt = CONVERT_VFLOAT(level.height);
-    vec2 st = {MAD(uv.x, m[0], MAD(uv.y, m[1], m[2])), MAD(uv.x, m[3], MAD(uv.y, m[4], m[5]))};
+    vec2 st = lookup_st(m, uv);
     vfloat x = reduce_coordinate(st.x * w - 0.5f, level.width, t->wrap);
     vfloat y = reduce_coordinate(st.y * hgt - 0.5f, level.height, t->wrap);
     vfloat fx = vfloor(x), fy = vfloor(y);
