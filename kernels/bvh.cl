@@ -177,7 +177,7 @@ inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settle
 inline vint bvh_occluded(const Scene *s, int i, Ray r, uint skip, vint active PASSES_PARAMETER)
 {
     BoxRay b = box_ray(r);
-    PrimitiveRay p = shadow_primitive_ray(r PASSES(passes));
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)));
     vint settled = !active;
     NodeStack todo = {.top = 0};
     if (!enters(s, i, r, b, skip, settled))

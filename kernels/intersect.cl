@@ -93,7 +93,7 @@ inline vint occluded(const Scene *s, Ray r, uint skip, vint active PASSES_PARAME
 #if HAS_BVH
     return bvh_occluded(s, 0, r, skip, active PASSES(passes));
 #else
-    PrimitiveRay p = shadow_primitive_ray(r PASSES(passes));
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)));
     vint settled = !active;
     for (int kind = SHAPE_RECTANGLE; kind <= SHAPE_ELLIPSOID; ++kind)
         for (int i = 0; i < shape_count(s, kind) && !ALL(settled); ++i)

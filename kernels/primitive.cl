@@ -159,7 +159,8 @@ inline PrimitiveRay primitive_ray(Ray r)
 }
 
 /* A shadow segment's PrimitiveRay. With HAS_NULLS the shadow tests take the number of see-through surfaces
- * their segments may pass, as one more parameter, PASSES_PARAMETER, and argument, PASSES(x); without, none. */
+ * their segments may pass, as one more parameter, PASSES_PARAMETER, and argument, PASSES(x); without, none. The
+ * traversals give inactive lanes none: their crossings are not resolved (their answers are not kept). */
 #if HAS_NULLS
 #define PASSES(x) , x
 #define PASSES_PARAMETER , vint passes

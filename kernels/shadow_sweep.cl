@@ -164,7 +164,7 @@ inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uin
     if (leaves->n < 0)
         return bvh_occluded(s, leaves->start, r, skip, active PASSES(passes));
     BoxRay b = box_ray(r);
-    PrimitiveRay p = shadow_primitive_ray(r PASSES(passes));
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)));
     vint settled = !active;
     for (int l = 0; l < leaves->n; ++l) {
         int i = leaves->leaf[l];
