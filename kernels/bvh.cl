@@ -174,10 +174,10 @@ inline int enters(const Scene *s, int j, Ray r, BoxRay b, uint skip, vint settle
  * through the stack. Against testing each child when it is popped, this saves time on mesh_cornell and the
  * 10^6-triangle torus of `bench --scaling`, and changes nothing beyond the noise on scene 0 (measured in commit
  * 3377fc4). */
-inline vint bvh_occluded(const Scene *s, int i, Ray r, uint skip, vint active PASSES_PARAMETER)
+inline vint bvh_occluded(const Scene *s, int i, Ray r, uint skip, vint active PASSES_PARAMETER OWN_PARAMETER)
 {
     BoxRay b = box_ray(r);
-    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)));
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)) OWN(own));
     vint settled = !active;
     NodeStack todo = {.top = 0};
     if (!enters(s, i, r, b, skip, settled))

@@ -32,6 +32,12 @@ inline float light_scale(__global const Light *light)
     return 4.0f * light->shape.half_x * light->shape.half_y * M_1_PI_F;
 }
 
+/* An emitting shape's sample (emitters.cl), of density pdf per solid angle: cos(theta_s) / (pi pdf). */
+inline vfloat emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n, vint active)
+{
+    return v3_dot(sp.n, l) * M_1_PI_F / pdf;
+}
+
 #include "light_sampling.cl"
 
 /* Radiance along r from its hit, shaded at sp (albedo k times E / pi); *rays counts the shadow rays traced

@@ -12,6 +12,31 @@
 typedef struct { int n; } SweptLeaves; /* without a BVH: every shape (n = -1) */
 #endif
 
+#if HAS_SHAPE_EMITTERS
+/* The lanes whose hit is on an emitting shape (its material's emitter, types.h): the radiance it emits towards
+ * the ray from its front side (the back is black), and the emitter, which the path model's MIS weight needs;
+ * where the emitter has no BSDF the hit gets no material, and ends a path as a light does. */
+inline void hit_emission(const Scene *s, Hit *hit)
+{
+    int material[LANES], back[LANES], emitter[LANES];
+    Lanes3 emitted = v3_spill(hit->emitted);
+    VSTORE(hit->material, material);
+    VSTORE(hit->backface, back);
+    for (int i = 0; i < LANES; ++i) {
+        emitter[i] = material[i] >= 0 ? s->materials[material[i]].emitter : -1;
+        if (emitter[i] < 0)
+            continue;
+        __global const Emitter *e = &s->emitters[emitter[i]];
+        set_lane3(&emitted, i, back[i] ? (float3)(0.0f) : f3(e->radiance));
+        if (!e->reflects)
+            material[i] = -1;
+    }
+    hit->emitted = v3_fill(&emitted);
+    hit->material = VLOADT(vint, material);
+    hit->emitter = VLOADT(vint, emitter);
+}
+#endif
+
 #if !HAS_BVH
 /* How many shapes of `kind` the scene has: the loop over every shape, for scenes too small for a BVH. */
 inline int shape_count(const Scene *s, int kind)
@@ -55,6 +80,10 @@ ALWAYS_INLINE Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
         hit.emitted = v3_select(hit.emitted, v3_splat(0.0f, 0.0f, 0.0f), back);
 #endif
     }
+#if HAS_SHAPE_EMITTERS
+    if (ANY(hit.material >= 0))
+        hit_emission(s, &hit);
+#endif
     return hit;
 }
 
@@ -88,12 +117,12 @@ inline uint rectangles_out_of_reach(const Scene *s, __global const Light *light,
  * light (shading.cl). Lights do not block. Only the `active` lanes are traced (the others answer 0), and the
  * test stops as soon as every one of them is blocked. With HAS_NULLS a segment may pass `passes` see-through
  * surfaces (primitive.cl). */
-inline vint occluded(const Scene *s, Ray r, uint skip, vint active PASSES_PARAMETER)
+inline vint occluded(const Scene *s, Ray r, uint skip, vint active PASSES_PARAMETER OWN_PARAMETER)
 {
 #if HAS_BVH
-    return bvh_occluded(s, 0, r, skip, active PASSES(passes));
+    return bvh_occluded(s, 0, r, skip, active PASSES(passes) OWN(own));
 #else
-    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)));
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)) OWN(own));
     vint settled = !active;
     for (int kind = SHAPE_RECTANGLE; kind <= SHAPE_ELLIPSOID; ++kind)
         for (int i = 0; i < shape_count(s, kind) && !ALL(settled); ++i)
@@ -128,7 +157,7 @@ inline vint occluded_among(const Scene *s, const SweptLeaves *candidates, Ray r,
 #if HAS_BVH
     return swept_occluded(s, candidates, r, skip, active PASSES(passes));
 #else
-    return occluded(s, r, skip, active PASSES(passes));
+    return occluded(s, r, skip, active PASSES(passes) OWN(-1));
 #endif
 }
 

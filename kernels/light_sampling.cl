@@ -11,6 +11,9 @@
 
 #include "lights.cl"
 #include "material.cl"
+#if HAS_SHAPE_EMITTERS
+#include "emitters.cl"
+#endif
 #if LIGHT_SOLID_ANGLE
 #include "spherical_rectangle.cl"
 /* The model samples a light by the solid angle it subtends where that is accurate (spherical_rectangle.cl),
@@ -26,6 +29,51 @@
  * grid_floor, leaves the bench --scaling tori unchanged (most of their time in traversal) and costs a little
  * with 1 light sample; the same bits. A group of 2 was slower than 4 (measured in commit 9fec4db). */
 #define LIGHT_SAMPLE_GROUP 4
+
+#if HAS_SHAPE_EMITTERS
+/* The emitting shapes' share of lights_sum (emitters.cl): each one's n samples from its own stream, after the
+ * rectangular lights' streams, weighted by the model's emitter_weight (the sample's value over its density per
+ * solid angle, pdf), from the origin `origin` off the surface. */
+inline vec3 emitters_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, vec3 origin,
+                         __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
+{
+    vec3 total = v3_splat(0.0f, 0.0f, 0.0f);
+    const int n_samples = s->params->light_samples;
+    for (int ei = 0; ei < s->params->n_emitters && ANY(surface); ++ei) {
+        __global const Emitter *e = &s->emitters[ei];
+        SampleStream stream = next_stream(ps, s->params->light_sampler, n_samples);
+        /* a sphere cannot block the segments to the points of it its origin sees (primitive.cl's OWN) */
+        const int own = e->kind == SHAPE_ELLIPSOID ? SHAPE_REFERENCE(SHAPE_ELLIPSOID, e->index) : -1;
+#if LIGHT_VALUE_VEC3
+        vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
+#else
+        vfloat sum = 0.0f;
+#endif
+        for (int j = 0; j < n_samples; ++j) {
+            vec2 u = stream_2d(light_samples, s->params->light_sampler, stream, (vint)(j));
+            EmitterSample es = sample_emitter(s, e, sp.p, u, surface);
+            vec3 l = v3_direction(v3_sub(es.p, sp.p));
+            vint lit = surface & (es.pdf > 0.0f) & sample_counts(sp, l, es.n);
+            if (!ANY(lit))
+                continue;
+            *rays += MASK_TO_ONE(lit);
+            lit &= !occluded(s, shadow_segment(origin, es.p, es.err, es.n), 0u, lit PASSES(sp.passes) OWN(own));
+#if LIGHT_VALUE_VEC3
+            sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), emitter_weight(sp, l, v, es.pdf, n_samples, lit),
+                                        lit));
+#else
+            sum += SELECT((vfloat)(0.0f), emitter_weight(sp, l, v, es.pdf, n_samples, lit), lit);
+#endif
+        }
+#if LIGHT_VALUE_VEC3
+        total = v3_add(total, v3_mul(v3_scale(sum, 1.0f / n_samples), v3_uniform(e->radiance)));
+#else
+        total = v3_madd(total, sum * (1.0f / n_samples), v3_uniform(e->radiance));
+#endif
+    }
+    return total;
+}
+#endif
 
 /* sum over lights of colour (light_scale / N) sum_j V_j sample_weight_j, for the lanes of `surface`, seen
  * along -v; *rays counts the shadow rays traced per lane. The models see each sample as w = q - p and its unit
@@ -104,7 +152,10 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         total = v3_madd(total, sum * (light_scale(light) / n_samples), v3_uniform(light->colour));
 #endif
     }
-    ps->dimension = dimension + s->params->n_lights;
+#if HAS_SHAPE_EMITTERS
+    total = v3_add(total, emitters_sum(s, sp, v, surface, origin, light_samples, ps, rays));
+#endif
+    ps->dimension = dimension + s->params->n_lights + s->params->n_emitters;
     return total;
 }
 

@@ -84,6 +84,17 @@ inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, ve
 
 inline float light_scale(__global const Light *light) { return 4.0f * light->shape.half_x * light->shape.half_y; }
 
+#if HAS_SHAPE_EMITTERS
+/* An emitting shape's sample (emitters.cl): f cos(theta_s) / p_light, p_light its density per solid angle, times
+ * its MIS weight against the BSDF's own sample of the direction: x = p_bsdf / (n p_light). */
+inline vec3 emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n, vint active)
+{
+    vfloat pdf_b;
+    vec3 value = bsdf_eval_pdf(sp, v, l, active, &pdf_b);
+    return v3_scale(value, power_weight(pdf_b / ((float)n * pdf)) / pdf);
+}
+#endif
+
 #include "light_sampling.cl"
 #if HAS_ENVIRONMENT
 #include "environment.cl"
@@ -125,6 +136,21 @@ inline vfloat hit_light_solid_angle(const Scene *s, Hit hit, vec3 o)
 }
 #endif
 
+#if HAS_SHAPE_EMITTERS
+/* The density per solid angle with which the light sampling at `ref` would have chosen each lane's hit on an
+ * emitting shape (emitters.cl), met at `distance` from ref with |cos(theta_l)| = cos_l; 0 elsewhere. */
+inline vfloat hit_emitter_pdf(const Scene *s, Hit hit, vec3 ref, vfloat distance, vfloat cos_l, vint lanes)
+{
+    vfloat pdf = 0.0f;
+    for (int ei = 0; ei < s->params->n_emitters; ++ei) {
+        vint here = lanes & (hit.emitter == ei);
+        if (ANY(here))
+            pdf = SELECT(pdf, emitter_pdf(s, &s->emitters[ei], ref, distance, cos_l), here);
+    }
+    return pdf;
+}
+#endif
+
 #if HAS_ENVIRONMENT
 /* The lanes of `active` whose ray from o along the unit d leaves the scene: no shape and no light meets it
  * before it is beyond every coordinate the scene has (the segment to o + 4 extent d, |o| being within
@@ -132,7 +158,7 @@ inline vfloat hit_light_solid_angle(const Scene *s, Hit hit, vec3 o)
 inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active PASSES_PARAMETER)
 {
     Ray r = {o, v3_scale(d, 4.0f * s->params->scene_extent)};
-    vint blocked = occluded(s, r, 0u, active PASSES(passes));
+    vint blocked = occluded(s, r, 0u, active PASSES(passes) OWN(-1));
     vfloat dt, u, v;
     for (int i = 0; i < s->params->n_lights; ++i) {
         vfloat t = intersect_rectangle(&s->lights[i].shape, r, (vfloat)(1.0f), &dt, &u, &v);
@@ -164,8 +190,8 @@ typedef struct {
 #if HAS_ENVIRONMENT
     vfloat cos_s;
 #endif
-#if LIGHT_SOLID_ANGLE
-    vec3 p;
+#if LIGHT_SOLID_ANGLE || HAS_SHAPE_EMITTERS
+    vec3 p; /* the vertex the ray left (the camera's rays: any value, their light counts whole) */
 #endif
 } PathState;
 
@@ -215,7 +241,15 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes)
     vfloat solid_angle = hit_light_solid_angle(s, hit, path->p); /* p_light = 1 / solid_angle there */
     x = SELECT(x, (float)n_light / (solid_angle * pdf), solid_angle > 0.0f);
 #endif
-    vfloat w = SELECT(power_weight(x), (vfloat)(1.0f), (area == 0.0f) | specular);
+    vint weighed = area > 0.0f; /* a light was hit */
+#if HAS_SHAPE_EMITTERS /* or an emitting shape: x = n p_light / p_bsdf, p_light per solid angle */
+    vint on_emitter = lanes & (hit.emitter >= 0) & !specular;
+    if (ANY(on_emitter))
+        x = SELECT(x, (float)n_light * hit_emitter_pdf(s, hit, path->p, distance, cos_l, on_emitter) / pdf,
+                   on_emitter);
+    weighed |= on_emitter;
+#endif
+    vfloat w = SELECT((vfloat)(1.0f), power_weight(x), weighed & !specular);
     const vint seen = max_depth != 0 ? lanes : (vint)(0); /* max_depth 0: nothing, not even the emitters */
 #if HAS_ENVIRONMENT
     vint escaped = seen & (hit.t == INFINITY);
@@ -324,7 +358,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
 #if HAS_ENVIRONMENT
     path->cos_s = SELECT(cos_s, path->cos_s, passing);
 #endif
-#if LIGHT_SOLID_ANGLE
+#if LIGHT_SOLID_ANGLE || HAS_SHAPE_EMITTERS
     path->p = v3_select(sp.p, path->p, passing);
 #endif
     return alive;

@@ -38,6 +38,9 @@ typedef struct {
     vint kind, index; /* SHAPE_* and the shape's index in its table */
     vfloat b1, b2;    /* barycentrics of a triangle hit */
 #endif
+#if HAS_SHAPE_EMITTERS
+    vint emitter;     /* the Emitter of the shape hit (intersect.cl's hit_emission), -1 for none */
+#endif
 } Hit;
 
 /* Keep the nearer of the current hit and a candidate at t_new, point p within err of the surface, with normal
@@ -128,6 +131,9 @@ inline Hit no_hit(void)
     hit.kind = hit.index = (vint)(0);
     hit.b1 = hit.b2 = (vfloat)(0.0f);
 #endif
+#if HAS_SHAPE_EMITTERS
+    hit.emitter = (vint)(-1);
+#endif
     return hit;
 }
 
@@ -143,6 +149,10 @@ typedef struct {
 #if HAS_NULLS
     vint passed, passes;
 #endif
+#if HAS_SHAPE_EMITTERS
+    int own; /* a shadow segment towards a point of an emitting shape: that shape, SHAPE_REFERENCE(kind, index),
+              * where it cannot block the segment (emitters.cl), else -1 */
+#endif
 } PrimitiveRay;
 
 inline PrimitiveRay primitive_ray(Ray r)
@@ -154,6 +164,9 @@ inline PrimitiveRay primitive_ray(Ray r)
 #endif
 #if HAS_NULLS
     p.passed = p.passes = (vint)(0);
+#endif
+#if HAS_SHAPE_EMITTERS
+    p.own = -1;
 #endif
     return p;
 }
@@ -168,11 +181,24 @@ inline PrimitiveRay primitive_ray(Ray r)
 #define PASSES(x)
 #define PASSES_PARAMETER
 #endif
-inline PrimitiveRay shadow_primitive_ray(Ray r PASSES_PARAMETER)
+/* With HAS_SHAPE_EMITTERS they take the emitting shape the segments end on likewise, OWN_PARAMETER and OWN(x):
+ * a sphere's sampled point is on the side of it the segment's origin sees (emitters.cl), so that the convex
+ * sphere cannot block the segment, and its own roots near the end are not tested against the end's rounding. */
+#if HAS_SHAPE_EMITTERS
+#define OWN(x) , x
+#define OWN_PARAMETER , int own
+#else
+#define OWN(x)
+#define OWN_PARAMETER
+#endif
+inline PrimitiveRay shadow_primitive_ray(Ray r PASSES_PARAMETER OWN_PARAMETER)
 {
     PrimitiveRay p = primitive_ray(r);
 #if HAS_NULLS
     p.passes = passes;
+#endif
+#if HAS_SHAPE_EMITTERS
+    p.own = own;
 #endif
     return p;
 }
@@ -315,6 +341,10 @@ ALWAYS_INLINE vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, i
         return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_rectangle(s, p, index));
 #endif
 #if HAS_ELLIPSOIDS
+#if HAS_SHAPE_EMITTERS
+    if (kind == SHAPE_ELLIPSOID && p->own == SHAPE_REFERENCE(SHAPE_ELLIPSOID, index))
+        return (vint)(0);
+#endif
     if (kind == SHAPE_ELLIPSOID)
         return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p, index));
 #endif

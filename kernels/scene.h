@@ -21,7 +21,8 @@
 #define HAS_PRINCIPLED_VALUES (HAS_PRINCIPLED || HAS_PRINCIPLEDTHIN)
 #define HAS_MICROFACETS (HAS_ROUGH_CONDUCTORS || HAS_ROUGH_DIELECTRICS || HAS_ROUGH_PLASTICS || HAS_PRINCIPLED_VALUES)
 #define HAS_COATS (HAS_PLASTICS || HAS_ROUGH_PLASTICS)
-#define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS || HAS_WRAPPERS || HAS_PRINCIPLED_VALUES)
+#define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS || HAS_WRAPPERS || HAS_PRINCIPLED_VALUES \
+                       || HAS_SHAPE_EMITTERS) /* an emitting shape's back side is black */
 /* shading points carry a BSDF's own values: any BSDF besides diffuse */
 #define HAS_BSDF_PARAMETERS (HAS_CONDUCTORS || HAS_DIELECTRICS || HAS_THIN_DIELECTRICS || HAS_MICROFACETS || HAS_COATS \
                              || HAS_NULLS || HAS_PRINCIPLED_VALUES)
@@ -43,6 +44,8 @@ typedef struct {
     __global const TriangleAttribute *attributes; /* mesh attributes, per triangle (LOOKUP_MESH_ATTRIBUTE) */
     __global const Ellipsoid *ellipsoids;
     __global const Light *lights;
+    __global const Emitter *emitters;                  /* HAS_SHAPE_EMITTERS: area emitters on shapes */
+    __global const EmitterTriangle *emitter_triangles; /* their meshes' triangles (emitters.cl) */
     __global const Material *materials;
     __constant const Camera *camera;
     __constant const RenderParams *params;
@@ -90,11 +93,13 @@ typedef struct {
     __global const TriangleUV *triangle_uvs, __global const TriangleNormals *triangle_normals,             \
     __global const TriangleAttribute *attributes,                                                          \
     __global const Ellipsoid *ellipsoids, __global const Light *lights, __global const Material *materials, \
+    __global const Emitter *emitters, __global const EmitterTriangle *emitter_triangles,                    \
     __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees,        \
     __global const float *environment_map
 #define SCENE_FROM_PARAMETERS                                                                               \
     {.rectangles = rectangles, .triangles = triangles, .triangle_uvs = triangle_uvs,                        \
      .triangle_normals = triangle_normals, .attributes = attributes, .ellipsoids = ellipsoids, .lights = lights, .materials = materials, \
+     .emitters = emitters, .emitter_triangles = emitter_triangles,                                          \
      .camera = camera, .params = params, .nodes = nodes, .prims = prims, .culled_subtrees = culled_subtrees, \
      .environment_map = environment_map}
 

@@ -162,9 +162,9 @@ inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uin
                            PASSES_PARAMETER)
 {
     if (leaves->n < 0)
-        return bvh_occluded(s, leaves->start, r, skip, active PASSES(passes));
+        return bvh_occluded(s, leaves->start, r, skip, active PASSES(passes) OWN(-1));
     BoxRay b = box_ray(r);
-    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)));
+    PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)) OWN(-1));
     vint settled = !active;
     for (int l = 0; l < leaves->n; ++l) {
         int i = leaves->leaf[l];

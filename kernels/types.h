@@ -45,11 +45,12 @@ typedef struct {
     int material;
 } Ellipsoid;
 
-/* Shape kinds; a primitive reference in the BVH's table is index * 4 + kind. */
+/* Shape kinds; a primitive reference in the BVH's table is SHAPE_REFERENCE(kind, index). */
 #define SHAPE_NONE 0 /* nothing, or a light */
 #define SHAPE_RECTANGLE 1
 #define SHAPE_TRIANGLE 2
 #define SHAPE_ELLIPSOID 3
+#define SHAPE_REFERENCE(kind, index) ((index) * 4 + (kind))
 
 /* A node of the flattened BVH (bvh.cl), depth first: count > 0 is a leaf of the primitive references
  * [offset, offset + count); count <= 0 an interior node whose first child is the next node, second child node
@@ -66,6 +67,25 @@ typedef struct {
     Vec3f colour;
     uint planes_in_front, planes_behind;
 } Light;
+
+/* An area emitter on a shape (Mitsuba's `area` on any shape; kernels/emitters.cl): its shape's points emit the
+ * radiance from their front side (the side the shape's normal points to). Each emitting shape has a material of
+ * its own, whose `emitter` names it, so that a hit finds its emission through the material it reads anyway. */
+typedef struct {
+    int kind;      /* SHAPE_*: SHAPE_TRIANGLE, a mesh's triangles; or one rectangle or (a sphere) ellipsoid */
+    int index;     /* the rectangle's or ellipsoid's index; a mesh's first entry in the EmitterTriangle table */
+    int count;     /* a mesh's triangles (1 for the other kinds) */
+    int reflects;  /* 0: its material is black (no BSDF: Mitsuba's default for an emitting shape) */
+    float area;    /* the whole shape's area: triangles are chosen in proportion to theirs */
+    Vec3f radiance;
+} Emitter;
+
+/* A triangle of an emitting mesh and the cumulative share of the mesh's area up to and including it: the
+ * triangles are chosen by a binary search on it (the last is 1). */
+typedef struct {
+    int triangle;
+    float cdf;
+} EmitterTriangle;
 
 #define WRAP_REPEAT 0
 #define WRAP_CLAMP 1
@@ -153,6 +173,7 @@ typedef struct {
                                       * the surface (Mitsuba's twosided around the map), not turned whole */
     float principled[PRINCIPLED_PARAMETERS]; /* principled: its values, PRINCIPLED_* below (its eta in eta.x, its
                                       * main lobe's GGX roughness in alpha, alpha_v: principled_terms.py) */
+    int emitter;                     /* the Emitter of the one shape with this material, -1 for none */
 } Material;
 
 /* The principled BSDF's values in Material.principled (and ShadingPoint.principled): Mitsuba's parameters, but
@@ -245,6 +266,7 @@ typedef struct {
 typedef struct {
     Vec3f ambient;
     int n_rectangles, n_triangles, n_ellipsoids, n_lights;
+    int n_emitters;        /* HAS_SHAPE_EMITTERS: the Emitter table's entries */
     Sampler pixel_sampler, light_sampler;
     uint seed;
     int light_samples;

@@ -31,6 +31,10 @@ SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3}
 
 BVH_NODE = np.dtype([("lo", "<f4", (3,)), ("hi", "<f4", (3,)), ("offset", "<i4"), ("count", "<i4")])
 
+EMITTER = np.dtype([("kind", "<i4"), ("index", "<i4"), ("count", "<i4"), ("reflects", "<i4"), ("area", "<f4"),
+                    ("radiance", *VEC3F)])
+EMITTER_TRIANGLE = np.dtype([("triangle", "<i4"), ("cdf", "<f4")])
+
 LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", "<u4"), ("planes_behind", "<u4")])
 
 MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<i4"), ("normal_map", "<i4"),
@@ -41,7 +45,7 @@ MATERIAL = np.dtype([("colour", *VEC3F), ("shininess", "<f4"), ("colour_map", "<
                      ("transmittance", "<f4", (ROUGH_TRANSMITTANCE_RES,)), ("maps", "<i4", (MAPS,)),
                      ("back", "<i4"), ("blend", "<i4", (2,)), ("weight", "<f4"), ("bump_scale", "<f4"),
                      ("mirrored_maps", "<i4"),
-                     ("principled", "<f4", (PRINCIPLED_PARAMETERS,))])
+                     ("principled", "<f4", (PRINCIPLED_PARAMETERS,)), ("emitter", "<i4")])
 
 # kernels/types.h: MAP_* (Material.maps), LOOKUP_*
 MAP_SLOTS = {"colour": 0, "specular": 1, "alpha": 2, "alpha_v": 3, "weight": 4, "normal": 5, "bump": 6,
@@ -85,7 +89,8 @@ RANDOMIZE = {"none": 0, "independent": 1, "jitter": 2, "shift": 3, "sobol": 4}
 SAMPLER = np.dtype([("randomize", "<i4"), ("cell_x", "<u4"), ("cell_y", "<u4")])
 
 RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_triangles", "<i4"),
-                          ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("pixel_sampler", SAMPLER),
+                          ("n_ellipsoids", "<i4"), ("n_lights", "<i4"), ("n_emitters", "<i4"),
+                          ("pixel_sampler", SAMPLER),
                           ("light_sampler", SAMPLER), ("seed", "<u4"), ("light_samples", "<i4"), ("width", "<i4"), ("height", "<i4"),
                           ("texture_filter", "<i4"), ("footprint_scale", "<f4"), ("max_depth", "<i4"),
                           ("environment", *VEC3F), ("scene_extent", "<f4"),
@@ -97,7 +102,8 @@ STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "Tria
            "TriangleNormals": TRIANGLE_NORMALS,
            "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
            "TextureLookup": TEXTURE_LOOKUP, "TriangleAttribute": TRIANGLE_ATTRIBUTE,
-           "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE}
+           "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE, "Emitter": EMITTER,
+           "EmitterTriangle": EMITTER_TRIANGLE}
 
 # kernels/limits.h
 BVH_STACK = 64                # levels of a BVH the kernel's traversal stack holds: the host refuses deeper trees

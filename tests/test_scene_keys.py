@@ -145,7 +145,7 @@ def declared_keys(table_name):
     names = {key.name for key in TABLES[table_name]}
     if table_name == "materials.NAME" or table_name in BSDF_TABLES or table_name in WRAPPER_TABLES:
         return sorted({key.name for key in TABLES["materials.NAME"]} | set(bsdfs.KEY_NAMES))
-    return sorted(names | ({"type", "material"} if table_name in SHAPE else set()))
+    return sorted(names | ({key.name for key in TABLES["shapes[]"]} if table_name in SHAPE else set()))
 
 
 def test_every_declared_table_is_exercised():

@@ -133,6 +133,38 @@ SMOOTH_ALPHA = 1e-3
 _SMOOTH = {"roughconductor": "conductor", "roughdielectric": "dielectric"}
 
 
+def emitter_tables(scene, triangles):
+    """The Emitter and EmitterTriangle tables (kernels/types.h) of the scene's emitting shapes (ShapeEmitter),
+    given the packed Triangle records in the kernel's order: an emitter's shape is the one with its material, its
+    own; a mesh's triangles are chosen by their areas, in float64 of the float32 corners the kernel meets."""
+    emitters = np.zeros(max(len(scene.emitters), 1), structs.EMITTER)
+    chosen = [np.zeros(1, structs.EMITTER_TRIANGLE)]
+    mesh = triangles["material"][:scene.triangle_count]
+    start = 0
+    for s, e in zip(emitters, scene.emitters):
+        s["radiance"], s["reflects"], s["count"] = e.radiance, e.reflects, 1
+        rectangles = [i for i, r in enumerate(scene.rectangles) if r.material == e.material]
+        spheres = [i for i, r in enumerate(scene.ellipsoids) if r.material == e.material]
+        if rectangles:
+            s["kind"], s["index"] = structs.SHAPES["rectangle"], rectangles[0]
+            s["area"] = np.prod(scene.rectangles[rectangles[0]].size)
+        elif spheres:  # rules.py: a sphere; its squared radius the mean of its axes' (emitters.cl)
+            s["kind"], s["index"] = structs.SHAPES["ellipsoid"], spheres[0]
+            s["area"] = 4 * math.pi * np.mean(np.sum(scene.ellipsoids[spheres[0]].axes ** 2, 1))
+        else:
+            index = np.flatnonzero(mesh == e.material)
+            v = np.stack([triangles[k][index].astype(np.float64) for k in ("v0", "v1", "v2")], 1)
+            areas = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1) / 2
+            table = np.zeros(len(index), structs.EMITTER_TRIANGLE)
+            table["triangle"], table["cdf"] = index, np.cumsum(areas) / areas.sum()
+            table["cdf"][-1] = 1.0
+            s["kind"], s["index"], s["count"], s["area"] = structs.SHAPES["triangle"], start, len(index), areas.sum()
+            chosen.append(table)
+            start += len(index)
+    triangles = np.concatenate(chosen[1:]) if len(chosen) > 1 else chosen[0]
+    return emitters, triangles
+
+
 def packed_bsdf(material):
     """The BSDF the kernel renders `material` with: its own, but a rough conductor's or dielectric's of alpha
     (and alpha_v) below SMOOTH_ALPHA that of the smooth one."""
@@ -187,6 +219,7 @@ def material_structs(materials):
     null = len(materials) - 1
     for i, (s, m, maps) in enumerate(zip(a, materials, lookup_structs(materials)[1])):
         s["maps"], s["bump_scale"], s["mirrored_maps"] = maps, m.bump_scale, m.mirrored_maps
+        s["emitter"] = m.emitter
         s["back"] = m.back if m.back >= 0 else i if m.two_sided else -1
         if m.bsdf in WRAPPERS:
             s["bsdf"], s["weight"] = structs.BSDF_BLEND, m.weight
@@ -250,6 +283,7 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["ambient"] = scene.ambient
     p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
     p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
+    p["n_emitters"] = len(scene.emitters)
     center = samplers.pattern("center", 1)
     p["pixel_sampler"] = (pixel_pattern or center).sampler_struct()
     p["light_sampler"] = (light_pattern or center).sampler_struct()

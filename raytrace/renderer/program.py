@@ -63,6 +63,7 @@ class Features:
     nulls: bool = False            # a mask's null BSDF (type = "null", or a mask)
     perturbed_normals: bool = False  # Mitsuba's normalmap or bumpmap (a material's maps normal, bump)
     principled_lookups: bool = False  # a principled(thin) material's textured weight (maps roughness .. eta)
+    shape_emitters: bool = False   # area emitters on shapes (Scene.emitters; kernels/emitters.cl)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -100,7 +101,8 @@ class Features:
                    nulls=any(m.bsdf in ("mask", "null") for m in materials),
                    perturbed_normals=any(slot in ("normal", "bump") for m in materials for slot, _ in m.maps),
                    principled_lookups=any(slot in PRINCIPLED_SLOTS + THIN_SLOTS for m in materials
-                                          for slot, _ in m.maps))
+                                          for slot, _ in m.maps),
+                   shape_emitters=bool(scene.emitters))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -114,7 +116,8 @@ class Features:
                  "PRINCIPLEDTHIN": self.principledthin, "BECKMANN": self.beckmann,
                  "ANISOTROPIC": self.anisotropic,
                  "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
-                 "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups}
+                 "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups,
+                 "SHAPE_EMITTERS": self.shape_emitters}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

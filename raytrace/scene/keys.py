@@ -43,8 +43,8 @@ TABLES = {
          Key("camera", "table", "the camera"),
          Key("image", "table", "the image size"),
          Key("render", "table", "the render's defaults (the command line overrides them)", default={}),
-         Key("lights", "tables", "rectangular area lights", also='one or more; none only with an environment '
-             '(shading = "path")'),
+         Key("lights", "tables", "rectangular area lights", default=(),
+             also='one or more; none only with an environment (shading = "path") or a shape with radiance'),
          Key("materials", "named-tables", "materials by name, one or more"),
          Key("shapes", "tables", "the shapes", default=()),
          Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None)],
@@ -129,7 +129,12 @@ TABLES = {
     "texture": texture_lookups.KEYS,  # a textured parameter's table (texture_lookups.py)
     **bsdfs.key_tables(),  # each BSDF's own keys ('materials.NAME type = "diffuse"', ...), declared in bsdfs.py
     "shapes[]": [Key("type", "string", "the kind of shape", choices=SHAPE_KINDS),
-                 Key("material", "string", "a material's name", also="a defined material")],
+                 Key("material", "string", "a material's name", default=None,
+                     also="a defined material; required but with radiance, where none is black"),
+                 Key("radiance", "number-or-vector", 'shading = "direct" or "path": the shape is an area light '
+                     "(Mitsuba's area emitter on it) of this radiance, emitted from its front side (one number: the "
+                     "same in every channel)", length=3, low=0, default=None,
+                     also='an ellipsoid must be a sphere; with shading = "direct", no material')],
     'shapes[] type = "rectangle"': _rectangle(),
     'shapes[] type = "triangle"': [
         Key("vertices", "vectors", "the corners, counter-clockwise seen from the front", length=3, count=3,

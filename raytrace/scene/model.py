@@ -149,6 +149,8 @@ class Material:
     specular_reflectance_sampling_rate: float = 1.0
     specular_transmittance_sampling_rate: float = 1.0
     diffuse_transmittance_sampling_rate: float = 1.0
+    emitter: int = -1                    # the Scene.emitters entry of the one shape it is the material of (each
+                                         # emitting shape has its own), -1: none
 
 
 @dataclass(frozen=True)
@@ -191,6 +193,17 @@ class Ellipsoid:
 
 
 @dataclass(frozen=True)
+class ShapeEmitter:
+    """An area emitter on a shape (Mitsuba's `area` on any shape; the radiometric models): the shape emits
+    `radiance` from its front side. The shape's material (Scene.materials[material]) is its own, made for it,
+    whose `emitter` names this entry: a copy of the material the shape names, or a black one where it names
+    none (reflects False; Mitsuba's default BSDF of an emitting shape is black)."""
+    material: int
+    radiance: np.ndarray
+    reflects: bool = True
+
+
+@dataclass(frozen=True)
 class MeshShape:
     """A triangle mesh read from a file or generated (raytrace.scene.meshes.Mesh), in world space. smooth: shade
     with its per-vertex normals (the file's, else area-weighted ones) instead of each face's own."""
@@ -229,6 +242,7 @@ class Scene:
     seed: int = 0           # the random patterns' per-pixel randomisation
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
+    emitters: list = field(default_factory=list)  # ShapeEmitter: area emitters on shapes, after the lights
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from
     revision: int = field(default=0, compare=False, repr=False)  # counts its edits (raytrace.parameters)
     checked: str | None = field(default=None, compare=False, repr=False)  # fingerprint() when last checked

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import bsdfs, meshes, ranges, texture_lookups
 from .. import samplers
-from .model import RADIOMETRIC, normalize
+from .model import RADIOMETRIC, Ellipsoid, normalize
 from ..numerics import FLOAT32_MAX
 
 
@@ -63,15 +63,36 @@ def _shading(scene, places):
     if scene.environment is not None or scene.environment_map is not None:
         shown = scene.environment if scene.environment is not None else scene.environment_map.path
         _path_only(places.top, "environment", shown, scene.shading)
-    elif not scene.lights:  # the environment, the path model's, is the only other light
+    elif not scene.lights and not scene.emitters:  # the environment, the path model's, is the only other light
         places.top.fail("lights", [], "must hold one or more lights: only a scene with an [environment] (shading = "
-                        '"path") needs none')
+                        '"path") or a shape with radiance needs none')
     for material, reader in zip(scene.materials, places.materials):
         if material.bsdf != "diffuse":
             _path_only(reader, "type", material.bsdf, scene.shading)
     for light, reader in zip(scene.lights, places.lights):
         if light.material != -1:
             _path_only(reader, "material", scene.materials[light.material].name, scene.shading)
+    for reader, shape in places.shapes:
+        _shape_emitter(scene, reader, shape)
+
+
+def _shape_emitter(scene, reader, shape):
+    """An emitting shape (ShapeEmitter): a radiometric model's, black in the direct model (as its lights are),
+    and among ellipsoids a sphere, which emitters.cl samples by the cone it subtends."""
+    material = scene.materials[shape.material]
+    if material.emitter < 0:
+        return
+    emitter = scene.emitters[material.emitter]
+    if scene.shading not in RADIOMETRIC:
+        reader.fail("radiance", value(emitter.radiance), 'is the radiometric models\' (shading = "direct" or '
+                    f'"path"), not "{scene.shading}": the Phong model\'s lights are [[lights]]')
+    if emitter.reflects:
+        _path_only(reader, "material", material.name, scene.shading)
+    if isinstance(shape, Ellipsoid):
+        gram = shape.axes @ shape.axes.T
+        if not np.allclose(gram, np.mean(np.diag(gram)) * np.eye(3), rtol=0, atol=1e-6 * np.max(np.diag(gram))):
+            reader.fail("axes", value(shape.axes), "an emitting ellipsoid must be a sphere (three orthogonal axes "
+                        "of one length): area lights are sampled by the cone a sphere subtends")
 
 
 def _bsdfs(scene, places):

@@ -3,6 +3,7 @@
 Every check names the file, the key and the value (InputError), so a user can fix a scene in one go.
 """
 import copy
+import dataclasses
 import datetime
 import math
 import os
@@ -19,6 +20,7 @@ from . import bsdfs, environment_map, keys, mesh_file, meshes, meshgen, mitsuba,
 from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
 from .. import samplers
 from .model import (RADIOMETRIC, WRAPPERS, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
+                    ShapeEmitter,
                     Triangle, normalize)
 from .textures import TextureCache
 from .transform import AFFINE, mesh_matrix
@@ -219,9 +221,26 @@ def _load_shape(scene, r, material_index):
     return [shape for kind, n in before.items() for shape in getattr(scene, kind)[n:]]
 
 
+def _shape_material(scene, r, material_index):
+    """The material index of shape table `r`: the one it names; for a shape with `radiance` (an area emitter) a
+    material of its own, a copy of the one it names or a black one (none named), whose emitter is a new
+    ShapeEmitter."""
+    if not r.has("radiance"):
+        return material_named(r, "material", material_index) if r.has("material") else r.raw("material")
+    emitter, own = len(scene.emitters), len(scene.materials)
+    if r.has("material"):
+        named = scene.materials[material_named(r, "material", material_index)]
+        material = dataclasses.replace(named, emitter=emitter)
+    else:
+        material = Material(name=f"{r.prefix}radiance", colour=np.zeros(3), emitter=emitter)
+    scene.materials.append(material)
+    scene.emitters.append(ShapeEmitter(own, _rgb(r, "radiance"), r.has("material")))
+    return own
+
+
 def _add_shape(scene, r, material_index):
     kind = r.string("type")
-    m = material_named(r, "material", material_index)
+    m = _shape_material(scene, r, material_index)
     spec = {"mesh": 'shapes[] type = "mesh", from a file or generated'} if r.has("file") or r.has("generate") else {}
     r = Reader(r.path, r.table, r.prefix, spec.get(kind, f'shapes[] type = "{kind}"'))
     r.spec = {**keys.table("shapes[]"), **r.spec}
@@ -560,7 +579,7 @@ def parse_scene(table, path="<scene>"):
                   textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment,
                   environment_map=environment_map, seed=render.integer("seed"))
 
-    lights = r.raw("lights")
+    lights = r.raw("lights", [])  # keys.py: none only where rules.py allows it
     if not isinstance(lights, list):  # none at all: rules.py says when that is allowed
         r.fail("lights", lights, "must be an array of [[lights]] tables")
     light_readers = []

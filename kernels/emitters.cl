@@ -1,0 +1,148 @@
+/* Area emitters on shapes (Mitsuba 3's `area` emitter on any shape; types.h's Emitter): sampling a point of an
+ * emitting shape seen from a reference point, and the density of that sampling at a point a ray hit, which
+ * the path model's multiple importance sampling weighs light reached by a BSDF's sample with.
+ *
+ * A mesh is sampled by area: a triangle in proportion to its area (a binary search on the host's cumulative
+ * table), then a uniform point on it (pbrt-v4 section A.5.4's SampleUniformTriangle, Heitz's low-distortion
+ * map), so that the density is 1 / A over the whole mesh; a rectangle uniformly over its area. A sphere is
+ * sampled by the cone of directions it subtends (pbrt-v4 section 6.2.4, Sphere::Sample with a reference point;
+ * Mitsuba's sphere does the same), whose density 1 / (2 pi (1 - cos(theta_max))) is uniform over the cone.
+ * Densities are per unit solid angle at the reference point: an area density p_A becomes p_A r^2 / cos(theta_l).
+ *
+ * A shape emits from its front side only (where its normal points; Mitsuba's `area`): a sample counts only where
+ * the reference point sees that side (the models' sample_counts), and a point inside a sphere gets none. */
+#ifndef EMITTERS_CL
+#define EMITTERS_CL
+
+#include "primitive.cl"
+#include "local_frame.cl"
+#include "vmath.h"
+
+typedef struct {
+    vec3 p;     /* the point sampled */
+    vec3 n;     /* the unit normal of its emitting side */
+    vfloat err; /* p's distance from the surface along n (ray.h) */
+    vfloat pdf; /* the sample's density per unit solid angle at the reference point; 0: no sample */
+} EmitterSample;
+
+/* 1 - cos(theta_max) of the cone a sphere of squared radius r2 subtends from a point at squared distance d2 >
+ * r2 from its centre, and through *sin2_max, sin^2(theta_max) = r2 / d2. Below sin^2 = 0.00068523 (about 1.5
+ * degrees) 1 - sqrt(1 - s) cancels: its series s / 2 is used there, as pbrt-v4 does. */
+inline vfloat cone_one_minus_cos(vfloat r2, vfloat d2, vfloat *sin2_max)
+{
+    vfloat s = r2 / d2;
+    *sin2_max = s;
+    return SELECT(1.0f - sqrt(vmax(1.0f - s, 0.0f)), 0.5f * s, s < 0.00068523f);
+}
+
+/* A uniform point of emitting mesh e's triangles (by area), from u: *p, *n (the triangle's front), *err. */
+inline void sample_mesh(const Scene *s, __global const Emitter *e, vec2 u, vint active, vec3 *p, vec3 *n,
+                        vfloat *err)
+{
+    float ux[LANES], uy[LANES];
+    int use[LANES];
+    Lanes3 v0, v1, v2, normal;
+    VSTORE(u.x, ux);
+    VSTORE(u.y, uy);
+    VSTORE(active, use);
+    for (int i = 0; i < LANES; ++i) {
+        /* the first triangle whose cumulative share exceeds u, and u rescaled within its share */
+        int lo = e->index, hi = e->index + e->count - 1;
+        while (use[i] && lo < hi) {
+            int mid = (lo + hi) / 2;
+            if (s->emitter_triangles[mid].cdf > ux[i])
+                hi = mid;
+            else
+                lo = mid + 1;
+        }
+        float below = lo > e->index ? s->emitter_triangles[lo - 1].cdf : 0.0f;
+        float width = s->emitter_triangles[lo].cdf - below;
+        ux[i] = width > 0.0f ? fmin((ux[i] - below) / width, 0x1.fffffep-1f) : 0.0f;
+        __global const Triangle *tri = &s->triangles[s->emitter_triangles[lo].triangle];
+        set_lane3(&v0, i, f3(tri->v0));
+        set_lane3(&v1, i, f3(tri->v1));
+        set_lane3(&v2, i, f3(tri->v2));
+        set_lane3(&normal, i, f3(tri->normal));
+    }
+    vfloat a = VLOAD(ux), b = VLOAD(uy); /* Heitz's map of the square to barycentrics */
+    vint first = a < b;
+    vfloat b0 = SELECT(a - 0.5f * b, 0.5f * a, first), b1 = SELECT(0.5f * b, b - 0.5f * a, first);
+    vfloat b2 = 1.0f - b0 - b1;
+    vec3 p0 = v3_fill(&v0), p1 = v3_fill(&v1), p2 = v3_fill(&v2);
+    *p = v3_madd(v3_madd(v3_scale(p2, b2), b1, p1), b0, p0);
+    *n = v3_fill(&normal);
+    /* triangle.cl's triangle_point bound */
+    vec3 box = v3_add(v3_abs(v3_scale(p0, b0)), v3_add(v3_abs(v3_scale(p1, b1)), v3_abs(v3_scale(p2, b2))));
+    *err = GAMMA(11) * error_along(*n, box);
+}
+
+/* Emitter e sampled from the reference point `ref` with u in [0, 1)^2, for the lanes of `active`. */
+inline EmitterSample sample_emitter(const Scene *s, __global const Emitter *e, vec3 ref, vec2 u, vint active)
+{
+    EmitterSample es;
+    es.pdf = 0.0f;
+    es.err = 0.0f;
+    es.p = es.n = v3_splat(0.0f, 0.0f, 0.0f);
+#if HAS_ELLIPSOIDS
+    if (e->kind == SHAPE_ELLIPSOID) {
+        __global const Ellipsoid *sphere = &s->ellipsoids[e->index];
+        vec3 to_centre = v3_sub(v3_uniform(sphere->center), ref);
+        vfloat d2 = v3_dot(to_centre, to_centre), sin2_max;
+        vfloat r2 = e->area * (0.25f * M_1_PI_F);
+        vfloat one_minus_cos_max = cone_one_minus_cos(r2, d2, &sin2_max);
+        /* theta within the cone (its series where the cone is narrow), then alpha: the angle at the centre
+         * between the way back to ref and the point (pbrt-v4's Sphere::Sample) */
+        vfloat cos_theta = MAD(-one_minus_cos_max, u.x, 1.0f);
+        vfloat sin2_theta = SELECT(1.0f - cos_theta * cos_theta, sin2_max * u.x, sin2_max < 0.00068523f);
+        cos_theta = SELECT(cos_theta, sqrt(1.0f - sin2_theta), sin2_max < 0.00068523f);
+        vfloat sin_max = sqrt(sin2_max);
+        vfloat cos_alpha = sin2_theta / sin_max + cos_theta * sqrt(vmax(1.0f - sin2_theta / sin2_max, 0.0f));
+        vfloat sin_alpha = sqrt(vmax(1.0f - cos_alpha * cos_alpha, 0.0f));
+        vfloat cos_phi, sin_phi = sincos(2.0f * M_PI_F * u.y, &cos_phi);
+        vec3 w = v3_direction(to_centre), t, b;
+        orthonormal_frame(w, &t, &b);
+        /* the normal at the point: towards ref, tilted by alpha */
+        vec3 n = v3_sub(v3_add(v3_scale(t, sin_alpha * cos_phi), v3_scale(b, sin_alpha * sin_phi)),
+                        v3_scale(w, cos_alpha));
+        vec3 q = mat3_apply(sphere->world_to_unit, n); /* the unit-sphere point, reprojected there */
+        es.p = ellipsoid_point(sphere, q, n, &es.err);
+        es.n = n;
+        es.pdf = SELECT((vfloat)(0.0f), 1.0f / (2.0f * M_PI_F * one_minus_cos_max), active & (d2 > r2));
+        return es;
+    }
+#endif
+    vfloat pdf_area = 1.0f / e->area;
+#if HAS_TRIANGLES
+    if (e->kind == SHAPE_TRIANGLE)
+        sample_mesh(s, e, u, active, &es.p, &es.n, &es.err);
+#endif
+#if HAS_RECTANGLES
+    if (e->kind == SHAPE_RECTANGLE) {
+        __global const Rectangle *rect = &s->rectangles[e->index];
+        es.p = rectangle_point(rect, (2.0f * u.x - 1.0f) * rect->half_x, (2.0f * u.y - 1.0f) * rect->half_y,
+                               &es.err);
+        es.n = v3_uniform(rect->normal);
+    }
+#endif
+    vec3 w = v3_sub(es.p, ref);
+    vfloat d2 = v3_dot(w, w), cos_l = vabs(v3_dot(es.n, w)) * vrsqrt(d2);
+    es.pdf = SELECT((vfloat)(0.0f), pdf_area * d2 / cos_l, active & (cos_l > 0.0f));
+    return es;
+}
+
+/* The density per unit solid angle with which sample_emitter() would have sampled the point p of emitter e
+ * that a ray from ref met at distance `distance` with |cos(theta_l)| = cos_l, for the lanes of `lanes`. */
+inline vfloat emitter_pdf(const Scene *s, __global const Emitter *e, vec3 ref, vfloat distance, vfloat cos_l)
+{
+#if HAS_ELLIPSOIDS
+    if (e->kind == SHAPE_ELLIPSOID) {
+        vec3 to_centre = v3_sub(v3_uniform(s->ellipsoids[e->index].center), ref);
+        vfloat d2 = v3_dot(to_centre, to_centre), sin2_max, r2 = e->area * (0.25f * M_1_PI_F);
+        vfloat one_minus_cos_max = cone_one_minus_cos(r2, d2, &sin2_max);
+        return SELECT((vfloat)(0.0f), 1.0f / (2.0f * M_PI_F * one_minus_cos_max), d2 > r2);
+    }
+#endif
+    return distance * distance / (e->area * cos_l);
+}
+
+#endif
