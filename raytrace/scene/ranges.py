@@ -243,8 +243,8 @@ def plastic_albedo(material, k):
 def brightest(scene):
     """An upper bound on every pixel value of the scene's Phong image (rule 4)."""
     k = max(largest_albedo(scene, m) for m in scene.materials)
-    lights = [float(light.colour.max()) for light in scene.lights]
-    return max(k * (float(scene.ambient.max()) + 2 * sum(lights)), *lights)
+    lights = [float(light.colour.max()) for light in scene.lights] + [float(e.radiance.max()) for e in scene.emitters]
+    return max(k * (float(scene.ambient.max()) + 2 * sum(lights)), *lights, 0.0)
 
 
 def _far_key(shape):
@@ -368,7 +368,7 @@ def path_brightest(scene, k=None, env=None):
     """B of rule 5: a bound on a path's sample but for Russian roulette's factor (`k`, `env`: the largest
     albedo and E_env, where the caller has them)."""
     k = _largest_albedo(scene) if k is None else k
-    lights = [float(light.colour.max()) for light in scene.lights]
+    lights = [float(light.colour.max()) for light in scene.lights] + [float(e.radiance.max()) for e in scene.emitters]
     env = environment_brightest(scene) if env is None else env
     gather = max(lights + [env]) + k * (scene.light_samples * sum(lights) + env) / 2
     return gather * path_gain(scene, k) if gather else 0.0
