@@ -17,8 +17,16 @@ MAX_GENERATED_TRIANGLES = 50_000_000
 SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
 GENERATED_SHAPES = ("sphere", "torus", "terrain")
 
-
-
+# The placement of a shape, declared once: a mesh's from a file or generated, and the course's rectangles,
+# triangles, ellipsoids and lights, which are given as written and then placed (scene_file.py, transform.py).
+TRANSFORM = [
+    Key("scale", "number-or-vector", "the first transform: a number or [sx, sy, sz]", length=3,
+        default=1.0, also="no component 0"),
+    Key("rotate", "table", "the second transform", default=None),
+    Key("translate", "vector", "the third transform", length=3, default=(0.0, 0.0, 0.0)),
+    Key("matrix", "vectors", "instead of the three: a 4 x 4 affine matrix, rows acting on columns", length=4,
+        count=4, default=None, also="last row 0 0 0 1, invertible; not with scale, rotate, translate; a "
+        "rectangle's or light's keeps its sides at right angles (no shear)")]
 
 
 def _rectangle(emission=None):
@@ -28,7 +36,7 @@ def _rectangle(emission=None):
             Key("normal", "vector", "the normal (the front side)", length=3, nonzero=True),
             Key("tangent", "vector", "the first side's direction, made orthogonal to the normal", length=3,
                 nonzero=True, also="not parallel to the normal")]
-    return keys + ([emission] if emission else [])
+    return keys + ([emission] if emission else []) + TRANSFORM
 
 
 _COLOUR = Key("colour", "vector", "Phong shading: the light's colour", length=3, low=0)
@@ -139,7 +147,7 @@ TABLES = {
     'shapes[] type = "triangle"': [
         Key("vertices", "vectors", "the corners, counter-clockwise seen from the front", length=3, count=3,
             also="a non-zero area"),
-        Key("uv", "vectors", "per-vertex texture coordinates", length=2, count=3, default=None)],
+        Key("uv", "vectors", "per-vertex texture coordinates", length=2, count=3, default=None), *TRANSFORM],
     'shapes[] type = "mesh"': [
         Key("vertices", "vectors", "the vertices", length=3),
         Key("faces", "faces", "triples of vertex indices", also="indices in range, faces with an area"),
@@ -148,12 +156,7 @@ TABLES = {
         Key("file", "path", "an OBJ or PLY file (ascii or binary), from the scene file's folder", default=None,
             also="exactly one of file and generate"),
         Key("generate", "table", "a procedural mesh", default=None),
-        Key("scale", "number-or-vector", "the first transform: a number or [sx, sy, sz]", length=3,
-            default=1.0, also="no component 0"),
-        Key("rotate", "table", "the second transform", default=None),
-        Key("translate", "vector", "the third transform", length=3, default=(0.0, 0.0, 0.0)),
-        Key("matrix", "vectors", "instead of the three: a 4 x 4 affine matrix, rows acting on columns", length=4,
-            count=4, default=None, also="last row 0 0 0 1, invertible; not with scale, rotate, translate"),
+        *TRANSFORM,
         Key("smooth", "boolean", "interpolate vertex normals (the file's, else computed as vertex_normals says)",
             default=False),
         Key("vertex_normals", "string", "smooth = true, a file without normals: area (area-weighted over the faces "
@@ -171,7 +174,7 @@ TABLES = {
     'shapes[] type = "ellipsoid"': [
         Key("center", "vector", "the centre c", length=3),
         Key("axes", "vectors", "a, b, c: the unit sphere's image is c + [a b c] x", length=3, count=3,
-            also="linearly independent")],
+            also="linearly independent"), *TRANSFORM],
 }
 
 

@@ -23,7 +23,7 @@ from .model import (RADIOMETRIC, WRAPPERS, Camera, fingerprint, Ellipsoid, Envir
                     ShapeEmitter,
                     Triangle, normalize)
 from .textures import TextureCache
-from .transform import AFFINE, mesh_matrix
+from .transform import AFFINE, mesh_matrix, placed_ellipsoid, placed_rectangle, placed_triangle, rectangle_shear
 
 LIGHTS_SPEC = "lights[] (direct, path)"  # keys.py's table of a radiometric model's lights
 
@@ -179,11 +179,57 @@ def _rgb(r, key):
 
 
 def _rectangle_fields(r):
+    """A rectangle's or light's center, size, normal and tangent, placed by its transform keys (if any)."""
     size = r.vector("size")
     if np.any(size <= 0):
         r.fail("size", size.tolist(), "both sides must be > 0")
     normal, tangent = _frame(r)
-    return dict(center=r.vector("center"), size=size, normal=normal, tangent=tangent)
+    center, m = r.vector("center"), _placement(r)
+    if m is not None:
+        cosine, tolerance = rectangle_shear(m, normal, tangent)
+        if not cosine <= tolerance:
+            key = transform_key(r)
+            r.fail(key, r.raw(key), f"shears the rectangle: its sides would meet at "
+                   f"{np.degrees(np.arccos(min(cosine, 1.0))):.9g} degrees, not 90 (a mesh of two triangles "
+                   "takes a parallelogram)")
+        center, size, normal, tangent = placed_rectangle(m, center, size, normal, tangent)
+    return dict(center=center, size=size, normal=normal, tangent=tangent)
+
+
+TRANSFORM_KEYS = tuple(key.name for key in keys.TRANSFORM)
+
+
+def transform_key(r):
+    """The key an error of a table's transform names: matrix, else the first of scale, rotate and translate
+    given (scale where none is)."""
+    return next((key for key in ("matrix", "scale", "rotate", "translate") if r.has(key)), "scale")
+
+
+def _placement(r):
+    """The 4 x 4 matrix of a course shape's transform keys, or None where it gives none: the shape is then
+    as written, its values untouched by any arithmetic (an identity's would turn a -0.0 into 0.0)."""
+    return _transform(r) if any(r.has(key) for key in TRANSFORM_KEYS) else None
+
+
+class Placed(Reader):
+    """The reader of a course shape that its transform keys placed: a check of the placed shape's geometry (a
+    triangle's area, an ellipsoid's axes; rules.py's extents and sizes) fails naming the transform, as it was
+    given, since that made the values checked."""
+    GEOMETRY = ("center", "size", "normal", "tangent", "vertices", "axes")
+
+    def __init__(self, r):
+        vars(self).update(vars(r))
+        self.by = transform_key(r)
+
+    def fail(self, key, value, problem):
+        if key in self.GEOMETRY:
+            super().fail(self.by, self.raw(self.by), f"{problem} (the shape's {key} once transformed)")
+        super().fail(key, value, problem)
+
+
+def placed(r):
+    """r, or its Placed reader where its table gives transform keys."""
+    return Placed(r) if any(r.has(key) for key in TRANSFORM_KEYS) else r
 
 
 def check_axes(r, axes):
@@ -251,6 +297,10 @@ def _add_shape(scene, r, material_index):
         vertices = r.vectors("vertices")
         check_triangle(r, "vertices", vertices)
         uv = r.vectors("uv") if r.has("uv") else None
+        placement = _placement(r)
+        if placement is not None:
+            vertices, uv = placed_triangle(placement, vertices, uv)
+            check_triangle(placed(r), "vertices", vertices)
         scene.triangles.append(Triangle(vertices, m, uv))
     elif kind == "mesh" and spec:
         scene.meshes.append(_mesh_shape(r, m))
@@ -269,9 +319,13 @@ def _add_shape(scene, r, material_index):
             check_triangle(r, f"faces[{i}]", vertices[face])
             scene.triangles.append(Triangle(vertices[face], m, None if uv is None else uv[face]))
     else:
-        axes = r.vectors("axes")
+        axes, center = r.vectors("axes"), r.vector("center")
         check_axes(r, axes)
-        scene.ellipsoids.append(Ellipsoid(r.vector("center"), axes, m))
+        placement = _placement(r)
+        if placement is not None:
+            center, axes = placed_ellipsoid(placement, center, axes)
+            check_axes(placed(r), axes)
+        scene.ellipsoids.append(Ellipsoid(center, axes, m))
 
 
 GENERATORS = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshgen.terrain}
@@ -334,7 +388,7 @@ def _mesh_shape(r, material):
     mesh, dropped, source = _mesh_source(r)
     m = _transform(r)
     vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
-    key = "matrix" if r.has("matrix") else "scale"
+    key = transform_key(r)
     faces, collapsed, kept = _transformed_faces(r, key, vertices, mesh.faces)
     flip = r.boolean("flip_normals")
     if (np.linalg.det(m[:3, :3]) < 0) != flip:  # a mirror keeps the faces counter-clockwise seen from the front,
@@ -589,14 +643,14 @@ def parse_scene(table, path="<scene>"):
         lr.check_keys()
         material = material_named(lr, "material", material_index) if lr.has("material") else -1
         scene.lights.append(Light(colour=_rgb(lr, emission), material=material, **_rectangle_fields(lr)))
-        light_readers.append(lr)
+        light_readers.append(placed(lr))
 
     tables, shapes = r.raw("shapes", []), []  # keys.py declares its default: no shapes
     if not isinstance(tables, list):
         r.fail("shapes", tables, "must be an array of [[shapes]] tables")
     for i, shape in enumerate(tables):
         sr = Reader(path, shape, f"shapes[{i}].", "shapes[]")
-        shapes.extend((sr, added) for added in _load_shape(scene, sr, material_index))
+        shapes.extend((placed(sr), added) for added in _load_shape(scene, sr, material_index))
     rules.check(scene, rules.Places(r, render, c, material_readers, light_readers, shapes))
     scene.source, scene.checked = source, fingerprint(scene)
     return scene

@@ -11,6 +11,7 @@ import dataclasses
 import numpy as np
 
 from ..numerics import f32
+from .model import normalize
 
 
 def _map(scene, point, length):
@@ -52,3 +53,62 @@ def mesh_matrix(scale, axis, degrees, translate):
     m[:3, :3] = (np.eye(3) + np.sin(angle) * cross + (1 - np.cos(angle)) * cross @ cross) @ np.diag(scale)
     m[:3, 3] = translate
     return m
+
+
+# The course's shapes under a 4 x 4 affine matrix m (a scene file's scale, rotate, translate or matrix keys), in
+# float64. In every one the front of the image is the image of the front, as a mesh's (scene_file.py reverses
+# a mirrored mesh's faces) and Mitsuba's rectangle (its normal is to_world's inverse transpose of +z) have it.
+
+# A rectangle's image is one where its sides L t and L b stay at right angles. Their cosine is computed from
+# t and b (unit and orthogonal to a few roundings) and L (the product of a few rounded factors), whose errors
+# are within a few float64 roundings eps of their largest terms: of sigma_1 in L t and L b, which are at least
+# sigma_3 long (the singular values of L). So an exact rectangle's image has a computed cosine within c eps
+# kappa, kappa = sigma_1 / sigma_3, c counting the roundings (about 2 x 15 for a product of three factors and
+# the dot product): SHEAR_ROUNDINGS = 64 leaves twice that. A transform that turns the sides further shears the
+# rectangle into a parallelogram, which a rectangle cannot be (a mesh can).
+SHEAR_ROUNDINGS = 64
+
+
+def rectangle_shear(m, normal, tangent):
+    """|cos| of the angle between the images of a rectangle's sides (unit normal and tangent) under m, and
+    the largest a rectangle's image can show through float64's rounding (SHEAR_ROUNDINGS eps kappa)."""
+    linear = m[:3, :3]
+    s, t = linear @ tangent, linear @ np.cross(normal, tangent)
+    cosine = abs(np.dot(s, t)) / (np.linalg.norm(s) * np.linalg.norm(t))
+    return cosine, SHEAR_ROUNDINGS * np.finfo(np.float64).eps * np.linalg.cond(linear)
+
+
+def placed_rectangle(m, center, size, normal, tangent):
+    """(center, size, normal, tangent) of the rectangle's image under m (rectangle_shear must allow it): the
+    centre mapped; the sides tangent * size x and bitangent * size y by the linear part L; the normal by L's
+    inverse transpose, which keeps the front (n' . L n = n . n > 0: the image of a point in front is in front,
+    mirror or not). For sides at right angles that normal is sign(det L) (L t x L b) / |L t x L b| (L t x L b =
+    det L L^-T (t x b), t x b = n), computed so: at right angles to the sides it spans whatever L's condition.
+    The model's bitangent, normal x tangent, is then L b's direction times sign(det L): a mirror's rectangle
+    has the same points and front, its v axis (a texture's) turned, as Mitsuba's rectangle read by mitsuba.py
+    has."""
+    linear = m[:3, :3]
+    s, t = linear @ tangent, linear @ np.cross(normal, tangent)
+    n = np.cross(s, t) * np.sign(np.linalg.det(linear))
+    return (linear @ center + m[:3, 3], size * np.array([np.linalg.norm(s), np.linalg.norm(t)]),
+            normalize(n) + 0.0, normalize(s) + 0.0)  # + 0.0: no -0.0 (the kernel's frames test signs)
+
+
+BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # a triangle's uv where none is given: (b1, b2)
+
+
+def placed_triangle(m, vertices, uv):
+    """(vertices, uv) of a triangle's image under m: its corners mapped, in the reverse order under a mirror
+    (det L < 0), so that they stay counter-clockwise seen from the image of the front, each with its own uv
+    (where none is given, the (b1, b2) it had, which the new order would otherwise swap): every point keeps
+    its (u, v)."""
+    vertices = vertices @ m[:3, :3].T + m[:3, 3]
+    if np.linalg.det(m[:3, :3]) < 0:
+        return vertices[[0, 2, 1]], (BARYCENTRIC_UV if uv is None else uv)[[0, 2, 1]]
+    return vertices, uv
+
+
+def placed_ellipsoid(m, center, axes):
+    """(center, axes) of an ellipsoid's image under m: M (c + [a b c] x) = M c + [L a, L b, L c] x, so the
+    axes (rows a, b, c) are mapped by the linear part L. Its outside stays outside: no orientation to keep."""
+    return m[:3, :3] @ center + m[:3, 3], axes @ m[:3, :3].T
