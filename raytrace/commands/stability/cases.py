@@ -8,6 +8,8 @@ from .camera import extreme_fov, far_camera
 from .limits import deep_accumulation, image_sizes
 from .degenerate_input import degenerate_input
 from .textures import textured_grazing
+from .transforms import transformed_shapes
 
 CASES = [mesh_edges, grazing_rectangles, grazing_ellipsoids, extreme_ellipsoids, lights_at_horizon, phong_power,
-         extreme_fov, far_camera, image_sizes, deep_accumulation, degenerate_input, textured_grazing]
+         extreme_fov, far_camera, image_sizes, deep_accumulation, degenerate_input, textured_grazing,
+         transformed_shapes]
