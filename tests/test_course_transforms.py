@@ -14,8 +14,6 @@ Mutations tried, each failing this module (then undone):
 - no check_triangle of the placed triangle (test_placed_checks_name_the_transform, the flattened triangle).
 - _placement ignoring the keys of a light (test_lights, test_render_matches_pretransformed).
 """
-import copy
-
 import numpy as np
 import pytest
 
@@ -118,8 +116,8 @@ def expected_rectangle(shape, m):
     sides = linear @ np.column_stack([t * shape["size"][0], np.cross(n, t) * shape["size"][1]])
     normal = np.linalg.inv(linear).T @ n
     out = {k: v for k, v in shape.items() if k not in ("scale", "rotate", "translate", "matrix")}
-    return {**out, "center": homogeneous(m, shape["center"])[0].tolist(), "size": np.linalg.norm(sides, axis=0).tolist(),
-            "normal": (normal / np.linalg.norm(normal)).tolist(), "tangent": sides[:, 0].tolist()}
+    return {**out, "center": homogeneous(m, shape["center"])[0].tolist(),
+            "size": np.linalg.norm(sides, axis=0).tolist(), "normal": (normal / np.linalg.norm(normal)).tolist(), "tangent": sides[:, 0].tolist()}
 
 
 def test_rectangles():
@@ -177,7 +175,8 @@ def test_triangles():
         order = [0, 1, 2] if np.dot(np.cross(world[1] - world[0], world[2] - world[0]), front) > 0 else [0, 2, 1]
         want_uv = (BARYCENTRIC_UV if uv is None else uv)[order]
         got = load_dict(scene([{**shape, **transform}])).triangles
-        want = load_dict(scene([{"type": "triangle", "vertices": world[order].tolist(), "uv": want_uv.tolist()}])).triangles
+        written = {"type": "triangle", "vertices": world[order].tolist(), "uv": want_uv.tolist()}
+        want = load_dict(scene([written])).triangles
         same_structs(packing.triangle_structs(got), packing.triangle_structs(want))
         same_structs(packing.triangle_uv_structs(got), packing.triangle_uv_structs(want))
         normal = packing.triangle_structs(got)["normal"][0]
