@@ -201,6 +201,22 @@ def test_a_box_translates_into_raytraces_table(tmp_path):
     assert t["lights"][0]["material"] == "white"
 
 
+def test_an_emitter_on_another_shape_is_a_shape_with_radiance(tmp_path):
+    """An area emitter on a sphere or a cube is that shape with a radiance (kernels/emitters.cl): black without a
+    BSDF or with a black one (Mitsuba's default for an emitting shape), else reflecting by its BSDF; a
+    rectangle's stays a rectangular light."""
+    scene = load(tmp_path, """
+        <shape type="sphere"><float name="radius" value="0.2"/><emitter type="area"><rgb name="radiance"
+            value="1, 2, 3"/></emitter></shape>
+        <shape type="cube"><transform name="to_world"><scale value="0.1"/></transform><ref id="white"/>
+            <emitter type="area"/></shape>""")
+    sphere, cube = scene.source["shapes"][-2:]
+    assert sphere["type"] == "ellipsoid" and sphere["radiance"] == [1, 2, 3] and "material" not in sphere
+    assert cube["type"] == "mesh" and cube["radiance"] == [1.0] * 3 and cube["material"] == "white"
+    assert len(scene.lights) == 1 and len(scene.emitters) == 2
+    assert [e.reflects for e in scene.emitters] == [False, True]
+
+
 @pytest.mark.parametrize("axis", ["x", "y", "diagonal", "smaller", "larger"])
 @pytest.mark.parametrize("size", [(12, 8), (8, 12)])
 def test_fov_axis_is_the_image_planes_extent(tmp_path, axis, size):
@@ -405,7 +421,6 @@ def test_a_sheared_rectangle_is_two_triangles(tmp_path):
     ('<shape type="disk"/>', "shape disk", "not supported (raytrace renders: rectangle, obj, ply, cube, sphere)"),
     ('<shape type="rectangle"><bsdf type="pplastic"/></shape>', "bsdf pplastic", "raytrace renders: diffuse"),
     ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
-    ('<shape type="sphere"><emitter type="area"/></shape>', "area emitter on sphere", "lights are rectangles"),
 ])
 def test_what_is_not_supported_is_one_line_or_a_warning(tmp_path, extra, where, message):
     text = scene_text(f"\n{extra}")

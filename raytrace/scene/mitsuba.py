@@ -109,7 +109,7 @@ PLUGINS = {
         Param("flip_tex_coords", True, 'shapes[] type = "mesh", from a file or generated flip_tex_coords'),
         Param("flip_normals", False, 'shapes[] type = "mesh", from a file or generated flip_normals'),
         Param("bsdf", "diffuse", "shapes[] material"),
-        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle"))),
+        Param("emitter", None, "shapes[] radiance", "an area emitter (a mesh that is one planar rectangle: lights[])"))),
     "ply": Plugin("shape", "a PLY mesh (ascii or binary)", (
         Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
         Param("flip_tex_coords", False, 'shapes[] type = "mesh", from a file or generated flip_tex_coords'),
@@ -117,17 +117,19 @@ PLUGINS = {
                           "false: smooth (smooth = true)"),
         Param("flip_normals", False, 'shapes[] type = "mesh", from a file or generated flip_normals'),
         Param("bsdf", "diffuse", "shapes[] material"),
-        Param("emitter", None, "lights[]", "an area emitter, on a mesh that is one planar rectangle"))),
+        Param("emitter", None, "shapes[] radiance", "an area emitter (a mesh that is one planar rectangle: lights[])"))),
     "cube": Plugin("shape", "[-1, 1]^3 as Mitsuba's mesh of 12 triangles, each face's uv over [0, 1]^2, under "
                    "to_world", (
         _TRANSFORM, Param("flip_normals", False, 'shapes[] type = "mesh" faces', "turns the faces inside out"),
-        Param("bsdf", "diffuse", "shapes[] material"))),
+        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter"))),
     "sphere": Plugin("shape", "a sphere (raytrace's ellipsoid)", (
         Param("center", (0.0, 0.0, 0.0), 'shapes[] type = "ellipsoid" center'),
         Param("radius", 1.0, 'shapes[] type = "ellipsoid" axes'), _TRANSFORM,
-        Param("bsdf", "diffuse", "shapes[] material")), only_default=(("flip_normals", False),)),
+        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter")),
+        only_default=(("flip_normals", False),)),
     "area": Plugin("emitter", "light emitted from a shape's front side", (
-        Param("radiance", 1.0, "lights[] (direct, path) radiance", "an RGB colour or a spectrum"),)),
+        Param("radiance", 1.0, "lights[] (direct, path) radiance", "an RGB colour or a spectrum (on a shape other "
+              "than a rectangle: shapes[] radiance)"),)),
     "constant": Plugin("emitter", "light from every direction", (
         Param("radiance", 1.0, "environment radiance"),)),
     "envmap": Plugin("emitter", "an equirectangular image of radiance around the scene", (
@@ -387,9 +389,10 @@ class _Translator:
                                  "raytrace takes one constant or envmap emitter")
             else:
                 self.environment(key, value)
-        if not self.table["lights"] and "environment" not in self.table:
+        if not self.table["lights"] and "environment" not in self.table and not any(
+                "radiance" in shape for shape in self.table["shapes"]):
             self.fail(self.source, "emitter", None, "the scene has none that raytrace renders: an area emitter on a "
-                      "rectangle (or a mesh that is one), a constant or an envmap")
+                      "shape, a constant or an envmap")
         if not self.table["materials"]:  # raytrace's format names one at least; a scene of lights alone has none
             self.material(None, "")
         order = ("render", "camera", "image", "environment", "materials", "lights", "shapes")
@@ -786,9 +789,15 @@ class _Translator:
             else:
                 self.unsupported(self.where(v, path).at, f"a {category} in a shape", "not supported")
         m = self.matrix(params["to_world"], node, key, "to_world") if "to_world" in params else np.eye(4)
+        radiance = None
         if emitter is not None:
-            return self.light(key, node, params, m, bsdf, emitter)
-        material = self.material(bsdf[1] if bsdf else None, bsdf[0] if bsdf else f"{key}.bsdf")
+            radiance = self.emission(emitter)
+            if self.light(key, node, params, m, bsdf, emitter, radiance):
+                return
+        if radiance is None:
+            material = self.material(bsdf[1] if bsdf else None, bsdf[0] if bsdf else f"{key}.bsdf")
+        else:  # an emitting shape: its BSDF black by default (Mitsuba's shape.cpp), as the lights'
+            material = self.emitter_material(bsdf)
         index = len(self.table["shapes"])
         prefix = f"shapes[{index}]"
         if name == "rectangle":
@@ -832,7 +841,11 @@ class _Translator:
             shape = {"type": "ellipsoid", "center": (m[:3, :3] @ center + m[:3, 3]).tolist(), "axes": axes.tolist()}
             self.origin(f"{prefix}.center", node, key, "center")
             self.origin(f"{prefix}.axes", node, key, "radius")
-        shape["material"] = material
+        if material is not None:
+            shape["material"] = material
+        if radiance is not None:
+            shape["radiance"] = radiance
+            self.origin(f"{prefix}.radiance", emitter[1], emitter[0], "radiance")
         self.table["shapes"].append(shape)
 
     def path(self, filename):
@@ -843,15 +856,32 @@ class _Translator:
                 return os.path.relpath(Path(base, filename), self.folder) if base != self.folder else filename
         return filename
 
-    def light(self, key, node, params, m, bsdf, emitter):
+    def emission(self, emitter):
+        """The radiance of a shape's `area` emitter (Mitsuba's default 1 where it gives none)."""
         path, em = emitter
         if em["type"] != "area":
             self.fail(self.where(em, path).at, path, em["type"], "a shape's emitter must be an area emitter")
         radiance = self.colour(self.params(em, path, "area").get("radiance", 1.0), em, path, "radiance", emission=True)
+        return radiance if radiance is not None else [1.0] * 3
+
+    def emitter_material(self, bsdf):
+        """The material of an emitting shape or light: None (black, Mitsuba's default BSDF for a shape with an
+        emitter, shape.cpp), or its BSDF's where that reflects, which only the path model renders."""
+        if bsdf is None or self.black(bsdf[1], bsdf[0]):
+            return None
+        if self.table["render"]["shading"] != "path":
+            self.unsupported(self.where(*reversed(bsdf)).at, "a light's bsdf with the direct integrator",
+                             "raytrace's direct model: lights reflect nothing (a black diffuse only)")
+            return None
+        return self.material(bsdf[1], bsdf[0])
+
+    def light(self, key, node, params, m, bsdf, emitter, radiance):
+        """Map an emitting rectangle, or a mesh that is one planar rectangle, to a rectangular light (which
+        light_sampling.cl samples with its culling and sweeps); False for every other emitting shape, which
+        becomes a shape with a radiance (kernels/emitters.cl)."""
         name = node["type"]
         if name == "rectangle":
             frame = _rectangle(m, params.get("flip_normals", False))
-            at = self.where(node, key).of("to_world")
         elif name in ("obj", "ply"):
             filename = self.path(self.string(params.get("filename"), node, key, "filename"))
             at = self.where(node, key).of("filename")
@@ -860,23 +890,19 @@ class _Translator:
             flip = self.boolean(params.get("flip_normals", False), node, key, "flip_normals")
             frame = _quad(vertices, mesh.faces[:, ::-1] if flip else mesh.faces)
         else:
-            frame, at = None, self.where(node, key).at
+            frame = None
         if frame is None:
-            self.unsupported(at, f"area emitter on {name}", "raytrace's lights are rectangles: an area emitter "
-                             "on a rectangle, or on a mesh that is one planar rectangle")
-            return
-        light = {**frame, "radiance": radiance if radiance is not None else [1.0] * 3}
+            return False
+        light = {**frame, "radiance": radiance}
         index = len(self.table["lights"])
         for k in frame:
             self.origin(f"lights[{index}].{k}", node, key, "to_world")
-        self.origin(f"lights[{index}].radiance", em, path, "radiance")
-        # Mitsuba makes the default BSDF of a shape with an emitter black (shape.cpp), as raytrace's lights are
-        if self.table["render"]["shading"] == "path" and bsdf is not None and not self.black(bsdf[1], bsdf[0]):
-            light["material"] = self.material(bsdf[1], bsdf[0])
-        elif bsdf is not None and not self.black(bsdf[1], bsdf[0]):
-            self.unsupported(self.where(*reversed(bsdf)).at, "a light's bsdf with the direct integrator",
-                             "raytrace's direct model: lights reflect nothing (a black diffuse only)")
+        self.origin(f"lights[{index}].radiance", emitter[1], emitter[0], "radiance")
+        material = self.emitter_material(bsdf)
+        if material is not None:
+            light["material"] = material
         self.table["lights"].append(light)
+        return True
 
     def black(self, node, path):
         """Whether BSDF `node` is a black diffuse one (twosided or not): what raytrace's direct model's lights are."""
