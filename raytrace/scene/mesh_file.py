@@ -1,5 +1,5 @@
-"""Reading a mesh file (load_mesh): the reader of its format (obj_file.py, ply_file.py), then the checks every
-mesh file passes, whatever its format.
+"""Reading a mesh file (load_mesh): the reader of its format (obj_file.py, ply_file.py, serialized_file.py), then
+the checks every mesh file passes, whatever its format.
 
 Real files are messy, and trimesh is lenient, so everything it lets through is checked, and hostile files
 (random bytes, truncations, absurd counts) get one InputError naming the file too. Checked here, for both
@@ -14,20 +14,21 @@ import numpy as np
 
 from ..errors import InputError
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX
-from . import obj_file, ply_file
+from . import obj_file, ply_file, serialized_file
 from .meshes import Mesh, degenerate_faces, kept_faces, value_problem, vertex_normals
 
 
-def load_mesh(path, source=None, key="file"):
-    """Read an OBJ or PLY file: (Mesh, number of degenerate faces dropped). Normals and uvs are the
-    file's (None if it has none); a bad file raises InputError. A file that cannot be opened is named as the
-    scene names it (`source`'s `key`: the scene file and shapes[3].file); what is wrong inside it, by its
-    own name and line."""
+def load_mesh(path, source=None, key="file", shape_index=0):
+    """Read an OBJ, PLY or Mitsuba .serialized file (its shape `shape_index`): (Mesh, number of degenerate faces
+    dropped). Normals and uvs are the file's (None if it has none); a bad file raises InputError. A file that
+    cannot be opened is named as the scene names it (`source`'s `key`: the scene file and shapes[3].file); what
+    is wrong inside it, by its own name and line (or part)."""
     path = Path(path)
     where = (path, "file") if source is None else (source, key)
-    readers = {".obj": obj_file.read_obj, ".ply": ply_file.read_ply}
+    readers = {".obj": obj_file.read_obj, ".ply": ply_file.read_ply,
+               ".serialized": lambda path, data: serialized_file.read_serialized(path, data, shape_index)}
     if path.suffix.lower() not in readers:
-        raise InputError(*where, str(path), "must be an .obj or .ply file")
+        raise InputError(*where, str(path), "must be an .obj, .ply or .serialized file")
     if path.exists() and not path.is_file():  # a FIFO or /dev/zero would block or never end
         raise InputError(*where, str(path), "is not a regular file")
     try:
