@@ -153,8 +153,10 @@ TABLES = {
         Key("faces", "faces", "triples of vertex indices", also="indices in range, faces with an area"),
         Key("uv", "vectors", "per-vertex texture coordinates", length=2, default=None, also="one per vertex")],
     'shapes[] type = "mesh", from a file or generated': [
-        Key("file", "path", "an OBJ or PLY file (ascii or binary), from the scene file's folder", default=None,
-            also="exactly one of file and generate"),
+        Key("file", "path", "an OBJ or PLY file (ascii or binary), or a Mitsuba .serialized file, from the scene "
+            "file's folder", default=None, also="exactly one of file and generate"),
+        Key("shape_index", "integer", "a .serialized file: which of its shapes (0: the first; Mitsuba's shape_index)",
+            default=0, low=0, high=2 ** 31 - 1, also="a .serialized file's, within its shapes"),
         Key("generate", "table", "a procedural mesh", default=None),
         *TRANSFORM,
         Key("smooth", "boolean", "interpolate vertex normals (the file's, else computed as vertex_normals says)",

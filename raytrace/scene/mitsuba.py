@@ -118,6 +118,13 @@ PLUGINS = {
         Param("flip_normals", False, 'shapes[] type = "mesh", from a file or generated flip_normals'),
         Param("bsdf", "diffuse", "shapes[] material"),
         Param("emitter", None, "shapes[] radiance", "an area emitter (a mesh that is one planar rectangle: lights[])"))),
+    "serialized": Plugin("shape", "one shape of a Mitsuba serialized mesh file", (
+        Param("filename", None, 'shapes[] type = "mesh", from a file or generated file'),
+        Param("shape_index", 0, 'shapes[] type = "mesh", from a file or generated shape_index'),
+        _TRANSFORM, Param("face_normals", False, 'shapes[] type = "mesh", from a file or generated smooth',
+                          "false: smooth (smooth = true)"),
+        Param("flip_normals", False, 'shapes[] type = "mesh", from a file or generated flip_normals'),
+        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter"))),
     "cube": Plugin("shape", "[-1, 1]^3 as Mitsuba's mesh of 12 triangles, each face's uv over [0, 1]^2, under "
                    "to_world", (
         _TRANSFORM, Param("flip_normals", False, 'shapes[] type = "mesh" faces', "turns the faces inside out"),
@@ -815,14 +822,18 @@ class _Translator:
             shape = {"type": "mesh", "vertices": vertices, "faces": faces, "uv": uv}
             for k in ("vertices", "faces", "uv"):
                 self.origin(f"{prefix}.{k}", node, key, "to_world")
-        elif name in ("obj", "ply"):
+        elif name in ("obj", "ply", "serialized"):
+            # face_normals: flat; else the file's normals, or Mitsuba's angle-weighted ones where it has none
             filename = self.string(params.get("filename"), node, key, "filename")
-            smooth = not params.get("face_normals", False)
+            smooth = not self.boolean(params.get("face_normals", False), node, key, "face_normals")
             flip = self.boolean(params.get("flip_tex_coords", name == "obj"), node, key, "flip_tex_coords")
             flip_normals = self.boolean(params.get("flip_normals", False), node, key, "flip_normals")
             shape = {"type": "mesh", "file": self.path(filename), "matrix": m.tolist(), "smooth": smooth,
                      **({"vertex_normals": "angle"} if smooth else {}), **({"flip_tex_coords": True} if flip else {}),
                      **({"flip_normals": True} if flip_normals else {})}
+            if "shape_index" in params:  # Mitsuba's default is the TOML's: 0
+                shape["shape_index"] = self.number(params["shape_index"], node, key, "shape_index", integer=True)
+                self.origin(f"{prefix}.shape_index", node, key, "shape_index")
             self.origin(f"{prefix}.file", node, key, "filename")
             self.origin(f"{prefix}.matrix", node, key, "to_world")
         else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius

@@ -382,6 +382,8 @@ class _Writer:
                 root.append(_comment(key))
                 shape = ET.SubElement(root, "shape", type=Path(mesh_shape.source).suffix.lower()[1:])
                 ET.SubElement(shape, "string", name="filename", value=filename)
+                if table.get("shape_index", 0):  # a .serialized file's shape (Mitsuba's default: 0)
+                    ET.SubElement(shape, "integer", name="shape_index", value=str(table["shape_index"]))
                 ET.SubElement(ET.SubElement(shape, "transform", name="to_world"), "matrix", value=_matrix(m))
             ET.SubElement(shape, "boolean", name="face_normals", value=str(not mesh_shape.smooth).lower())
         self.bsdf_ref(shape, objects[0].material)
