@@ -13,12 +13,12 @@ Mitsuba computes (angle-weighted, in float32) against meshes.angle_weighted_norm
 most 8 faces' unit normals times their angles (arccos-like unit_angle, a few ulps each), then normalises:
 within 2e-6 (measured: 9.7e-8 on the fixtures, 1.2e-7 on scenes/mitsuba/meshes/spheres.serialized).
 
-Mutations tried on serialized_file.py, each failing this file (1 to 36 of its 55 tests): the v3 dictionary read as uint64 offsets (fixtures
-v3_*, shape 1); uvs read after the colours (round trip with both); float64 chosen by 0x1000 (round trip, fixtures);
-the v4 name not skipped (every v4 file); `shape_index >= count` made `>` (out of range case: reads the dictionary
-as a shape); the one-byte-more limit dropped (the too-long case passes); the end-of-stream (checksum) test dropped
-(the no-checksum case); the header's version comparison dropped (the other-version case); the offset bound
-dropped (the offset case: struct error, not an InputError).
+Mutations tried on serialized_file.py, each failing this file (1 to 36 of its 55 tests): the v3 dictionary
+read as uint64 offsets (fixtures v3_*, shape 1); uvs read after the colours (round trip with both); float64
+chosen by 0x1000 (round trip, fixtures); the v4 name not skipped (every v4 file); `shape_index >= count` made
+`>` (the out-of-range case: reads the dictionary as a shape); the one-byte-more limit dropped (the too-long
+case passes); the end-of-stream (checksum) test dropped (the no-checksum case); the shape header's check
+dropped (the other-version case); the offset bound dropped (the offset case: struct error, not an InputError).
 """
 import struct
 import zlib
@@ -157,7 +157,8 @@ def test_shape_index_only_with_a_serialized_file(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text('[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov = 40\n'
                      '[image]\nwidth = 8\nheight = 8\n[[lights]]\ncenter = [0, 0, 3]\nsize = [1, 1]\n'
-                     'normal = [0, 0, -1]\ntangent = [1, 0, 0]\ncolour = [1, 1, 1]\n[materials.m]\ncolour = [0.5, 0.5, 0.5]\n'
+                     'normal = [0, 0, -1]\ntangent = [1, 0, 0]\ncolour = [1, 1, 1]\n'
+                     '[materials.m]\ncolour = [0.5, 0.5, 0.5]\n'
                      '[[shapes]]\ntype = "mesh"\nfile = "m.obj"\nshape_index = 1\nmaterial = "m"\n')
     with pytest.raises(InputError, match=r"shapes\[0\]\.shape_index = 1: only with a \.serialized file"):
         raytrace.load_file(scene)
