@@ -418,7 +418,7 @@ def test_a_sheared_rectangle_is_two_triangles(tmp_path):
 
 
 @pytest.mark.parametrize("extra, where, message", [
-    ('<shape type="disk"/>', "shape disk", "not supported (raytrace renders: rectangle, obj, ply, cube, sphere)"),
+    ('<shape type="disk"/>', "shape disk", "not supported (raytrace renders: rectangle, obj, ply, serialized, cube, sphere)"),
     ('<shape type="rectangle"><bsdf type="pplastic"/></shape>', "bsdf pplastic", "raytrace renders: diffuse"),
     ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
 ])

@@ -200,6 +200,8 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
     if table_name == ENVIRONMENT and key.name == "scale" and accepted and value > 1:
         pytest.skip("a map this bright is refused by the path model's brightness (ranges.py's rule 5), not by the "
                     "bound")
+    if key.name == "shape_index" and value > 0 and accepted:
+        pytest.skip("a shape_index above 0 needs a .serialized file holding that many shapes, not only the bound")
     if key.name == "max_depth":  # the path model's key
         radiometric(scene, "path")
     if table_name in BSDF_TABLES:

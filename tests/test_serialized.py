@@ -152,7 +152,7 @@ def test_xml_serialized_shape_follows_face_normals(tmp_path, index, flat):
 
 
 def test_shape_index_only_with_a_serialized_file(tmp_path):
-    """shape_index beside an OBJ file is refused, naming the scene file and the key."""
+    """shape_index above 0 beside an OBJ file is refused, naming the scene file and the key."""
     (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     scene = tmp_path / "s.toml"
     scene.write_text('[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov = 40\n'
@@ -160,7 +160,7 @@ def test_shape_index_only_with_a_serialized_file(tmp_path):
                      'normal = [0, 0, -1]\ntangent = [1, 0, 0]\ncolour = [1, 1, 1]\n'
                      '[materials.m]\ncolour = [0.5, 0.5, 0.5]\n'
                      '[[shapes]]\ntype = "mesh"\nfile = "m.obj"\nshape_index = 1\nmaterial = "m"\n')
-    with pytest.raises(InputError, match=r"shapes\[0\]\.shape_index = 1: only with a \.serialized file"):
+    with pytest.raises(InputError, match=r"shapes\[0\]\.shape_index = 1: above 0 only with a \.serialized file"):
         raytrace.load_file(scene)
 
 

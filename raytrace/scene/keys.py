@@ -156,7 +156,7 @@ TABLES = {
         Key("file", "path", "an OBJ or PLY file (ascii or binary), or a Mitsuba .serialized file, from the scene "
             "file's folder", default=None, also="exactly one of file and generate"),
         Key("shape_index", "integer", "a .serialized file: which of its shapes (0: the first; Mitsuba's shape_index)",
-            default=0, low=0, high=2 ** 31 - 1, also="a .serialized file's, within its shapes"),
+            default=0, low=0, high=2 ** 31 - 1, also="above 0: a .serialized file's, within its shapes"),
         Key("generate", "table", "a procedural mesh", default=None),
         *TRANSFORM,
         Key("smooth", "boolean", "interpolate vertex normals (the file's, else computed as vertex_normals says)",

@@ -337,8 +337,8 @@ def _mesh_source(r):
     if r.has("file") == r.has("generate"):
         r.fail("file", r.raw("file", r.raw("generate")), "give exactly one of file and generate")
     index = r.integer("shape_index")
-    if r.has("shape_index") and not (r.has("file") and Path(r.string("file")).suffix.lower() == ".serialized"):
-        r.fail("shape_index", index, "only with a .serialized file (OBJ and PLY files hold one mesh)")
+    if index and not (r.has("file") and Path(r.string("file")).suffix.lower() == ".serialized"):
+        r.fail("shape_index", index, "above 0 only with a .serialized file (OBJ and PLY files hold one mesh)")
     if r.has("file"):
         path = Path(r.path).parent / r.string("file")
         return (*mesh_file.load_mesh(path, r.path, r.prefix + "file", index), str(path))
