@@ -123,7 +123,7 @@ ALWAYS_INLINE void bvh_closest_hit(const Scene *s, Hit *hit, Ray r, vfloat tmax)
                 continue;
         } else {
             for (int k = node->offset; k < node->offset + node->count; ++k)
-                hit_primitive(s, hit, &p, s->prims[k] & 3, s->prims[k] >> 2, tmax);
+                hit_primitive(s, hit, &p, PRIM_KIND(s->prims[k]), PRIM_INDEX(s->prims[k]), tmax);
         }
         do { /* a node pushed before a closer hit was found is tested again */
             if (todo.top == 0)
@@ -148,7 +148,7 @@ ALWAYS_INLINE vint leaf_blocks(const Scene *s, PrimitiveRay *p, __global const B
 {
     vint blocked = (vint)(0);
     for (int k = node->offset; k < node->offset + node->count; ++k)
-        blocked |= primitive_blocks(s, p, s->prims[k] & 3, s->prims[k] >> 2, skip);
+        blocked |= primitive_blocks(s, p, PRIM_KIND(s->prims[k]), PRIM_INDEX(s->prims[k]), skip);
     return blocked;
 }
 

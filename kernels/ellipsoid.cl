@@ -3,27 +3,9 @@
 #ifndef ELLIPSOID_CL
 #define ELLIPSOID_CL
 
+#include "affine.h"
 #include "ray.h"
 #include "types.h"
-
-inline vec3 mat3_apply(const __global float *m, vec3 v) /* row-major m times v */
-{
-    return v3(MAD(m[0], v.x, MAD(m[1], v.y, m[2] * v.z)), MAD(m[3], v.x, MAD(m[4], v.y, m[5] * v.z)),
-              MAD(m[6], v.x, MAD(m[7], v.y, m[8] * v.z)));
-}
-
-inline vec3 mat3_apply_abs(const __global float *m, vec3 v) /* |m| times v, for error bounds */
-{
-    return v3(MAD(vabs(m[0]), v.x, MAD(vabs(m[1]), v.y, vabs(m[2]) * v.z)),
-              MAD(vabs(m[3]), v.x, MAD(vabs(m[4]), v.y, vabs(m[5]) * v.z)),
-              MAD(vabs(m[6]), v.x, MAD(vabs(m[7]), v.y, vabs(m[8]) * v.z)));
-}
-
-inline vec3 mat3_apply_transposed(const __global float *m, vec3 v)
-{
-    return v3(MAD(m[0], v.x, MAD(m[3], v.y, m[6] * v.z)), MAD(m[1], v.x, MAD(m[4], v.y, m[7] * v.z)),
-              MAD(m[2], v.x, MAD(m[5], v.y, m[8] * v.z)));
-}
 
 /* t of the hit (the near root if it is ahead, else the far one; +inf for none) and *q, the hit in unit-sphere
  * space; *t_beyond and *q_beyond, the far root where the hit is the near one (+inf elsewhere): where a shadow

@@ -38,12 +38,23 @@ inline void hit_emission(const Scene *s, Hit *hit)
 #endif
 
 #if !HAS_BVH
+/* The last kind the loop over every shape tests: the kinds a variant leaves out have no shapes. */
+#if HAS_CYLINDERS
+#define LAST_SHAPE SHAPE_CYLINDER
+#elif HAS_DISKS
+#define LAST_SHAPE SHAPE_DISK
+#else
+#define LAST_SHAPE SHAPE_ELLIPSOID
+#endif
+
 /* How many shapes of `kind` the scene has: the loop over every shape, for scenes too small for a BVH. */
 inline int shape_count(const Scene *s, int kind)
 {
     return kind == SHAPE_RECTANGLE ? s->params->n_rectangles
          : kind == SHAPE_TRIANGLE  ? s->params->n_triangles
-                                   : s->params->n_ellipsoids;
+         : kind == SHAPE_ELLIPSOID ? s->params->n_ellipsoids
+         : kind == SHAPE_DISK      ? s->params->n_disks
+                                   : s->params->n_cylinders;
 }
 #endif
 
@@ -55,7 +66,7 @@ ALWAYS_INLINE Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
     bvh_closest_hit(s, &hit, r, tmax);
 #else
     PrimitiveRay p = primitive_ray(r);
-    for (int kind = SHAPE_RECTANGLE; kind <= SHAPE_ELLIPSOID; ++kind)
+    for (int kind = SHAPE_RECTANGLE; kind <= LAST_SHAPE; ++kind)
         for (int i = 0; i < shape_count(s, kind); ++i)
             hit_primitive(s, &hit, &p, kind, i, tmax);
 #endif
@@ -124,7 +135,7 @@ inline vint occluded(const Scene *s, Ray r, uint skip, vint active PASSES_PARAME
 #else
     PrimitiveRay p = shadow_primitive_ray(r PASSES(SELECT((vint)(0), passes, active)) OWN(own));
     vint settled = !active;
-    for (int kind = SHAPE_RECTANGLE; kind <= SHAPE_ELLIPSOID; ++kind)
+    for (int kind = SHAPE_RECTANGLE; kind <= LAST_SHAPE; ++kind)
         for (int i = 0; i < shape_count(s, kind) && !ALL(settled); ++i)
             settled |= primitive_blocks(s, &p, kind, i, skip);
     return settled & active;

@@ -76,6 +76,14 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
     if (kind == SHAPE_ELLIPSOID)
         return surface_ellipsoid(&s->ellipsoids[index], p);
 #endif
+#if HAS_DISKS
+    if (kind == SHAPE_DISK)
+        return surface_disk(&s->disks[index], p);
+#endif
+#if HAS_CYLINDERS
+    if (kind == SHAPE_CYLINDER)
+        return surface_cylinder(&s->cylinders[index], p);
+#endif
     return surface_rectangle(&s->rectangles[index], p);
 }
 
@@ -447,7 +455,8 @@ inline float3 smooth_normal(const Scene *s, int index, float b1, float b2, float
  * rectangle's tangent (Mitsuba's rectangle: its local x axis), a triangle's from its uvs (TriangleUV.tangent:
  * a mesh without uvs has the barycentric uvs (b1, b2), dp/du = v1 - v0, as Mitsuba's mesh without texture
  * coordinates; degenerate uvs the face's coordinate system, as Mitsuba's), an ellipsoid's of its spherical
- * coordinates, M (-q.y, q.x, 0) at the unit-sphere point q (Mitsuba's sphere; 0 at the poles). After the
+ * coordinates, M (-q.y, q.x, 0) at the unit-sphere point q (Mitsuba's sphere; 0 at the poles), a disk's and a
+ * cylinder's surface_disk's and surface_cylinder's dp/du (Mitsuba's; a disk's is 0 at its centre). After the
  * normal and height maps: the tangent follows the normal they give (Mitsuba's normalmap builds its frame
  * from dp/du so). Lanes that hit nothing get some unit vector orthogonal to n. */
 inline ShadingPoint with_tangent(const Scene *s, Hit hit, ShadingPoint sp)
@@ -470,6 +479,14 @@ inline ShadingPoint with_tangent(const Scene *s, Hit hit, ShadingPoint sp)
             float3 q = mat3_mul(e->world_to_unit, lane3(&p, i) - f3(e->center));
             d = mat3_mul(e->unit_to_world, (float3)(-q.y, q.x, 0.0f));
         }
+#endif
+#if HAS_DISKS
+        if (kind[i] == SHAPE_DISK)
+            d = surface_disk(&s->disks[index[i]], lane3(&p, i)).dpdu;
+#endif
+#if HAS_CYLINDERS
+        if (kind[i] == SHAPE_CYLINDER)
+            d = surface_cylinder(&s->cylinders[index[i]], lane3(&p, i)).dpdu;
 #endif
         set_lane3(&dpdu, i, d);
     }

@@ -23,6 +23,12 @@
 #if HAS_ELLIPSOIDS
 #include "ellipsoid.cl"
 #endif
+#if HAS_DISKS
+#include "disk.cl"
+#endif
+#if HAS_CYLINDERS
+#include "cylinder.cl"
+#endif
 
 typedef struct {
     vfloat t;      /* +inf: nothing hit */
@@ -109,6 +115,40 @@ inline void hit_ellipsoid(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
         vec3 n = ellipsoid_normal(e, q);
         vec3 p = ellipsoid_point(e, q, n, &err);
         hit_update(hit, r, t, p, err, n, e->material, (Vec3f){0.0f, 0.0f, 0.0f}, SHAPE_ELLIPSOID, i,
+                   (vfloat)(0.0f), (vfloat)(0.0f));
+    }
+}
+#endif
+
+#if HAS_DISKS
+inline void hit_disk(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
+{
+    __global const Disk *k = &s->disks[i];
+    vec3 q;
+    vfloat dt, err;
+    vfloat t = intersect_disk(k, r, vmin(tmax, hit->t), &dt, &q);
+    t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
+    if (ANY(t < hit->t)) {
+        vec3 n = disk_normal(k);
+        vec3 p = disk_point(k, q.x, q.y, n, &err);
+        hit_update(hit, r, t, p, err, n, k->material, (Vec3f){0.0f, 0.0f, 0.0f}, SHAPE_DISK, i, (vfloat)(0.0f),
+                   (vfloat)(0.0f));
+    }
+}
+#endif
+
+#if HAS_CYLINDERS
+inline void hit_cylinder(const Scene *s, Hit *hit, Ray r, int i, vfloat tmax)
+{
+    __global const Cylinder *k = &s->cylinders[i];
+    vec3 q;
+    vfloat err;
+    vfloat t = intersect_cylinder(k, r, &q);
+    t = SELECT((vfloat)(INFINITY), t, t <= tmax);
+    if (ANY(t < hit->t)) {
+        vec3 n = cylinder_normal(k, q);
+        vec3 p = cylinder_point(k, q, n, &err);
+        hit_update(hit, r, t, p, err, n, k->material, (Vec3f){0.0f, 0.0f, 0.0f}, SHAPE_CYLINDER, i,
                    (vfloat)(0.0f), (vfloat)(0.0f));
     }
 }
@@ -310,6 +350,54 @@ inline vint blocks_ellipsoid(const Scene *s, PrimitiveRay *p, int i)
 }
 #endif
 
+#if HAS_DISKS
+inline vint blocks_disk(const Scene *s, PrimitiveRay *p, int i)
+{
+    __global const Disk *k = &s->disks[i];
+    vec3 q;
+    vfloat dt;
+    vfloat t = intersect_disk(k, p->r, (vfloat)(1.0f), &dt, &q);
+    vint crossed = hit_on_segment(t, dt);
+#if HAS_NULLS
+    if (ANY(crossed) && see_through(s, k->material)) {
+        vfloat err;
+        vec3 n = disk_normal(k);
+        return crossing_blocks(s, p, crossed, t, disk_point(k, q.x, q.y, n, &err), n, k->material, SHAPE_DISK, i,
+                               (vfloat)(0.0f), (vfloat)(0.0f));
+    }
+#endif
+    return crossed;
+}
+#endif
+
+#if HAS_CYLINDERS
+/* A see-through cylinder may be crossed twice by a segment that passes it, as an ellipsoid. */
+inline vint blocks_cylinder(const Scene *s, PrimitiveRay *p, int i)
+{
+    __global const Cylinder *k = &s->cylinders[i];
+    vec3 q, q_beyond;
+    vfloat t_beyond;
+    vfloat t = cylinder_roots(k, p->r, &q, &t_beyond, &q_beyond);
+    vint crossed = hit_on_segment(t, (vfloat)(0.0f));
+#if HAS_NULLS
+    if (ANY(crossed) && see_through(s, k->material)) {
+        vfloat err;
+        vec3 n = cylinder_normal(k, q);
+        vint blocked = crossing_blocks(s, p, crossed, t, cylinder_point(k, q, n, &err), n, k->material,
+                                       SHAPE_CYLINDER, i, (vfloat)(0.0f), (vfloat)(0.0f));
+        vint again = crossed & !blocked & hit_on_segment(t_beyond, (vfloat)(0.0f));
+        if (ANY(again)) {
+            n = cylinder_normal(k, q_beyond);
+            blocked |= crossing_blocks(s, p, again, t_beyond, cylinder_point(k, q_beyond, n, &err), n,
+                                       k->material, SHAPE_CYLINDER, i, (vfloat)(0.0f), (vfloat)(0.0f));
+        }
+        return blocked;
+    }
+#endif
+    return crossed;
+}
+#endif
+
 /* The closest-hit test of primitive `index` of `kind` (SHAPE_*), merged into *hit; tmax bounds t. */
 ALWAYS_INLINE void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int kind, int index, vfloat tmax)
 {
@@ -325,6 +413,14 @@ ALWAYS_INLINE void hit_primitive(const Scene *s, Hit *hit, PrimitiveRay *p, int 
 #if HAS_ELLIPSOIDS
     if (kind == SHAPE_ELLIPSOID)
         hit_ellipsoid(s, hit, p->r, index, tmax);
+#endif
+#if HAS_DISKS
+    if (kind == SHAPE_DISK)
+        hit_disk(s, hit, p->r, index, tmax);
+#endif
+#if HAS_CYLINDERS
+    if (kind == SHAPE_CYLINDER)
+        hit_cylinder(s, hit, p->r, index, tmax);
 #endif
 }
 
@@ -347,6 +443,14 @@ ALWAYS_INLINE vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, i
 #endif
     if (kind == SHAPE_ELLIPSOID)
         return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p, index));
+#endif
+#if HAS_DISKS
+    if (kind == SHAPE_DISK)
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_disk(s, p, index));
+#endif
+#if HAS_CYLINDERS
+    if (kind == SHAPE_CYLINDER)
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_cylinder(s, p, index));
 #endif
     return (vint)(0);
 }

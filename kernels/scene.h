@@ -1,5 +1,5 @@
 /* The scene as the kernel sees it: the host's buffers and counts, gathered in one private struct.
- * HAS_RECTANGLES, HAS_TRIANGLES and HAS_ELLIPSOIDS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
+ * HAS_RECTANGLES, HAS_TRIANGLES, HAS_ELLIPSOIDS, HAS_DISKS and HAS_CYLINDERS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
  * HAS_HEIGHT_MAPS and HAS_SMOOTH_NORMALS (set by the host from the scene) leave out the code of what a scene
  * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING and
  * HAS_PATH_TRACING the shading model (direct_lighting.cl, path_tracing.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant.
@@ -43,6 +43,8 @@ typedef struct {
     __global const TriangleNormals *triangle_normals;
     __global const TriangleAttribute *attributes; /* mesh attributes, per triangle (LOOKUP_MESH_ATTRIBUTE) */
     __global const Ellipsoid *ellipsoids;
+    __global const Disk *disks;
+    __global const Cylinder *cylinders;
     __global const Light *lights;
     __global const Emitter *emitters;                  /* HAS_SHAPE_EMITTERS: area emitters on shapes */
     __global const EmitterTriangle *emitter_triangles; /* their meshes' triangles (emitters.cl) */
@@ -50,7 +52,7 @@ typedef struct {
     __constant const Camera *camera;
     __constant const RenderParams *params;
     __global const BVHNode *nodes; /* HAS_BVH: the hierarchy over every shape (bvh.cl) */
-    __global const int *prims;     /* its leaves' primitive references, index * 4 + SHAPE_* */
+    __global const int *prims;     /* its leaves' primitive references, index * PRIM_KINDS + SHAPE_* */
     __global const uint *culled_subtrees; /* per node: the bits of the rectangles it holds when it holds only
                                            * rectangles shadow rays may skip (intersect.cl), else 0 */
     __global const float *environment_map; /* HAS_ENVIRONMENT_MAP: texels and sampling tables (environment.cl) */
@@ -95,13 +97,13 @@ typedef struct {
     __global const Ellipsoid *ellipsoids, __global const Light *lights, __global const Material *materials, \
     __global const Emitter *emitters, __global const EmitterTriangle *emitter_triangles,                    \
     __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees,        \
-    __global const float *environment_map
+    __global const float *environment_map, __global const Disk *disks, __global const Cylinder *cylinders
 #define SCENE_FROM_PARAMETERS                                                                               \
     {.rectangles = rectangles, .triangles = triangles, .triangle_uvs = triangle_uvs,                        \
      .triangle_normals = triangle_normals, .attributes = attributes, .ellipsoids = ellipsoids, .lights = lights, .materials = materials, \
      .emitters = emitters, .emitter_triangles = emitter_triangles,                                          \
      .camera = camera, .params = params, .nodes = nodes, .prims = prims, .culled_subtrees = culled_subtrees, \
-     .environment_map = environment_map}
+     .environment_map = environment_map, .disks = disks, .cylinders = cylinders}
 
 #define TEXTURE_PARAMETERS                                                                                  \
     __global const Texture *textures, __global const MipLevel *mip_levels, __global const uint *texels,    \

@@ -79,6 +79,41 @@ inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
     return sp;
 }
 
+/* Mitsuba's disk: polar coordinates of the local point q = to_local (p - c), u = r = |q.xy| and v = phi / 2 pi
+ * in [0, 1), dp/du = to_world (cos phi, sin phi, 0), dp/dv = to_world (-sin phi, cos phi, 0) 2 pi r (its
+ * compute_surface_interaction); at the centre, where dp/du vanishes, the tangent is to_world's x axis. */
+inline SurfacePoint surface_disk(__global const Disk *k, float3 p)
+{
+    float3 q = mat3_mul(k->to_local, p - f3(k->center));
+    float r = length_of(q.xy);
+    float cos_phi = r > 0.0f ? q.x / r : 0.0f, sin_phi = r > 0.0f ? q.y / r : 0.0f;
+    float v = atan2(q.y, q.x) / (2.0f * M_PI_F);
+    SurfacePoint sp;
+    sp.uv = (float2)(r, v < 0.0f ? v + 1.0f : v);
+    sp.dpdu = mat3_mul(k->to_world, (float3)(cos_phi, sin_phi, 0.0f));
+    sp.dpdv = mat3_mul(k->to_world, (float3)(-sin_phi, cos_phi, 0.0f) * (2.0f * M_PI_F * r));
+    sp.n = normalize3((float3)(k->to_local[6], k->to_local[7], k->to_local[8])) * k->normal_sign;
+    sp.tangent = normalize3(r > 0.0f ? sp.dpdu : mat3_mul(k->to_world, (float3)(1.0f, 0.0f, 0.0f)));
+    return sp;
+}
+
+/* Mitsuba's cylinder: u = phi / 2 pi in [0, 1) around the axis from the local x axis, v = z along it,
+ * dp/du = to_world 2 pi (-y, x, 0), dp/dv = to_world (0, 0, 1) (its compute_surface_interaction), with the
+ * local point put back on the tube. */
+inline SurfacePoint surface_cylinder(__global const Cylinder *k, float3 p)
+{
+    float3 q = mat3_mul(k->to_local, p - f3(k->center));
+    float2 xy = q.xy / length_of(q.xy);
+    float u = atan2(xy.y, xy.x) / (2.0f * M_PI_F);
+    SurfacePoint sp;
+    sp.uv = (float2)(u < 0.0f ? u + 1.0f : u, q.z);
+    sp.dpdu = mat3_mul(k->to_world, (float3)(-xy.y, xy.x, 0.0f) * (2.0f * M_PI_F));
+    sp.dpdv = mat3_mul(k->to_world, (float3)(0.0f, 0.0f, 1.0f));
+    sp.n = normalize3(mat3_mul_transposed(k->to_local, (float3)(xy.x, xy.y, 0.0f))) * k->normal_sign;
+    sp.tangent = normalize3(sp.dpdu);
+    return sp;
+}
+
 typedef struct { vec2 uv; vec3 dpdu, dpdv, n, tangent; } Surface; /* SurfacePoint on lanes */
 
 /* surface_rectangle on lanes, for lanes that all hit rectangle r: the same operations in the same order. */

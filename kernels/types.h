@@ -45,12 +45,38 @@ typedef struct {
     int material;
 } Ellipsoid;
 
-/* Shape kinds; a primitive reference in the BVH's table is SHAPE_REFERENCE(kind, index). */
+/* Mitsuba 3's disk and cylinder, each a unit shape under an affine map x -> center + to_world x (the map's
+ * 3 x 3 part row-major, its float64 inverse rounded once): the disk x^2 + y^2 <= 1 in z = 0, the open
+ * cylinder x^2 + y^2 = 1, 0 <= z <= 1 (p0, p1 and radius already composed into the map). Their normal is
+ * to_local^T of the local one (0, 0, 1), or (x, y, 0), times normal_sign (-1: flip_normals). */
+typedef struct {
+    Vec3f center;
+    float to_local[9];
+    float to_world[9];
+    float normal_sign;
+    int material;
+} Disk;
+
+typedef struct {
+    Vec3f center;
+    float to_local[9];
+    float to_world[9];
+    float normal_sign;
+    int material;
+} Cylinder;
+
+/* Shape kinds; a primitive reference in the BVH's table is index * PRIM_KINDS + kind (PRIM_KIND, PRIM_INDEX). */
 #define SHAPE_NONE 0 /* nothing, or a light */
 #define SHAPE_RECTANGLE 1
 #define SHAPE_TRIANGLE 2
 #define SHAPE_ELLIPSOID 3
-#define SHAPE_REFERENCE(kind, index) ((index) * 4 + (kind))
+#define SHAPE_DISK 4
+#define SHAPE_CYLINDER 5
+#define PRIM_KIND_BITS 3
+#define PRIM_KINDS (1 << PRIM_KIND_BITS)
+#define PRIM_KIND(ref) ((ref) & (PRIM_KINDS - 1))
+#define PRIM_INDEX(ref) ((ref) >> PRIM_KIND_BITS)
+#define SHAPE_REFERENCE(kind, index) ((index) * PRIM_KINDS + (kind))
 
 /* A node of the flattened BVH (bvh.cl), depth first: count > 0 is a leaf of the primitive references
  * [offset, offset + count); count <= 0 an interior node whose first child is the next node, second child node
@@ -278,6 +304,7 @@ typedef struct {
     float scene_extent;    /* a bound on every coordinate of the scene (renderer/culling.py) */
     int environment_width, environment_height; /* HAS_ENVIRONMENT_MAP: the map's texels (environment.cl) */
     Vec3f environment_x, environment_y, environment_z; /* the world directions of the map's local axes */
+    int n_disks, n_cylinders;
 } RenderParams;
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }

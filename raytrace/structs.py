@@ -26,8 +26,14 @@ TRIANGLE_UV = np.dtype([("uv", "<f4", (6,)), ("dpdu", *VEC3F), ("dpdv", *VEC3F),
 ELLIPSOID = np.dtype([("center", *VEC3F), ("world_to_unit", "<f4", (9,)), ("unit_to_world", "<f4", (9,)),
                       ("material", "<i4")])
 
-# kernels/types.h: SHAPE_*; a BVH primitive reference is index * 4 + kind
-SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3}
+# kernels/types.h: Disk and Cylinder, one layout (a unit shape under an affine map)
+AFFINE_SHAPE = np.dtype([("center", *VEC3F), ("to_local", "<f4", (9,)), ("to_world", "<f4", (9,)),
+                         ("normal_sign", "<f4"), ("material", "<i4")])
+
+# kernels/types.h: SHAPE_*; a BVH primitive reference is index * PRIM_KINDS + kind
+SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3, "disk": 4, "cylinder": 5}
+PRIM_KIND_BITS = 3
+PRIM_KINDS = 1 << PRIM_KIND_BITS
 
 BVH_NODE = np.dtype([("lo", "<f4", (3,)), ("hi", "<f4", (3,)), ("offset", "<i4"), ("count", "<i4")])
 
@@ -95,12 +101,13 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
                           ("texture_filter", "<i4"), ("footprint_scale", "<f4"), ("max_depth", "<i4"),
                           ("environment", *VEC3F), ("scene_extent", "<f4"),
                           ("environment_width", "<i4"), ("environment_height", "<i4"),
-                          ("environment_x", *VEC3F), ("environment_y", *VEC3F), ("environment_z", *VEC3F)])
+                          ("environment_x", *VEC3F), ("environment_y", *VEC3F), ("environment_z", *VEC3F),
+                          ("n_disks", "<i4"), ("n_cylinders", "<i4")])
 
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
            "TriangleNormals": TRIANGLE_NORMALS,
-           "Ellipsoid": ELLIPSOID, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
+           "Ellipsoid": ELLIPSOID, "Disk": AFFINE_SHAPE, "Cylinder": AFFINE_SHAPE, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
            "TextureLookup": TEXTURE_LOOKUP, "TriangleAttribute": TRIANGLE_ATTRIBUTE,
            "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE, "Emitter": EMITTER,
            "EmitterTriangle": EMITTER_TRIANGLE}

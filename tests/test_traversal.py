@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from helpers import planar
+from raytrace import structs
 from raytrace.renderer import bvh
 from raytrace.scene import meshgen
 from raytrace.scene import Triangle
@@ -98,7 +99,7 @@ def test_flattened_tree_is_what_the_kernel_expects(mesh_scene):
     nodes' first child next, second child beyond; the depth within the kernel's stack (BVH_STACK = 64)."""
     nodes, prims, _ = bvh_structs(mesh_scene, True)
     counts = [len(mesh_scene.rectangles), len(mesh_scene.triangles), len(mesh_scene.ellipsoids)]
-    kinds, index = prims & 3, prims >> 2
+    kinds, index = prims & (structs.PRIM_KINDS - 1), prims >> structs.PRIM_KIND_BITS
     for kind, n in zip((1, 2, 3), counts):
         assert sorted(index[kinds == kind].tolist()) == list(range(n))
     depth, stack = 0, [(0, 1)]
@@ -121,13 +122,13 @@ def test_triangles_are_packed_in_leaf_order(mesh_scene):
     _, before, _ = bvh_structs(mesh_scene, True)
     tables = scene_tables(mesh_scene, features=Features(bvh=True))
     after, packed = tables["prims"], tables["triangles"]
-    triangle = (after & 3) == 2
+    triangle = (after & (structs.PRIM_KINDS - 1)) == 2
     np.testing.assert_array_equal(after[~triangle], before[~triangle])
-    np.testing.assert_array_equal(after[triangle] >> 2, np.arange(np.count_nonzero(triangle)))
-    scene_order = triangle_soup(mesh_scene).v[before[triangle] >> 2].astype(np.float32)
+    np.testing.assert_array_equal(after[triangle] >> structs.PRIM_KIND_BITS, np.arange(np.count_nonzero(triangle)))
+    scene_order = triangle_soup(mesh_scene).v[before[triangle] >> structs.PRIM_KIND_BITS].astype(np.float32)
     for k in range(3):
         np.testing.assert_array_equal(packed[f"v{k}"], scene_order[:, k])
-    assert not np.array_equal(before[triangle] >> 2, np.arange(np.count_nonzero(triangle)))
+    assert not np.array_equal(before[triangle] >> structs.PRIM_KIND_BITS, np.arange(np.count_nonzero(triangle)))
 
 
 def test_rays_in_box_faces(harness, cornell):
@@ -227,8 +228,8 @@ def test_culled_subtrees_against_a_walk_of_the_tree(cornell):
     kinds = set()
     for i in range(len(nodes)):
         refs = under(i)
-        ok = all(ref & 3 == 1 and ref >> 2 < 32 for ref in refs)
-        assert culled[i] == (sum(1 << (ref >> 2) for ref in set(refs)) if ok else 0), i
-        kinds.add((ok, nodes["count"][i] > 0, any(ref & 3 == 1 and ref >> 2 < 32 for ref in refs)))
+        ok = all(ref % structs.PRIM_KINDS == 1 and ref // structs.PRIM_KINDS < 32 for ref in refs)
+        assert culled[i] == (sum(1 << (ref // structs.PRIM_KINDS) for ref in set(refs)) if ok else 0), i
+        kinds.add((ok, nodes["count"][i] > 0, any(ref % structs.PRIM_KINDS == 1 and ref // structs.PRIM_KINDS < 32 for ref in refs)))
     assert kinds >= {(True, True, True), (True, False, True), (False, True, True), (False, False, True)}, \
         "cullable-only and mixed leaves and subtrees"

@@ -40,6 +40,9 @@ def scene_extent(scene, triangles):
         parts.append((np.abs(r.center) + r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent)).max())
     for e in scene.ellipsoids:
         parts.append((np.abs(e.center) + np.linalg.norm(e.matrix, axis=1)).max())
+    for shape in [*scene.disks, *scene.cylinders]:  # the local unit box [-1, 1]^2 x [-1, 1]: around either
+        m = shape.matrix
+        parts.append((np.abs(m[:3, 3]) + np.abs(m[:3, :3]).sum(axis=1)).max())
     return float(max(parts)) + max([height_reach(scene, m) for m in scene.materials], default=0.0)
 
 
@@ -62,7 +65,7 @@ def culled_subtrees(nodes, prims):
     skips all of them skips the node unopened (bvh.cl). Leaves first, a slot at a time, then each interior
     node from its two children, repeated until nothing changes (at most the tree's depth, all nodes at
     once)."""
-    index, kind = prims >> 2, prims & 3
+    index, kind = prims >> structs.PRIM_KIND_BITS, prims & (structs.PRIM_KINDS - 1)
     cullable = (kind == structs.SHAPES["rectangle"]) & (index < CULLED_RECTANGLES)
     out = np.zeros(len(nodes), np.uint32)
     if not cullable.any():

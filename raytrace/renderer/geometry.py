@@ -62,15 +62,25 @@ def triangle_soup(scene):
 
 def primitive_boxes(scene, soup):
     """(lo, hi, refs): the axis-aligned box of every shape (float64, (N, 3) each) and its reference,
-    index * 4 + kind (kernels/types.h). An ellipsoid c + A x, |x| = 1, reaches c_j +- |row j of A|."""
+    index * PRIM_KINDS + kind (kernels/types.h). An ellipsoid c + A x, |x| = 1, reaches c_j +- |row j of A|; a
+    disk c + A (x, y, 0), x^2 + y^2 <= 1, c_j +- |(A_j0, A_j1)|; a cylinder, that from c and from c + A_2."""
     rect_corners = [r.center + np.outer([-1, 1], r.size[0] / 2 * np.abs(r.tangent) + r.size[1] / 2 * np.abs(r.bitangent))
                     for r in scene.rectangles]
     boxes = [(c[0], c[1]) for c in rect_corners]
     boxes += [(e.center - np.linalg.norm(e.matrix, axis=1), e.center + np.linalg.norm(e.matrix, axis=1))
               for e in scene.ellipsoids]
+    for shape in scene.disks:
+        m = shape.matrix
+        reach = np.linalg.norm(m[:3, :2], axis=1)
+        boxes.append((m[:3, 3] - reach, m[:3, 3] + reach))
+    for shape in scene.cylinders:
+        m = shape.matrix
+        reach, ends = np.linalg.norm(m[:3, :2], axis=1), np.stack([m[:3, 3], m[:3, 3] + m[:3, 2]])
+        boxes.append((ends.min(axis=0) - reach, ends.max(axis=0) + reach))
     kinds = [(structs.SHAPES["rectangle"], len(scene.rectangles)), (structs.SHAPES["triangle"], len(soup.v)),
-             (structs.SHAPES["ellipsoid"], len(scene.ellipsoids))]
-    refs = np.concatenate([np.arange(n, dtype=np.int32) * 4 + kind for kind, n in kinds])
+             (structs.SHAPES["ellipsoid"], len(scene.ellipsoids)), (structs.SHAPES["disk"], len(scene.disks)),
+             (structs.SHAPES["cylinder"], len(scene.cylinders))]
+    refs = np.concatenate([np.arange(n, dtype=np.int32) * structs.PRIM_KINDS + kind for kind, n in kinds])
     lo, hi = (np.array([b[k] for b in boxes], np.float64).reshape(-1, 3) for k in (0, 1))
     n_rect = len(scene.rectangles)
     lo = np.concatenate([lo[:n_rect], soup.v.min(axis=1), lo[n_rect:]])
@@ -84,6 +94,8 @@ def bvh_structs(scene, use_bvh, soup=None):
     if not use_bvh:
         return np.zeros(1, structs.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32)
     lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
+    if len(refs) > np.iinfo(np.int32).max // structs.PRIM_KINDS:  # index * PRIM_KINDS + kind must fit an int
+        raise InputError(scene.path, "shapes", f"{len(refs)} shapes", "more shapes than the kernel can reference")
     try:
         nodes, order = bvh.build(lo, hi)
     except ValueError as e:  # a tree deeper than the kernel's stack
@@ -96,11 +108,11 @@ def in_leaf_order(soup, prims):
     renumbered to match. A leaf's triangles then lie side by side in memory, and those of the leaves around
     it close by (the nodes are depth first), wherever the mesh file put them: traversal reads them with
     fewer cache misses (a torus of 10^6 triangles, whose rows of faces lie apart in its own order: bvh.cl
-    spent a fifth of its time waiting on triangle loads before). Rectangles and ellipsoids keep their
+    spent a fifth of its time waiting on triangle loads before). Rectangles, ellipsoids, disks and cylinders keep their
     numbers (lights and culling name rectangles by theirs)."""
-    triangle = (prims & 3) == structs.SHAPES["triangle"]
-    order = prims[triangle] >> 2
+    triangle = (prims & (structs.PRIM_KINDS - 1)) == structs.SHAPES["triangle"]
+    order = prims[triangle] >> structs.PRIM_KIND_BITS
     prims = prims.copy()
-    prims[triangle] = np.arange(len(order), dtype=prims.dtype) * 4 + structs.SHAPES["triangle"]
+    prims[triangle] = np.arange(len(order), dtype=prims.dtype) * structs.PRIM_KINDS + structs.SHAPES["triangle"]
     return TriangleSoup(soup.v[order], soup.uv[order], soup.normals[order], soup.material[order],
                         {name: values[order] for name, values in soup.attributes.items()}), prims

@@ -109,6 +109,19 @@ def ellipsoid_structs(ells):
     return a
 
 
+def affine_shape_structs(shapes):
+    """Disk or Cylinder structs (kernels/types.h): each shape's map of its local unit shape to the world (its
+    `matrix`), the linear part's float64 inverse rounded once, and its normal's sign."""
+    a = np.zeros(max(len(shapes), 1), structs.AFFINE_SHAPE)
+    for s, shape in zip(a, shapes):
+        m = shape.matrix
+        s["center"], s["material"] = m[:3, 3], shape.material
+        s["to_local"] = np.linalg.inv(m[:3, :3]).ravel()
+        s["to_world"] = m[:3, :3].ravel()
+        s["normal_sign"] = -1.0 if shape.flip_normals else 1.0
+    return a
+
+
 def light_structs(lights, rectangles=(), extent=0.0):
     """Light structs; with the scene's `rectangles` and `extent` (a bound on every coordinate of its shapes,
     lights and displaced shading points), each light's bits of the rectangles whose plane it lies wholly
@@ -284,6 +297,7 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
     p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
     p["n_emitters"] = len(scene.emitters)
+    p["n_disks"], p["n_cylinders"] = len(scene.disks), len(scene.cylinders)
     center = samplers.pattern("center", 1)
     p["pixel_sampler"] = (pixel_pattern or center).sampler_struct()
     p["light_sampler"] = (light_pattern or center).sampler_struct()

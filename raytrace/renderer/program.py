@@ -64,6 +64,8 @@ class Features:
     perturbed_normals: bool = False  # Mitsuba's normalmap or bumpmap (a material's maps normal, bump)
     principled_lookups: bool = False  # a principled(thin) material's textured weight (maps roughness .. eta)
     shape_emitters: bool = False   # area emitters on shapes (Scene.emitters; kernels/emitters.cl)
+    disks: bool = True             # Mitsuba's disk (kernels/disk.cl)
+    cylinders: bool = True         # Mitsuba's cylinder (kernels/cylinder.cl)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -75,7 +77,8 @@ class Features:
     def of(cls, scene, lanes):
         materials = kernel_materials(scene)  # (the course's maps, in the path model: course_maps.py)
         used = lambda attribute: any(getattr(m, attribute) >= 0 for m in materials)  # noqa: E731
-        shapes = len(scene.rectangles) + scene.triangle_count + len(scene.ellipsoids)
+        shapes = (len(scene.rectangles) + scene.triangle_count + len(scene.ellipsoids) + len(scene.disks)
+                  + len(scene.cylinders))
         return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
                    used("colour_map"), used("normal_map"), used("height_map"),
                    any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
@@ -85,6 +88,7 @@ class Features:
                    any(packed_bsdf(m) == "roughconductor" for m in materials),
                    scene.environment is not None or scene.environment_map is not None,
                    scene.environment_map is not None,
+                   disks=bool(scene.disks), cylinders=bool(scene.cylinders),
                    **{name: any(packed_bsdf(m) == bsdf for m in materials)
                       for name, bsdf in (("thin_dielectrics", "thindielectric"),
                                          ("rough_dielectrics", "roughdielectric"), ("plastics", "plastic"),
@@ -106,6 +110,7 @@ class Features:
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
+                 "DISKS": self.disks, "CYLINDERS": self.cylinders,
                  "COLOUR_MAPS": self.colour_maps, "NORMAL_MAPS": self.normal_maps, "HEIGHT_MAPS": self.height_maps,
                  "SMOOTH_NORMALS": self.smooth_normals, "BVH": self.bvh, "DIRECT_LIGHTING": self.direct_lighting,
                  "PATH_TRACING": self.path_tracing, "CONDUCTORS": self.conductors, "DIELECTRICS": self.dielectrics,

@@ -8,7 +8,7 @@ from .. import structs
 from ..scene.course_maps import kernel_materials
 from .culling import scene_extent
 from .geometry import bvh_structs, in_leaf_order, triangle_soup
-from .packing import (attribute_table, camera_struct, ellipsoid_structs, emitter_tables, environment_table, light_structs, material_structs, params_struct,
+from .packing import (affine_shape_structs, attribute_table, camera_struct, ellipsoid_structs, emitter_tables, environment_table, light_structs, material_structs, params_struct,
                       rectangle_structs, triangle_normal_records, triangle_records, triangle_uv_records)
 
 
@@ -58,6 +58,7 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
     return {"camera": camera_struct(scene.camera, width, height), "params": params,
             "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
             "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
+            "disks": affine_shape_structs(scene.disks), "cylinders": affine_shape_structs(scene.cylinders),
             "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
             "materials": material_structs(kernel_materials(scene)), "nodes": nodes, "prims": prims,
             "culled_subtrees": culled, "attributes": attributes, "emitters": emitters,

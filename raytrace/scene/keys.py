@@ -14,7 +14,7 @@ from .model import BSDFS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, 
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 MAX_GENERATED_TRIANGLES = 50_000_000
-SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid")
+SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid", "disk", "cylinder")
 GENERATED_SHAPES = ("sphere", "torus", "terrain")
 
 # The placement of a shape, declared once: a mesh's from a file or generated, and the course's rectangles,
@@ -27,6 +27,16 @@ TRANSFORM = [
     Key("matrix", "vectors", "instead of the three: a 4 x 4 affine matrix, rows acting on columns", length=4,
         count=4, default=None, also="last row 0 0 0 1, invertible; not with scale, rotate, translate; a "
         "rectangle's or light's keeps its sides at right angles (no shear)")]
+
+
+def _to_world(shape):
+    return Key("to_world", "vectors", f"a 4 x 4 affine matrix, rows acting on columns: the {shape} to the world "
+               "(Mitsuba's to_world; default: the identity)", length=4, count=4, default=None,
+               also="last row 0 0 0 1, invertible")
+
+
+_FLIP_NORMALS = Key("flip_normals", "boolean", "turn the normal: the front becomes the back (Mitsuba's "
+                    "flip_normals)", default=False)
 
 
 def _rectangle(emission=None):
@@ -177,6 +187,13 @@ TABLES = {
         Key("center", "vector", "the centre c", length=3),
         Key("axes", "vectors", "a, b, c: the unit sphere's image is c + [a b c] x", length=3, count=3,
             also="linearly independent"), *TRANSFORM],
+    'shapes[] type = "disk"': [_to_world("unit disk x^2 + y^2 <= 1 in z = 0, normal +z,"), _FLIP_NORMALS],
+    'shapes[] type = "cylinder"': [
+        Key("p0", "vector", "the start of the axis, in object space", length=3, default=(0.0, 0.0, 0.0),
+            also="not p1"),
+        Key("p1", "vector", "the end of the axis, in object space", length=3, default=(0.0, 0.0, 1.0)),
+        Key("radius", "number", "the radius, in object space", default=1.0, low=0, open_low=True),
+        _to_world("open tube (no caps) around p0 -> p1, normals outwards,"), _FLIP_NORMALS],
 }
 
 

@@ -1,6 +1,7 @@
 """The host-side scene model, in float64: what a scene file (scene_file.py) or a Python caller describes,
 before raytrace/renderer/packing.py packs it into the structs the kernel reads."""
 import hashlib
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -192,6 +193,56 @@ class Ellipsoid:
         return self.axes.T
 
 
+def frame_of(n):
+    """Mitsuba 3's coordinate_system(n) (Duff et al. 2017, its signs as dr::sign and dr::mulsign): the
+    (s, t) of the Frame3f its cylinder builds around its axis, which fixes where its u = 0 lies."""
+    sign = 1.0 if n[2] >= 0 else -1.0
+    mulsign = math.copysign(1.0, n[2])
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    return (np.array([n[0] * n[0] * a * mulsign + 1.0, b * mulsign, -n[0] * mulsign]),
+            np.array([b, n[1] * n[1] * a + sign, -n[1]]))
+
+
+@dataclass(frozen=True)
+class Disk:
+    """Mitsuba 3's disk: the unit disk x^2 + y^2 <= 1 in z = 0 (normal +z) under the affine 4 x 4 to_world;
+    flip_normals turns its normal (its front)."""
+    to_world: np.ndarray
+    flip_normals: bool = False
+    material: int = 0
+
+    @property
+    def matrix(self):
+        """The map of the local unit disk to the world (4 x 4)."""
+        return np.asarray(self.to_world, np.float64)
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """Mitsuba 3's cylinder: the open tube of `radius` around the segment p0 -> p1 (object space) under the
+    affine 4 x 4 to_world, its normals outwards unless flip_normals."""
+    to_world: np.ndarray
+    p0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    p1: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    radius: float = 1.0
+    flip_normals: bool = False
+    material: int = 0
+
+    @property
+    def matrix(self):
+        """The map of the local unit cylinder x^2 + y^2 = 1, 0 <= z <= 1 to the world (4 x 4): Mitsuba's
+        to_world * translate(p0) * to_frame(Frame3f(axis)) * scale(radius, radius, length)."""
+        p0, axis = np.asarray(self.p0, np.float64), np.asarray(self.p1, np.float64) - self.p0
+        length = np.linalg.norm(axis)
+        n = axis / length
+        s, t = frame_of(n)
+        local = np.eye(4)
+        local[:3, :3] = np.column_stack([s * self.radius, t * self.radius, n * length])
+        local[:3, 3] = p0
+        return np.asarray(self.to_world, np.float64) @ local
+
+
 @dataclass(frozen=True)
 class ShapeEmitter:
     """An area emitter on a shape (Mitsuba's `area` on any shape; the radiometric models): the shape emits
@@ -218,7 +269,7 @@ class MeshShape:
 class Scene:
     """A scene as load_file, load_dict or load_string read it, in float64: the camera, the image size, the
     render defaults (spp, light_samples, sampler, light_sampler), the ambient term, lights, materials and
-    shapes (rectangles, triangles, ellipsoids, meshes), the textures the materials index, and the shading
+    shapes (rectangles, triangles, ellipsoids, disks, cylinders, meshes), the textures the materials index, and the shading
     model. `source` is the checked table it was read from (raytrace.parameters edits it); render() checks a
     scene again if it changed since (`checked` holds the fingerprint of its last check)."""
     path: str
@@ -231,6 +282,8 @@ class Scene:
     rectangles: list = field(default_factory=list)
     triangles: list = field(default_factory=list)
     ellipsoids: list = field(default_factory=list)
+    disks: list = field(default_factory=list)
+    cylinders: list = field(default_factory=list)
     spp: int = 1
     light_samples: int = 1
     sampler: str = "grid"
@@ -257,6 +310,8 @@ class Scene:
         parts = [f"{self.width}x{self.height}", self.shading, counted(len(self.lights), "light"),
                  counted(len(self.materials), "material"), counted(len(self.rectangles), "rectangle"),
                  counted(len(self.ellipsoids), "ellipsoid"), counted(self.triangle_count, "triangle"),
+                 *[counted(n, word) for n, word in ((len(self.disks), "disk"), (len(self.cylinders), "cylinder"))
+                   if n],
                  counted(len(self.textures), "texture")]
         if self.environment is not None or self.environment_map is not None:
             parts.append("an environment")

@@ -14,11 +14,11 @@ from . import bsdfs, ranges, rules
 from .. import structs
 from ..errors import InputError
 from ..numerics import FLOAT32_MAX
-from .model import (RADIOMETRIC, WRAPPERS, Camera, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle,
+from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle,
                     TextureLookup, Triangle, fingerprint)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
-from .scene_file import LIGHTS_SPEC, Reader, check_axes, check_frame, check_triangle, map_placement
+from .scene_file import LIGHTS_SPEC, Reader, check_affine_shape, check_axes, check_frame, check_triangle, map_placement
 
 # (the model's attribute, the key of keys.py's table it was read from)
 CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("fov_deg", "fov"),
@@ -220,7 +220,11 @@ def check_model(scene, source="render()"):
 
     kinds = [("rectangles", Rectangle, 'shapes[] type = "rectangle"', RECTANGLE),
              ("triangles", Triangle, 'shapes[] type = "triangle"', [("vertices", "vertices")]),
-             ("ellipsoids", Ellipsoid, 'shapes[] type = "ellipsoid"', [("center", "center"), ("axes", "axes")])]
+             ("ellipsoids", Ellipsoid, 'shapes[] type = "ellipsoid"', [("center", "center"), ("axes", "axes")]),
+             ("disks", Disk, 'shapes[] type = "disk"', [("to_world", "to_world"), ("flip_normals", "flip_normals")]),
+             ("cylinders", Cylinder, 'shapes[] type = "cylinder"',
+              [("to_world", "to_world"), ("p0", "p0"), ("p1", "p1"), ("radius", "radius"),
+               ("flip_normals", "flip_normals")])]
     for name, cls, spec, fields in kinds:
         for i, shape in enumerate(getattr(scene, name)):
             prefix = f"{name}[{i}]."
@@ -234,8 +238,10 @@ def check_model(scene, source="render()"):
                 check_triangle(r, "vertices", np.asarray(shape.vertices, np.float64))
                 if shape.uv is not None:
                     Reader(source, {"uv": _value(shape.uv)}, prefix, spec).vectors("uv")
-            else:
+            elif cls is Ellipsoid:
                 check_axes(r, np.asarray(shape.axes, np.float64))
+            else:
+                check_affine_shape(r, shape)
             shapes.append((r, shape))
     for i, shape in enumerate(scene.meshes):
         prefix = f"meshes[{i}]."

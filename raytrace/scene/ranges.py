@@ -75,7 +75,7 @@ import numpy as np
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
 from ..structs import ROUGH_TRANSMITTANCE_RES
 from . import bsdfs, plastic_terms, principled_terms, rough_transmittance
-from .model import RADIOMETRIC, Camera, Ellipsoid, MeshShape, Rectangle, Triangle
+from .model import RADIOMETRIC, Camera, Cylinder, Disk, Ellipsoid, MeshShape, Rectangle, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
 MAX_SAMPLES = 1 << 16   # pixel samples and light samples
@@ -100,7 +100,8 @@ def float32_problem(x):
 
 
 def corners(shape):
-    """(N, 3) points bounding `shape` (a Camera, Rectangle or Light, Triangle, Ellipsoid or MeshShape)."""
+    """(N, 3) points bounding `shape` (a Camera, Rectangle or Light, Triangle, Ellipsoid, Disk, Cylinder or
+    MeshShape)."""
     if isinstance(shape, Camera):
         return np.array([shape.position, shape.look_at])
     if isinstance(shape, Rectangle):
@@ -109,6 +110,10 @@ def corners(shape):
     if isinstance(shape, Ellipsoid):
         half = np.linalg.norm(shape.axes, axis=0)  # the bounding box of center + axes.T @ unit sphere
         return np.array([shape.center - half, shape.center + half])
+    if isinstance(shape, (Disk, Cylinder)):  # the box of the local unit box's image
+        m = shape.matrix
+        half = np.abs(m[:3, :3]).sum(axis=1)
+        return np.array([m[:3, 3] - half, m[:3, 3] + half])
     if isinstance(shape, Triangle):
         return shape.vertices
     if isinstance(shape, MeshShape):
@@ -251,7 +256,7 @@ def _far_key(shape):
     """The key of `shape`'s table that places it: its position or centre when that is beyond the limit
     itself, else what reaches out from it."""
     anchor, reach = {Camera: ("position", "look_at"), Ellipsoid: ("center", "axes"), Triangle: ("vertices",) * 2,
-                     MeshShape: ("scale", "scale")}.get(type(shape), ("center", "size"))
+                     MeshShape: ("scale", "scale"), Disk: ("to_world",) * 2, Cylinder: ("to_world",) * 2}.get(type(shape), ("center", "size"))
     at = shape.position if isinstance(shape, Camera) else getattr(shape, "center", None)
     return anchor if at is None or np.abs(at).max() > COORDINATE_LIMIT else reach
 
@@ -279,6 +284,16 @@ def _check_sizes(places, scale):
         if isinstance(shape, Ellipsoid) and shortest_semi_axis(shape) < ELLIPSOID_AXIS_RATIO * scale:
             reader.fail("axes", reader.raw("axes"), f"shortest semi-axis {shortest_semi_axis(shape):.4g} below 2^-60 "
                         f"of the scene's extent {scale:.4g}: unit-sphere coordinates would overflow float32")
+        if isinstance(shape, (Disk, Cylinder)):
+            _check_local_scales(reader, shape, scale)
+
+
+def _check_local_scales(reader, shape, scale):
+    """Rule 3 for a disk or cylinder: its local coordinates, as the ellipsoid's unit-sphere ones."""
+    shortest = float(np.linalg.svd(shape.matrix[:3, :3], compute_uv=False).min())
+    if shortest < ELLIPSOID_AXIS_RATIO * scale:
+        reader.fail("to_world", reader.raw("to_world"), f"shortest axis {shortest:.4g} below 2^-60 of the scene's "
+                    f"extent {scale:.4g}: local coordinates would overflow float32")
 
 
 def _check_heights(scene, material_readers):

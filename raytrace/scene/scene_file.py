@@ -19,7 +19,7 @@ from . import bsdfs, environment_map, keys, mesh_file, meshes, meshgen, mitsuba,
     rules, texture_lookups
 from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
 from .. import samplers
-from .model import (RADIOMETRIC, WRAPPERS, Camera, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
+from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     ShapeEmitter,
                     Triangle, normalize)
 from .textures import TextureCache
@@ -238,6 +238,38 @@ def check_axes(r, axes):
         r.fail("axes", axes.tolist(), "singular ellipsoid: the three axes must be linearly independent")
 
 
+def affine_shape(r, kind, material):
+    """The Disk or Cylinder of table `r` (its keys read with their defaults), checked by check_affine_shape."""
+    to_world = r.vectors("to_world") if r.has("to_world") else np.eye(4)
+    flip = r.boolean("flip_normals")
+    if kind == "disk":
+        shape = Disk(to_world, flip, material)
+    else:
+        shape = Cylinder(to_world, r.vector("p0"), r.vector("p1"), r.number("radius"), flip, material)
+    check_affine_shape(r, shape)
+    return shape
+
+
+def check_affine_shape(r, shape):
+    """A disk's or cylinder's to_world is affine and its map of the local unit shape (with the cylinder's p0,
+    p1 and radius) invertible, within float32's range both ways; a cylinder's axis has a length."""
+    m = np.asarray(shape.to_world, np.float64)
+    if m.shape != (4, 4) or not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
+        r.fail("to_world", m.tolist(), AFFINE)
+    if isinstance(shape, Cylinder) and not np.linalg.norm(np.subtract(shape.p1, shape.p0)) > 0:
+        r.fail("p1", np.asarray(shape.p1).tolist(), "must differ from p0: the axis needs a length")
+    local = shape.matrix
+    linear = local[:3, :3]
+    if not abs(np.linalg.det(linear)) > 1e-6 * np.prod(np.linalg.norm(linear, axis=0)):
+        r.fail("to_world", m.tolist(), "singular: maps the shape onto a plane or a line (its axes must be "
+               "linearly independent)")
+    inverse = np.linalg.inv(linear)
+    reach = np.abs(local[:3, 3]) + np.abs(linear).sum(axis=1)
+    if not (reach.max() <= ranges.COORDINATE_LIMIT and np.abs(inverse).max() <= ranges.FLOAT32_MAX):  # also NaN
+        r.fail("to_world", m.tolist(), f"puts the shape beyond {ranges.COORDINATE_LIMIT:.4g} (2^60) of the origin, "
+               "or its inverse beyond float32's range")
+
+
 def material_named(r, key, material_index, name=None):
     """The index of the material that key `key` names (or `name`, one of the names it lists)."""
     name = r.string(key) if name is None else name
@@ -262,7 +294,8 @@ def check_triangle(r, key, vertices):
 
 def _load_shape(scene, r, material_index):
     """Add the shape of table `r` to `scene`; returns what it added (the triangles of an inline mesh)."""
-    before = {kind: len(getattr(scene, kind)) for kind in ("rectangles", "triangles", "ellipsoids", "meshes")}
+    before = {kind: len(getattr(scene, kind))
+              for kind in ("rectangles", "triangles", "ellipsoids", "disks", "cylinders", "meshes")}
     _add_shape(scene, r, material_index)
     return [shape for kind, n in before.items() for shape in getattr(scene, kind)[n:]]
 
@@ -302,6 +335,10 @@ def _add_shape(scene, r, material_index):
             vertices, uv = placed_triangle(placement, vertices, uv)
             check_triangle(placed(r), "vertices", vertices)
         scene.triangles.append(Triangle(vertices, m, uv))
+    elif kind == "disk":
+        scene.disks.append(affine_shape(r, kind, m))
+    elif kind == "cylinder":
+        scene.cylinders.append(affine_shape(r, kind, m))
     elif kind == "mesh" and spec:
         scene.meshes.append(_mesh_shape(r, m))
     elif kind == "mesh":

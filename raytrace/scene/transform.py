@@ -24,7 +24,16 @@ def _map(scene, point, length):
         rectangles=[rect(r) for r in scene.rectangles],
         triangles=[replace(t, vertices=point(t.vertices)) for t in scene.triangles],
         meshes=[replace(m, mesh=replace(m.mesh, vertices=point(m.mesh.vertices))) for m in scene.meshes],
-        ellipsoids=[replace(e, center=point(e.center), axes=length(e.axes)) for e in scene.ellipsoids])
+        ellipsoids=[replace(e, center=point(e.center), axes=length(e.axes)) for e in scene.ellipsoids],
+        disks=[replace(k, to_world=_mapped(k.to_world, point, length)) for k in scene.disks],
+        cylinders=[replace(k, to_world=_mapped(k.to_world, point, length)) for k in scene.cylinders])
+
+
+def _mapped(to_world, point, length):
+    """A disk's or cylinder's to_world followed by the similarity: its origin a point, its axes lengths."""
+    m = np.array(to_world, np.float64)
+    m[:3, 3], m[:3, :3] = point(m[:3, 3]), length(m[:3, :3])
+    return m
 
 
 def transformed(scene, scale=1.0, offset=(0.0, 0.0, 0.0)):
