@@ -8,7 +8,8 @@ works on the float32 values the kernel reads (the packed structs), so that only 
 measured. A row passes when its error is within its bound and no NaN or Inf appeared; a known limit is a
 row whose bound is a stated limit of float32 rather than a guarantee, held so that it cannot get worse.
 
-One module per group of cases, in the order of CASES: meshes, rectangles, ellipsoids, lights, phong, camera,
+One module per group of cases, in the order of CASES: meshes, rectangles, ellipsoids, affine_shapes (disks and
+cylinders), lights, phong, camera,
 limits (image sizes and sample counts), degenerate_input, textures, transforms; common.py holds what several of them share,
 table.py runs them and prints the table."""
 from .cases import CASES

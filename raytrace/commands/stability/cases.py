@@ -2,6 +2,7 @@
 from .meshes import mesh_edges
 from .rectangles import grazing_rectangles
 from .ellipsoids import extreme_ellipsoids, grazing_ellipsoids
+from .affine_shapes import extreme_disks_cylinders, grazing_disks_cylinders, rays_leaving_disks_cylinders
 from .lights import lights_at_horizon
 from .phong import phong_power
 from .camera import extreme_fov, far_camera
@@ -10,6 +11,7 @@ from .degenerate_input import degenerate_input
 from .textures import textured_grazing
 from .transforms import transformed_shapes
 
-CASES = [mesh_edges, grazing_rectangles, grazing_ellipsoids, extreme_ellipsoids, lights_at_horizon, phong_power,
+CASES = [mesh_edges, grazing_rectangles, grazing_ellipsoids, extreme_ellipsoids, grazing_disks_cylinders,
+         extreme_disks_cylinders, rays_leaving_disks_cylinders, lights_at_horizon, phong_power,
          extreme_fov, far_camera, image_sizes, deep_accumulation, degenerate_input, textured_grazing,
          transformed_shapes]

@@ -76,10 +76,10 @@ def outside(images, limit):
 # ---------------------------------------------------------------------------------------------------------
 # closest_hit over a scene of a few shapes
 
-def shapes(env, rectangles=(), triangles=(), ellipsoids=()):
+def shapes(env, rectangles=(), triangles=(), ellipsoids=(), disks=(), cylinders=()):
     """Scene 0's materials and camera with only these shapes and no lights."""
     return dataclasses.replace(env.cornell, lights=[], rectangles=list(rectangles), triangles=list(triangles),
-                               ellipsoids=list(ellipsoids))
+                               ellipsoids=list(ellipsoids), disks=list(disks), cylinders=list(cylinders))
 
 
 def closest_hit(env, scene, o, d):
@@ -90,5 +90,6 @@ def closest_hit(env, scene, o, d):
     o, d = (np.concatenate([a, np.repeat(a[-1:], padded - n, axis=0)]) for a in (o, d))
     out = env.probe.run(CLOSEST_HIT, "closest", padded, {**scene_args(scene), "o": planar(o), "d": planar(d)}, CLOSEST_HIT_OUTPUTS,
                         HAS_RECTANGLES=bool(scene.rectangles), HAS_TRIANGLES=bool(scene.triangles),
-                        HAS_ELLIPSOIDS=bool(scene.ellipsoids))
+                        HAS_ELLIPSOIDS=bool(scene.ellipsoids), HAS_DISKS=bool(scene.disks),
+                        HAS_CYLINDERS=bool(scene.cylinders))
     return {"t": out["t"][:n], "p": out["p"].T[:n], "err": out["err"][:n], "n": out["nrm"].T[:n]}
