@@ -73,6 +73,7 @@ def test_specialised_kernel(cornell):
     no_ellipsoid = dataclasses.replace(cornell, ellipsoids=[])
     features = Features.of(no_ellipsoid, 8)
     assert features.options() == ["-DLANES=8", "-DHAS_RECTANGLES=1", "-DHAS_TRIANGLES=1", "-DHAS_ELLIPSOIDS=0",
+                                  "-DHAS_DISKS=0", "-DHAS_CYLINDERS=0",
                                   "-DHAS_COLOUR_MAPS=0", "-DHAS_NORMAL_MAPS=0", "-DHAS_HEIGHT_MAPS=0",
                                   "-DHAS_SMOOTH_NORMALS=0", "-DHAS_BVH=1", "-DHAS_DIRECT_LIGHTING=0",
                                   "-DHAS_PATH_TRACING=0", "-DHAS_CONDUCTORS=0", "-DHAS_DIELECTRICS=0",

@@ -42,7 +42,11 @@ def every_table():
             {"type": "mesh", "material": "m", "generate": {"shape": "sphere", "triangles": 20}, "scale": 0.5,
              "rotate": {"axis": [0, 0, 1], "degrees": 30.0}, "translate": [0.0, 0.0, 0.5], "smooth": True},
             {"type": "ellipsoid", "material": "m", "center": [0.0, 0.0, 0.5],
-             "axes": [[0.3, 0, 0], [0, 0.3, 0], [0, 0, 0.3]]}]}
+             "axes": [[0.3, 0, 0], [0, 0.3, 0], [0, 0, 0.3]]},
+            {"type": "disk", "material": "m", "flip_normals": True,
+             "to_world": [[0.3, 0, 0, 0], [0, 0.2, 0, 0.1], [0, 0, 1, 0.5], [0, 0, 0, 1]]},
+            {"type": "cylinder", "material": "m", "p0": [0.0, 0.0, 0.1], "p1": [0.1, 0.0, 0.5], "radius": 0.2,
+             "flip_normals": True, "to_world": [[1, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1, 0.2], [0, 0, 0, 1]]}]}
 
 
 # Where each declared table sits in every_table(), and the prefix its errors carry.
@@ -56,11 +60,14 @@ PLACES = {"": ((), ""), "camera": (("camera",), "camera."), "image": (("image",)
           "generate": (("shapes", 3, "generate"), "shapes[3].generate."),
           "rotate": (("shapes", 3, "rotate"), "shapes[3].rotate."),
           'shapes[] type = "ellipsoid"': (("shapes", 4), "shapes[4]."),
+          'shapes[] type = "disk"': (("shapes", 5), "shapes[5]."),
+          'shapes[] type = "cylinder"': (("shapes", 6), "shapes[6]."),
           "shapes[]": (("shapes", 4), "shapes[4].")}
 DIRECT = "lights[] (direct, path)"
 ENVIRONMENT = "environment"
 SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] type = "mesh"',
-         'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"'}
+         'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"', 'shapes[] type = "disk"',
+         'shapes[] type = "cylinder"'}
 
 
 # A material of each BSDF (the path model's), given every key of its type's table that one table can hold
