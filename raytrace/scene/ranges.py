@@ -292,8 +292,8 @@ def _check_local_scales(reader, shape, scale):
     """Rule 3 for a disk or cylinder: its local coordinates, as the ellipsoid's unit-sphere ones."""
     shortest = float(np.linalg.svd(shape.matrix[:3, :3], compute_uv=False).min())
     if shortest < ELLIPSOID_AXIS_RATIO * scale:
-        reader.fail("to_world", reader.raw("to_world"), f"shortest axis {shortest:.4g} below 2^-60 of the scene's "
-                    f"extent {scale:.4g}: local coordinates would overflow float32")
+        reader.fail("to_world", reader.raw("to_world"), f"maps a unit length to as little as {shortest:.4g}, under "
+                    f"2^-60 of the scene's extent {scale:.4g}: local coordinates would overflow float32")
 
 
 def _check_heights(scene, material_readers):
