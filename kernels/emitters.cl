@@ -4,7 +4,9 @@
  *
  * A mesh is sampled by area: a triangle in proportion to its area (a binary search on the host's cumulative
  * table), then a uniform point on it (pbrt-v4 section A.5.4's SampleUniformTriangle, Heitz's low-distortion
- * map), so that the density is 1 / A over the whole mesh; a rectangle uniformly over its area. A sphere is
+ * map), so that the density is 1 / A over the whole mesh; a rectangle and a disk uniformly over their area; a
+ * cylinder uniformly in (phi, z), whose density by area is 1 / (2 pi |dp/dphi x dp/dz|) at the point (constant
+ * but under a non-uniform scale across the axis, which makes the tube elliptic). A sphere is
  * sampled by the cone of directions it subtends (pbrt-v4 section 6.2.4, Sphere::Sample with a reference point;
  * Mitsuba's sphere does the same), whose density 1 / (2 pi (1 - cos(theta_max))) is uniform over the cone.
  * Densities are per unit solid angle at the reference point: an area density p_A becomes p_A r^2 / cos(theta_l).
@@ -34,6 +36,18 @@ inline vfloat cone_one_minus_cos(vfloat r2, vfloat d2, vfloat *sin2_max)
     *sin2_max = s;
     return SELECT(1.0f - sqrt(vmax(1.0f - s, 0.0f)), 0.5f * s, s < 0.00068523f);
 }
+
+#if HAS_CYLINDERS
+/* |dp/dphi x dp/dz| at the unit tube's point q = (cos phi, sin phi, z): the world area of a unit of (phi, z)
+ * there. */
+inline vfloat cylinder_jacobian(__global const Cylinder *tube, vec3 q)
+{
+    vec3 dphi = mat3_apply(tube->to_world, v3(-q.y, q.x, (vfloat)(0.0f)));
+    vec3 dz = v3_splat(tube->to_world[2], tube->to_world[5], tube->to_world[8]);
+    vec3 c = v3_cross(dphi, dz);
+    return sqrt(v3_dot(c, c));
+}
+#endif
 
 /* A uniform point of emitting mesh e's triangles (by area), from u: *p, *n (the triangle's front), *err. */
 inline void sample_mesh(const Scene *s, __global const Emitter *e, vec2 u, vint active, vec3 *p, vec3 *n,
@@ -112,6 +126,25 @@ inline EmitterSample sample_emitter(const Scene *s, __global const Emitter *e, v
     }
 #endif
     vfloat pdf_area = 1.0f / e->area;
+#if HAS_DISKS
+    if (e->kind == SHAPE_DISK) { /* uniform on the unit disk (r = sqrt(u)): uniform on its affine image too */
+        __global const Disk *disk = &s->disks[e->index];
+        vfloat r = sqrt(u.x), cos_phi, sin_phi = sincos(2.0f * M_PI_F * u.y, &cos_phi);
+        es.n = disk_normal(disk);
+        es.p = disk_point(disk, r * cos_phi, r * sin_phi, es.n, &es.err);
+    }
+#endif
+#if HAS_CYLINDERS
+    if (e->kind == SHAPE_CYLINDER) { /* uniform in (phi, z), whose image's area element varies under a
+                                      * non-uniform scale: the density by area is the point's own */
+        __global const Cylinder *tube = &s->cylinders[e->index];
+        vfloat cos_phi, sin_phi = sincos(2.0f * M_PI_F * u.x, &cos_phi);
+        vec3 q = v3(cos_phi, sin_phi, u.y);
+        es.n = cylinder_normal(tube, q);
+        es.p = cylinder_point(tube, q, es.n, &es.err);
+        pdf_area = 1.0f / (2.0f * M_PI_F * cylinder_jacobian(tube, q));
+    }
+#endif
 #if HAS_TRIANGLES
     if (e->kind == SHAPE_TRIANGLE)
         sample_mesh(s, e, u, active, &es.p, &es.n, &es.err);
@@ -131,9 +164,19 @@ inline EmitterSample sample_emitter(const Scene *s, __global const Emitter *e, v
 }
 
 /* The density per unit solid angle with which sample_emitter() would have sampled the point p of emitter e
- * that a ray from ref met at distance `distance` with |cos(theta_l)| = cos_l, for the lanes of `lanes`. */
-inline vfloat emitter_pdf(const Scene *s, __global const Emitter *e, vec3 ref, vfloat distance, vfloat cos_l)
+ * that a ray from ref met at distance `distance` with |cos(theta_l)| = cos_l. */
+inline vfloat emitter_pdf(const Scene *s, __global const Emitter *e, vec3 ref, vec3 p, vfloat distance,
+                          vfloat cos_l)
 {
+#if HAS_CYLINDERS
+    if (e->kind == SHAPE_CYLINDER) {
+        __global const Cylinder *tube = &s->cylinders[e->index];
+        vec3 q = mat3_apply(tube->to_local, v3_sub(p, v3_uniform(tube->center)));
+        vfloat inv = rsqrt(MAD(q.x, q.x, q.y * q.y)); /* put back on the unit circle */
+        vfloat jacobian = cylinder_jacobian(tube, v3(q.x * inv, q.y * inv, q.z));
+        return distance * distance / (2.0f * M_PI_F * jacobian * cos_l);
+    }
+#endif
 #if HAS_ELLIPSOIDS
     if (e->kind == SHAPE_ELLIPSOID) {
         vec3 to_centre = v3_sub(v3_uniform(s->ellipsoids[e->index].center), ref);

@@ -42,8 +42,11 @@ inline vec3 emitters_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, 
     for (int ei = 0; ei < s->params->n_emitters && ANY(surface); ++ei) {
         __global const Emitter *e = &s->emitters[ei];
         SampleStream stream = next_stream(ps, s->params->light_sampler, n_samples);
-        /* a sphere cannot block the segments to the points of it its origin sees (primitive.cl's OWN) */
-        const int own = e->kind == SHAPE_ELLIPSOID ? SHAPE_REFERENCE(SHAPE_ELLIPSOID, e->index) : -1;
+        /* a sphere cannot block the segments to the points of it its origin sees, nor a cylinder whose front
+         * faces out, nor a plane (primitive.cl's OWN) */
+        const int own = e->kind == SHAPE_TRIANGLE
+                        || (e->kind == SHAPE_CYLINDER && s->cylinders[e->index].normal_sign < 0.0f)
+                      ? -1 : SHAPE_REFERENCE(e->kind, e->index);
 #if LIGHT_VALUE_VEC3
         vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
 #else

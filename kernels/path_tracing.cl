@@ -145,7 +145,7 @@ inline vfloat hit_emitter_pdf(const Scene *s, Hit hit, vec3 ref, vfloat distance
     for (int ei = 0; ei < s->params->n_emitters; ++ei) {
         vint here = lanes & (hit.emitter == ei);
         if (ANY(here))
-            pdf = SELECT(pdf, emitter_pdf(s, &s->emitters[ei], ref, distance, cos_l), here);
+            pdf = SELECT(pdf, emitter_pdf(s, &s->emitters[ei], ref, hit.p, distance, cos_l), here);
     }
     return pdf;
 }

@@ -221,9 +221,11 @@ inline PrimitiveRay primitive_ray(Ray r)
 #define PASSES(x)
 #define PASSES_PARAMETER
 #endif
-/* With HAS_SHAPE_EMITTERS they take the emitting shape the segments end on likewise, OWN_PARAMETER and OWN(x):
- * a sphere's sampled point is on the side of it the segment's origin sees (emitters.cl), so that the convex
- * sphere cannot block the segment, and its own roots near the end are not tested against the end's rounding. */
+/* With HAS_SHAPE_EMITTERS they take the emitting shape the segments end on likewise, OWN_PARAMETER and OWN(x),
+ * where that shape cannot block them (emitters.cl): a sphere's sampled point is on the side of it the segment's
+ * origin sees, and a cylinder's front (outwards) faces the origin, so that the convex solid lies beyond the
+ * tangent plane there; then the shape's own roots near the segment's end are not tested against its
+ * rounding. */
 #if HAS_SHAPE_EMITTERS
 #define OWN(x) , x
 #define OWN_PARAMETER , int own
@@ -436,11 +438,11 @@ ALWAYS_INLINE vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, i
     if (kind == SHAPE_RECTANGLE && !skipped(skip, index))
         return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_rectangle(s, p, index));
 #endif
-#if HAS_ELLIPSOIDS
 #if HAS_SHAPE_EMITTERS
-    if (kind == SHAPE_ELLIPSOID && p->own == SHAPE_REFERENCE(SHAPE_ELLIPSOID, index))
+    if (p->own == SHAPE_REFERENCE(kind, index))
         return (vint)(0);
 #endif
+#if HAS_ELLIPSOIDS
     if (kind == SHAPE_ELLIPSOID)
         return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p, index));
 #endif

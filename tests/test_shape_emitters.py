@@ -5,9 +5,11 @@ Sampling, at every lane width: a mesh's points are uniform over its area (a tria
 area, then a uniform point on it), tested by chi-square over each triangle's four midpoint sub-triangles, which
 have a quarter of its area each; a sphere's points are uniform over the cone of directions it subtends from the
 reference point, tested by chi-square over 16 x 16 equal cells of ((1 - cos(theta)) / (1 - cos(theta_max)), phi /
-2 pi) about the axis to its centre, near (the cone wide) and far (its narrow-cone series). Each chi-square test fails by chance with SIGNIFICANCE (1e-4): 3 per
-lane width, about 1e-3 per run on a machine of 3 widths. The uniform numbers are float64 draws rounded to float32
-(a step of 2^-24 at most, far below a cell's width), the same at every width.
+2 pi) about the axis to its centre, near (the cone wide) and far (its narrow-cone series); a disk's uniform over
+its area under a shearing map ((r^2, phi) in its local space), a cylinder's uniform in its local (phi, z). Each
+chi-square test fails by chance with SIGNIFICANCE (1e-4): 5 per lane width, about 2e-3 per run on a machine of 4
+widths. The uniform numbers are float64 draws rounded to float32 (a step of 2^-24 at most, far below a cell's
+width), the same at every width.
 
 Densities: the sample's density per solid angle p = d^2 / (A cos(theta_l)) (a mesh) or 1 / (2 pi (1 - cos
 theta_max)) (a sphere) against float64 at relative 1e-5: each is a dozen float32 operations (a dot product, a
@@ -18,9 +20,10 @@ by s / 4 relative at most: that tolerance there. The density the path model's MI
 hits (emitter_pdf) must equal the sample's own (same formula, the distance and cosine from the point): 1e-5.
 
 Light, judged per pixel by devtools/judge.py's Z-test (variances from CHUNKS independent renders; each scale at
-ALPHA = 1e-4: about 4e-4 per image, 6 images at the lane-width ends, 2.4e-3 per run):
+ALPHA = 1e-4: about 4e-4 per image, 10 images at the lane-width ends, 4e-3 per run):
 - a diffuse floor under a sphere light, whose irradiance is pi L sin^2(theta_max) cos(beta) wherever the sphere
-  is wholly above the floor's horizon (Lambert): radiance rho E / pi, in the direct model (light samples alone)
+  is wholly above the floor's horizon (Lambert), and under a disk light parallel to it (the coaxial disk's form
+  factor): radiance rho E / pi, in the direct model (light samples alone)
   and the path model at max_depth 2 (light samples and BSDF samples weighted by MIS: a weight that does not sum
   to 1 shows as a ratio), the closed form averaged over each pixel's footprint by a 6 x 6 grid (the pixel's
   curvature term then below 1e-4 of the value);
@@ -35,6 +38,9 @@ Mutations tried (each in a copy of the kernels; every one failed the tests named
 - emitters.cl sample_emitter: the sphere's cos(theta) drawn with u^2 for u: the sphere chi-square;
 - path_tracing.cl path_hit: an emitter's MIS weight left at 1 (`weighed` not set): the path floor and the box;
 - intersect.cl hit_emission: emission from both sides: the box (the mesh light's back faces the ceiling).
+- emitters.cl sample_emitter: the disk's radius drawn as u, not sqrt(u): the disk chi-square;
+- emitters.cl sample_emitter: the cylinder's density by its mean area, not the point's own: the cylinder's;
+- emitters.cl cylinder_jacobian: dp/dz read from to_world's third row, not column: the cylinder's density.
 """
 import numpy as np
 import pytest
@@ -64,7 +70,7 @@ __kernel void sample(int n, SCENE_PARAMETERS, __global const float *ref, __globa
     OUT(pdf, es.pdf);
     vec3 w = v3_sub(es.p, r);
     vfloat d = sqrt(v3_dot(w, w));
-    OUT(hit_pdf, emitter_pdf(&s, e, r, d, vabs(v3_dot(es.n, w)) / d));
+    OUT(hit_pdf, emitter_pdf(&s, e, r, es.p, d, vabs(v3_dot(es.n, w)) / d));
 }
 """
 N = 40000
@@ -193,6 +199,70 @@ def test_a_sphere_is_sampled_uniformly_over_its_cone(harness, distance):
     assert np.all(inside == 0.0)
 
 
+DISK_TO_WORLD = np.array([[0.6, 0.2, 0.0, 0.3], [-0.1, 0.35, 0.1, -0.2], [0.05, -0.1, -0.9, 1.5], [0, 0, 0, 1]])
+
+
+def test_a_disk_is_sampled_uniformly_by_area(harness):
+    """A disk under a shearing, non-uniform to_world: each sample on it (back in its local space, on the unit
+    disk within float32 rounding), uniform over it ((r^2, phi) uniform in local space, whose image under an
+    affine map keeps area ratios), its normal to_world's inverse transpose of +z (turned: its front faces down,
+    towards the reference points below), its density d^2 / (A cos(theta_l)) with A = pi |dp/dx x dp/dy|."""
+    table = emitter_scene([{"type": "disk", "to_world": DISK_TO_WORLD.tolist(), "radiance": 1.0}])
+    rng = np.random.default_rng(5)
+    ref = np.column_stack([rng.uniform(-1, 1, N), rng.uniform(-1, 1, N), rng.uniform(-3, -1, N)])
+    p, normal, pdf, hit_pdf, _ = sample(harness, table, ref, seed=6)
+    linear, centre = DISK_TO_WORLD[:3, :3], DISK_TO_WORLD[:3, 3]
+    local = (p - centre) @ np.linalg.inv(linear).T
+    assert np.abs(local[:, 2]).max() < 1e-5 and np.hypot(local[:, 0], local[:, 1]).max() < 1 + 1e-5
+    pvalue, statistic = uniform_chi_square(np.clip(np.sum(local[:, :2] ** 2, 1), 0, 1),
+                                           np.mod(np.arctan2(local[:, 1], local[:, 0]), 2 * np.pi) / (2 * np.pi))
+    print(f"disk: chi-square {statistic:.1f}, p = {pvalue:.3g}")
+    assert pvalue >= SIGNIFICANCE
+    n = np.linalg.inv(linear).T @ [0.0, 0.0, 1.0]
+    np.testing.assert_allclose(normal, np.broadcast_to(n / np.linalg.norm(n), normal.shape), atol=1e-6)
+    area = np.pi * np.linalg.norm(np.cross(linear[:, 0], linear[:, 1]))
+    w = p - ref
+    d2 = np.sum(w * w, 1)
+    cos_l = np.abs(w @ (n / np.linalg.norm(n))) / np.sqrt(d2)
+    assert cos_l.min() > 0.05
+    np.testing.assert_allclose(pdf, d2 / (area * cos_l), rtol=1e-5)
+    np.testing.assert_allclose(hit_pdf, pdf, rtol=1e-5)
+
+
+def test_a_cylinder_is_sampled_uniformly_in_phi_and_z(harness):
+    """An elliptic cylinder (to_world scales across its axis unevenly): each sample on the tube, uniform in its
+    local (phi, z), its normal outwards, its density d^2 / (2 pi |dp/dphi x dp/dz| cos(theta_l)) at the point
+    itself (the area element varies with phi), the MIS density of the point the same."""
+    to_world = np.array([[1.5, 0.0, 0.0, 0.2], [0.0, 0.6, 0.0, 0.1], [0.0, 0.0, 1.0, -0.3], [0, 0, 0, 1]])
+    table = emitter_scene([{"type": "cylinder", "p0": [0.0, 0.0, -0.5], "p1": [0.3, 0.2, 0.8], "radius": 0.4,
+                            "to_world": to_world.tolist(), "radiance": 1.0}])
+    scene = raytrace.load_dict(table)
+    matrix = scene.cylinders[0].matrix
+    linear, centre = matrix[:3, :3], matrix[:3, 3]
+    rng = np.random.default_rng(7)
+    direction = rng.normal(size=(N, 3))
+    ref = centre + 4 * direction / np.linalg.norm(direction, axis=1, keepdims=True)
+    p, normal, pdf, hit_pdf, _ = sample(harness, table, ref, seed=8)
+    local = (p - centre) @ np.linalg.inv(linear).T
+    np.testing.assert_allclose(np.hypot(local[:, 0], local[:, 1]), 1.0, atol=1e-5)
+    phi = np.mod(np.arctan2(local[:, 1], local[:, 0]), 2 * np.pi)
+    pvalue, statistic = uniform_chi_square(phi / (2 * np.pi), np.clip(local[:, 2], 0, 1))
+    print(f"cylinder: chi-square {statistic:.1f}, p = {pvalue:.3g}")
+    assert pvalue >= SIGNIFICANCE
+    n = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(N)]) @ np.linalg.inv(linear)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    np.testing.assert_allclose(normal, n, atol=2e-6)
+    jacobian = np.linalg.norm(np.cross(np.column_stack([-np.sin(phi), np.cos(phi), np.zeros(N)]) @ linear.T,
+                                       linear[:, 2]), axis=1)
+    w = p - ref
+    d2 = np.sum(w * w, 1)
+    cos_l = np.abs(np.sum(n * w, 1)) / np.sqrt(d2)
+    clear = cos_l > 0.05  # away from grazing, where the cosine's cancellation exceeds the tolerance
+    assert clear.mean() > 0.8
+    np.testing.assert_allclose(pdf[clear], (d2 / (2 * np.pi * jacobian * cos_l))[clear], rtol=1e-5)
+    np.testing.assert_allclose(hit_pdf[clear], pdf[clear], rtol=1e-5)
+
+
 def chunked(table, lanes, spp, seed=0):
     scene = raytrace.load_dict(table)
     images = np.array([np.asarray(raytrace.render(scene, spp=spp, lanes=lanes, seed=seed + k)[0], np.float64)
@@ -210,7 +280,19 @@ SPHERE_CENTRE, SPHERE_RADIUS, SPHERE_RADIANCE = np.array([0.4, 0.3, 1.2]), 0.35,
 RHO = np.array([0.8, 0.6, 0.4])
 
 
-def floor_scene(shading, max_depth=-1):
+DISK_RADIUS, DISK_HEIGHT = 0.5, 1.2
+
+
+def light_shape(light):
+    """The floor's light: the sphere, or a disk of radius DISK_RADIUS facing down at DISK_HEIGHT over (0.4, 0.3)."""
+    if light == "sphere":
+        return {"type": "ellipsoid", "center": SPHERE_CENTRE.tolist(), "axes": (np.eye(3) * SPHERE_RADIUS).tolist(),
+                "radiance": SPHERE_RADIANCE.tolist()}
+    to_world = [[DISK_RADIUS, 0, 0, 0.4], [0, -DISK_RADIUS, 0, 0.3], [0, 0, -1, DISK_HEIGHT], [0, 0, 0, 1]]
+    return {"type": "disk", "to_world": to_world, "radiance": SPHERE_RADIANCE.tolist()}
+
+
+def floor_scene(shading, max_depth=-1, light="sphere"):
     """A 20 x 20 diffuse floor at z = 0 under a sphere light, wholly above its horizon, seen from below the
     sphere (which the camera does not see) so that every pixel sees the floor alone: no silhouette, whose pixels'
     coverage a Z-test cannot judge."""
@@ -221,13 +303,14 @@ def floor_scene(shading, max_depth=-1):
             "materials": {"floor": {"colour": RHO.tolist()}},
             "shapes": [{"type": "rectangle", "center": [0.0, 0.0, 0.0], "size": [20.0, 20.0],
                         "normal": [0.0, 0.0, 1.0], "tangent": [1.0, 0.0, 0.0], "material": "floor"},
-                       {"type": "ellipsoid", "center": SPHERE_CENTRE.tolist(),
-                        "axes": (np.eye(3) * SPHERE_RADIUS).tolist(), "radiance": SPHERE_RADIANCE.tolist()}]}
+                       light_shape(light)]}
 
 
-def floor_radiance(table):
-    """rho E / pi over each pixel's footprint, E = pi L (r / d)^2 cos(beta), by a 6 x 6 grid per pixel (the
-    floor's, every ray meeting it)."""
+def floor_radiance(table, light="sphere"):
+    """rho E / pi over each pixel's footprint, by a 6 x 6 grid per pixel (the floor's, every ray meeting it):
+    under the sphere E = pi L (r / d)^2 cos(beta); under the disk, parallel to the floor at height h, at radial
+    distance rho from its axis, E = pi L / 2 (1 - (h^2 + rho^2 - R^2) / sqrt((h^2 + rho^2 + R^2)^2 - 4 rho^2
+    R^2)) (the form factor of a coaxial disk to a parallel element)."""
     scene = raytrace.load_dict(table)
     k = 6
     ys, xs = np.mgrid[0:scene.height * k, 0:scene.width * k]
@@ -242,19 +325,24 @@ def floor_radiance(table):
     h = np.sum(oc * d, 1)
     assert np.all(h * h - (np.sum(oc * oc, 1) - SPHERE_RADIUS ** 2) < 0)
     value = RHO * SPHERE_RADIANCE * (SPHERE_RADIUS ** 2 * cos_beta / d2)[:, None]
+    if light == "disk":
+        h2, r2, big2 = DISK_HEIGHT ** 2, np.sum((p[:, :2] - [0.4, 0.3]) ** 2, 1), DISK_RADIUS ** 2
+        irradiance_over_pi = 0.5 * (1 - (h2 + r2 - big2) / np.sqrt((h2 + r2 + big2) ** 2 - 4 * r2 * big2))
+        value = RHO * SPHERE_RADIANCE * irradiance_over_pi[:, None]
     return value.reshape(scene.height, k, scene.width, k, 3).mean(axis=(1, 3))
 
 
 @at_lane_ends
 @pytest.mark.parametrize("shading", ["direct", "path"])
-def test_a_sphere_light_on_a_floor(lanes, shading):
-    """The floor's radiance against rho L (r / d)^2 cos(beta): the direct model's light samples, the path
-    model's light and BSDF samples weighted by MIS (max_depth 2: direct light alone)."""
-    table = floor_scene(shading, max_depth=2)
+@pytest.mark.parametrize("light", ["sphere", "disk"])
+def test_a_shape_light_on_a_floor(lanes, shading, light):
+    """The floor's radiance under a sphere light or a disk light against their closed forms: the direct model's
+    light samples, the path model's light and BSDF samples weighted by MIS (max_depth 2: direct light alone)."""
+    table = floor_scene(shading, max_depth=2, light=light)
     mean, var = chunked(table, lanes, 4)
-    expected = floor_radiance(table)
+    expected = floor_radiance(table, light)
     assert_judged(judge(mean, var, expected, np.zeros_like(var), alpha=ALPHA, dof=CHUNKS - 1, tile_alpha=ALPHA),
-                  f"{shading}, lanes {lanes}")
+                  f"{light}, {shading}, lanes {lanes}")
 
 
 def box(light_as_mesh):

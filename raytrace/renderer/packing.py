@@ -158,7 +158,19 @@ def emitter_tables(scene, triangles):
         s["radiance"], s["reflects"], s["count"] = e.radiance, e.reflects, 1
         rectangles = [i for i, r in enumerate(scene.rectangles) if r.material == e.material]
         spheres = [i for i, r in enumerate(scene.ellipsoids) if r.material == e.material]
-        if rectangles:
+        disks = [i for i, r in enumerate(scene.disks) if r.material == e.material]
+        cylinders = [i for i, r in enumerate(scene.cylinders) if r.material == e.material]
+        if disks:  # pi |dp/dx x dp/dy|, the unit disk's area under its map (its normal is the same everywhere)
+            linear = scene.disks[disks[0]].matrix[:3, :3]
+            s["kind"], s["index"] = structs.SHAPES["disk"], disks[0]
+            s["area"] = math.pi * np.linalg.norm(np.cross(linear[:, 0], linear[:, 1]))
+        elif cylinders:  # its area by the mean of |dp/dphi x dp/dz| over phi (emitters.cl samples by the point's own)
+            linear = scene.cylinders[cylinders[0]].matrix[:3, :3]
+            phi = np.linspace(0, 2 * math.pi, 256, endpoint=False)
+            dphi = np.column_stack([-np.sin(phi), np.cos(phi), np.zeros_like(phi)]) @ linear.T
+            s["kind"], s["index"] = structs.SHAPES["cylinder"], cylinders[0]
+            s["area"] = 2 * math.pi * np.mean(np.linalg.norm(np.cross(dphi, linear[:, 2]), axis=1))
+        elif rectangles:
             s["kind"], s["index"] = structs.SHAPES["rectangle"], rectangles[0]
             s["area"] = np.prod(scene.rectangles[rectangles[0]].size)
         elif spheres:  # rules.py: a sphere; its squared radius the mean of its axes' (emitters.cl)
