@@ -418,7 +418,8 @@ def test_a_sheared_rectangle_is_two_triangles(tmp_path):
 
 
 @pytest.mark.parametrize("extra, where, message", [
-    ('<shape type="disk"/>', "shape disk", "not supported (raytrace renders: rectangle, obj, ply, serialized, cube, sphere)"),
+    ('<shape type="linearcurve"/>', "shape linearcurve",
+     "not supported (raytrace renders: rectangle, obj, ply, serialized, cube, sphere, disk, cylinder)"),
     ('<shape type="rectangle"><bsdf type="pplastic"/></shape>', "bsdf pplastic", "raytrace renders: diffuse"),
     ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
 ])
@@ -523,17 +524,17 @@ def test_convert_to_toml_renders_the_same_bits(tmp_path):
 
 
 def test_bad_input_on_the_command_line_is_exit_2_and_no_file(tmp_path):
-    write(tmp_path, scene_text('<shape type="disk"/>'))
+    write(tmp_path, scene_text('<shape type="linearcurve"/>'))
     cases = [(("-D", "depth"), "command line: -D = 'depth': must be NAME=VALUE"),
              ((), "scene.xml:3: <integer> value = '$depth': undefined parameter $depth"),
-             (("-D", "depth=2"), "shape disk: not supported")]
+             (("-D", "depth=2"), "shape linearcurve: not supported")]
     for extra, message in cases:
         r = run("render", "scene.xml", *extra, "-o", "out.exr", cwd=tmp_path)
         assert r.returncode == 2 and message in r.stderr and r.stderr.count("\n") == 1, r.stderr
         assert not (tmp_path / "out.exr").exists()
     r = run("render", "scene.xml", "-D", "depth=2", "--ignore-unsupported", "--spp", 1, "-o", "out.exr",
             "--no-progress", cwd=tmp_path)
-    assert r.returncode == 0 and "raytrace: warning:" in r.stderr and "shape disk" in r.stderr
+    assert r.returncode == 0 and "raytrace: warning:" in r.stderr and "shape linearcurve" in r.stderr
     assert (tmp_path / "out.exr").exists()
 
 

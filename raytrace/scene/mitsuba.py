@@ -134,6 +134,17 @@ PLUGINS = {
         Param("radius", 1.0, 'shapes[] type = "ellipsoid" axes'), _TRANSFORM,
         Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter")),
         only_default=(("flip_normals", False),)),
+    "disk": Plugin("shape", "the unit disk in z = 0, normal +z, under to_world", (
+        Param("to_world", "identity", 'shapes[] type = "disk" to_world'),
+        Param("flip_normals", False, 'shapes[] type = "disk" flip_normals'),
+        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter"))),
+    "cylinder": Plugin("shape", "an open tube (no caps) around p0 -> p1, under to_world", (
+        Param("p0", (0.0, 0.0, 0.0), 'shapes[] type = "cylinder" p0'),
+        Param("p1", (0.0, 0.0, 1.0), 'shapes[] type = "cylinder" p1'),
+        Param("radius", 1.0, 'shapes[] type = "cylinder" radius'),
+        Param("to_world", "identity", 'shapes[] type = "cylinder" to_world'),
+        Param("flip_normals", False, 'shapes[] type = "cylinder" flip_normals'),
+        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter"))),
     "area": Plugin("emitter", "light emitted from a shape's front side", (
         Param("radiance", 1.0, "lights[] (direct, path) radiance", "an RGB colour or a spectrum (on a shape other "
               "than a rectangle: shapes[] radiance)"),)),
@@ -836,6 +847,17 @@ class _Translator:
                 self.origin(f"{prefix}.shape_index", node, key, "shape_index")
             self.origin(f"{prefix}.file", node, key, "filename")
             self.origin(f"{prefix}.matrix", node, key, "to_world")
+        elif name in ("disk", "cylinder"):  # raytrace's own, with Mitsuba's parameters
+            shape = {"type": name, "to_world": m.tolist()}
+            self.origin(f"{prefix}.to_world", node, key, "to_world")
+            if self.boolean(params.get("flip_normals", False), node, key, "flip_normals"):
+                shape["flip_normals"] = True
+                self.origin(f"{prefix}.flip_normals", node, key, "flip_normals")
+            for k in ("p0", "p1", "radius") if name == "cylinder" else ():
+                if k in params:
+                    shape[k] = (self.number(params[k], node, key, k) if k == "radius"
+                                else np.asarray(params[k], np.float64).tolist())
+                    self.origin(f"{prefix}.{k}", node, key, k)
         else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius
             center = np.asarray(params.get("center", (0.0, 0.0, 0.0)), np.float64)
             radius = self.number(params.get("radius", 1.0), node, key, "radius")
