@@ -42,6 +42,25 @@ def load_mesh(path, source=None, key="file", shape_index=0):
         raise InputError(path, "file", str(path), "does not fit in memory") from None
 
 
+class MeshCache:
+    """The meshes read while one scene loads, by (resolved path, modification time, size, shape index): a file
+    that several shapes name (an instanced shapegroup's, flattened into one shape per instance) is parsed once.
+    Its Meshes are shared: their users transform copies, never the arrays themselves. Scoped to one load, so a
+    file edited between loads is read again, and nothing outlives the scene."""
+    def __init__(self):
+        self.meshes = {}
+
+    def load(self, path, source=None, key="file", shape_index=0):
+        try:
+            status = Path(path).stat()
+            cached = (str(Path(path).resolve()), status.st_mtime_ns, status.st_size, shape_index)
+        except (OSError, ValueError):  # load_mesh names what is wrong with the path
+            return load_mesh(path, source, key, shape_index)
+        if cached not in self.meshes:
+            self.meshes[cached] = load_mesh(path, source, key, shape_index)
+        return self.meshes[cached]
+
+
 def _checked(path, vertices, faces, normals, uvs, attributes=None):
     """The validated Mesh (float64 arrays, int32 faces) and the number of degenerate faces dropped."""
     vertices = np.asarray(vertices, np.float64)

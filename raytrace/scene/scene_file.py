@@ -292,11 +292,12 @@ def check_triangle(r, key, vertices):
         r.fail(key, vertices.tolist(), "degenerate triangle (zero area)")
 
 
-def _load_shape(scene, r, material_index):
-    """Add the shape of table `r` to `scene`; returns what it added (the triangles of an inline mesh)."""
+def _load_shape(scene, r, material_index, files):
+    """Add the shape of table `r` to `scene` (mesh files read through `files`, a mesh_file.MeshCache); returns
+    what it added (the triangles of an inline mesh)."""
     before = {kind: len(getattr(scene, kind))
               for kind in ("rectangles", "triangles", "ellipsoids", "disks", "cylinders", "meshes")}
-    _add_shape(scene, r, material_index)
+    _add_shape(scene, r, material_index, files)
     return [shape for kind, n in before.items() for shape in getattr(scene, kind)[n:]]
 
 
@@ -317,7 +318,7 @@ def _shape_material(scene, r, material_index):
     return own
 
 
-def _add_shape(scene, r, material_index):
+def _add_shape(scene, r, material_index, files):
     kind = r.string("type")
     m = _shape_material(scene, r, material_index)
     spec = {"mesh": 'shapes[] type = "mesh", from a file or generated'} if r.has("file") or r.has("generate") else {}
@@ -340,7 +341,7 @@ def _add_shape(scene, r, material_index):
     elif kind == "cylinder":
         scene.cylinders.append(affine_shape(r, kind, m))
     elif kind == "mesh" and spec:
-        scene.meshes.append(_mesh_shape(r, m))
+        scene.meshes.append(_mesh_shape(r, m, files))
     elif kind == "mesh":
         vertices = r.vectors("vertices")
         faces = r.raw("faces")
@@ -368,7 +369,7 @@ def _add_shape(scene, r, material_index):
 GENERATORS = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshgen.terrain}
 
 
-def _mesh_source(r):
+def _mesh_source(r, files):
     """(the untransformed Mesh, the number of degenerate faces dropped, where it came from): read from
     `file` (relative to the scene file) or made by `generate = { shape = ..., triangles = N }`."""
     if r.has("file") == r.has("generate"):
@@ -378,7 +379,7 @@ def _mesh_source(r):
         r.fail("shape_index", index, "above 0 only with a .serialized file (OBJ and PLY files hold one mesh)")
     if r.has("file"):
         path = Path(r.path).parent / r.string("file")
-        return (*mesh_file.load_mesh(path, r.path, r.prefix + "file", index), str(path))
+        return (*files.load(path, r.path, r.prefix + "file", index), str(path))
     g = r.sub("generate")
     g.check_keys()
     shape, triangles = g.string("shape"), g.integer("triangles")
@@ -424,8 +425,8 @@ def _transformed_faces(r, key, vertices, faces):
     return faces[~degenerate], int(degenerate.sum()), ~degenerate
 
 
-def _mesh_shape(r, material):
-    mesh, dropped, source = _mesh_source(r)
+def _mesh_shape(r, material, files):
+    mesh, dropped, source = _mesh_source(r, files)
     m = _transform(r)
     vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
     key = transform_key(r)
@@ -629,9 +630,10 @@ def _wrapper(r, name, kind, names, maps, sides):
     return Material(name, np.zeros(3), bsdf=kind, blend=wrapped, weight=weight, maps=tuple(maps), **sides)
 
 
-def parse_scene(table, path="<scene>"):
+def parse_scene(table, path="<scene>", files=None):
     """Build a Scene from a parsed TOML table; raises InputError on the first bad key. The scene keeps a copy
-    of the table as its `source` (raytrace.parameters edits it)."""
+    of the table as its `source` (raytrace.parameters edits it). Mesh files are read through `files` (a
+    mesh_file.MeshCache: the Mitsuba translation's, which read some already), each once."""
     source = copy.deepcopy(table)
     r = Reader(path, table)
     r.check_keys()
@@ -686,11 +688,12 @@ def parse_scene(table, path="<scene>"):
         light_readers.append(placed(lr))
 
     tables, shapes = r.raw("shapes", []), []  # keys.py declares its default: no shapes
+    files = mesh_file.MeshCache() if files is None else files
     if not isinstance(tables, list):
         r.fail("shapes", tables, "must be an array of [[shapes]] tables")
     for i, shape in enumerate(tables):
         sr = Reader(path, shape, f"shapes[{i}].", "shapes[]")
-        shapes.extend((placed(sr), added) for added in _load_shape(scene, sr, material_index))
+        shapes.extend((placed(sr), added) for added in _load_shape(scene, sr, material_index, files))
     rules.check(scene, rules.Places(r, render, c, material_readers, light_readers, shapes))
     scene.source, scene.checked = source, fingerprint(scene)
     return scene
