@@ -419,7 +419,8 @@ def test_a_sheared_rectangle_is_two_triangles(tmp_path):
 
 @pytest.mark.parametrize("extra, where, message", [
     ('<shape type="linearcurve"/>', "shape linearcurve",
-     "not supported (raytrace renders: rectangle, obj, ply, serialized, cube, sphere, disk, cylinder)"),
+     "not supported (raytrace renders: rectangle, obj, ply, serialized, cube, sphere, disk, cylinder, shapegroup, "
+     "instance)"),
     ('<shape type="rectangle"><bsdf type="pplastic"/></shape>', "bsdf pplastic", "raytrace renders: diffuse"),
     ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
 ])

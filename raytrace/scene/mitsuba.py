@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import InputError, did_you_mean, printable
 from . import bsdfs, mesh_file, spectra
 from .mitsuba_xml import WHERE, Where
+from .keys import MAX_GENERATED_TRIANGLES
 from .model import LOOKUPS
 from .transform import AFFINE
 
@@ -145,6 +146,13 @@ PLUGINS = {
         Param("to_world", "identity", 'shapes[] type = "cylinder" to_world'),
         Param("flip_normals", False, 'shapes[] type = "cylinder" flip_normals'),
         Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter"))),
+    "shapegroup": Plugin("shape", "shapes that instances place; not rendered itself", (
+        Param("shape", None, "shapes[]", "one or more, each with its own bsdf (no emitter, shapegroup or instance, "
+              "as in Mitsuba)"),)),
+    "instance": Plugin("shape", "a shapegroup's shapes under to_world: flattened into world-space shapes at load "
+                       "(raytrace has no two-level BVH yet)", (
+        Param("shapegroup", None, "shapes[]", "one, by reference"),
+        Param("to_world", "identity", "shapes[]", "composed with each shape's own (a sphere's must stay uniform)"))),
     "area": Plugin("emitter", "light emitted from a shape's front side", (
         Param("radiance", 1.0, "lights[] (direct, path) radiance", "an RGB colour or a spectrum (on a shape other "
               "than a rectangle: shapes[] radiance)"),)),
@@ -215,6 +223,7 @@ class Translation:
     origins: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
     clip: tuple = (0.0, math.inf, None)
+    files: mesh_file.MeshCache = field(default_factory=mesh_file.MeshCache)  # mesh files read, for the reader
 
 
 class _Translator:
@@ -226,6 +235,7 @@ class _Translator:
         self.materials = {}  # id(BSDF dict) -> material name
         self.warned = set()
         self.search = []
+        self.groups = {}  # id(shapegroup dict) -> [(path, shape dict)]
 
     # -- where things came from, and errors naming it
     def where(self, node, path):
@@ -398,8 +408,12 @@ class _Translator:
             self.unsupported(self.where(sensors[1][1], sensors[1][0]).at, "a second sensor",
                              "raytrace renders one sensor")
         self.sensor(*sensors[0])
+        self.check_instances(groups["shape"])
         for key, value in groups["shape"]:
-            self.shape(key, value)
+            if value["type"] == "instance":
+                self.instance(key, value)
+            elif value["type"] != "shapegroup":  # a shapegroup is drawn where instances place it only
+                self.shape(key, value)
         environments = groups["emitter"]
         for i, (key, value) in enumerate(environments):
             if i:
@@ -795,7 +809,9 @@ class _Translator:
             self.out.warnings.append(printable(f"{at}: {what}: {problem}"))
 
     # -- shapes and their emitters
-    def shape(self, key, node):
+    def shape(self, key, node, outer=None):
+        """Add shape `node` to the table; `outer`: (key, node, to_world) of the instance that places it (a
+        shapegroup's shape), whose to_world goes before the shape's own."""
         name = node["type"]
         params = self.params(node, key, name)
         bsdf, emitter = None, None
@@ -804,9 +820,15 @@ class _Translator:
                 bsdf = (path, v)
             elif category == "emitter":
                 emitter = (path, v)
+            elif v["type"] in ("shapegroup", "instance"):
+                self.fail(self.where(v, path).at, path, v["type"], f"is not a parameter of a {name} shape (Mitsuba: "
+                          "an instance places a shapegroup, and nothing else holds either)")
             else:
                 self.unsupported(self.where(v, path).at, f"a {category} in a shape", "not supported")
         m = self.matrix(params["to_world"], node, key, "to_world") if "to_world" in params else np.eye(4)
+        placed_by = (key, node) if outer is None else outer[:2]  # where a key made from the placement came from
+        if outer is not None:
+            m = outer[2] @ m
         radiance = None
         if emitter is not None:
             radiance = self.emission(emitter)
@@ -826,13 +848,13 @@ class _Translator:
             else:
                 shape = {"type": "rectangle", **frame}
             for k in shape:
-                self.origin(f"{prefix}.{k}", node, key, "to_world")
+                self.origin(f"{prefix}.{k}", *placed_by, "to_world")
         elif name == "cube":
             vertices, faces, uv = _cube(m, self.boolean(params.get("flip_normals", False), node, key,
                                                         "flip_normals"))
             shape = {"type": "mesh", "vertices": vertices, "faces": faces, "uv": uv}
             for k in ("vertices", "faces", "uv"):
-                self.origin(f"{prefix}.{k}", node, key, "to_world")
+                self.origin(f"{prefix}.{k}", *placed_by, "to_world")
         elif name in ("obj", "ply", "serialized"):
             # face_normals: flat; else the file's normals, or Mitsuba's angle-weighted ones where it has none
             filename = self.string(params.get("filename"), node, key, "filename")
@@ -846,10 +868,10 @@ class _Translator:
                 shape["shape_index"] = self.number(params["shape_index"], node, key, "shape_index", integer=True)
                 self.origin(f"{prefix}.shape_index", node, key, "shape_index")
             self.origin(f"{prefix}.file", node, key, "filename")
-            self.origin(f"{prefix}.matrix", node, key, "to_world")
+            self.origin(f"{prefix}.matrix", *placed_by, "to_world")
         elif name in ("disk", "cylinder"):  # raytrace's own, with Mitsuba's parameters
             shape = {"type": name, "to_world": m.tolist()}
-            self.origin(f"{prefix}.to_world", node, key, "to_world")
+            self.origin(f"{prefix}.to_world", *placed_by, "to_world")
             if self.boolean(params.get("flip_normals", False), node, key, "flip_normals"):
                 shape["flip_normals"] = True
                 self.origin(f"{prefix}.flip_normals", node, key, "flip_normals")
@@ -861,10 +883,9 @@ class _Translator:
         else:  # sphere: an ellipsoid whose axes are to_world's columns times the radius
             center = np.asarray(params.get("center", (0.0, 0.0, 0.0)), np.float64)
             radius = self.number(params.get("radius", 1.0), node, key, "radius")
-            linear = m[:3, :3]
-            scale = abs(np.linalg.det(linear)) ** (1 / 3)
-            if not np.allclose(linear.T @ linear, scale ** 2 * np.eye(3), rtol=0, atol=1e-6 * scale ** 2):
-                self.unsupported(self.where(node, key).of("to_world"), "sphere with a non-uniform scale",
+            if not _uniform(m):  # the instance's to_world where the sphere's own is uniform
+                blamed = (key, node) if outer is None or not _uniform(m @ np.linalg.inv(outer[2])) else placed_by
+                self.unsupported(self.where(blamed[1], blamed[0]).of("to_world"), "sphere with a non-uniform scale",
                                  "a sphere's to_world must be a rotation, a uniform scale and a translation (as "
                                  "Mitsuba's sphere takes it)")
                 return
@@ -880,6 +901,82 @@ class _Translator:
             shape["radiance"] = radiance
             self.origin(f"{prefix}.radiance", emitter[1], emitter[0], "radiance")
         self.table["shapes"].append(shape)
+
+    # -- instancing: each instance's shapegroup flattened into world-space shapes (Mitsuba's shapegroup.cpp and
+    # instance.cpp give the rules; a two-level BVH would keep one copy)
+    def group(self, key, node):
+        """[(path, shape dict)] of shapegroup `node`, checked once as Mitsuba's ShapeGroup checks its children:
+        shapes only, none of them a shapegroup, an instance or an emitting shape."""
+        if id(node) in self.groups:
+            return self.groups[id(node)]
+        shapes = []
+        for path, v, category in self.objects(self.params(node, key, "shapegroup"), key, node):
+            at = self.where(v, path).at
+            if category != "shape":
+                self.fail(at, path, v["type"], f"a shapegroup holds shapes only, not a {category}")
+            if v["type"] in ("shapegroup", "instance"):
+                article = "an" if v["type"] == "instance" else "a"
+                self.fail(at, path, v["type"], f"{article} {v['type']} inside a shapegroup is not allowed (Mitsuba: "
+                          "nested instancing is not permitted)")
+            emitters = [(p, e) for p, e, c in self.objects(self.params(v, path, v["type"]), path, v) if c == "emitter"]
+            if emitters:
+                self.fail(self.where(emitters[0][1], emitters[0][0]).at, emitters[0][0], emitters[0][1]["type"],
+                          "an emitter on a shapegroup's shape is not allowed (Mitsuba does not instance emitters)")
+            shapes.append((path, v))
+        self.groups[id(node)] = shapes
+        return shapes
+
+    def instanced(self, key, node):
+        """(shapegroup path, shapegroup dict, to_world) of instance `node`: Mitsuba's instance holds exactly one
+        shapegroup (given by reference, or inline)."""
+        params = self.params(node, key, "instance")
+        inner = self.objects(params, key, node)
+        at = self.where(node, key).at
+        if not inner:
+            self.fail(at, f"{key}.shapegroup", None, "missing: an instance places a shapegroup (<ref id=\"...\"/>)")
+        for path, v, category in inner:
+            if v["type"] != "shapegroup":
+                self.fail(self.where(v, path).at, path, v["type"], "an instance holds a shapegroup only")
+        if len(inner) > 1:
+            self.fail(self.where(inner[1][1], inner[1][0]).at, inner[1][0], len(inner),
+                      "an instance places one shapegroup")
+        m = self.matrix(params["to_world"], node, key, "to_world") if "to_world" in params else np.eye(4)
+        return inner[0][0], inner[0][1], m
+
+    def check_instances(self, shapes):
+        """Check every shapegroup, and that the instances' flattened copies stay within MAX_GENERATED_TRIANGLES
+        primitives (a file's triangles, a cube's 12, one for each analytic shape): each instance is a copy
+        until the kernel has a two-level BVH, and 50 million primitives already take gigabytes."""
+        total, count = 0, 0
+        for key, node in shapes:
+            if node["type"] == "shapegroup":
+                self.group(key, node)
+            if node["type"] != "instance":
+                continue
+            path, group, _ = self.instanced(key, node)
+            count += 1
+            total += sum(self.primitives(p, v) for p, v in self.group(path, group))
+            if total > MAX_GENERATED_TRIANGLES:
+                self.fail(self.where(node, key).at, "instances", count, f"so many instances flatten to {total:,} "
+                          f"primitives (triangles and analytic shapes), beyond {MAX_GENERATED_TRIANGLES:,}: raytrace "
+                          "flattens instances into copies for now")
+
+    def primitives(self, key, node):
+        """How many primitives shape `node` becomes (a mesh file read once, through the translation's cache)."""
+        name = node["type"]
+        if name in ("obj", "ply", "serialized"):
+            params = self.params(node, key, name)
+            filename = self.path(self.string(params.get("filename"), node, key, "filename"))
+            index = self.number(params.get("shape_index", 0), node, key, "shape_index", integer=True)
+            mesh, _ = self.out.files.load(Path(self.folder, filename), self.where(node, key).of("filename"),
+                                          "filename", index)
+            return len(mesh.faces)
+        return {"cube": 12, "rectangle": 1, "sphere": 1, "disk": 1, "cylinder": 1}.get(name, 0)
+
+    def instance(self, key, node):
+        path, group, m = self.instanced(key, node)
+        for shape_key, shape in self.group(path, group):
+            self.shape(shape_key, shape, (key, node, m))
 
     def path(self, filename):
         """A file as Mitsuba finds it (in the scene's folder, then in its <path> folders), relative to the scene's
@@ -987,6 +1084,13 @@ CUBE_VERTICES = [(1, -1, -1), (1, -1, 1), (-1, -1, 1), (-1, -1, -1), (1, 1, -1),
 CUBE_UV = [(0, 1), (1, 1), (1, 0), (0, 0)] * 6
 CUBE_FACES = [(0, 1, 2), (3, 0, 2), (4, 5, 6), (7, 4, 6), (8, 9, 10), (11, 8, 10), (12, 13, 14), (15, 12, 14),
               (16, 17, 18), (19, 16, 18), (20, 21, 22), (23, 20, 22)]
+
+
+def _uniform(m):
+    """Whether affine `m` is a rotation (or mirror), a uniform scale and a translation."""
+    linear = m[:3, :3]
+    scale = abs(np.linalg.det(linear)) ** (1 / 3)
+    return np.allclose(linear.T @ linear, scale ** 2 * np.eye(3), rtol=0, atol=1e-6 * scale ** 2)
 
 
 def _cube(m, flip):

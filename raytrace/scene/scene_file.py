@@ -779,7 +779,7 @@ def _mitsuba(node, path, folder, ignore_unsupported):
     for line in translation.warnings:
         warnings.warn(line, UnsupportedWarning, stacklevel=3)
     try:
-        scene = parse_scene(translation.table, path)
+        scene = parse_scene(translation.table, path, translation.files)
     except InputError as e:
         raise mitsuba.located(e, translation) from None
     mitsuba.check_clip(scene, translation)
