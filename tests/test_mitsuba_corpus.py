@@ -6,7 +6,7 @@ judge_against_reference renders the scene with raytrace (SPP samples in 16 rende
 with the defines the record names) and runs devtools/judge.py's Z-test against the reference.
 
 The corpus is one small scene per plugin family raytrace reads (diffuse, conductor, roughconductor, dielectric,
-rectangle placement, obj, ply and serialized meshes, constant and envmap emitters, the perspective sensor's fov
+rectangle placement, obj, ply and serialized meshes, shapegroup instances, constant and envmap emitters, the perspective sensor's fov
 axes and focal length, the samplers, the path, direct and moment integrators, a version 0.6 file, $name parameters, include, ref;
 each BSDF; the textures bitmap, checkerboard and mesh_attribute (vertex, face and one-value attributes); the
 wrappers twosided, blendbsdf, mask, normalmap
