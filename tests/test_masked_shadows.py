@@ -39,6 +39,7 @@ import lookup_support as mts
 from devtools.chi_square import SIGNIFICANCE
 from devtools.judge import judge
 from helpers import at_lane_ends
+from render_judging import CHUNKS, assert_judged, chunked
 from raytrace.renderer.packing import texture_tables
 from raytrace.renderer.program import Features
 from raytrace.renderer.scene_tables import scene_tables
@@ -57,7 +58,6 @@ __kernel void shadows(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global cons
 }
 """
 N = 4000  # segments per case
-CHUNKS = 16  # independent renders per judged image
 ALPHA = 1e-4  # devtools/judge.py's false-failure rate per scale (pixels, tiles of 4 and 16, the whole image)
 BLACK = {"type": "diffuse", "reflectance": 0.0}
 
@@ -167,21 +167,6 @@ def test_textured_opacity_passes_per_cell(harness, tmp_path):
     clear = ~(mts.near_border(s, 2, 2e-4) | mts.near_border(t, 2, 2e-4))
     assert clear.mean() > 0.99 and 0.3 < opacity[clear].mean() < 0.7
     np.testing.assert_array_equal(passed[clear], opacity[clear] == 0.0)
-
-
-def chunked(table, lanes, spp, seed=0):
-    """The mean image of CHUNKS renders of `table` at spp each (seeds seed, seed + 1, ...) and the variance of
-    that mean from their spread (CHUNKS - 1 degrees of freedom), as the judging rig takes them."""
-    scene = raytrace.load_dict(table)
-    images = np.array([np.asarray(raytrace.render(scene, spp=spp, lanes=lanes, seed=seed + k)[0], np.float64)
-                       for k in range(CHUNKS)])
-    return images.mean(axis=0), images.var(axis=0, ddof=1) / CHUNKS
-
-
-def assert_judged(verdict, label):
-    print(f"{label}: worst |z| {verdict.worst_z:.2f} (threshold {verdict.threshold:.2f}), {verdict.failures} "
-          f"values over ({verdict.allowed} allowed), bias {verdict.bias}, bias z {verdict.bias_z}")
-    assert verdict.passed, (label, verdict.worst_z, verdict.failures, verdict.bias_z)
 
 
 def sphere_scene(opacity, rho, radiance, max_depth):

@@ -51,6 +51,7 @@ from scipy import stats
 from devtools.chi_square import SIGNIFICANCE
 from devtools.judge import judge
 from helpers import ROOT, at_lane_ends
+from render_judging import CHUNKS, assert_judged, chunked
 from reference import camera_rays
 from raytrace.renderer.program import Features
 from raytrace.renderer.scene_tables import scene_tables
@@ -74,7 +75,6 @@ __kernel void sample(int n, SCENE_PARAMETERS, __global const float *ref, __globa
 }
 """
 N = 40000
-CHUNKS = 16
 ALPHA = 1e-4
 NARROW = 0.00068523  # sin^2(theta_max) below which emitters.cl takes the cone's series (pbrt-v4's)
 
@@ -261,19 +261,6 @@ def test_a_cylinder_is_sampled_uniformly_in_phi_and_z(harness):
     assert clear.mean() > 0.8
     np.testing.assert_allclose(pdf[clear], (d2 / (2 * np.pi * jacobian * cos_l))[clear], rtol=1e-5)
     np.testing.assert_allclose(hit_pdf[clear], pdf[clear], rtol=1e-5)
-
-
-def chunked(table, lanes, spp, seed=0):
-    scene = raytrace.load_dict(table)
-    images = np.array([np.asarray(raytrace.render(scene, spp=spp, lanes=lanes, seed=seed + k)[0], np.float64)
-                       for k in range(CHUNKS)])
-    return images.mean(axis=0), images.var(axis=0, ddof=1) / CHUNKS
-
-
-def assert_judged(verdict, label):
-    print(f"{label}: worst |z| {verdict.worst_z:.2f} (threshold {verdict.threshold:.2f}), {verdict.failures} "
-          f"values over ({verdict.allowed} allowed), bias {verdict.bias}, bias z {verdict.bias_z}")
-    assert verdict.passed, (label, verdict.worst_z, verdict.failures, verdict.bias_z)
 
 
 SPHERE_CENTRE, SPHERE_RADIUS, SPHERE_RADIANCE = np.array([0.4, 0.3, 1.2]), 0.35, np.array([3.0, 2.0, 1.0])
