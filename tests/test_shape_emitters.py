@@ -41,7 +41,10 @@ Mutations tried (each in a copy of the kernels; every one failed the tests named
 - emitters.cl sample_emitter: the disk's radius drawn as u, not sqrt(u): the disk chi-square;
 - emitters.cl sample_emitter: the cylinder's density by its mean area, not the point's own: the cylinder's;
 - emitters.cl cylinder_jacobian: dp/dz read from to_world's third row, not column: the cylinder's density.
+- model_check.py: _check_emitters not called; rules.py: _emitting_areas not called: the refusals.
 """
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -53,6 +56,7 @@ from devtools.judge import judge
 from helpers import ROOT, at_lane_ends
 from render_judging import CHUNKS, assert_judged, chunked
 from reference import camera_rays
+from raytrace.errors import InputError
 from raytrace.renderer.program import Features
 from raytrace.renderer.scene_tables import scene_tables
 
@@ -358,3 +362,27 @@ def test_a_mesh_light_equals_the_rectangle_light(lanes):
     assert rect.mean() > 0.05
     assert_judged(judge(mesh, mesh_var, rect, rect_var, alpha=ALPHA, dof=CHUNKS - 1, ref_dof=CHUNKS - 1,
                         tile_alpha=ALPHA), f"box, lanes {lanes}")
+
+
+def test_a_scene_whose_emitters_do_not_hold_is_refused():
+    """The Python API's path into the kernel (check_model): an emitter without its shape, one material emitting
+    from two spheres (only one would be sampled), an emitter naming a material of another, and (from a file) an
+    emitting triangle whose area rounds to 0 in float32: each one line naming the key."""
+    table = floor_scene("direct")
+    scene = raytrace.load_dict(table)
+    sphere = scene.ellipsoids[0]
+    cases = [(dataclasses.replace(scene, ellipsoids=[]), "emitters[0].material", "must be the material of one shape"),
+             (dataclasses.replace(scene, ellipsoids=[sphere, dataclasses.replace(sphere, center=sphere.center + 1)]),
+              "emitters[0].material", "not of 2"),
+             (dataclasses.replace(scene, emitters=[dataclasses.replace(scene.emitters[0], material=0)]),
+              "emitters[0].material", "a material of its own")]
+    for broken, key, problem in cases:
+        with pytest.raises(InputError) as error:
+            raytrace.render(broken, spp=1)
+        assert error.value.key == key and problem in str(error.value), str(error.value)
+    far = 1e7
+    table["shapes"][1] = {"type": "triangle", "vertices": [[far, far, 1.0], [far + 1e-3, far, 1.0],
+                                                            [far, far + 1e-3, 1.0]], "radiance": 1.0}
+    with pytest.raises(InputError) as error:
+        raytrace.load_dict(table)
+    assert error.value.key == "shapes[1].radiance" and "float32" in str(error.value)

@@ -15,7 +15,7 @@ from .. import structs
 from ..errors import InputError
 from ..numerics import FLOAT32_MAX
 from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle,
-                    TextureLookup, Triangle, fingerprint)
+                    ShapeEmitter, TextureLookup, Triangle, fingerprint)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
 from .scene_file import LIGHTS_SPEC, Reader, check_affine_shape, check_axes, check_frame, check_triangle, map_placement
@@ -256,4 +256,37 @@ def check_model(scene, source="render()"):
         if faces.size and (faces.min() < 0 or faces.max() >= len(shape.mesh.vertices)):
             r.fail("mesh.faces", None, f"must index the {len(shape.mesh.vertices)} vertices")
         shapes.append((Reader(source, {"scale": None}, prefix), shape))
+    _check_emitters(source, scene)
     rules.check(scene, rules.Places(top, render, camera, materials, lights, shapes))
+
+
+def _check_emitters(source, scene):
+    """Scene.emitters as scene_file.py builds them: each names a material of its own, which names it back and
+    which one shape holds (a rectangle, a sphere, a disk or a cylinder, or a mesh's triangles), no light; its
+    radiance a scene file's."""
+    for i, e in enumerate(scene.emitters):
+        prefix = f"emitters[{i}]."
+        _typed(source, prefix, e, ShapeEmitter)
+        _index(source, prefix + "material", e.material, len(scene.materials))
+        Reader(source, {"radiance": _value(np.asarray(e.radiance, np.float64))}, prefix, "shapes[]").vector("radiance")
+        if scene.materials[e.material].emitter != i:
+            Reader(source, {}, prefix).fail("material", e.material, f"must be a material of its own, whose emitter "
+                                            f"is {i}, not {scene.materials[e.material].emitter}")
+        holders = [(kind, k) for kind in ("rectangles", "ellipsoids", "disks", "cylinders", "triangles", "meshes")
+                   for k, shape in enumerate(getattr(scene, kind)) if shape.material == e.material]
+        kinds = {kind for kind, _ in holders}
+        single = kinds & {"rectangles", "ellipsoids", "disks", "cylinders"}
+        if not holders or (single and len(holders) > 1):
+            Reader(source, {}, prefix).fail("material", e.material, "must be the material of one shape (a mesh's "
+                                            f"triangles count as one), not of {len(holders)}: "
+                                            f"{', '.join(f'{kind}[{k}]' for kind, k in holders[:4])}")
+        if any(light.material == e.material for light in scene.lights):
+            Reader(source, {}, prefix).fail("material", e.material, "is an emitting shape's own: no light may "
+                                            "reflect with it")
+    for j, m in enumerate(scene.materials):
+        if m.emitter != -1:
+            _index(source, f"materials.{m.name}.emitter", m.emitter, len(scene.emitters))
+            if scene.emitters[m.emitter].material != j:
+                Reader(source, {}, f"materials.{m.name}.").fail("emitter", m.emitter, "names an emitter of another "
+                                                                "material")
+

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import bsdfs, meshes, ranges, texture_lookups
 from .. import samplers
-from .model import RADIOMETRIC, Ellipsoid, normalize
+from .model import RADIOMETRIC, Ellipsoid, MeshShape, Triangle, normalize
 from ..numerics import FLOAT32_MAX
 
 
@@ -74,6 +74,26 @@ def _shading(scene, places):
             _path_only(reader, "material", scene.materials[light.material].name, scene.shading)
     for reader, shape in places.shapes:
         _shape_emitter(scene, reader, shape)
+    _emitting_areas(scene, places)
+
+
+def _emitting_areas(scene, places):
+    """An emitting mesh has an area in float32, the precision its triangles are stored and sampled in
+    (emitters.cl chooses them by area): triangles valid in float64 may all round to lines far from the origin."""
+    areas, first = {}, {}
+    for reader, shape in places.shapes:
+        material = scene.materials[shape.material]
+        if material.emitter < 0 or not isinstance(shape, (Triangle, MeshShape)):
+            continue
+        v = (np.asarray(shape.vertices, np.float32)[None] if isinstance(shape, Triangle)
+             else np.asarray(shape.mesh.vertices, np.float32)[shape.mesh.faces]).astype(np.float64)
+        area = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum()
+        areas[material.emitter] = areas.get(material.emitter, 0.0) + area
+        first.setdefault(material.emitter, reader)
+    for emitter, area in areas.items():
+        if not area > 0:
+            first[emitter].fail("radiance", value(scene.emitters[emitter].radiance), "the emitting shape has no "
+                                "area once its corners are rounded to float32 (it is too small for where it is)")
 
 
 def _shape_emitter(scene, reader, shape):
