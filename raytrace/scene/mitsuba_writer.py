@@ -9,8 +9,10 @@ its parameters by Mitsuba's names (raytrace/scene/bsdfs.py; a two-sided material
 front only inside `twosided`, a one-sided one bare; glass unwrapped, its sides being its inside and outside;
 the rough ones' distribution always written, Mitsuba's default being Beckmann and raytrace's GGX); each light
 a `rectangle` with an `area` emitter and a BSDF (its material, or a black diffuse: a raytrace light reflects
-nothing, and Mitsuba's default BSDF would be a grey diffuse); the shapes; the environment. Every number is
-written by repr(), which Python and Mitsuba's parser read back to the same float64.
+nothing, and Mitsuba's default BSDF would be a grey diffuse); the shapes (disks and cylinders as Mitsuba's,
+under their to_world), each emitting one with its `area` emitter and a BSDF as a light's: the material it
+copies (the shape's own is that material with its emitter named), or the black diffuse; the environment.
+Every number is written by repr(), which Python and Mitsuba's parser read back to the same float64.
 
 Meshes raytrace holds itself (triangles and meshes written in the scene file, generated meshes, and a mesh
 file under a mirroring transform: Mitsuba keeps a mirrored mesh's corner order, raytrace reverses it) are
@@ -19,9 +21,11 @@ them, and normals where the mesh is smooth; int32 faces), for the caller to writ
 otherwise stays where it is, named relative to the XML's folder, under its transform.
 
 What has no Mitsuba 3 equivalent is refused with one InputError naming the scene file and the key: the Phong
-model, a material with texture maps (not written yet), an ellipsoid other than a sphere. What Mitsuba
+model, a material with texture maps (not written yet), an ellipsoid other than a sphere, an emitter that no
+shape of the model carries (the XML has nowhere to put it). What Mitsuba
 approximates (a sampler it lacks, light samples its path tracer does not take) is said in a comment beside it.
 """
+import dataclasses
 import math
 import os
 import re
@@ -32,7 +36,7 @@ import numpy as np
 
 from ..errors import InputError
 from . import bsdfs
-from .model import WRAPPERS
+from .model import WRAPPERS, fingerprint
 from .mitsuba import view_depths
 from .transform import mesh_matrix
 
@@ -120,8 +124,9 @@ class _Writer:
             self.fail("render.shading", scene.shading, "the course's Phong model has no Mitsuba 3 equivalent "
                       "(Mitsuba renders radiometric models: write the scene with shading = \"direct\" or \"path\")")
         shapes = self.shapes()
-        used = sorted({m for _, _, objects, _ in shapes for m in (o.material for o in objects)}
-                      | {light.material for light in scene.lights if light.material >= 0})
+        self.check_emitters(shapes)
+        used = sorted(({self.written(o.material) for _, _, objects, _ in shapes for o in objects}
+                       | {light.material for light in scene.lights if light.material >= 0}) - {-1})
         for index in used:
             self.check_material(index)
         for key, kind, objects, _ in shapes:
@@ -133,9 +138,9 @@ class _Writer:
         self.sensor(root)
         for index in used:
             self.material(root, index)
-        if any(light.material < 0 for light in scene.lights):
+        if any(light.material < 0 for light in scene.lights) or not all(e.reflects for e in scene.emitters):
             self.black = self.unique_id("black")
-            root.append(_comment("a light without a material reflects nothing in raytrace"))
+            root.append(_comment("a light or an emitting shape without a material reflects nothing in raytrace"))
             twosided = ET.SubElement(root, "bsdf", type="twosided", id=self.black)
             ET.SubElement(ET.SubElement(twosided, "bsdf", type="diffuse"), "rgb", name="reflectance",
                           value=_numbers([0.0, 0.0, 0.0]))
@@ -199,6 +204,38 @@ class _Writer:
         near = NEAR_CLIP if not len(front) or front.min() >= NEAR_CLIP else float(front.min()) / 2
         far = FAR_CLIP if not len(depths) or depths.max() <= FAR_CLIP else 2 * float(depths.max())
         return near, far
+
+    # -- emitting shapes
+    def check_emitters(self, shapes):
+        """Every emitter on a shape is written with its shape: refuse one no shape listed carries (a model built
+        in Python), which the XML would drop."""
+        carried = {self.scene.materials[o.material].emitter for _, _, objects, _ in shapes for o in objects}
+        for i, emitter in enumerate(self.scene.emitters):
+            if i not in carried:
+                self.fail(f"emitters[{i}]", emitter.radiance.tolist(), "no shape carries this emitter (its "
+                          f"material, materials[{emitter.material}], is no shape's): the XML would drop its light")
+
+    def written(self, index):
+        """The material whose BSDF is written for a shape of material `index`: itself; for an emitting shape the
+        material its own copies (the same but its emitter; itself where the scene has none such), or -1 (the
+        black BSDF) where it reflects nothing."""
+        material = self.scene.materials[index]
+        if material.emitter < 0:
+            return index
+        if not self.scene.emitters[material.emitter].reflects:
+            return -1
+        copied = fingerprint(dataclasses.replace(material, emitter=-1))
+        return next((i for i, m in enumerate(self.scene.materials) if m.emitter < 0 and fingerprint(m) == copied),
+                    index)
+
+    def emitter(self, shape, index):
+        """Shape element `shape`'s emitter, if its material (`index`) is an emitting shape's: an area emitter of
+        its radiance (emitted from the front, as raytrace's)."""
+        material = self.scene.materials[index]
+        if material.emitter >= 0:
+            emitter = ET.SubElement(shape, "emitter", type="area")
+            ET.SubElement(emitter, "rgb", name="radiance",
+                          value=_numbers(self.scene.emitters[material.emitter].radiance))
 
     # -- materials
     def check_material(self, index):
@@ -267,6 +304,7 @@ class _Writer:
             ET.SubElement(bsdf, "rgb", name="k", value=_numbers(k))
 
     def bsdf_ref(self, element, index):
+        """A reference to material `index`'s BSDF (-1: the black one)."""
         ET.SubElement(element, "ref", id=_escaped(self.ids[index] if index >= 0 else self.black))
 
     # -- lights, shapes, the environment
@@ -309,19 +347,19 @@ class _Writer:
 
     def shapes(self):
         """(key, kind, the model's objects, the scene table's entry or None) of each shape, in the scene file's
-        order: kind rectangle, ellipsoid, triangles (one shape's, the triangles of a mesh written in the file),
-        file or mesh (a generated one, or one whose table is unknown). A scene whose table does not match its
+        order: kind rectangle, ellipsoid, disk, cylinder, triangles (one shape's, the triangles of a mesh written
+        in the file), file or mesh (a generated one, or one whose table is unknown). A scene whose table does not match its
         model (one built in Python) is listed from the model, by the model's names (rectangles[0], ...)."""
         scene = self.scene
         tables = (scene.source or {}).get("shapes", [])
-        counts = {"rectangles": 0, "triangles": 0, "ellipsoids": 0, "meshes": 0}
+        counts = {"rectangles": 0, "triangles": 0, "ellipsoids": 0, "disks": 0, "cylinders": 0, "meshes": 0}
         listed = []
         for i, table in enumerate(tables if isinstance(tables, list) else []):
             kind = table.get("type") if isinstance(table, dict) else None
             if kind == "rectangle":
                 group, n, label = "rectangles", 1, "rectangle"
-            elif kind == "ellipsoid":
-                group, n, label = "ellipsoids", 1, "ellipsoid"
+            elif kind in ("ellipsoid", "disk", "cylinder"):
+                group, n, label = kind + "s", 1, kind
             elif kind == "triangle":
                 group, n, label = "triangles", 1, "triangles"
             elif kind == "mesh" and ("file" in table or "generate" in table):
@@ -336,7 +374,8 @@ class _Writer:
         if counts == {group: len(getattr(scene, group)) for group in counts} and len(listed) == len(tables):
             return listed
         listed = [(f"rectangles[{i}]", "rectangle", [r], None) for i, r in enumerate(scene.rectangles)]
-        listed += [(f"ellipsoids[{i}]", "ellipsoid", [e], None) for i, e in enumerate(scene.ellipsoids)]
+        for group in ("ellipsoids", "disks", "cylinders"):
+            listed += [(f"{group}[{i}]", group[:-1], [s], None) for i, s in enumerate(getattr(scene, group))]
         for material in sorted({t.material for t in scene.triangles}):
             listed.append((f"triangles of material {material}", "triangles",
                            [t for t in scene.triangles if t.material == material], None))
@@ -361,6 +400,17 @@ class _Writer:
             shape = ET.SubElement(root, "shape", type="sphere")
             ET.SubElement(shape, "point", name="center", **dict(zip("xyz", map(_number, center))))
             ET.SubElement(shape, "float", name="radius", value=_number(radius))
+        elif kind in ("disk", "cylinder"):  # Mitsuba's own plugins, their parameters as raytrace holds them
+            s = objects[0]
+            root.append(_comment(key))
+            shape = ET.SubElement(root, "shape", type=kind)
+            if kind == "cylinder":
+                for name in ("p0", "p1"):
+                    ET.SubElement(shape, "point", name=name, **dict(zip("xyz", map(_number, getattr(s, name)))))
+                ET.SubElement(shape, "float", name="radius", value=_number(s.radius))
+            ET.SubElement(ET.SubElement(shape, "transform", name="to_world"), "matrix", value=_matrix(s.to_world))
+            if s.flip_normals:
+                ET.SubElement(shape, "boolean", name="flip_normals", value="true")
         elif kind == "triangles":
             corners = np.array([t.vertices for t in objects], np.float64).reshape(-1, 3)
             faces = np.arange(len(corners)).reshape(-1, 3)
@@ -386,7 +436,8 @@ class _Writer:
                     ET.SubElement(shape, "integer", name="shape_index", value=str(table["shape_index"]))
                 ET.SubElement(ET.SubElement(shape, "transform", name="to_world"), "matrix", value=_matrix(m))
             ET.SubElement(shape, "boolean", name="face_normals", value=str(not mesh_shape.smooth).lower())
-        self.bsdf_ref(shape, objects[0].material)
+        self.emitter(shape, objects[0].material)
+        self.bsdf_ref(shape, self.written(objects[0].material))
 
     def file_matrix(self, table, mesh_shape):
         """The to_world of a mesh file as scene_file.py's _transform makes it: the table's matrix, or its scale,
