@@ -28,7 +28,9 @@ variants are built once; stderr is captured at the file-descriptor level, where 
 
 - scene files built from the real grammar (raytrace/scene/scene_file.py: camera, image, render, ambient,
   materials with colour, shininess, texture, normal_map, height_map, uv_scale, uv_offset and wrap, lights,
-  rectangles, triangles, inline, file and generated meshes with their transforms, ellipsoids), valid ones
+  rectangles, triangles and ellipsoids placed by transform keys or not, inline, file and generated meshes with
+  their transforms, disks and cylinders under sheared, scaled and mirrored to_world matrices with p0, p1, radius
+  and flip_normals; in the Phong and the direct model, there with black emitting shapes), valid ones
   and ones mutated with hostile values (NaN, inf, 1e39, 3e38, denormals, 0, negative numbers, huge counts,
   wrong types, arrays of the wrong length, missing and extra keys), written by a TOML writer of our own
   (tomllib only reads) that spells NaN and infinity as TOML's `nan` and `inf`;
@@ -39,7 +41,7 @@ variants are built once; stderr is captured at the file-descriptor level, where 
 - the environment: RAYTRACE_LANES, RAYTRACE_TARGET and POCL_CACHE_DIR in this process; POCL_DEVICES,
   OCL_ICD_VENDORS and OCL_ICD_FILENAMES, which the OpenCL loader reads once, in a few child processes;
 - path-model scenes (BSDF materials with parameters anywhere in their ranges, constant and envmap
-  environments, light radiance, max_depth), their environment maps real EXR, HDR, TIFF or PNG images or
+  environments, light radiance, emitting shapes black or reflecting, disks and cylinders, max_depth), their environment maps real EXR, HDR, TIFF or PNG images or
   hostile files, some with hostile values, in this process and in a few child `python -m raytrace render`;
 - outputs that alias an input: `render -o`, `--stats-json` and `bench --json` naming the scene, its texture,
   mesh or environment map, spelt through ./, sub/.., an absolute path, a symbolic or a hard link;

@@ -153,15 +153,82 @@ def mesh_transforms(draw):
 
 
 @st.composite
+def rigid_transforms(draw):
+    """A rectangle's transform keys: some of a uniform scale (a mirror now and then), rotate and translate, or
+    their matrix (a non-uniform scale would shear a tilted rectangle, which is refused)."""
+    transform = draw(mesh_transforms())
+    if "matrix" in transform:
+        m = np.array(transform["matrix"])
+        m[:3, :3] *= np.cbrt(abs(np.linalg.det(m[:3, :3]))) / np.linalg.norm(m[:3, :3], axis=0)
+        return {"matrix": m.tolist()}
+    if isinstance(transform.get("scale"), list):
+        transform["scale"] = transform["scale"][0]
+    return transform
+
+
+@st.composite
+def affine_matrices(draw):
+    """A disk's or cylinder's to_world: a rotation of a sheared, non-uniformly scaled (now and then mirrored)
+    frame, translated; its columns within a factor of about 50 of each other, so never near singular."""
+    signed = st.tuples(finite(0.1, 1.0), st.sampled_from([1.0, 1.0, -1.0])).map(lambda p: p[0] * p[1])
+    shear = np.eye(3)
+    shear[np.triu_indices(3, 1)] = draw(vectors(3, -0.5, 0.5))
+    axis = draw(vectors(3, -1.0, 1.0).filter(lambda a: np.linalg.norm(a) > 0.1))
+    m = np.eye(4)
+    m[:3, :3] = rotation_matrix(axis, draw(finite(-360.0, 360.0))) @ shear @ np.diag(
+        draw(st.lists(signed, min_size=3, max_size=3)))
+    m[:3, 3] = draw(vectors(3, -1.0, 1.0))
+    return m.tolist()
+
+
+@st.composite
+def analytic_shapes(draw, kind):
+    """A disk's or a cylinder's own keys: to_world or not, flip_normals or not, a cylinder's p0, p1 (an axis of
+    0.1 at least) and radius each given or not."""
+    shape = {"type": kind}
+    if draw(st.sampled_from([True, True, False])):
+        shape["to_world"] = draw(affine_matrices())
+    if draw(st.booleans()):
+        shape["flip_normals"] = draw(st.booleans())
+    if kind == "cylinder":
+        p0, p1 = [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]
+        if draw(st.booleans()):
+            p0 = shape["p0"] = draw(vectors(3, -0.5, 0.5))
+        if draw(st.booleans()):
+            p1 = shape["p1"] = draw(vectors(3, -0.5, 0.5))
+        assume(np.linalg.norm(np.subtract(p1, p0)) > 0.1)
+        if draw(st.booleans()):
+            shape["radius"] = draw(finite(0.05, 1.0))
+    return shape
+
+
+def emitting(draw, shape, reflecting=True, radiances=finite(0.0, 4.0)):
+    """`shape` with a radiance now and then (the direct and path models), black (its material dropped) or, where
+    `reflecting`, reflecting by its material."""
+    if draw(st.sampled_from([False, True, False])):
+        shape["radiance"] = draw(number_or_vector(radiances))
+        if not reflecting or draw(st.booleans()):
+            shape.pop("material", None)
+    return shape
+
+
+@st.composite
 def shapes(draw, material_names, files):
-    """One [[shapes]] table of any type; mesh files it names are added to `files`."""
+    """One [[shapes]] table of any type, the course's shapes placed by transform keys or not (a rectangle's
+    without a shear); mesh files it names are added to `files`."""
     kind = draw(st.sampled_from(["rectangle", "triangle", "inline mesh", "mesh file", "generated mesh",
-                                 "ellipsoid"]))
+                                 "ellipsoid", "disk", "cylinder"]))
     shape = {"type": "mesh" if "mesh" in kind else kind, "material": draw(st.sampled_from(material_names))}
+    if kind in ("triangle", "ellipsoid") and draw(st.booleans()):
+        shape.update(draw(mesh_transforms()))
     if kind == "rectangle":
         normal, tangent = draw(frames())
         shape.update(center=draw(vectors(3, -1.0, 1.0)), size=draw(vectors(2, 0.1, 3.0)), normal=normal,
                      tangent=tangent)
+        if draw(st.booleans()):
+            shape.update(draw(rigid_transforms()))
+    elif kind in ("disk", "cylinder"):
+        shape.update(draw(analytic_shapes(kind)))
     elif kind == "triangle":
         v0 = draw(vectors(3, -1.0, 1.0))
         e1, e2 = draw(frames())
@@ -193,7 +260,7 @@ def shapes(draw, material_names, files):
 @st.composite
 def valid_scenes(draw, max_shapes=4, min_files=0):
     """A small scene that must render: every table of the grammar, optional keys present or not; images
-    1..16 pixels a side, a few samples."""
+    1..16 pixels a side, a few samples; in a quarter of them the direct model, some shapes black emitters."""
     files = []
     table = {"camera": draw(cameras()),
              "image": {"width": draw(st.integers(1, 16)), "height": draw(st.integers(1, 16))}}
@@ -205,6 +272,17 @@ def valid_scenes(draw, max_shapes=4, min_files=0):
     table["materials"] = {name: draw(materials(name, files)) for name in names}
     table["lights"] = draw(st.lists(lights(), min_size=1, max_size=2))
     table["shapes"] = draw(st.lists(shapes(names, files), max_size=max_shapes))
+    if draw(st.sampled_from(["phong", "phong", "phong", "direct"])) == "direct":
+        # the direct model: lights of a radiance, black emitting shapes, light samples that are no point light
+        render = table.setdefault("render", {})
+        render.update(shading="direct", light_sampler=draw(st.sampled_from(["random", "jittered", "halton",
+                                                                            "sobol"])))
+        table.pop("ambient", None)
+        for light in table["lights"]:
+            light["radiance"] = light.pop("colour")
+        for shape in table["shapes"]:
+            if shape["type"] != "ellipsoid":  # a sphere's only, and these are not
+                emitting(draw, shape, reflecting=False)
     if not table["shapes"] and draw(st.booleans()):
         del table["shapes"]
     assume(len(files) >= min_files)
@@ -436,9 +514,10 @@ def wrapped_and_textured(draw, materials, shapes):
 
 @st.composite
 def path_scenes(draw):
-    """SMALL_SCENE in the path model, 8 x 8: a floor, a sphere and a triangle of up to three materials of any
-    BSDF (the first perhaps with a float colour map), a light of any radiance (reflecting by a material or
-    not), an environment (none, constant or an envmap) of any radiance or scale and texels, any max_depth, 1
+    """SMALL_SCENE in the path model, 8 x 8: a floor, a sphere and a triangle, perhaps a disk and a cylinder under
+    any to_world, of up to three materials of any BSDF (the first perhaps with a float colour map), some of them
+    emitting any radiance (black, or reflecting by their material), a light of any radiance (reflecting by a
+    material or not), an environment (none, constant or an envmap) of any radiance or scale and texels, any max_depth, 1
     to 4 pixel and light samples. Most values lie anywhere
     in their keys' ranges, so that the rules between them (raytrace/scene/ranges.py) decide."""
     table = copy.deepcopy(SMALL_SCENE)
@@ -459,6 +538,11 @@ def path_scenes(draw):
                         "material": pick()},
                        {"type": "triangle", "vertices": [[-0.9, 0.3, 0.1], [-0.3, 0.3, 0.1], [-0.6, 0.3, 0.9]],
                         "material": pick()}]
+    for kind in ("disk", "cylinder"):
+        if draw(st.booleans()):
+            table["shapes"].append({**draw(analytic_shapes(kind)), "material": pick()})
+    for shape in table["shapes"]:  # emitting shapes of any radiance, black or reflecting (the sphere is one)
+        emitting(draw, shape, radiances=st.one_of(finite(0.0, 4.0), magnitudes()))
     files = ()
     if draw(st.booleans()):  # a float colour map, its texels too anywhere in float32's range
         files += (ImageFile("colour.exr", ".exr", 2, 2, 3, "float",
