@@ -386,3 +386,18 @@ def test_a_scene_whose_emitters_do_not_hold_is_refused():
     with pytest.raises(InputError) as error:
         raytrace.load_dict(table)
     assert error.value.key == "shapes[1].radiance" and "float32" in str(error.value)
+
+
+@pytest.mark.parametrize("shading, lights", [("path", False), ("direct", False), ("path", True)])
+def test_a_too_bright_emitting_shape_is_named(shading, lights):
+    """The brightness rules (ranges.py's 4 and 5) name an emitting shape's radiance where it is the largest
+    factor, with or without rectangular lights beside it (before: a crash without lights, another key with)."""
+    table = emitter_scene([{"type": "rectangle", "center": [0, 0, 0], "size": [2, 2], "normal": [0, 0, 1],
+                            "tangent": [1, 0, 0], "radiance": 3e38}])
+    table["render"] = {"shading": shading}
+    if lights:
+        table["lights"] = [{"center": [0, 0, 2], "size": [1, 1], "normal": [0, 0, -1], "tangent": [1, 0, 0],
+                            "radiance": 1.0}]
+    with pytest.raises(InputError) as error:
+        raytrace.load_dict(table)
+    assert error.value.key == "shapes[0].radiance" and "as bright as" in str(error.value), str(error.value)

@@ -75,7 +75,7 @@ import numpy as np
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
 from ..structs import ROUGH_TRANSMITTANCE_RES
 from . import bsdfs, plastic_terms, principled_terms, rough_transmittance
-from .model import RADIOMETRIC, Camera, Cylinder, Disk, Ellipsoid, MeshShape, Rectangle, Triangle
+from .model import RADIOMETRIC, Camera, Cylinder, Disk, Ellipsoid, Light, MeshShape, Rectangle, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
 MAX_SAMPLES = 1 << 16   # pixel samples and light samples
@@ -307,19 +307,22 @@ def _check_heights(scene, material_readers):
                             f"the {COORDINATE_LIMIT:.4g} (2^60) within which float32 coordinates stay finite")
 
 
-def _check_brightness(scene, material_readers, light_readers, scene_reader):
-    """Rule 4, naming the largest factor: the brightest light, the largest albedo or the ambient term."""
+def _check_brightness(scene, material_readers, light_readers, scene_reader, emitters=()):
+    """Rule 4, naming the largest factor: the brightest light or emitting shape (emitters: (its reader, its
+    radiance's largest channel)), the largest albedo or the ambient term."""
     value = brightest(scene)
     if value <= BRIGHTEST_LIMIT:
         return
     albedos = [largest_albedo(scene, m) for m in scene.materials]
-    lights = [float(light.colour.max()) for light in scene.lights]
     brightest_material = int(np.argmax(albedos))
     material = scene.materials[brightest_material]
     material_key = "texture" if material.colour_map >= 0 else colour_key(material_readers[brightest_material],
                                                                          material)
+    emission = "radiance" if scene.shading in RADIOMETRIC else "colour"
+    sources = [((reader, emission), float(light.colour.max())) for reader, light in zip(light_readers, scene.lights)]
+    sources += [((reader, "radiance"), radiance) for reader, radiance in emitters]
     terms = {(scene_reader, "ambient"): float(scene.ambient.max()),
-             (light_readers[int(np.argmax(lights))], "radiance" if scene.shading in RADIOMETRIC else "colour"): max(lights),
+             **dict(sources[:1] and [max(sources, key=lambda source: source[1])]),
              (material_readers[brightest_material], material_key): max(albedos)}
     reader, key = max(terms, key=terms.get)
     reader.fail(key, reader.raw(key), f"makes a pixel as bright as {value:.4g}, beyond the "
@@ -393,7 +396,7 @@ def _log2(x):
     return math.log2(x) if x > 0 else -math.inf
 
 
-def _path_places(scene, material_readers, light_readers, scene_reader):
+def _path_places(scene, material_readers, light_readers, scene_reader, emitters=()):
     """(log2 of its share, (reader, key, the model's value)) of rule 5's factors of G, and of B's emitter: the
     largest albedo (raised to the depth, and once in what a vertex gathers), the dielectrics' ratio of
     indices squared (named by the index furthest from 1), and the brightest emitter."""
@@ -410,25 +413,28 @@ def _path_places(scene, material_readers, light_readers, scene_reader):
                for key, x in refracting(m).items() if key]
     if indices:
         places.append((2 * _log2(index_ratio(scene)), max(indices, key=lambda x: x[0])[1]))
-    lights = [float(light.colour.max()) for light in scene.lights] or [0.0]  # none: an environment lights it
-    env, j = environment_brightest(scene), int(np.argmax(lights))
-    if env <= lights[j] and scene.lights:
-        emitter = (light_readers[j], "radiance", scene.lights[j].colour)
+    sources = [(float(light.colour.max()), (reader, "radiance", light.colour))
+               for reader, light in zip(light_readers, scene.lights)]
+    sources += [(radiance, (reader, "radiance", radiance)) for reader, radiance in emitters]
+    brightest_source, source = max(sources, key=lambda s: s[0]) if sources else (0.0, None)
+    env = environment_brightest(scene)
+    if source is not None and env <= brightest_source:  # none: an environment lights it
+        emitter = source
     elif scene.environment is not None:
         emitter = (scene_reader, "environment.radiance", scene.environment)
     elif scene.environment_map.scale >= np.max(scene.environment_map.texels):
         emitter = (scene_reader, "environment.scale", scene.environment_map.scale)
     else:
         emitter = (scene_reader, "environment.filename", scene.environment_map.path)
-    return places, (_log2(max(env, lights[j], FLOAT32_TINY)), emitter)
+    return places, (_log2(max(env, brightest_source, FLOAT32_TINY)), emitter)
 
 
-def _check_path_brightness(scene, material_readers, light_readers, scene_reader):
+def _check_path_brightness(scene, material_readers, light_readers, scene_reader, emitters=()):
     """Rule 5: an albedo above 1 at unbounded depth, the throughput's bound G, then the sample's B, each
     naming the largest factor of the bound it passes. The bounds' factors are found only for a broken rule: each
     pass over a float colour map or an environment map counts on a large one."""
     def places():
-        return _path_places(scene, material_readers, light_readers, scene_reader)
+        return _path_places(scene, material_readers, light_readers, scene_reader, emitters)
 
     k, env = _largest_albedo(scene), environment_brightest(scene)
     if scene.max_depth < 0 and k > 1:
@@ -475,7 +481,14 @@ def check_scene(scene, places, material_readers, light_readers, scene_reader):
     _check_sizes(places, scale)
     _check_heights(scene, material_readers)
     _check_indices(scene, material_readers)  # before rule 5, which finds a plastic's coat terms from them
+    emitting = {}  # each emitting shape's reader (an inline mesh's first triangle's), by emitter
+    for reader, shape in places:
+        emitter = scene.materials[shape.material].emitter if hasattr(shape, "material") and not isinstance(
+            shape, Light) else -1
+        if emitter >= 0:
+            emitting.setdefault(emitter, reader)
+    emitters = [(emitting[e], float(scene.emitters[e].radiance.max())) for e in sorted(emitting)]
     if scene.shading == "path":
-        _check_path_brightness(scene, material_readers, light_readers, scene_reader)
+        _check_path_brightness(scene, material_readers, light_readers, scene_reader, emitters)
     else:
-        _check_brightness(scene, material_readers, light_readers, scene_reader)
+        _check_brightness(scene, material_readers, light_readers, scene_reader, emitters)
