@@ -87,6 +87,19 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
     return surface_rectangle(&s->rectangles[index], p);
 }
 
+#if HAS_INSTANCES
+/* A group's surface point as its instance places it in the world: its vectors by to_world, its normal by the
+ * inverse transpose (instances.cl). */
+inline SurfacePoint instance_surface(__global const Instance *in, SurfacePoint sp)
+{
+    sp.dpdu = instance_vector(in, sp.dpdu);
+    sp.dpdv = instance_vector(in, sp.dpdv);
+    sp.tangent = normalize3(instance_vector(in, sp.tangent));
+    sp.n = normalize3(instance_normal(in, sp.n));
+    return sp;
+}
+#endif
+
 /* The surface points of the textured lanes' hits (the other lanes' values are never kept): on lanes where
  * every lane hit one rectangle (neighbouring pixels mostly do: walls and floors), else one lane at a time. */
 inline Surface textured_surface(const Scene *s, Hit hit, const int *textured)
@@ -103,9 +116,18 @@ inline Surface textured_surface(const Scene *s, Hit hit, const int *textured)
     Lanes3 p = v3_spill(hit.p);
     SurfaceLanes surface;
     const SurfacePoint none = {(float2)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f), (float3)(0.0f)};
-    for (int i = 0; i < LANES; ++i)
-        set_surface_lane(&surface, i,
-                         textured[i] ? surface_point(s, kind[i], index[i], lane3(&p, i), b1[i], b2[i]) : none);
+#if HAS_INSTANCES
+    int instance[LANES];
+    VSTORE(hit.instance, instance);
+#endif
+    for (int i = 0; i < LANES; ++i) {
+        SurfacePoint point = textured[i] ? surface_point(s, kind[i], index[i], lane3(&p, i), b1[i], b2[i]) : none;
+#if HAS_INSTANCES
+        if (textured[i] && instance[i] >= 0)
+            point = instance_surface(&s->instances[instance[i]], point);
+#endif
+        set_surface_lane(&surface, i, point);
+    }
     return surface_fill(&surface);
 }
 
@@ -439,11 +461,17 @@ vint passes_through(const Scene *s, Ray r, Hit hit)
  * shading of normals). They lie on the side of the face's own normal (the mesh's winding, kept
  * counter-clockwise from the front on load), so they are turned as the facing normal ng was turned from it.
  * Where they cancel (back-to-back faces sharing vertices), ng itself. */
-inline float3 smooth_normal(const Scene *s, int index, float b1, float b2, float3 ng)
+inline float3 smooth_normal(const Scene *s, int index, int instance, float b1, float b2, float3 ng)
 {
     __global const TriangleNormals *c = &s->triangle_normals[index];
-    float3 n = (1.0f - b1 - b2) * f3(c->n0) + b1 * f3(c->n1) + b2 * f3(c->n2);
-    float side = dot3(f3(s->triangles[index].normal), ng) < 0.0f ? -1.0f : 1.0f;
+    float3 n = (1.0f - b1 - b2) * f3(c->n0) + b1 * f3(c->n1) + b2 * f3(c->n2), face = f3(s->triangles[index].normal);
+#if HAS_INSTANCES
+    if (instance >= 0) { /* a group's normals, placed by the instance's inverse transpose */
+        n = instance_normal(&s->instances[instance], n);
+        face = instance_normal(&s->instances[instance], face);
+    }
+#endif
+    float side = dot3(face, ng) < 0.0f ? -1.0f : 1.0f;
     return dot3(n, n) > 0.0f ? normalize3(n) * side : ng;
 }
 #endif
@@ -464,6 +492,10 @@ inline ShadingPoint with_tangent(const Scene *s, Hit hit, ShadingPoint sp)
     int kind[LANES], index[LANES];
     VSTORE(hit.kind, kind);
     VSTORE(hit.index, index);
+#if HAS_INSTANCES
+    int instance[LANES];
+    VSTORE(hit.instance, instance);
+#endif
     Lanes3 p = v3_spill(hit.p), dpdu = v3_spill(v3_splat(0.0f, 0.0f, 0.0f));
     for (int i = 0; i < LANES; ++i) {
         float3 d = (float3)(0.0f);
@@ -472,6 +504,10 @@ inline ShadingPoint with_tangent(const Scene *s, Hit hit, ShadingPoint sp)
 #if HAS_TRIANGLES
         if (kind[i] == SHAPE_TRIANGLE)
             d = f3(s->triangle_uvs[index[i]].tangent);
+#endif
+#if HAS_INSTANCES
+        if (instance[i] >= 0) /* a group's triangle: its dp/du placed by the instance */
+            d = instance_vector(&s->instances[instance[i]], d);
 #endif
 #if HAS_ELLIPSOIDS
         if (kind[i] == SHAPE_ELLIPSOID) {
@@ -548,6 +584,13 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
     VSTORE(hit.b1, b1);
     VSTORE(hit.b2, b2);
     Lanes3 n = v3_spill(sp.n);
+    int instance[LANES];
+#if HAS_INSTANCES
+    VSTORE(hit.instance, instance);
+#else
+    for (int i = 0; i < LANES; ++i)
+        instance[i] = -1;
+#endif
 #endif
 #if HAS_TEXTURES
     int textured[LANES], any_textured = 0;
@@ -601,7 +644,7 @@ inline ShadingPoint shading_point(const Scene *s, TextureStore ts, Ray r, Hit hi
 #if HAS_SMOOTH_NORMALS
         /* a normal or height map defines its own shading normal, from the flat frame (a known limit) */
         if (kind[i] == SHAPE_TRIANGLE && mat->normal_map < 0 && mat->height_map < 0)
-            set_lane3(&n, i, smooth_normal(s, index[i], b1[i], b2[i], lane3(&n, i)));
+            set_lane3(&n, i, smooth_normal(s, index[i], instance[i], b1[i], b2[i], lane3(&n, i)));
 #endif
     }
     sp.k = v3_fill(&k);

@@ -47,6 +47,10 @@ typedef struct {
 #if HAS_SHAPE_EMITTERS
     vint emitter;     /* the Emitter of the shape hit (intersect.cl's hit_emission), -1 for none */
 #endif
+#if HAS_INSTANCES
+    vint instance;    /* the Instance whose group the triangle hit is of (its p, n and err are the world's; the
+                       * surface's own values, kind and index, its group's: material.cl maps them), -1 for none */
+#endif
 } Hit;
 
 /* Keep the nearer of the current hit and a candidate at t_new, point p within err of the surface, with normal
@@ -173,6 +177,9 @@ inline Hit no_hit(void)
 #endif
 #if HAS_SHAPE_EMITTERS
     hit.emitter = (vint)(-1);
+#endif
+#if HAS_INSTANCES
+    hit.instance = (vint)(-1);
 #endif
     return hit;
 }

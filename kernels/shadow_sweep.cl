@@ -170,6 +170,17 @@ inline vint swept_occluded(const Scene *s, const SweptLeaves *leaves, Ray r, uin
         int i = leaves->leaf[l];
         if (!unsettled_meets(s, i, r, b, settled)) /* not skipped: the sweep entered it with the same skip */
             continue;
+#if HAS_INSTANCES
+        int first = s->prims[s->nodes[i].offset];
+        if (PRIM_KIND(first) == SHAPE_INSTANCE) { /* its group's tree, in its space (bvh.cl) */
+            __global const Instance *in = &s->instances[PRIM_INDEX(first)];
+            settled |= bvh_occluded(s, in->root, instance_ray(in, r), 0u, !settled
+                                    PASSES(SELECT((vint)(0), p.passes - p.passed, active)) OWN(-1));
+            if (ALL(settled))
+                break;
+            continue;
+        }
+#endif
         settled |= leaf_blocks(s, &p, &s->nodes[i], skip);
         if (ALL(settled))
             break;

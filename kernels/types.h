@@ -65,6 +65,16 @@ typedef struct {
     int material;
 } Cylinder;
 
+/* An instance of a shape group (Mitsuba's shapegroup and instance; bvh.cl): the group's triangles, kept once
+ * in the Triangle table in the group's own space under a BVH of their own (rooted at node `root`), placed by the
+ * affine map x -> center + to_world x (3 x 3 row-major; to_local its float64 inverse rounded once). */
+typedef struct {
+    Vec3f center;
+    float to_local[9];
+    float to_world[9];
+    int root;
+} Instance;
+
 /* Shape kinds; a primitive reference in the BVH's table is index * PRIM_KINDS + kind (PRIM_KIND, PRIM_INDEX). */
 #define SHAPE_NONE 0 /* nothing, or a light */
 #define SHAPE_RECTANGLE 1
@@ -72,6 +82,7 @@ typedef struct {
 #define SHAPE_ELLIPSOID 3
 #define SHAPE_DISK 4
 #define SHAPE_CYLINDER 5
+#define SHAPE_INSTANCE 6 /* in the top level of a two-level BVH: an Instance, alone in its leaf */
 #define PRIM_KIND_BITS 3
 #define PRIM_KINDS (1 << PRIM_KIND_BITS)
 #define PRIM_KIND(ref) ((ref) & (PRIM_KINDS - 1))
@@ -305,6 +316,7 @@ typedef struct {
     int environment_width, environment_height; /* HAS_ENVIRONMENT_MAP: the map's texels (environment.cl) */
     Vec3f environment_x, environment_y, environment_z; /* the world directions of the map's local axes */
     int n_disks, n_cylinders;
+    int n_instances;       /* HAS_INSTANCES: the Instance table's entries */
 } RenderParams;
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }

@@ -31,7 +31,8 @@ AFFINE_SHAPE = np.dtype([("center", *VEC3F), ("to_local", "<f4", (9,)), ("to_wor
                          ("normal_sign", "<f4"), ("material", "<i4")])
 
 # kernels/types.h: SHAPE_*; a BVH primitive reference is index * PRIM_KINDS + kind
-SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3, "disk": 4, "cylinder": 5}
+SHAPES = {"none": 0, "rectangle": 1, "triangle": 2, "ellipsoid": 3, "disk": 4, "cylinder": 5, "instance": 6}
+INSTANCE = np.dtype([("center", *VEC3F), ("to_local", "<f4", (9,)), ("to_world", "<f4", (9,)), ("root", "<i4")])
 PRIM_KIND_BITS = 3
 PRIM_KINDS = 1 << PRIM_KIND_BITS
 
@@ -102,12 +103,12 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
                           ("environment", *VEC3F), ("scene_extent", "<f4"),
                           ("environment_width", "<i4"), ("environment_height", "<i4"),
                           ("environment_x", *VEC3F), ("environment_y", *VEC3F), ("environment_z", *VEC3F),
-                          ("n_disks", "<i4"), ("n_cylinders", "<i4")])
+                          ("n_disks", "<i4"), ("n_cylinders", "<i4"), ("n_instances", "<i4")])
 
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,
            "TriangleNormals": TRIANGLE_NORMALS,
-           "Ellipsoid": ELLIPSOID, "Disk": AFFINE_SHAPE, "Cylinder": AFFINE_SHAPE, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
+           "Ellipsoid": ELLIPSOID, "Disk": AFFINE_SHAPE, "Cylinder": AFFINE_SHAPE, "Instance": INSTANCE, "Light": LIGHT, "Material": MATERIAL, "Texture": TEXTURE, "MipLevel": MIP_LEVEL,
            "TextureLookup": TEXTURE_LOOKUP, "TriangleAttribute": TRIANGLE_ATTRIBUTE,
            "Sampler": SAMPLER, "RenderParams": RENDER_PARAMS, "BVHNode": BVH_NODE, "Emitter": EMITTER,
            "EmitterTriangle": EMITTER_TRIANGLE}

@@ -46,7 +46,11 @@ def every_table():
             {"type": "disk", "material": "m", "flip_normals": True,
              "to_world": [[0.3, 0, 0, 0], [0, 0.2, 0, 0.1], [0, 0, 1, 0.5], [0, 0, 0, 1]]},
             {"type": "cylinder", "material": "m", "p0": [0.0, 0.0, 0.1], "p1": [0.1, 0.0, 0.5], "radius": 0.2,
-             "flip_normals": True, "to_world": [[1, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1, 0.2], [0, 0, 0, 1]]}]}
+             "flip_normals": True, "to_world": [[1, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1, 0.2], [0, 0, 0, 1]]},
+            {"type": "instance", "group": "g", "scale": 0.5, "rotate": {"axis": [0, 0, 1], "degrees": 10.0},
+             "translate": [0.2, 0.0, 0.3]}],
+        "groups": {"g": {"shapes": [{"type": "mesh", "material": "m", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                                     "faces": [[0, 1, 2]]}]}}}
 
 
 # Where each declared table sits in every_table(), and the prefix its errors carry.
@@ -62,12 +66,14 @@ PLACES = {"": ((), ""), "camera": (("camera",), "camera."), "image": (("image",)
           'shapes[] type = "ellipsoid"': (("shapes", 4), "shapes[4]."),
           'shapes[] type = "disk"': (("shapes", 5), "shapes[5]."),
           'shapes[] type = "cylinder"': (("shapes", 6), "shapes[6]."),
+          'shapes[] type = "instance"': (("shapes", 7), "shapes[7]."),
+          "groups.NAME": (("groups", "g"), "groups.g."),
           "shapes[]": (("shapes", 4), "shapes[4].")}
 DIRECT = "lights[] (direct, path)"
 ENVIRONMENT = "environment"
 SHAPE = {'shapes[] type = "rectangle"', 'shapes[] type = "triangle"', 'shapes[] type = "mesh"',
          'shapes[] type = "mesh", from a file or generated', 'shapes[] type = "ellipsoid"', 'shapes[] type = "disk"',
-         'shapes[] type = "cylinder"'}
+         'shapes[] type = "cylinder"', 'shapes[] type = "instance"'}
 
 
 # A material of each BSDF (the path model's), given every key of its type's table that one table can hold
@@ -241,7 +247,7 @@ def test_each_declared_default_is_the_readers(table_name):
                 parse_scene(scene, SCENE_PATH)
             assert error.value.key in (prefix + key.name, prefix.rstrip(".")), key.name
             continue
-        if key.default is None or key.kind in ("table", "tables"):
+        if key.default is None or key.kind in ("table", "tables", "named-tables"):
             continue  # an optional feature left out (a texture, a transform): nothing to compare
         without = parse_scene(copy.deepcopy(scene), SCENE_PATH)
         table[key.name] = list(key.default) if isinstance(key.default, tuple) else key.default

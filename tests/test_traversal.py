@@ -97,7 +97,7 @@ def test_bvh_agrees_with_the_loop(harness, mesh_scene, skip):
 def test_flattened_tree_is_what_the_kernel_expects(mesh_scene):
     """The host's side of the contract bvh.cl relies on: every primitive reference once, in range; interior
     nodes' first child next, second child beyond; the depth within the kernel's stack (BVH_STACK = 64)."""
-    nodes, prims, _ = bvh_structs(mesh_scene, True)
+    nodes, prims, _, _ = bvh_structs(mesh_scene, True)
     counts = [len(mesh_scene.rectangles), len(mesh_scene.triangles), len(mesh_scene.ellipsoids)]
     kinds, index = prims & (structs.PRIM_KINDS - 1), prims >> structs.PRIM_KIND_BITS
     for kind, n in zip((1, 2, 3), counts):
@@ -119,7 +119,7 @@ def test_triangles_are_packed_in_leaf_order(mesh_scene):
     the same reference named in the scene's order. Rectangles and ellipsoids keep their numbers. It fails if
     the table keeps the scene's order (the torus's faces are not in leaf order) or if the table and the
     references are renumbered differently (the traversal tests above would then disagree too)."""
-    _, before, _ = bvh_structs(mesh_scene, True)
+    _, before, _, _ = bvh_structs(mesh_scene, True)
     tables = scene_tables(mesh_scene, features=Features(bvh=True))
     after, packed = tables["prims"], tables["triangles"]
     triangle = (after & (structs.PRIM_KINDS - 1)) == 2
@@ -219,7 +219,7 @@ def test_culled_subtrees_against_a_walk_of_the_tree(cornell):
              for c in rng.uniform(-1, 1, (40, 3))]
     triangles = [Triangle(r.center + rng.normal(scale=0.05, size=(3, 3))) for r in rects[::2]]  # beside them
     scene = dataclasses.replace(cornell, rectangles=rects, triangles=triangles)
-    nodes, prims, culled = bvh_structs(scene, True)
+    nodes, prims, culled, _ = bvh_structs(scene, True)
 
     def under(i):
         first, count = nodes["offset"][i], nodes["count"][i]

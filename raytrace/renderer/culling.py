@@ -43,6 +43,8 @@ def scene_extent(scene, triangles):
     for shape in [*scene.disks, *scene.cylinders]:  # the local unit box [-1, 1]^2 x [-1, 1]: around either
         m = shape.matrix
         parts.append((np.abs(m[:3, 3]) + np.abs(m[:3, :3]).sum(axis=1)).max())
+    for inst in scene.instances:  # the group's box placed
+        parts.append(np.abs(np.concatenate(inst.bounds(scene.groups[inst.group]))).max())
     return float(max(parts)) + max([height_reach(scene, m) for m in scene.materials], default=0.0)
 
 

@@ -34,7 +34,7 @@ def triangle_soup(scene):
     v = [np.array([t.vertices for t in tris], np.float64).reshape(-1, 3, 3)]
     uv = [np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)]
     normals, material = [None], [np.array([t.material for t in tris], np.int32)]
-    for shape in scene.meshes:
+    for shape in [*scene.meshes, *(m for g in scene.groups for m in g.meshes)]:  # the groups' in their own space
         m = shape.mesh
         v.append(m.vertices[m.faces])
         uv.append(m.uvs[m.faces] if m.uvs is not None else np.broadcast_to(DEFAULT_UV, (len(m.faces), 3, 2)))
@@ -56,7 +56,8 @@ def triangle_soup(scene):
             if values is None or values.shape[-1] not in (1, 3):
                 return np.zeros((len(mesh.faces), 3, 3))
             return np.broadcast_to(values, (len(mesh.faces), 3, 3))
-        attributes[name] = np.concatenate([np.zeros((len(tris), 3, 3))] + [corners(s.mesh) for s in scene.meshes])
+        attributes[name] = np.concatenate([np.zeros((len(tris), 3, 3))] + [corners(s.mesh) for s in scene.meshes]
+                                          + [corners(m.mesh) for g in scene.groups for m in g.meshes])
     return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material), attributes)
 
 
@@ -77,30 +78,90 @@ def primitive_boxes(scene, soup):
         m = shape.matrix
         reach, ends = np.linalg.norm(m[:3, :2], axis=1), np.stack([m[:3, 3], m[:3, 3] + m[:3, 2]])
         boxes.append((ends.min(axis=0) - reach, ends.max(axis=0) + reach))
-    kinds = [(structs.SHAPES["rectangle"], len(scene.rectangles)), (structs.SHAPES["triangle"], len(soup.v)),
+    kinds = [(structs.SHAPES["rectangle"], len(scene.rectangles)), (structs.SHAPES["triangle"], scene.triangle_count),
              (structs.SHAPES["ellipsoid"], len(scene.ellipsoids)), (structs.SHAPES["disk"], len(scene.disks)),
              (structs.SHAPES["cylinder"], len(scene.cylinders))]
     refs = np.concatenate([np.arange(n, dtype=np.int32) * structs.PRIM_KINDS + kind for kind, n in kinds])
     lo, hi = (np.array([b[k] for b in boxes], np.float64).reshape(-1, 3) for k in (0, 1))
-    n_rect = len(scene.rectangles)
-    lo = np.concatenate([lo[:n_rect], soup.v.min(axis=1), lo[n_rect:]])
-    hi = np.concatenate([hi[:n_rect], soup.v.max(axis=1), hi[n_rect:]])
+    n_rect, world = len(scene.rectangles), soup.v[:scene.triangle_count]  # the groups' triangles: theirs
+    lo = np.concatenate([lo[:n_rect], world.min(axis=1), lo[n_rect:]])
+    hi = np.concatenate([hi[:n_rect], world.max(axis=1), hi[n_rect:]])
     return lo, hi, refs
 
 
 def bvh_structs(scene, use_bvh, soup=None):
-    """(nodes, primitive references, culled subtrees) of the hierarchy over every shape, or one dummy of
-    each without it."""
+    """(nodes, primitive references, culled subtrees, each group's root node) of the hierarchy over every shape,
+    or one dummy of each without it (and no roots)."""
     if not use_bvh:
-        return np.zeros(1, structs.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32)
+        return np.zeros(1, structs.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32), []
     lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
     if len(refs) > np.iinfo(np.int32).max // structs.PRIM_KINDS:  # index * PRIM_KINDS + kind must fit an int
         raise InputError(scene.path, "shapes", f"{len(refs)} shapes", "more shapes than the kernel can reference")
     try:
-        nodes, order = bvh.build(lo, hi)
+        trees = [bvh.build(lo, hi)] if len(refs) else []
+        if scene.instances:
+            trees += _instance_trees(scene, soup)
     except ValueError as e:  # a tree deeper than the kernel's stack
         raise InputError(scene.path, "shapes", f"{len(refs)} shapes", str(e)) from None
-    return nodes, refs[order], culled_subtrees(nodes, refs[order])
+    if not scene.instances:
+        nodes, order = trees[0]
+        return nodes, refs[order], culled_subtrees(nodes, refs[order]), []
+    top = max(_depth(nodes) for nodes, _ in trees[:-len(scene.groups)]) + 1  # under the two-level root
+    if top + max(_depth(nodes) for nodes, _ in trees[-len(scene.groups):]) + 1 > structs.BVH_STACK:
+        raise InputError(scene.path, "groups", f"{len(scene.groups)} groups", "the instances' tree and a group's are "
+                         f"together deeper than the kernel's traversal stack of {structs.BVH_STACK} levels")
+    nodes, prims, roots = _two_levels(trees[0] if len(refs) else None, refs, trees[1 if len(refs) else 0:])
+    return nodes, prims, culled_subtrees(nodes, prims), roots
+
+
+def _depth(nodes):
+    """The levels of a flattened tree (bvh.py's layout: an interior node's first child is the next node)."""
+    depth = np.zeros(len(nodes), np.int64)
+    for i in range(len(nodes)):  # depth first: a node's parent comes before it
+        if nodes["count"][i] <= 0:
+            depth[i + 1] = depth[nodes["offset"][i]] = depth[i] + 1
+    return int(depth.max()) + 1
+
+
+def _instance_trees(scene, soup):
+    """[(nodes, references)] of the instances' tree (each instance alone in its leaf, bvh.cl) and of each group's
+    tree over its triangles (their soup numbers follow the scene's own), in that order."""
+    boxes = [inst.bounds(scene.groups[inst.group]) for inst in scene.instances]
+    nodes, order = bvh.build(np.array([b[0] for b in boxes]), np.array([b[1] for b in boxes]), max_leaf=1)
+    refs = np.arange(len(boxes), dtype=np.int32) * structs.PRIM_KINDS + structs.SHAPES["instance"]
+    trees, start = [(nodes, refs[order])], scene.triangle_count
+    for group in scene.groups:
+        n = sum(len(m.mesh.faces) for m in group.meshes)
+        v = soup.v[start:start + n]
+        nodes, order = bvh.build(v.min(axis=1), v.max(axis=1))
+        refs = (start + np.arange(n, dtype=np.int32)) * structs.PRIM_KINDS + structs.SHAPES["triangle"]
+        trees.append((nodes, refs[order]))
+        start += n
+    return trees
+
+
+def _two_levels(world, world_refs, trees):
+    """(nodes, references, each group's root) of the two-level hierarchy (kernels/instances.cl): a root over the
+    scene's own tree (world: (nodes, order) or None) and the instances' tree, then each group's tree (trees:
+    the instances', then the groups'); each subtree's child and leaf offsets moved to where it lands."""
+    parts = ([(world[0], world_refs[world[1]])] if world is not None else []) + list(trees)
+    placed_nodes, placed_refs, node_start, ref_start, starts = [], [], 1 if world is not None else 0, 0, []
+    for nodes, refs in parts:
+        starts.append(node_start)
+        nodes = nodes.copy()
+        inner = nodes["count"] <= 0
+        nodes["offset"] = np.where(inner, nodes["offset"] + node_start, nodes["offset"] + ref_start)
+        placed_nodes.append(nodes)
+        placed_refs.append(refs)
+        node_start += len(nodes)
+        ref_start += len(refs)
+    if world is not None:  # the root: the scene's tree first (the next node), the instances' second
+        root = np.zeros(1, structs.BVH_NODE)
+        a, b = placed_nodes[0][0], placed_nodes[1][0]
+        root["lo"], root["hi"] = np.minimum(a["lo"], b["lo"]), np.maximum(a["hi"], b["hi"])
+        root["offset"], root["count"] = 1 + len(placed_nodes[0]), 0
+        placed_nodes.insert(0, root)
+    return np.concatenate(placed_nodes), np.concatenate(placed_refs), starts[len(parts) - len(trees) + 1:]
 
 
 def in_leaf_order(soup, prims):

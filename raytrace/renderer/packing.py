@@ -146,6 +146,17 @@ SMOOTH_ALPHA = 1e-3
 _SMOOTH = {"roughconductor": "conductor", "roughdielectric": "dielectric"}
 
 
+def instance_structs(scene, roots):
+    """The Instance table (kernels/types.h): each instance's map and its inverse, rounded once each from
+    float64, and its group's root node (roots, from geometry.bvh_structs; none without a BVH)."""
+    a = np.zeros(max(len(scene.instances), 1), structs.INSTANCE)
+    for s, inst in zip(a, scene.instances):
+        m = np.asarray(inst.to_world, np.float64)
+        s["center"], s["to_world"], s["to_local"] = m[:3, 3], m[:3, :3].ravel(), np.linalg.inv(m[:3, :3]).ravel()
+        s["root"] = roots[inst.group] if roots else 0
+    return a
+
+
 def emitter_tables(scene, triangles):
     """The Emitter and EmitterTriangle tables (kernels/types.h) of the scene's emitting shapes (ShapeEmitter),
     given the packed Triangle records in the kernel's order: an emitter's shape is the one with its material, its
@@ -309,6 +320,7 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
     p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
     p["n_emitters"] = len(scene.emitters)
+    p["n_instances"] = len(scene.instances)
     p["n_disks"], p["n_cylinders"] = len(scene.disks), len(scene.cylinders)
     center = samplers.pattern("center", 1)
     p["pixel_sampler"] = (pixel_pattern or center).sampler_struct()

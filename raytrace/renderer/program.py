@@ -64,6 +64,7 @@ class Features:
     perturbed_normals: bool = False  # Mitsuba's normalmap or bumpmap (a material's maps normal, bump)
     principled_lookups: bool = False  # a principled(thin) material's textured weight (maps roughness .. eta)
     shape_emitters: bool = False   # area emitters on shapes (Scene.emitters; kernels/emitters.cl)
+    instances: bool = False        # instances of shape groups: a two-level BVH (kernels/instances.cl)
     disks: bool = True             # Mitsuba's disk (kernels/disk.cl)
     cylinders: bool = True         # Mitsuba's cylinder (kernels/cylinder.cl)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
@@ -79,9 +80,10 @@ class Features:
         used = lambda attribute: any(getattr(m, attribute) >= 0 for m in materials)  # noqa: E731
         shapes = (len(scene.rectangles) + scene.triangle_count + len(scene.ellipsoids) + len(scene.disks)
                   + len(scene.cylinders))
-        return cls(lanes, bool(scene.rectangles), scene.triangle_count > 0, bool(scene.ellipsoids),
-                   used("colour_map"), used("normal_map"), used("height_map"),
-                   any(m.smooth for m in scene.meshes), shapes >= BVH_CROSSOVER.get(lanes, 1),
+        meshes = [*scene.meshes, *(m for g in scene.groups for m in g.meshes)]
+        return cls(lanes, bool(scene.rectangles), scene.triangle_count + scene.group_triangle_count > 0,
+                   bool(scene.ellipsoids), used("colour_map"), used("normal_map"), used("height_map"),
+                   any(m.smooth for m in meshes), shapes >= BVH_CROSSOVER.get(lanes, 1) or bool(scene.instances),
                    scene.shading == "direct", scene.shading == "path",
                    any(packed_bsdf(m) == "conductor" for m in materials),
                    any(packed_bsdf(m) == "dielectric" for m in materials),
@@ -106,7 +108,7 @@ class Features:
                    perturbed_normals=any(slot in ("normal", "bump") for m in materials for slot, _ in m.maps),
                    principled_lookups=any(slot in PRINCIPLED_SLOTS + THIN_SLOTS for m in materials
                                           for slot, _ in m.maps),
-                   shape_emitters=bool(scene.emitters))
+                   shape_emitters=bool(scene.emitters), instances=bool(scene.instances))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -122,7 +124,8 @@ class Features:
                  "ANISOTROPIC": self.anisotropic,
                  "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
                  "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups,
-                 "SHAPE_EMITTERS": self.shape_emitters}
+                 "SHAPE_EMITTERS": self.shape_emitters,
+                 "INSTANCES": self.instances}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

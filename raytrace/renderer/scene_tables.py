@@ -8,7 +8,7 @@ from .. import structs
 from ..scene.course_maps import kernel_materials
 from .culling import scene_extent
 from .geometry import bvh_structs, in_leaf_order, triangle_soup
-from .packing import (affine_shape_structs, attribute_table, camera_struct, ellipsoid_structs, emitter_tables, environment_table, light_structs, material_structs, params_struct,
+from .packing import (affine_shape_structs, instance_structs, attribute_table, camera_struct, ellipsoid_structs, emitter_tables, environment_table, light_structs, material_structs, params_struct,
                       rectangle_structs, triangle_normal_records, triangle_records, triangle_uv_records)
 
 
@@ -23,20 +23,20 @@ _GEOMETRY = {}
 
 
 def _geometry_tables(scene, uv, smooth, use_bvh):
-    """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference, culled-subtree and mesh-attribute
-    (in the triangles' order) tables."""
+    """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference, culled-subtree, mesh-attribute
+    (in the triangles' order) and Instance tables."""
     key, cached = (uv, smooth, use_bvh, scene.checked), _GEOMETRY.get(id(scene))
     if cached is not None and cached[0] == key:
         return cached[1]
     soup = triangle_soup(scene)
-    nodes, prims, culled = bvh_structs(scene, use_bvh, soup)
+    nodes, prims, culled, roots = bvh_structs(scene, use_bvh, soup)
     if use_bvh:
         soup, prims = in_leaf_order(soup, prims)
     unused = lambda dtype: np.zeros(1, dtype)  # noqa: E731
     tables = [triangle_records(soup.v, soup.material),
               triangle_uv_records(soup.v, soup.uv) if uv else unused(structs.TRIANGLE_UV),
               triangle_normal_records(soup.normals) if smooth else unused(structs.TRIANGLE_NORMALS),
-              nodes, prims, culled, attribute_table(soup.attributes)]
+              nodes, prims, culled, attribute_table(soup.attributes), instance_structs(scene, roots)]
     if cached is None:
         weakref.finalize(scene, _GEOMETRY.pop, id(scene), None)
     _GEOMETRY[id(scene)] = key, tables
@@ -48,7 +48,7 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
     """The scene's tables, named after kernels/scene.h's SCENE_PARAMETERS. Tables a variant does not read
     (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one dummy entry:
     features None packs them all but the BVH."""
-    triangles, uvs, normals, nodes, prims, culled, attributes = _geometry_tables(
+    triangles, uvs, normals, nodes, prims, culled, attributes, instances = _geometry_tables(
         scene, features is None or features.textures, features is None or features.smooth_normals,
         features is not None and features.bvh)
     params = params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
@@ -62,6 +62,6 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
             "lights": light_structs(scene.lights, scene.rectangles, scene_extent(scene, triangles)),
             "materials": material_structs(kernel_materials(scene)), "nodes": nodes, "prims": prims,
             "culled_subtrees": culled, "attributes": attributes, "emitters": emitters,
-            "emitter_triangles": emitter_triangles,
+            "emitter_triangles": emitter_triangles, "instances": instances,
             "environment_map": environment_table(scene) if features is None or features.environment_map
             else np.zeros(1, np.float32)}

@@ -14,7 +14,7 @@ from .model import BSDFS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, 
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 MAX_GENERATED_TRIANGLES = 50_000_000
-SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid", "disk", "cylinder")
+SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid", "disk", "cylinder", "instance")
 GENERATED_SHAPES = ("sphere", "torus", "terrain")
 
 # The placement of a shape, declared once: a mesh's from a file or generated, and the course's rectangles,
@@ -65,6 +65,8 @@ TABLES = {
              also='one or more; none only with an environment (shading = "path") or a shape with radiance'),
          Key("materials", "named-tables", "materials by name, one or more"),
          Key("shapes", "tables", "the shapes", default=()),
+         Key("groups", "named-tables", "shape groups by name: meshes kept once, which shapes of type = \"instance\" "
+             "place (Mitsuba's shapegroup)", default={}),
          Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None)],
     "environment": [Key("type", "string", "the emitter, with Mitsuba's names: a constant radiance, or an "
                         "equirectangular image (envmap)", choices=ENVIRONMENTS),
@@ -188,6 +190,11 @@ TABLES = {
         Key("axes", "vectors", "a, b, c: the unit sphere's image is c + [a b c] x", length=3, count=3,
             also="linearly independent"), *TRANSFORM],
     'shapes[] type = "disk"': [_to_world("unit disk x^2 + y^2 <= 1 in z = 0, normal +z,"), _FLIP_NORMALS],
+    "groups.NAME": [Key("shapes", "tables", 'the group\'s meshes: [[shapes]] tables of type = "mesh", in the group\'s '
+                        "own space", also="one or more")],
+    'shapes[] type = "instance"': [Key("group", "string", "the shape group it places (Mitsuba's instance)",
+                                       also="a defined group; no material or radiance (the group's meshes have "
+                                       "theirs)"), *TRANSFORM],
     'shapes[] type = "cylinder"': [
         Key("p0", "vector", "the start of the axis, in object space", length=3, default=(0.0, 0.0, 0.0),
             also="not p1"),

@@ -126,7 +126,8 @@ class _Writer:
         shapes = self.shapes()
         self.check_emitters(shapes)
         used = sorted(({self.written(o.material) for _, _, objects, _ in shapes for o in objects}
-                       | {light.material for light in scene.lights if light.material >= 0}) - {-1})
+                       | {light.material for light in scene.lights if light.material >= 0}
+                       | {m.material for g in scene.groups for m in g.meshes}) - {-1})
         for index in used:
             self.check_material(index)
         for key, kind, objects, _ in shapes:
@@ -149,6 +150,7 @@ class _Writer:
             self.light(root, i, light)
         for key, kind, objects, table in shapes:
             self.shape(root, key, kind, objects, table)
+        self.instances(root)
         ET.indent(root, space="    ")
         return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n", self.extra
 
@@ -345,6 +347,22 @@ class _Writer:
         path = os.path.abspath(path)
         return _escaped(Path(os.path.relpath(path, os.path.abspath(self.folder))).as_posix())
 
+    def instances(self, root):
+        """Each group as a shapegroup of its meshes (in its own space), each instance as an instance of it under
+        its to_world."""
+        ids = []
+        for i, group in enumerate(self.scene.groups):
+            ids.append(self.unique_id(f"group_{group.name}"))
+            root.append(_comment(f"groups.{group.name}"))
+            element = ET.SubElement(root, "shape", type="shapegroup", id=ids[-1])
+            for k, mesh in enumerate(group.meshes):
+                self.shape(element, f"groups.{group.name}.shapes[{k}]", "mesh", [mesh], None)
+        for inst in self.scene.instances:
+            element = ET.SubElement(root, "shape", type="instance")
+            ET.SubElement(element, "ref", id=ids[inst.group])
+            ET.SubElement(ET.SubElement(element, "transform", name="to_world"), "matrix",
+                          value=_matrix(np.asarray(inst.to_world, np.float64)))
+
     def shapes(self):
         """(key, kind, the model's objects, the scene table's entry or None) of each shape, in the scene file's
         order: kind rectangle, ellipsoid, disk, cylinder, triangles (one shape's, the triangles of a mesh written
@@ -353,9 +371,12 @@ class _Writer:
         scene = self.scene
         tables = (scene.source or {}).get("shapes", [])
         counts = {"rectangles": 0, "triangles": 0, "ellipsoids": 0, "disks": 0, "cylinders": 0, "meshes": 0}
-        listed = []
+        listed, instances = [], 0
         for i, table in enumerate(tables if isinstance(tables, list) else []):
             kind = table.get("type") if isinstance(table, dict) else None
+            if kind == "instance":  # written with the groups (instances())
+                instances += 1
+                continue
             if kind == "rectangle":
                 group, n, label = "rectangles", 1, "rectangle"
             elif kind in ("ellipsoid", "disk", "cylinder"):
@@ -371,7 +392,7 @@ class _Writer:
             objects = getattr(scene, group)[counts[group]:counts[group] + n]
             counts[group] += n
             listed.append((f"shapes[{i}]", label, objects, table))
-        if counts == {group: len(getattr(scene, group)) for group in counts} and len(listed) == len(tables):
+        if counts == {group: len(getattr(scene, group)) for group in counts} and len(listed) + instances == len(tables):
             return listed
         listed = [(f"rectangles[{i}]", "rectangle", [r], None) for i, r in enumerate(scene.rectangles)]
         for group in ("ellipsoids", "disks", "cylinders"):

@@ -265,6 +265,33 @@ class MeshShape:
     source: str = ""  # the file it was read from, or the generator
 
 
+@dataclass(frozen=True)
+class ShapeGroup:
+    """Mitsuba's shapegroup: meshes (MeshShape) in the group's own space, kept once under a BVH of their own,
+    which instances place (kernels/instances.cl)."""
+    name: str
+    meshes: list
+
+    def bounds(self):
+        """(lo, hi): the group's axis-aligned box in its own space (float64)."""
+        v = np.concatenate([m.mesh.vertices[m.mesh.faces].reshape(-1, 3) for m in self.meshes])
+        return v.min(axis=0), v.max(axis=0)
+
+
+@dataclass(frozen=True)
+class Instance:
+    """Mitsuba's instance: group `group` (an index into Scene.groups) placed by the affine 4 x 4 to_world."""
+    group: int
+    to_world: np.ndarray
+
+    def bounds(self, group):
+        """(lo, hi): the world box of the group's box's eight corners placed (float64)."""
+        lo, hi = group.bounds()
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        placed = corners @ self.to_world[:3, :3].T + self.to_world[:3, 3]
+        return placed.min(axis=0), placed.max(axis=0)
+
+
 @dataclass
 class Scene:
     """A scene as load_file, load_dict or load_string read it, in float64: the camera, the image size, the
@@ -296,6 +323,8 @@ class Scene:
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
     emitters: list = field(default_factory=list)  # ShapeEmitter: area emitters on shapes, after the lights
+    groups: list = field(default_factory=list)     # ShapeGroup: meshes kept once, which instances place
+    instances: list = field(default_factory=list)  # Instance: the groups' placements
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from
     revision: int = field(default=0, compare=False, repr=False)  # counts its edits (raytrace.parameters)
     checked: str | None = field(default=None, compare=False, repr=False)  # fingerprint() when last checked
@@ -303,6 +332,11 @@ class Scene:
     @property
     def triangle_count(self):
         return len(self.triangles) + sum(len(m.mesh.faces) for m in self.meshes)
+
+    @property
+    def group_triangle_count(self):
+        """The groups' triangles, each kept once: they follow the scene's own in the kernel's Triangle table."""
+        return sum(len(m.mesh.faces) for g in self.groups for m in g.meshes)
 
     def __repr__(self):  # one line: the dataclass's own repr prints every vertex of every mesh
         def counted(n, word):

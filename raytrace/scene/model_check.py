@@ -15,7 +15,7 @@ from .. import structs
 from ..errors import InputError
 from ..numerics import FLOAT32_MAX
 from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle,
-                    ShapeEmitter, TextureLookup, Triangle, fingerprint)
+                    Instance, ShapeEmitter, ShapeGroup, TextureLookup, Triangle, fingerprint)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
 from .scene_file import LIGHTS_SPEC, Reader, check_affine_shape, check_axes, check_frame, check_triangle, map_placement
@@ -257,7 +257,34 @@ def check_model(scene, source="render()"):
             r.fail("mesh.faces", None, f"must index the {len(shape.mesh.vertices)} vertices")
         shapes.append((Reader(source, {"scale": None}, prefix), shape))
     _check_emitters(source, scene)
+    _check_instances(source, scene)
     rules.check(scene, rules.Places(top, render, camera, materials, lights, shapes))
+
+
+def _check_instances(source, scene):
+    """Scene.groups and Scene.instances as scene_file.py builds them: groups of one or more meshes of finite
+    float32 vertices and valid faces, instances naming a group, under an invertible affine map of finite
+    float32 values."""
+    for i, group in enumerate(scene.groups):
+        _typed(source, f"groups[{i}].", group, ShapeGroup)
+        r = Reader(source, {}, f"groups.{group.name}.")
+        if not group.meshes:
+            r.fail("shapes", [], "must hold one or more meshes")
+        for k, shape in enumerate(group.meshes):
+            _typed(source, f"groups.{group.name}.shapes[{k}].", shape, MeshShape)
+            _index(source, f"groups.{group.name}.shapes[{k}].material", shape.material, len(scene.materials))
+            faces, vertices = shape.mesh.faces, shape.mesh.vertices
+            if not np.all(np.abs(vertices) <= ranges.FLOAT32_MAX) or not faces.size or faces.min() < 0 \
+                    or faces.max() >= len(vertices):
+                r.fail(f"shapes[{k}].mesh", None, "must hold finite float32 vertices and faces that index them")
+    for i, inst in enumerate(scene.instances):
+        _typed(source, f"instances[{i}].", inst, Instance)
+        _index(source, f"instances[{i}].group", inst.group, len(scene.groups))
+        m = np.asarray(inst.to_world, np.float64)
+        if m.shape != (4, 4) or not np.all(np.abs(m) <= ranges.FLOAT32_MAX) or not np.array_equal(m[3], [0, 0, 0, 1]) \
+                or not abs(np.linalg.det(m[:3, :3])) > 0:
+            Reader(source, {}, f"instances[{i}].").fail("to_world", _value(m), "must be an invertible affine 4 x 4 "
+                                                        "matrix of finite float32 numbers, last row 0 0 0 1")
 
 
 def _check_emitters(source, scene):

@@ -4,6 +4,7 @@ Every check names the file, the key and the value (InputError), so a user can fi
 """
 import copy
 import dataclasses
+import types
 import datetime
 import math
 import os
@@ -20,7 +21,7 @@ from . import bsdfs, environment_map, keys, mesh_file, meshes, meshgen, mitsuba,
 from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
 from .. import samplers
 from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
-                    ShapeEmitter,
+                    ShapeEmitter, ShapeGroup, Instance,
                     Triangle, normalize)
 from .textures import TextureCache
 from .transform import AFFINE, mesh_matrix, placed_ellipsoid, placed_rectangle, placed_triangle, rectangle_shear
@@ -318,8 +319,62 @@ def _shape_material(scene, r, material_index):
     return own
 
 
+def _group_mesh(scene, r, material_index, files):
+    """The MeshShape of a group's shape table `r` (type = "mesh", from a file, generated or inline), in the
+    group's own space. A group holds no emitter (Mitsuba's rule for shapegroups)."""
+    if r.string("type") != "mesh":
+        r.fail("type", r.raw("type"), 'must be "mesh": a group holds meshes (place other shapes directly)')
+    if r.has("radiance"):
+        r.fail("radiance", r.raw("radiance"), "a group's shapes emit nothing (as Mitsuba's shapegroup)")
+    scratch = types.SimpleNamespace(rectangles=[], triangles=[], ellipsoids=[], disks=[], cylinders=[], meshes=[],
+                                    materials=scene.materials, emitters=scene.emitters)
+    _add_shape(scratch, r, material_index, files)
+    if scratch.meshes:
+        return scratch.meshes[0]
+    v = np.array([t.vertices for t in scratch.triangles], np.float64).reshape(-1, 3)
+    uv = (np.array([t.uv for t in scratch.triangles], np.float64).reshape(-1, 2)
+          if scratch.triangles[0].uv is not None else None)
+    faces = np.arange(len(v), dtype=np.int32).reshape(-1, 3)
+    return MeshShape(meshes.Mesh(v, faces, uvs=uv), scratch.triangles[0].material, source=r.prefix.rstrip("."))
+
+
+def _groups(scene, r, material_index, files):
+    """Scene.groups of the scene table's [groups.NAME] tables, and {name: index}."""
+    tables, index = r.raw("groups", {}), {}  # keys.py declares its default: no groups
+    if not isinstance(tables, dict):
+        r.fail("groups", tables, "must be a table of named groups")
+    for name, table in tables.items():
+        gr = Reader(r.path, table, f"groups.{name}.", "groups.NAME")
+        gr.check_keys()
+        entries = gr.raw("shapes")
+        if not isinstance(entries, list) or not entries:
+            gr.fail("shapes", entries, 'must be an array of one or more [[shapes]] tables of type = "mesh"')
+        index[name] = len(scene.groups)
+        scene.groups.append(ShapeGroup(name, [
+            _group_mesh(scene, Reader(r.path, e, f"groups.{name}.shapes[{i}].", "shapes[]"), material_index, files)
+            for i, e in enumerate(entries)]))
+    return index
+
+
+def _instance(scene, r):
+    """The Instance of shape table `r` (type = "instance"): its group, by name, under its transform keys."""
+    r = Reader(r.path, r.table, r.prefix, 'shapes[] type = "instance"')
+    r.spec = {**keys.table("shapes[]"), **r.spec}
+    r.check_keys()
+    for key in ("material", "radiance"):
+        if r.has(key):
+            r.fail(key, r.raw(key), "an instance's group's meshes have their own: give none")
+    names = [g.name for g in scene.groups]
+    name = r.string("group")
+    if name not in names:
+        r.fail("group", name, f"no such group (defined: {', '.join(names) or 'none'})")
+    scene.instances.append(Instance(names.index(name), _transform(r)))
+
+
 def _add_shape(scene, r, material_index, files):
     kind = r.string("type")
+    if kind == "instance":
+        return _instance(scene, r)
     m = _shape_material(scene, r, material_index)
     spec = {"mesh": 'shapes[] type = "mesh", from a file or generated'} if r.has("file") or r.has("generate") else {}
     r = Reader(r.path, r.table, r.prefix, spec.get(kind, f'shapes[] type = "{kind}"'))
@@ -689,6 +744,7 @@ def parse_scene(table, path="<scene>", files=None):
 
     tables, shapes = r.raw("shapes", []), []  # keys.py declares its default: no shapes
     files = mesh_file.MeshCache() if files is None else files
+    _groups(scene, r, material_index, files)
     if not isinstance(tables, list):
         r.fail("shapes", tables, "must be an array of [[shapes]] tables")
     for i, shape in enumerate(tables):
