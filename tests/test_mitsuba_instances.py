@@ -1,17 +1,16 @@
-"""Mitsuba's shapegroup and instance (raytrace/scene/mitsuba.py): each instance's shapegroup flattened into
-world-space shapes at load, each shape under the instance's to_world composed with its own (Mitsuba's
+"""Mitsuba's shapegroup and instance (raytrace/scene/mitsuba.py): a shapegroup's meshes kept once as a raytrace
+group, which shapes of type "instance" place (the kernel's two-level BVH), its other shapes copied into the
+world, each under the instance's to_world composed with its own (Mitsuba's
 src/shapes/instance.cpp transforms rays into the group's space and normals back by the inverse transpose: the
 same surfaces), a group's mesh file read once (mesh_file.MeshCache), and Mitsuba's refusals (src/render/
 shapegroup.cpp, src/shapes/instance.cpp) as one-line errors naming the file and line, the key and the value.
 
-Tolerances: none. The instanced scene and its hand-flattened twin (each shape written out under the matrix
-instance @ own, computed here as mitsuba.py computes it: one float64 product of the same two matrices) must give
-the same model, vertex for vertex in float64 (model.fingerprint and the arrays compared exactly), so the kernel
-reads the same bytes and renders the same image bit for bit with the same seed: any difference is a bug, not
-rounding.
+Tolerances: the group's meshes placed by each instance against the hand-flattened twin (each shape written out
+under the matrix instance @ own, one float64 product) within 1e-12: the two apply the same matrices in another
+order, a few float64 roundings of coordinates below 2 apart; the copied spheres exactly.
 
 Mutations tried on mitsuba.py and mesh_file.py, each failing this file: the composition reversed (own @ instance:
-the two flattened-scene tests); the instance's to_world dropped (those, the dict form, the sphere's case); the
+the load test); the instance's to_world dropped (the load test, the dict form, the sphere's case); the
 shapegroup drawn by itself as well (7 tests); MeshCache.load reading the file every time (the read-once test);
 the emitter check in group() dropped (the emitter case); the nested-instance check dropped (the two nested
 cases); the guard's `>` made `>=` (the at-the-limit load); a group's sphere under a non-uniform instance taken
@@ -94,41 +93,44 @@ def load(tmp_path, body, name="scene.xml", **kwargs):
     return load_file(path)
 
 
-def test_instances_load_as_their_flattened_shapes(tmp_path):
-    """Three instances of a mesh file, a cube and a sphere: the model of the shapes written out one by one, the
-    same values in float64 (3 meshes, 36 cube triangles, 3 spheres), the group itself not drawn."""
+def test_instances_load_as_one_group_and_their_copies(tmp_path):
+    """Three instances of a mesh file, a cube and a sphere: the meshes kept once as a group (in its own space:
+    the shapes under their own to_world alone), three instances of it under the instances' to_world, and the
+    sphere copied three times, as the flattened scene's spheres; the group placed by each instance is the
+    flattened scene's meshes (float64: the two compose the same matrices in another order, 1e-12)."""
     ours, flat = load(tmp_path, INSTANCED, "instanced.xml"), load(tmp_path, FLATTENED, "flat.xml")
-    assert (len(ours.meshes), len(ours.ellipsoids)) == (3, 3)
-    assert len(ours.triangles) == len(flat.triangles) == 36
-    for a, b in zip(ours.meshes, flat.meshes, strict=True):
-        for part in ("vertices", "faces", "normals", "uvs"):
-            assert np.array_equal(getattr(a.mesh, part), getattr(b.mesh, part)), part
-        assert a.mesh.vertices.dtype == np.float64
+    assert (len(ours.meshes), len(ours.triangles), len(ours.ellipsoids)) == (0, 0, 3)
+    assert len(ours.groups) == 1 and len(ours.groups[0].meshes) == 2 and len(ours.instances) == 3
     for a, b in zip(ours.ellipsoids, flat.ellipsoids, strict=True):
         assert np.array_equal(a.center, b.center) and np.array_equal(a.axes, b.axes)
-    assert fingerprint(ours) == fingerprint(flat)
-    # the mirrored instance keeps the torus's faces outward: its normals point away from its centre
-    centre = INSTANCES[2][:3, :3] @ OWN["torus"][:3, 3] + INSTANCES[2][:3, 3]
-    third = ours.meshes[2].mesh
-    corners = third.vertices[third.faces]
-    face_normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    outward = np.einsum("ij,ij->i", face_normals, corners.mean(axis=1) - centre)
-    assert (outward > 0).mean() > 0.5  # a torus: the inner ring's faces point at the axis, not away from it
+    for k, inst in enumerate(ours.instances):
+        assert np.array_equal(inst.to_world, INSTANCES[k])
+        torus, cube = ours.groups[inst.group].meshes
+        placed = lambda v: v @ inst.to_world[:3, :3].T + inst.to_world[:3, 3]  # noqa: E731
+        np.testing.assert_allclose(placed(torus.mesh.vertices), flat.meshes[k].mesh.vertices, rtol=0, atol=1e-12)
+        cube_flat = np.array([t.vertices for t in flat.triangles[12 * k:12 * (k + 1)]])
+        cube_ours = placed(cube.mesh.vertices[cube.mesh.faces].reshape(-1, 3)).reshape(-1, 3, 3)
+        if np.linalg.det(inst.to_world[:3, :3]) < 0:  # a mirror: flattened faces wound the other way round
+            cube_flat = cube_flat[:, [0, 2, 1]]      # (the instance keeps the group's, its normals mapped)
+        np.testing.assert_allclose(cube_ours, cube_flat, rtol=0, atol=1e-12)
 
 
 def test_instances_render_as_their_flattened_shapes(tmp_path):
-    """The same model, so the same image, bit for bit (24 x 18, 4 spp, the same seed)."""
+    """The instanced scene's image is the flattened scene's, nearly bit for bit (24 x 18, 4 spp, the same seed):
+    the hits are found in the group's space and their points mapped back, a few roundings from the flattened
+    ones, which can send a path's later rays elsewhere (95% of the values agree within 1e-6 of the mean: 90%
+    asked); tests/test_instances.py judges such images per pixel."""
     ours, flat = load(tmp_path, INSTANCED, "instanced.xml"), load(tmp_path, FLATTENED, "flat.xml")
     a, b = (np.asarray(raytrace.render(s)[0]) for s in (ours, flat))
-    assert a.any() and np.array_equal(a, b)
+    assert a.any() and np.mean(np.abs(a - b) <= 1e-6 * a.mean()) > 0.9
 
 
 def test_a_groups_mesh_file_is_read_once(tmp_path, monkeypatch):
-    """Three instances of a group holding one PLY file: one read (mesh_file.MeshCache), three meshes."""
+    """Three instances of a group holding one PLY file: one read (mesh_file.MeshCache), one group of it."""
     reads = []
     real = ply_file.read_ply
     monkeypatch.setattr(ply_file, "read_ply", lambda *a: reads.append(a[0]) or real(*a))
-    assert len(load(tmp_path, INSTANCED).meshes) == 3
+    assert len(load(tmp_path, INSTANCED).groups[0].meshes) == 2
     assert len(reads) == 1
 
 
@@ -173,16 +175,16 @@ def test_mitsubas_refusals_are_one_line(tmp_path, body, parts):
     one_line(excinfo, *parts)
 
 
-def test_too_many_flattened_primitives_is_one_line(tmp_path, monkeypatch):
-    """The guard at MAX_GENERATED_TRIANGLES, lowered here so a test need not make 50 million triangles: one
-    instance is 1024 + 12 + 1 = 1037 primitives; a limit of exactly three instances' loads, one fewer refuses
-    at the third instance, naming the count."""
-    monkeypatch.setattr(mitsuba, "MAX_GENERATED_TRIANGLES", 3 * 1037)
-    assert len(load(tmp_path, INSTANCED).meshes) == 3
-    monkeypatch.setattr(mitsuba, "MAX_GENERATED_TRIANGLES", 3 * 1037 - 1)
+def test_too_many_primitives_is_one_line(tmp_path, monkeypatch):
+    """The guard at MAX_GENERATED_TRIANGLES, lowered here so a test need not make 50 million triangles: the group's
+    meshes count once (1024 + 12), its sphere once per instance (a copy): 1036 + 3 loads, one fewer refuses at
+    the third instance, naming the count."""
+    monkeypatch.setattr(mitsuba, "MAX_GENERATED_TRIANGLES", 1036 + 3)
+    assert len(load(tmp_path, INSTANCED).instances) == 3
+    monkeypatch.setattr(mitsuba, "MAX_GENERATED_TRIANGLES", 1036 + 3 - 1)
     with pytest.raises(InputError) as excinfo:
         load(tmp_path, INSTANCED)
-    one_line(excinfo, "scene.xml:", "instances = 3", "3,111 primitives", "flattens instances")
+    one_line(excinfo, "scene.xml:", "instances = 3", "1,039 primitives", "once per instance")
 
 
 def test_a_non_uniform_instance_of_a_sphere_is_unsupported(tmp_path):
@@ -196,4 +198,4 @@ def test_a_non_uniform_instance_of_a_sphere_is_unsupported(tmp_path):
     (tmp_path / "scene.xml").write_text(scene(body))
     with pytest.warns(UnsupportedWarning, match="sphere with a non-uniform scale"):
         built = load_file(tmp_path / "scene.xml", ignore_unsupported=True)
-    assert (len(built.meshes), len(built.ellipsoids)) == (1, 0)
+    assert (len(built.groups[0].meshes), len(built.ellipsoids)) == (2, 0)

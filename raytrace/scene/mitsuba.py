@@ -146,13 +146,14 @@ PLUGINS = {
         Param("to_world", "identity", 'shapes[] type = "cylinder" to_world'),
         Param("flip_normals", False, 'shapes[] type = "cylinder" flip_normals'),
         Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter"))),
-    "shapegroup": Plugin("shape", "shapes that instances place; not rendered itself", (
-        Param("shape", None, "shapes[]", "one or more, each with its own bsdf (no emitter, shapegroup or instance, "
-              "as in Mitsuba)"),)),
-    "instance": Plugin("shape", "a shapegroup's shapes under to_world: flattened into world-space shapes at load "
-                       "(raytrace has no two-level BVH yet)", (
-        Param("shapegroup", None, "shapes[]", "one, by reference"),
-        Param("to_world", "identity", "shapes[]", "composed with each shape's own (a sphere's must stay uniform)"))),
+    "shapegroup": Plugin("shape", "shapes that instances place; not rendered itself: its meshes a group, kept once",
+                         (Param("shape", None, "groups.NAME shapes", "one or more, each with its own bsdf (no emitter, "
+                                "shapegroup or instance, as in Mitsuba); its other shapes copied per instance"),)),
+    "instance": Plugin("shape", "a shapegroup placed by to_world: its meshes' group instanced (a two-level BVH), its "
+                       "other shapes copied", (
+        Param("shapegroup", None, 'shapes[] type = "instance" group', "one, by reference"),
+        Param("to_world", "identity", 'shapes[] type = "instance" matrix', "composed with each shape's own (a "
+              "sphere's must stay uniform)"))),
     "area": Plugin("emitter", "light emitted from a shape's front side", (
         Param("radiance", 1.0, "lights[] (direct, path) radiance", "an RGB colour or a spectrum (on a shape other "
               "than a rectangle: shapes[] radiance)"),)),
@@ -210,6 +211,9 @@ PLUGINS = {
 CATEGORIES = ("integrator", "sensor", "film", "rfilter", "sampler", "shape", "bsdf", "emitter", "texture")
 
 
+MESH_SHAPES = ("obj", "ply", "serialized", "cube")  # the shapes a shapegroup keeps once (raytrace's groups)
+
+
 def supported(category):
     return [name for name, p in PLUGINS.items() if p.category == category]
 
@@ -236,6 +240,7 @@ class _Translator:
         self.warned = set()
         self.search = []
         self.groups = {}  # id(shapegroup dict) -> [(path, shape dict)]
+        self.group_names = {}  # id(shapegroup dict) -> the name of its meshes' group in the scene table
 
     # -- where things came from, and errors naming it
     def where(self, node, path):
@@ -427,7 +432,7 @@ class _Translator:
                       "shape, a constant or an envmap")
         if not self.table["materials"]:  # raytrace's format names one at least; a scene of lights alone has none
             self.material(None, "")
-        order = ("render", "camera", "image", "environment", "materials", "lights", "shapes")
+        order = ("render", "camera", "image", "environment", "materials", "lights", "groups", "shapes")
         self.out.table = {k: self.table[k] for k in order if k in self.table}
         return self.out
 
@@ -944,22 +949,24 @@ class _Translator:
         return inner[0][0], inner[0][1], m
 
     def check_instances(self, shapes):
-        """Check every shapegroup, and that the instances' flattened copies stay within MAX_GENERATED_TRIANGLES
-        primitives (a file's triangles, a cube's 12, one for each analytic shape): each instance is a copy
-        until the kernel has a two-level BVH, and 50 million primitives already take gigabytes."""
-        total, count = 0, 0
+        """Check every shapegroup, and that the scene's primitives stay within MAX_GENERATED_TRIANGLES (a file's
+        triangles, a cube's 12, one for each analytic shape): a group's meshes are kept once (the kernel's
+        two-level BVH), its other shapes copied per instance; 50 million primitives already take gigabytes."""
+        total, count, counted = 0, 0, set()
         for key, node in shapes:
             if node["type"] == "shapegroup":
                 self.group(key, node)
             if node["type"] != "instance":
                 continue
             path, group, _ = self.instanced(key, node)
-            count += 1
-            total += sum(self.primitives(p, v) for p, v in self.group(path, group))
+            count += 1  # a group's meshes are kept once; its other shapes are copied per instance
+            total += sum(self.primitives(p, v) for p, v in self.group(path, group)
+                         if v["type"] not in MESH_SHAPES or id(group) not in counted)
+            counted.add(id(group))
             if total > MAX_GENERATED_TRIANGLES:
-                self.fail(self.where(node, key).at, "instances", count, f"so many instances flatten to {total:,} "
-                          f"primitives (triangles and analytic shapes), beyond {MAX_GENERATED_TRIANGLES:,}: raytrace "
-                          "flattens instances into copies for now")
+                self.fail(self.where(node, key).at, "instances", count, f"so many instances make {total:,} "
+                          f"primitives, beyond {MAX_GENERATED_TRIANGLES:,} (a group's meshes count once, its other "
+                          "shapes once per instance: raytrace copies them)")
 
     def primitives(self, key, node):
         """How many primitives shape `node` becomes (a mesh file read once, through the translation's cache)."""
@@ -974,9 +981,25 @@ class _Translator:
         return {"cube": 12, "rectangle": 1, "sphere": 1, "disk": 1, "cylinder": 1}.get(name, 0)
 
     def instance(self, key, node):
+        """An instance: its group's meshes kept once, as a raytrace group (the kernel's two-level BVH,
+        kernels/instances.cl) that a shape of type "instance" places; its other shapes (spheres, disks, cylinders,
+        rectangles: one primitive each) copied into the world under its to_world."""
         path, group, m = self.instanced(key, node)
-        for shape_key, shape in self.group(path, group):
-            self.shape(shape_key, shape, (key, node, m))
+        shapes = self.group(path, group)
+        meshes = [(k, v) for k, v in shapes if v["type"] in MESH_SHAPES]
+        if meshes:
+            groups = self.table.setdefault("groups", {})
+            name = self.group_names.setdefault(id(group), f"group{len(self.group_names)}")
+            if name not in groups:  # its meshes, translated once into the group's space
+                world, self.table["shapes"] = self.table["shapes"], []
+                for shape_key, shape in meshes:
+                    self.shape(shape_key, shape)
+                groups[name], self.table["shapes"] = {"shapes": self.table["shapes"]}, world
+            self.table["shapes"].append({"type": "instance", "group": name, "matrix": m.tolist()})
+            self.origin(f"shapes[{len(self.table['shapes']) - 1}].matrix", node, key, "to_world")
+        for shape_key, shape in shapes:
+            if shape["type"] not in MESH_SHAPES:
+                self.shape(shape_key, shape, (key, node, m))
 
     def path(self, filename):
         """A file as Mitsuba finds it (in the scene's folder, then in its <path> folders), relative to the scene's
