@@ -55,15 +55,9 @@ typedef struct {
     float to_world[9];
     float normal_sign;
     int material;
-} Disk;
-
-typedef struct {
-    Vec3f center;
-    float to_local[9];
-    float to_world[9];
-    float normal_sign;
-    int material;
-} Cylinder;
+} AffineShape;
+typedef AffineShape Disk;
+typedef AffineShape Cylinder;
 
 /* An instance of a shape group (Mitsuba's shapegroup and instance; bvh.cl): the group's triangles, kept once
  * in the Triangle table in the group's own space under a BVH of their own (rooted at node `root`), placed by the
