@@ -10,7 +10,7 @@ row whose bound is a stated limit of float32 rather than a guarantee, held so th
 
 One module per group of cases, in the order of CASES: meshes, rectangles, ellipsoids, affine_shapes (disks and
 cylinders), lights, phong, camera,
-limits (image sizes and sample counts), degenerate_input, textures, transforms; common.py holds what several of them share,
+limits (image sizes and sample counts), degenerate_input, textures, transforms, instances; common.py holds what several of them share,
 table.py runs them and prints the table."""
 from .cases import CASES
 from .common import Env, Row

@@ -10,8 +10,9 @@ from .limits import deep_accumulation, image_sizes
 from .degenerate_input import degenerate_input
 from .textures import textured_grazing
 from .transforms import transformed_shapes
+from .instances import extreme_instances, rays_leaving_instances
 
 CASES = [mesh_edges, grazing_rectangles, grazing_ellipsoids, extreme_ellipsoids, grazing_disks_cylinders,
          extreme_disks_cylinders, rays_leaving_disks_cylinders, lights_at_horizon, phong_power,
          extreme_fov, far_camera, image_sizes, deep_accumulation, degenerate_input, textured_grazing,
-         transformed_shapes]
+         transformed_shapes, extreme_instances, rays_leaving_instances]
