@@ -59,7 +59,7 @@ inline vfloat intersect_ellipsoid(__global const Ellipsoid *e, Ray r, vec3 *q)
 /* World-space unit normal at unit-sphere point q: the inverse-transpose of [a b c] applied to q. */
 inline vec3 ellipsoid_normal(__global const Ellipsoid *e, vec3 q)
 {
-    return v3_normalize(mat3_apply_transposed(e->world_to_unit, q));
+    return v3_scale(v3_normalize(mat3_apply_transposed(e->world_to_unit, q)), e->normal_sign);
 }
 
 /* The world point of the hit q, first put back on the unit sphere (pbrt-v4 section 6.8.5's reprojection),

@@ -120,7 +120,7 @@ inline EmitterSample sample_emitter(const Scene *s, __global const Emitter *e, v
                         v3_scale(w, cos_alpha));
         vec3 q = mat3_apply(sphere->world_to_unit, n); /* the unit-sphere point, reprojected there */
         es.p = ellipsoid_point(sphere, q, n, &es.err);
-        es.n = n;
+        es.n = v3_scale(n, sphere->normal_sign); /* flipped: its front faces inwards, away from ref */
         es.pdf = SELECT((vfloat)(0.0f), 1.0f / (2.0f * M_PI_F * one_minus_cos_max), active & (d2 > r2));
         return es;
     }

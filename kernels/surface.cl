@@ -74,7 +74,7 @@ inline SurfacePoint surface_ellipsoid(__global const Ellipsoid *e, float3 p)
     sp.uv = (float2)(atan2(q.y, q.x) / (2.0f * pi) + 0.5f, 1.0f - atan2(sin_phi, q.z) / pi);
     sp.dpdu = mat3_mul(e->unit_to_world, (float3)(-q.y, q.x, 0.0f) * (2.0f * pi));
     sp.dpdv = mat3_mul(e->unit_to_world, (float3)(q.z * cos_theta, q.z * sin_theta, -sin_phi) * -pi);
-    sp.n = normalize3(mat3_mul_transposed(e->world_to_unit, q)); /* the inverse-transpose, as ellipsoid.cl */
+    sp.n = normalize3(mat3_mul_transposed(e->world_to_unit, q)) * e->normal_sign; /* as ellipsoid.cl's */
     sp.tangent = normalize3(mat3_mul(e->unit_to_world, (float3)(-sin_theta, cos_theta, 0.0f)));
     return sp;
 }

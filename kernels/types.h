@@ -42,6 +42,7 @@ typedef struct {
     Vec3f center;
     float world_to_unit[9]; /* row-major inverse of [a b c]: world offsets to unit-sphere space */
     float unit_to_world[9]; /* row-major [a b c] (columns are the axes), for dp/du and dp/dv */
+    float normal_sign;      /* 1, or -1 where flip_normals turns its front inwards (Mitsuba's sphere's) */
     int material;
 } Ellipsoid;
 

@@ -24,7 +24,7 @@ TRIANGLE_NORMALS = np.dtype([("n0", *VEC3F), ("n1", *VEC3F), ("n2", *VEC3F)])
 TRIANGLE_UV = np.dtype([("uv", "<f4", (6,)), ("dpdu", *VEC3F), ("dpdv", *VEC3F), ("tangent", *VEC3F)])
 
 ELLIPSOID = np.dtype([("center", *VEC3F), ("world_to_unit", "<f4", (9,)), ("unit_to_world", "<f4", (9,)),
-                      ("material", "<i4")])
+                      ("normal_sign", "<f4"), ("material", "<i4")])
 
 # kernels/types.h: Disk and Cylinder, one layout (a unit shape under an affine map)
 AFFINE_SHAPE = np.dtype([("center", *VEC3F), ("to_local", "<f4", (9,)), ("to_world", "<f4", (9,)),

@@ -42,6 +42,7 @@ Mutations tried (each in a copy of the kernels; every one failed the tests named
 - emitters.cl sample_emitter: the cylinder's density by its mean area, not the point's own: the cylinder's;
 - emitters.cl cylinder_jacobian: dp/dz read from to_world's third row, not column: the cylinder's density.
 - model_check.py: _check_emitters not called; rules.py: _emitting_areas not called: the refusals.
+- ellipsoid.cl ellipsoid_normal: normal_sign ignored (flip_normals): both flipped-sphere tests.
 """
 import dataclasses
 
@@ -401,3 +402,22 @@ def test_a_too_bright_emitting_shape_is_named(shading, lights):
     with pytest.raises(InputError) as error:
         raytrace.load_dict(table)
     assert error.value.key == "shapes[0].radiance" and "as bright as" in str(error.value), str(error.value)
+
+
+@pytest.mark.parametrize("inside", [False, True])
+def test_a_flipped_sphere_light_emits_inwards(inside):
+    """flip_normals turns a sphere's front inwards (Mitsuba's sphere's): a camera outside an emitting flipped
+    sphere sees its back, black; one inside sees its radiance L on every pixel (the front, met head on:
+    exactly L, the emitter's own value)."""
+    radiance = [2.0, 3.0, 4.0]
+    table = emitter_scene([{"type": "ellipsoid", "center": [0, 0, 0], "axes": np.eye(3).tolist(),
+                            "radiance": radiance, "flip_normals": True}])
+    if inside:
+        table["camera"] = {"position": [0.0, 0.0, 0.0], "look_at": [0.0, 1.0, 0.0], "up": [0.0, 0.0, 1.0],
+                           "fov": 60.0}
+    table["render"] = {"shading": "path", "max_depth": 1}
+    image = np.asarray(raytrace.render(raytrace.load_dict(table), spp=1)[0])
+    if inside:
+        assert np.all(image == np.array(radiance, np.float32))
+    else:
+        assert np.all(image == 0.0)

@@ -103,7 +103,7 @@ def triangle_normal_records(normals):
 def ellipsoid_structs(ells):
     a = np.zeros(max(len(ells), 1), structs.ELLIPSOID)
     for s, e in zip(a, ells):
-        s["center"], s["material"] = e.center, e.material
+        s["center"], s["material"], s["normal_sign"] = e.center, e.material, -1.0 if e.flip_normals else 1.0
         s["world_to_unit"] = np.linalg.inv(e.matrix).ravel()  # float64 inverse, rounded once
         s["unit_to_world"] = e.matrix.ravel()
     return a

@@ -188,7 +188,7 @@ TABLES = {
     'shapes[] type = "ellipsoid"': [
         Key("center", "vector", "the centre c", length=3),
         Key("axes", "vectors", "a, b, c: the unit sphere's image is c + [a b c] x", length=3, count=3,
-            also="linearly independent"), *TRANSFORM],
+            also="linearly independent"), *TRANSFORM, _FLIP_NORMALS],
     'shapes[] type = "disk"': [_to_world("unit disk x^2 + y^2 <= 1 in z = 0, normal +z,"), _FLIP_NORMALS],
     "groups.NAME": [Key("shapes", "tables", 'the group\'s meshes: [[shapes]] tables of type = "mesh", in the group\'s '
                         "own space", also="one or more")],

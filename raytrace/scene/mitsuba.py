@@ -133,8 +133,8 @@ PLUGINS = {
     "sphere": Plugin("shape", "a sphere (raytrace's ellipsoid)", (
         Param("center", (0.0, 0.0, 0.0), 'shapes[] type = "ellipsoid" center'),
         Param("radius", 1.0, 'shapes[] type = "ellipsoid" axes'), _TRANSFORM,
-        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter")),
-        only_default=(("flip_normals", False),)),
+        Param("flip_normals", False, 'shapes[] type = "ellipsoid" flip_normals', "turns the front inwards"),
+        Param("bsdf", "diffuse", "shapes[] material"), Param("emitter", None, "shapes[] radiance", "an area emitter"))),
     "disk": Plugin("shape", "the unit disk in z = 0, normal +z, under to_world", (
         Param("to_world", "identity", 'shapes[] type = "disk" to_world'),
         Param("flip_normals", False, 'shapes[] type = "disk" flip_normals'),
@@ -900,6 +900,9 @@ class _Translator:
             shape = {"type": "ellipsoid", "center": (m[:3, :3] @ center + m[:3, 3]).tolist(), "axes": axes.tolist()}
             self.origin(f"{prefix}.center", node, key, "center")
             self.origin(f"{prefix}.axes", node, key, "radius")
+            if self.boolean(params.get("flip_normals", False), node, key, "flip_normals"):
+                shape["flip_normals"] = True
+                self.origin(f"{prefix}.flip_normals", node, key, "flip_normals")
         if material is not None:
             shape["material"] = material
         if radiance is not None:

@@ -421,6 +421,8 @@ class _Writer:
             shape = ET.SubElement(root, "shape", type="sphere")
             ET.SubElement(shape, "point", name="center", **dict(zip("xyz", map(_number, center))))
             ET.SubElement(shape, "float", name="radius", value=_number(radius))
+            if objects[0].flip_normals:
+                ET.SubElement(shape, "boolean", name="flip_normals", value="true")
         elif kind in ("disk", "cylinder"):  # Mitsuba's own plugins, their parameters as raytrace holds them
             s = objects[0]
             root.append(_comment(key))

@@ -187,6 +187,7 @@ class Ellipsoid:
     center: np.ndarray
     axes: np.ndarray
     material: int = 0
+    flip_normals: bool = False  # its front faces inwards (Mitsuba's sphere's flip_normals)
 
     @property
     def matrix(self):

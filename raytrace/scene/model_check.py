@@ -220,7 +220,8 @@ def check_model(scene, source="render()"):
 
     kinds = [("rectangles", Rectangle, 'shapes[] type = "rectangle"', RECTANGLE),
              ("triangles", Triangle, 'shapes[] type = "triangle"', [("vertices", "vertices")]),
-             ("ellipsoids", Ellipsoid, 'shapes[] type = "ellipsoid"', [("center", "center"), ("axes", "axes")]),
+             ("ellipsoids", Ellipsoid, 'shapes[] type = "ellipsoid"', [("center", "center"), ("axes", "axes"),
+                                                                        ("flip_normals", "flip_normals")]),
              ("disks", Disk, 'shapes[] type = "disk"', [("to_world", "to_world"), ("flip_normals", "flip_normals")]),
              ("cylinders", Cylinder, 'shapes[] type = "cylinder"',
               [("to_world", "to_world"), ("p0", "p0"), ("p1", "p1"), ("radius", "radius"),

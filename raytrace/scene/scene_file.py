@@ -418,7 +418,7 @@ def _add_shape(scene, r, material_index, files):
         if placement is not None:
             center, axes = placed_ellipsoid(placement, center, axes)
             check_axes(placed(r), axes)
-        scene.ellipsoids.append(Ellipsoid(center, axes, m))
+        scene.ellipsoids.append(Ellipsoid(center, axes, m, r.boolean("flip_normals")))
 
 
 GENERATORS = {"sphere": meshgen.sphere, "torus": meshgen.torus, "terrain": meshgen.terrain}
