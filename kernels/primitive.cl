@@ -75,6 +75,9 @@ inline void hit_update(Hit *hit, Ray r, vfloat t_new, vec3 p, vfloat err, vec3 n
     hit->b1 = SELECT(hit->b1, b1, nearer);
     hit->b2 = SELECT(hit->b2, b2, nearer);
 #endif
+#if HAS_INSTANCES /* a shape of the world's (bvh.cl's leave_instance notes a group's) */
+    hit->instance = SELECT(hit->instance, (vint)(-1), nearer);
+#endif
 }
 
 /* The closest-hit test of one primitive of each kind, merged into *hit for the lanes it is nearer for; tmax

@@ -19,7 +19,9 @@ Mutations tried (each in a copy; every one failed the tests named, and the copy 
 - material.cl instance_surface: dp/du not placed: the images (the checkerboard's footprint and the tangent);
 - bvh.cl leave_instance: the hit's point left in the group's space: the images;
 - geometry.py _two_levels: a leaf's offset moved by the node count instead of the reference count: the images;
-- shadow_sweep.cl: an instance's leaf tested as a plain leaf (its reference read as a triangle): the images.
+- shadow_sweep.cl: an instance's leaf tested as a plain leaf (its reference read as a triangle): the images;
+- primitive.cl hit_update: `instance` not reset by a nearer world hit (a world mesh's smooth normals and tangent
+  then mapped by an instance met before it): the images.
 """
 import copy
 import resource
@@ -66,7 +68,11 @@ def room(shapes, groups=None, light_samples=4):
              "shapes": [{"type": "rectangle", "center": [0.0, 0.0, 0.0], "size": [4.0, 4.0],
                          "normal": [0.0, 0.0, 1.0], "tangent": [1.0, 0.0, 0.0], "material": "white"},
                         {"type": "rectangle", "center": [0.0, 1.5, 1.0], "size": [4.0, 2.0],
-                         "normal": [0.0, -1.0, 0.0], "tangent": [1.0, 0.0, 0.0], "material": "white"}] + shapes}
+                         "normal": [0.0, -1.0, 0.0], "tangent": [1.0, 0.0, 0.0], "material": "white"},
+                        # a smooth world mesh before the instances, where rays going -x (which visit the
+                        # instances' subtree first) meet it nearer than an instance found before it
+                        {"type": "mesh", "generate": {"shape": "sphere", "triangles": 400}, "smooth": True,
+                         "scale": 0.3, "translate": [-0.35, -1.0, 0.75], "material": "copper"}] + shapes}
     if groups:
         table["groups"] = groups
     return table
@@ -150,15 +156,15 @@ def test_a_thousand_instances_cost_little_more_than_one():
 
 
 @pytest.mark.parametrize("change, key, problem", [
-    (lambda t: t["shapes"][-1].update(group="nothing"), "shapes[5].group", "no such group"),
-    (lambda t: t["shapes"][-1].update(material="white"), "shapes[5].material", "give none"),
+    (lambda t: t["shapes"][-1].update(group="nothing"), "shapes[6].group", "no such group"),
+    (lambda t: t["shapes"][-1].update(material="white"), "shapes[6].material", "give none"),
     (lambda t: t["groups"]["things"]["shapes"][0].update(radiance=1.0), "groups.things.shapes[0].radiance",
      "emit nothing"),
     (lambda t: t["groups"]["things"].update(shapes=[]), "groups.things.shapes", "one or more"),
     (lambda t: t["groups"]["things"]["shapes"].append({"type": "ellipsoid", "center": [0, 0, 0], "axes": [
         [1, 0, 0], [0, 1, 0], [0, 0, 1]], "material": "white"}), "groups.things.shapes[3].type", "must be \"mesh\""),
     (lambda t: t["shapes"][-1].update(matrix=[[0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]),
-     "shapes[5].matrix", "invertible"),
+     "shapes[6].matrix", "invertible"),
 ])
 def test_bad_groups_and_instances_are_one_line(change, key, problem):
     table = instanced()
