@@ -24,6 +24,7 @@ Mutations tried (each in a copy; every one failed the tests named, and the copy 
   then mapped by an instance met before it): the images.
 """
 import copy
+import dataclasses
 import resource
 import subprocess
 import sys
@@ -195,3 +196,21 @@ def test_instances_round_trip_through_mitsubas_xml(tmp_path):
     for a, b in zip(back.groups[0].meshes, scene.groups[0].meshes, strict=True):
         np.testing.assert_allclose(a.mesh.vertices[a.mesh.faces], b.mesh.vertices[b.mesh.faces], rtol=2 ** -23,
                                    atol=2 ** -24)
+
+
+def test_a_groups_meshes_are_checked_on_the_python_path():
+    """A Scene changed in Python: a group's mesh with NaN normals, or with an emitting shape's material (which
+    hit_emission would light without the emitter sampling it), is refused in one line naming it."""
+    table = instanced()
+    table["shapes"].append({"type": "ellipsoid", "center": [0, 0, 3], "axes": (np.eye(3) * 0.1).tolist(),
+                            "radiance": 1.0})
+    scene = raytrace.load_dict(table)
+    torus = scene.groups[0].meshes[0]
+    nan = dataclasses.replace(torus, mesh=dataclasses.replace(torus.mesh, normals=np.full_like(
+        torus.mesh.vertices, np.nan)))
+    glowing = dataclasses.replace(torus, material=scene.emitters[0].material)
+    for mesh, key in ((nan, "groups.things.shapes[0].mesh.normals"), (glowing, "groups.things.shapes[0].material")):
+        broken = dataclasses.replace(scene, groups=[dataclasses.replace(scene.groups[0], meshes=[mesh])])
+        with pytest.raises(InputError) as error:
+            raytrace.render(broken, spp=1)
+        assert error.value.key == key and "\n" not in str(error.value), str(error.value)

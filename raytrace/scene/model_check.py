@@ -252,7 +252,7 @@ def check_model(scene, source="render()"):
         for attr in ("vertices", "normals", "uvs"):
             values = getattr(shape.mesh, attr)
             if values is not None and not np.all(np.abs(values) <= ranges.FLOAT32_MAX):  # also NaN
-                r.fail(f"mesh.{attr}", None, "must hold finite float32 numbers")
+                r.fail(f"mesh.{attr}", None, FINITE_VALUES)
         faces = shape.mesh.faces
         if faces.size and (faces.min() < 0 or faces.max() >= len(shape.mesh.vertices)):
             r.fail("mesh.faces", None, f"must index the {len(shape.mesh.vertices)} vertices")
@@ -260,6 +260,9 @@ def check_model(scene, source="render()"):
     _check_emitters(source, scene)
     _check_instances(source, scene)
     rules.check(scene, rules.Places(top, render, camera, materials, lights, shapes))
+
+
+FINITE_VALUES = "must hold finite float32 numbers"  # a mesh's normals and uvs, the world's or a group's
 
 
 def _check_instances(source, scene):
@@ -278,6 +281,13 @@ def _check_instances(source, scene):
             if not np.all(np.abs(vertices) <= ranges.FLOAT32_MAX) or not faces.size or faces.min() < 0 \
                     or faces.max() >= len(vertices):
                 r.fail(f"shapes[{k}].mesh", None, "must hold finite float32 vertices and faces that index them")
+            for attr in ("normals", "uvs"):
+                values = getattr(shape.mesh, attr)
+                if values is not None and not np.all(np.abs(values) <= ranges.FLOAT32_MAX):  # also NaN
+                    r.fail(f"shapes[{k}].mesh.{attr}", None, FINITE_VALUES)
+            if scene.materials[shape.material].emitter >= 0:
+                r.fail(f"shapes[{k}].material", shape.material, "is an emitting shape's own: a group's meshes emit "
+                       "nothing (as Mitsuba's shapegroup)")
     for i, inst in enumerate(scene.instances):
         _typed(source, f"instances[{i}].", inst, Instance)
         _index(source, f"instances[{i}].group", inst.group, len(scene.groups))
