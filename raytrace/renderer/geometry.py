@@ -94,7 +94,8 @@ def bvh_structs(scene, use_bvh, soup=None):
     or one dummy of each without it (and no roots)."""
     if not use_bvh:
         return np.zeros(1, structs.BVH_NODE), np.zeros(1, np.int32), np.zeros(1, np.uint32), []
-    lo, hi, refs = primitive_boxes(scene, soup or triangle_soup(scene))
+    soup = soup or triangle_soup(scene)
+    lo, hi, refs = primitive_boxes(scene, soup)
     if len(refs) > np.iinfo(np.int32).max // structs.PRIM_KINDS:  # index * PRIM_KINDS + kind must fit an int
         raise InputError(scene.path, "shapes", f"{len(refs)} shapes", "more shapes than the kernel can reference")
     try:
