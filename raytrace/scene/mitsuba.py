@@ -995,9 +995,15 @@ class _Translator:
             name = self.group_names.setdefault(id(group), f"group{len(self.group_names)}")
             if name not in groups:  # its meshes, translated once into the group's space
                 world, self.table["shapes"] = self.table["shapes"], []
+                before = dict(self.out.origins)
                 for shape_key, shape in meshes:
                     self.shape(shape_key, shape)
                 groups[name], self.table["shapes"] = {"shapes": self.table["shapes"]}, world
+                # the keys shape() recorded as the world's shapes[k] are the group's: put them there, and the
+                # world's own back
+                recorded = {k: v for k, v in self.out.origins.items() if before.get(k) is not v}
+                self.out.origins = {**before, **{(f"groups.{name}.{k}" if k.startswith("shapes[") else k): v
+                                                 for k, v in recorded.items()}}
             self.table["shapes"].append({"type": "instance", "group": name, "matrix": m.tolist()})
             self.origin(f"shapes[{len(self.table['shapes']) - 1}].matrix", node, key, "to_world")
         for shape_key, shape in shapes:
