@@ -6,6 +6,7 @@
 #define AFFINE_H
 
 #include "lanes.h"
+#include "vmath.h"
 
 inline vec3 mat3_apply(const __global float *m, vec3 v) /* row-major m times v */
 {
@@ -24,6 +25,19 @@ inline vec3 mat3_apply_transposed(const __global float *m, vec3 v)
 {
     return v3(MAD(m[0], v.x, MAD(m[3], v.y, m[6] * v.z)), MAD(m[1], v.x, MAD(m[4], v.y, m[7] * v.z)),
               MAD(m[2], v.x, MAD(m[5], v.y, m[8] * v.z)));
+}
+
+/* The same on one lane's float3 (the shading code's per-lane values). */
+inline float3 mat3_mul(const __global float *m, float3 v) /* row-major m times v */
+{
+    return (float3)(dot3((float3)(m[0], m[1], m[2]), v), dot3((float3)(m[3], m[4], m[5]), v),
+                    dot3((float3)(m[6], m[7], m[8]), v));
+}
+
+inline float3 mat3_mul_transposed(const __global float *m, float3 v)
+{
+    return (float3)(dot3((float3)(m[0], m[3], m[6]), v), dot3((float3)(m[1], m[4], m[7]), v),
+                    dot3((float3)(m[2], m[5], m[8]), v));
 }
 
 #endif

@@ -42,20 +42,4 @@ inline vec3 instance_point(__global const Instance *in, vec3 p, vec3 n, vfloat e
     return world;
 }
 
-/* A group's vector (dp/du, dp/dv) and normal placed in the world by instance `in`, one lane at a time (the
- * shading code's per-lane values): by to_world, and by its inverse transpose. */
-inline float3 instance_vector(__global const Instance *in, float3 v)
-{
-    __global const float *m = in->to_world;
-    return (float3)(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
-                    m[6] * v.x + m[7] * v.y + m[8] * v.z);
-}
-
-inline float3 instance_normal(__global const Instance *in, float3 n)
-{
-    __global const float *m = in->to_local;
-    return (float3)(m[0] * n.x + m[3] * n.y + m[6] * n.z, m[1] * n.x + m[4] * n.y + m[7] * n.z,
-                    m[2] * n.x + m[5] * n.y + m[8] * n.z);
-}
-
 #endif

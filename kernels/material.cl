@@ -92,10 +92,10 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
  * inverse transpose (instances.cl). */
 inline SurfacePoint instance_surface(__global const Instance *in, SurfacePoint sp)
 {
-    sp.dpdu = instance_vector(in, sp.dpdu);
-    sp.dpdv = instance_vector(in, sp.dpdv);
-    sp.tangent = normalize3(instance_vector(in, sp.tangent));
-    sp.n = normalize3(instance_normal(in, sp.n));
+    sp.dpdu = mat3_mul(in->to_world, sp.dpdu);
+    sp.dpdv = mat3_mul(in->to_world, sp.dpdv);
+    sp.tangent = normalize3(mat3_mul(in->to_world, sp.tangent));
+    sp.n = normalize3(mat3_mul_transposed(in->to_local, sp.n));
     return sp;
 }
 #endif
@@ -467,8 +467,8 @@ inline float3 smooth_normal(const Scene *s, int index, int instance, float b1, f
     float3 n = (1.0f - b1 - b2) * f3(c->n0) + b1 * f3(c->n1) + b2 * f3(c->n2), face = f3(s->triangles[index].normal);
 #if HAS_INSTANCES
     if (instance >= 0) { /* a group's normals, placed by the instance's inverse transpose */
-        n = instance_normal(&s->instances[instance], n);
-        face = instance_normal(&s->instances[instance], face);
+        n = mat3_mul_transposed(s->instances[instance].to_local, n);
+        face = mat3_mul_transposed(s->instances[instance].to_local, face);
     }
 #endif
     float side = dot3(face, ng) < 0.0f ? -1.0f : 1.0f;
@@ -507,7 +507,7 @@ inline ShadingPoint with_tangent(const Scene *s, Hit hit, ShadingPoint sp)
 #endif
 #if HAS_INSTANCES
         if (instance[i] >= 0) /* a group's triangle: its dp/du placed by the instance */
-            d = instance_vector(&s->instances[instance[i]], d);
+            d = mat3_mul(s->instances[instance[i]].to_world, d);
 #endif
 #if HAS_ELLIPSOIDS
         if (kind[i] == SHAPE_ELLIPSOID) {

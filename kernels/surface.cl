@@ -7,6 +7,7 @@
 #ifndef SURFACE_CL
 #define SURFACE_CL
 
+#include "affine.h"
 #include "types.h"
 #include "vmath.h"
 
@@ -16,18 +17,6 @@ typedef struct {
     float3 n;       /* the shape's own unit normal, not turned toward the ray */
     float3 tangent; /* unit direction of dpdu, defined where dpdu vanishes (an ellipsoid's poles) too */
 } SurfacePoint;
-
-inline float3 mat3_mul(const __global float *m, float3 v) /* row-major m times v */
-{
-    return (float3)(dot3((float3)(m[0], m[1], m[2]), v), dot3((float3)(m[3], m[4], m[5]), v),
-                    dot3((float3)(m[6], m[7], m[8]), v));
-}
-
-inline float3 mat3_mul_transposed(const __global float *m, float3 v)
-{
-    return (float3)(dot3((float3)(m[0], m[3], m[6]), v), dot3((float3)(m[1], m[4], m[7]), v),
-                    dot3((float3)(m[2], m[5], m[8]), v));
-}
 
 /* u along the tangent, v along the bitangent, both in [0, 1] over the rectangle (docs/model.md,
  * texture coordinates). */
