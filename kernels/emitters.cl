@@ -49,6 +49,7 @@ inline vfloat cylinder_jacobian(__global const Cylinder *tube, vec3 q)
 }
 #endif
 
+#if HAS_TRIANGLES
 /* A uniform point of emitting mesh e's triangles (by area), from u: *p, *n (the triangle's front), *err. */
 inline void sample_mesh(const Scene *s, __global const Emitter *e, vec2 u, vint active, vec3 *p, vec3 *n,
                         vfloat *err)
@@ -82,13 +83,10 @@ inline void sample_mesh(const Scene *s, __global const Emitter *e, vec2 u, vint 
     vint first = a < b;
     vfloat b0 = SELECT(a - 0.5f * b, 0.5f * a, first), b1 = SELECT(0.5f * b, b - 0.5f * a, first);
     vfloat b2 = 1.0f - b0 - b1;
-    vec3 p0 = v3_fill(&v0), p1 = v3_fill(&v1), p2 = v3_fill(&v2);
-    *p = v3_madd(v3_madd(v3_scale(p2, b2), b1, p1), b0, p0);
     *n = v3_fill(&normal);
-    /* triangle.cl's triangle_point bound */
-    vec3 box = v3_add(v3_abs(v3_scale(p0, b0)), v3_add(v3_abs(v3_scale(p1, b1)), v3_abs(v3_scale(p2, b2))));
-    *err = GAMMA(11) * error_along(*n, box);
+    *p = corners_point(v3_fill(&v0), v3_fill(&v1), v3_fill(&v2), *n, b0, b1, b2, err); /* each lane's triangle */
 }
+#endif
 
 /* Emitter e sampled from the reference point `ref` with u in [0, 1)^2, for the lanes of `active`. */
 inline EmitterSample sample_emitter(const Scene *s, __global const Emitter *e, vec3 ref, vec2 u, vint active)

@@ -85,15 +85,22 @@ ALWAYS_INLINE vfloat intersect_triangle(__global const Triangle *tri, Ray r, Ray
     return SELECT((vfloat)(INFINITY), t, inside);
 }
 
-/* The hit point b0 v0 + b1 v1 + b2 v2 and *err, its distance from the triangle's plane along n: pbrt-v4's
- * gamma(7) bound on the interpolation (section 6.8.5) plus 4 roundings for OpenCL's division in the b's. */
-inline vec3 triangle_point(__global const Triangle *tri, vfloat b0, vfloat b1, vfloat b2, vfloat *err)
+/* The point b0 v0 + b1 v1 + b2 v2 and *err, its distance from the triangle's plane along n: pbrt-v4's
+ * gamma(7) bound on the interpolation (section 6.8.5) plus 4 roundings for OpenCL's division in a hit's b's
+ * (a light sample's are fewer: emitters.cl). The corners are each lane's own (emitters.cl's samples). */
+inline vec3 corners_point(vec3 v0, vec3 v1, vec3 v2, vec3 n, vfloat b0, vfloat b1, vfloat b2, vfloat *err)
 {
-    vec3 v0 = v3_uniform(tri->v0), v1 = v3_uniform(tri->v1), v2 = v3_uniform(tri->v2);
     vec3 p = v3_madd(v3_madd(v3_scale(v2, b2), b1, v1), b0, v0);
     vec3 box = v3_add(v3_abs(v3_scale(v0, b0)), v3_add(v3_abs(v3_scale(v1, b1)), v3_abs(v3_scale(v2, b2))));
-    *err = GAMMA(11) * error_along(v3_uniform(tri->normal), box);
+    *err = GAMMA(11) * error_along(n, box);
     return p;
+}
+
+/* corners_point of one triangle, the same in every lane. */
+inline vec3 triangle_point(__global const Triangle *tri, vfloat b0, vfloat b1, vfloat b2, vfloat *err)
+{
+    return corners_point(v3_uniform(tri->v0), v3_uniform(tri->v1), v3_uniform(tri->v2), v3_uniform(tri->normal),
+                         b0, b1, b2, err);
 }
 
 #endif
