@@ -164,13 +164,19 @@ def emitter_tables(scene, triangles):
     emitters = np.zeros(max(len(scene.emitters), 1), structs.EMITTER)
     chosen = [np.zeros(1, structs.EMITTER_TRIANGLE)]
     mesh = triangles["material"][:scene.triangle_count]
+    # each emitter's shape by its material, its own (one pass over each table, not one per emitter)
+    holder = {kind: {} for kind in ("rectangles", "ellipsoids", "disks", "cylinders")}
+    for kind, found in holder.items():
+        for i, shape in enumerate(getattr(scene, kind)):
+            found.setdefault(shape.material, i)
+    by_material = np.argsort(mesh, kind="stable")  # a mesh emitter's triangles, in their order
+    bounds = np.searchsorted(mesh[by_material], [e.material for e in scene.emitters], side="left")
+    ends = np.searchsorted(mesh[by_material], [e.material for e in scene.emitters], side="right")
     start = 0
-    for s, e in zip(emitters, scene.emitters):
+    for k, (s, e) in enumerate(zip(emitters, scene.emitters)):
         s["radiance"], s["reflects"], s["count"] = e.radiance, e.reflects, 1
-        rectangles = [i for i, r in enumerate(scene.rectangles) if r.material == e.material]
-        spheres = [i for i, r in enumerate(scene.ellipsoids) if r.material == e.material]
-        disks = [i for i, r in enumerate(scene.disks) if r.material == e.material]
-        cylinders = [i for i, r in enumerate(scene.cylinders) if r.material == e.material]
+        rectangles, spheres, disks, cylinders = ([holder[kind][e.material]] if e.material in holder[kind] else []
+                                                 for kind in ("rectangles", "ellipsoids", "disks", "cylinders"))
         if disks:  # pi |dp/dx x dp/dy|, the unit disk's area under its map (its normal is the same everywhere)
             linear = scene.disks[disks[0]].matrix[:3, :3]
             s["kind"], s["index"] = structs.SHAPES["disk"], disks[0]
@@ -188,7 +194,7 @@ def emitter_tables(scene, triangles):
             s["kind"], s["index"] = structs.SHAPES["ellipsoid"], spheres[0]
             s["area"] = 4 * math.pi * np.mean(np.sum(scene.ellipsoids[spheres[0]].axes ** 2, 1))
         else:
-            index = np.flatnonzero(mesh == e.material)
+            index = by_material[bounds[k]:ends[k]]
             v = np.stack([triangles[k][index].astype(np.float64) for k in ("v0", "v1", "v2")], 1)
             areas = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1) / 2
             table = np.zeros(len(index), structs.EMITTER_TRIANGLE)
