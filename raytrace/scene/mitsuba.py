@@ -1047,7 +1047,7 @@ class _Translator:
         elif name in ("obj", "ply"):
             filename = self.path(self.string(params.get("filename"), node, key, "filename"))
             at = self.where(node, key).of("filename")
-            mesh, _ = mesh_file.load_mesh(Path(self.folder, filename), at, "filename")
+            mesh, _ = self.out.files.load(Path(self.folder, filename), at, "filename")  # read once (shape() again)
             vertices = mesh.vertices @ m[:3, :3].T + m[:3, 3]
             flip = self.boolean(params.get("flip_normals", False), node, key, "flip_normals")
             frame = _quad(vertices, mesh.faces[:, ::-1] if flip else mesh.faces)
