@@ -116,12 +116,14 @@ def bvh_structs(scene, use_bvh, soup=None):
 
 
 def _depth(nodes):
-    """The levels of a flattened tree (bvh.py's layout: an interior node's first child is the next node)."""
-    depth = np.zeros(len(nodes), np.int64)
-    for i in range(len(nodes)):  # depth first: a node's parent comes before it
-        if nodes["count"][i] <= 0:
-            depth[i + 1] = depth[nodes["offset"][i]] = depth[i] + 1
-    return int(depth.max()) + 1
+    """The levels of a flattened tree (bvh.py's layout: an interior node's first child is the next node), a level
+    of nodes at a time (numpy), as bvh.build makes them: at most BVH_STACK passes, not one per node."""
+    level, levels = np.array([0]), 0
+    while len(level):
+        levels += 1
+        inner = level[nodes["count"][level] <= 0]
+        level = np.concatenate([inner + 1, nodes["offset"][inner]])
+    return levels
 
 
 def _instance_trees(scene, soup):
