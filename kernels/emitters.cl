@@ -25,6 +25,7 @@ typedef struct {
     vec3 n;     /* the unit normal of its emitting side */
     vfloat err; /* p's distance from the surface along n (ray.h) */
     vfloat pdf; /* the sample's density per unit solid angle at the reference point; 0: no sample */
+    vec3 radiance; /* the radiance it brings to the reference point */
 } EmitterSample;
 
 /* 1 - cos(theta_max) of the cone a sphere of squared radius r2 subtends from a point at squared distance d2 >
@@ -95,6 +96,7 @@ inline EmitterSample sample_emitter(const Scene *s, __global const Emitter *e, v
     es.pdf = 0.0f;
     es.err = 0.0f;
     es.p = es.n = v3_splat(0.0f, 0.0f, 0.0f);
+    es.radiance = v3_uniform(e->radiance);
 #if HAS_ELLIPSOIDS
     if (e->kind == SHAPE_ELLIPSOID) {
         __global const Ellipsoid *sphere = &s->ellipsoids[e->index];

@@ -12,7 +12,7 @@
 #include "lights.cl"
 #include "material.cl"
 #if HAS_SHAPE_EMITTERS
-#include "emitters.cl"
+#include "light_selection.cl"
 #endif
 #if LIGHT_SOLID_ANGLE
 #include "spherical_rectangle.cl"
@@ -31,50 +31,35 @@
 #define LIGHT_SAMPLE_GROUP 4
 
 #if HAS_SHAPE_EMITTERS
-/* The emitting shapes' share of lights_sum (emitters.cl): each one's n samples from its own stream, after the
- * rectangular lights' streams, weighted by the model's emitter_weight (the sample's value over its density per
- * solid angle, pdf), from the origin `origin` off the surface. */
+/* The emitting shapes' share of lights_sum (emitters.cl): n samples from one stream, after the rectangular
+ * lights' streams, each of an emitter chosen per lane (choose_emitters), weighted by the model's emitter_weight
+ * (the sample's value over its density per solid angle, pdf, the choice's probability included) and by the
+ * radiance it brings, from the origin `origin` off the surface. */
 inline vec3 emitters_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, vec3 origin,
                          __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
 {
     vec3 total = v3_splat(0.0f, 0.0f, 0.0f);
     const int n_samples = s->params->light_samples;
-    for (int ei = 0; ei < s->params->n_emitters && ANY(surface); ++ei) {
-        __global const Emitter *e = &s->emitters[ei];
-        SampleStream stream = next_stream(ps, s->params->light_sampler, n_samples);
-        /* a sphere cannot block the segments to the points of it its origin sees, nor a cylinder whose front
-         * faces out, nor a plane (primitive.cl's OWN) */
-        const int own = e->kind == SHAPE_TRIANGLE
-                        || (e->kind == SHAPE_CYLINDER && s->cylinders[e->index].normal_sign < 0.0f)
-                      ? -1 : SHAPE_REFERENCE(e->kind, e->index);
+    SampleStream stream = next_stream(ps, s->params->light_sampler, n_samples);
+    for (int j = 0; j < n_samples && ANY(surface); ++j) {
+        vec2 u = stream_2d(light_samples, s->params->light_sampler, stream, (vint)(j));
+        vint own, chosen = choose_emitters(s, &u.x, surface);
+        EmitterSample es = sample_chosen(s, chosen, sp.p, u, surface, &own);
+        vec3 l = v3_direction(v3_sub(es.p, sp.p));
+        vint lit = surface & (es.pdf > 0.0f) & sample_counts(sp, l, es.n);
+        if (!ANY(lit))
+            continue;
+        *rays += MASK_TO_ONE(lit);
+        lit &= !occluded(s, shadow_segment(origin, es.p, es.err, es.n), 0u, lit PASSES(sp.passes) OWN(own));
 #if LIGHT_VALUE_VEC3
-        vec3 sum = v3_splat(0.0f, 0.0f, 0.0f);
+        vec3 weight = emitter_weight(sp, l, v, es.pdf, n_samples, lit);
 #else
-        vfloat sum = 0.0f;
+        vfloat w = emitter_weight(sp, l, v, es.pdf, n_samples, lit);
+        vec3 weight = v3(w, w, w);
 #endif
-        for (int j = 0; j < n_samples; ++j) {
-            vec2 u = stream_2d(light_samples, s->params->light_sampler, stream, (vint)(j));
-            EmitterSample es = sample_emitter(s, e, sp.p, u, surface);
-            vec3 l = v3_direction(v3_sub(es.p, sp.p));
-            vint lit = surface & (es.pdf > 0.0f) & sample_counts(sp, l, es.n);
-            if (!ANY(lit))
-                continue;
-            *rays += MASK_TO_ONE(lit);
-            lit &= !occluded(s, shadow_segment(origin, es.p, es.err, es.n), 0u, lit PASSES(sp.passes) OWN(own));
-#if LIGHT_VALUE_VEC3
-            sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), emitter_weight(sp, l, v, es.pdf, n_samples, lit),
-                                        lit));
-#else
-            sum += SELECT((vfloat)(0.0f), emitter_weight(sp, l, v, es.pdf, n_samples, lit), lit);
-#endif
-        }
-#if LIGHT_VALUE_VEC3
-        total = v3_add(total, v3_mul(v3_scale(sum, 1.0f / n_samples), v3_uniform(e->radiance)));
-#else
-        total = v3_madd(total, sum * (1.0f / n_samples), v3_uniform(e->radiance));
-#endif
+        total = v3_add(total, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_mul(weight, es.radiance), lit));
     }
-    return total;
+    return v3_scale(total, 1.0f / n_samples);
 }
 #endif
 
@@ -158,7 +143,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
 #if HAS_SHAPE_EMITTERS
     total = v3_add(total, emitters_sum(s, sp, v, surface, origin, light_samples, ps, rays));
 #endif
-    ps->dimension = dimension + s->params->n_lights + s->params->n_emitters;
+    ps->dimension = dimension + s->params->n_lights + (s->params->n_emitters > 0); /* the emitters' one stream */
     return total;
 }
 

@@ -138,14 +138,22 @@ inline vfloat hit_light_solid_angle(const Scene *s, Hit hit, vec3 o)
 
 #if HAS_SHAPE_EMITTERS
 /* The density per solid angle with which the light sampling at `ref` would have chosen each lane's hit on an
- * emitting shape (emitters.cl), met at `distance` from ref with |cos(theta_l)| = cos_l; 0 elsewhere. */
+ * emitting shape (emitters.cl), met at `distance` from ref with |cos(theta_l)| = cos_l, the emitter's choice
+ * (light_sampling.cl's choose_emitters) included; 0 elsewhere. Each emitter the lanes hit is visited once. */
 inline vfloat hit_emitter_pdf(const Scene *s, Hit hit, vec3 ref, vfloat distance, vfloat cos_l, vint lanes)
 {
     vfloat pdf = 0.0f;
-    for (int ei = 0; ei < s->params->n_emitters; ++ei) {
-        vint here = lanes & (hit.emitter == ei);
-        if (ANY(here))
-            pdf = SELECT(pdf, emitter_pdf(s, &s->emitters[ei], ref, hit.p, distance, cos_l), here);
+    vint left = lanes;
+    while (ANY(left)) {
+        int index[LANES], use[LANES], first = 0;
+        VSTORE(hit.emitter, index);
+        VSTORE(left, use);
+        while (!use[first])
+            ++first;
+        __global const Emitter *e = &s->emitters[index[first]];
+        const vint here = left & (hit.emitter == index[first]);
+        pdf = SELECT(pdf, e->selection_pdf * emitter_pdf(s, e, ref, hit.p, distance, cos_l), here);
+        left &= !here;
     }
     return pdf;
 }

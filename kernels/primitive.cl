@@ -200,8 +200,8 @@ typedef struct {
     vint passed, passes;
 #endif
 #if HAS_SHAPE_EMITTERS
-    int own; /* a shadow segment towards a point of an emitting shape: that shape, SHAPE_REFERENCE(kind, index),
-              * where it cannot block the segment (emitters.cl), else -1 */
+    vint own; /* per lane, a shadow segment towards a point of an emitting shape: that shape,
+               * SHAPE_REFERENCE(kind, index), where it cannot block the segment (emitters.cl), else -1 */
 #endif
 } PrimitiveRay;
 
@@ -238,7 +238,7 @@ inline PrimitiveRay primitive_ray(Ray r)
  * rounding. */
 #if HAS_SHAPE_EMITTERS
 #define OWN(x) , x
-#define OWN_PARAMETER , int own
+#define OWN_PARAMETER , vint own
 #else
 #define OWN(x)
 #define OWN_PARAMETER
@@ -449,20 +449,23 @@ ALWAYS_INLINE vint primitive_blocks(const Scene *s, PrimitiveRay *p, int kind, i
         return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_rectangle(s, p, index));
 #endif
 #if HAS_SHAPE_EMITTERS
-    if (p->own == SHAPE_REFERENCE(kind, index))
+    const vint mine = p->own == SHAPE_REFERENCE(kind, index); /* the lanes whose segment ends on this shape */
+    if (ALL(mine))
         return (vint)(0);
+#else
+    const vint mine = (vint)(0);
 #endif
 #if HAS_ELLIPSOIDS
     if (kind == SHAPE_ELLIPSOID)
-        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p, index));
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_ellipsoid(s, p, index) & !mine);
 #endif
 #if HAS_DISKS
     if (kind == SHAPE_DISK)
-        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_disk(s, p, index));
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_disk(s, p, index) & !mine);
 #endif
 #if HAS_CYLINDERS
     if (kind == SHAPE_CYLINDER)
-        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_cylinder(s, p, index));
+        return (COUNT_VISIT(s, VISITS_SHADOW_PRIMITIVES), blocks_cylinder(s, p, index) & !mine);
 #endif
     return (vint)(0);
 }

@@ -110,6 +110,9 @@ typedef struct {
     int reflects;  /* 0: its material is black (no BSDF: Mitsuba's default for an emitting shape) */
     float area;    /* the whole shape's area: triangles are chosen in proportion to theirs */
     Vec3f radiance;
+    /* Its share in choosing the emitter of a light sample (light_sampling.cl): the probability, and the
+     * cumulative probability up to and including it (the last emitter's is 1). */
+    float selection_pdf, selection_cdf;
 } Emitter;
 
 /* A triangle of an emitting mesh and the cumulative share of the mesh's area up to and including it: the
@@ -312,7 +315,13 @@ typedef struct {
     Vec3f environment_x, environment_y, environment_z; /* the world directions of the map's local axes */
     int n_disks, n_cylinders;
     int n_instances;       /* HAS_INSTANCES: the Instance table's entries */
+    int light_selection;   /* LIGHT_SELECTION_*: how a light sample chooses its emitter (light_sampling.cl) */
 } RenderParams;
+
+/* How a light sample chooses among the Emitter table's entries (render.light_selection): in proportion to
+ * their power (pbrt-v4's PowerLightSampler), or uniformly (Mitsuba 3's default). */
+#define LIGHT_SELECTION_POWER 0
+#define LIGHT_SELECTION_UNIFORM 1
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }
 inline float3 f3(Vec3f a) { return (float3)(a.x, a.y, a.z); }

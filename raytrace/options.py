@@ -32,6 +32,9 @@ class RenderOptions:
     sampler: str | None = option(None, "the pixel sample pattern (default: the scene's)", choices=samplers.SAMPLERS)
     light_sampler: str | None = option(None, "the light sample pattern (default: the scene's)",
                                        choices=samplers.SAMPLERS)
+    light_selection: str | None = option(None, "how each light sample chooses the emitting shape it samples: by "
+                                         "power or uniformly (default: the scene's)",
+                                         choices=tuple(structs.LIGHT_SELECTIONS))
     texture_filter: str = option("trilinear", "how textures are filtered", choices=tuple(structs.FILTERS))
     shading: str | None = option(None, "the shading model: phong (the course's), direct (radiometric direct "
                                  "lighting; a light's colour is then its radiance) or path (global illumination) "

@@ -72,7 +72,8 @@ def _option(value, source, key, check, problem):
 
 # render()'s options that override a value of the scene, with the table of keys.py that declares that value.
 OVERRIDES = {"width": "image", "height": "image", "spp": "render", "light_samples": "render", "sampler": "render",
-             "light_sampler": "render", "shading": "render", "max_depth": "render", "seed": "render"}
+             "light_sampler": "render", "light_selection": "render", "shading": "render", "max_depth": "render",
+             "seed": "render"}
 
 
 def final_model(scene, options):
@@ -144,7 +145,7 @@ def _keywords_checked(function):
 
 @_keywords_checked
 def render(scene, *, width=None, height=None, spp=None, light_samples=None, sampler=None, light_sampler=None,
-           texture_filter="trilinear", shading=None, max_depth=None, seed=None, time_limit=None, target_error=None,
+           light_selection=None, texture_filter="trilinear", shading=None, max_depth=None, seed=None, time_limit=None, target_error=None,
            device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
            max_pass_work=PASS_WORK, accumulate=None, client=None):
@@ -166,6 +167,8 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
         sampler: the pixel sample pattern: center, grid, rotated-grid-cw, rotated-grid-ccw, random,
             jittered, halton or sobol (docs/sampling.md; None: the scene's).
         light_sampler: the light sample pattern, the same choice (None: the scene's).
+        light_selection: how each light sample chooses the emitting shape it samples: "power" (in proportion
+            to the emitters' power) or "uniform" (None: the scene's).
         texture_filter: nearest, bilinear, trilinear or anisotropic.
         shading: "phong" (the course's model), "direct" (radiometric direct lighting; a light's colour is
             then its radiance; refused for a scene with an ambient term) or "path" (global illumination by path
@@ -193,7 +196,7 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
     """
     image, variance, stats = render_progressive(
         scene, width=width, height=height, spp=spp, light_samples=light_samples, sampler=sampler,
-        light_sampler=light_sampler, texture_filter=texture_filter, shading=shading, max_depth=max_depth, seed=seed,
+        light_sampler=light_sampler, light_selection=light_selection, texture_filter=texture_filter, shading=shading, max_depth=max_depth, seed=seed,
         time_limit=time_limit, target_error=target_error, device=device, scheduler=scheduler, lanes=lanes,
         features=features, progress=progress, max_band_bytes=max_band_bytes, max_pass_work=max_pass_work,
         client=client, accumulate=accumulate)
@@ -299,9 +302,11 @@ def render_progressive(scene, **kwargs):
         raise InputError(API, "scene", type(scene).__name__, SCENE_EXPECTED)
     final = final_model(scene, options)
     options = dataclasses.replace(options, seed=final.seed)  # the devices read the seed from the options
-    # The kernel reads a model's shading and max_depth, the rest of the settings from `r`: when the options leave
-    # those two as they are, the passes render the scene itself, whose packed geometry is kept between renders.
-    if (final.shading, final.max_depth) != (scene.shading, scene.max_depth):
+    # The kernel reads a model's shading, max_depth and light selection, the rest of the settings from `r`: when
+    # the options leave those as they are, the passes render the scene itself, whose packed geometry is kept
+    # between renders.
+    if (final.shading, final.max_depth, final.light_selection) != (scene.shading, scene.max_depth,
+                                                                   scene.light_selection):
         scene = final
     _option(options.accumulate, API, "accumulate", lambda v: v in (None, "device", "host"),
             'must be "device" or "host"')

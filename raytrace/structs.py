@@ -39,7 +39,7 @@ PRIM_KINDS = 1 << PRIM_KIND_BITS
 BVH_NODE = np.dtype([("lo", "<f4", (3,)), ("hi", "<f4", (3,)), ("offset", "<i4"), ("count", "<i4")])
 
 EMITTER = np.dtype([("kind", "<i4"), ("index", "<i4"), ("count", "<i4"), ("reflects", "<i4"), ("area", "<f4"),
-                    ("radiance", *VEC3F)])
+                    ("radiance", *VEC3F), ("selection_pdf", "<f4"), ("selection_cdf", "<f4")])
 EMITTER_TRIANGLE = np.dtype([("triangle", "<i4"), ("cdf", "<f4")])
 
 LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", "<u4"), ("planes_behind", "<u4")])
@@ -75,6 +75,7 @@ TEXELS_SRGB8, TEXELS_UNORM8, TEXELS_FLOAT, TEXELS_QUAD8, TEXELS_QUADF, TEXELS_QU
 TEXEL_WORDS = {TEXELS_SRGB8: 1, TEXELS_UNORM8: 1, TEXELS_FLOAT: 4, TEXELS_QUAD8: 1, TEXELS_QUADF: 4, TEXELS_QUAD16: 2}
 QUAD_TEXELS = (TEXELS_QUAD8, TEXELS_QUAD16, TEXELS_QUADF)  # height maps' quads
 FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in the texel buffer
+LIGHT_SELECTIONS = {"power": 0, "uniform": 1}  # render.light_selection: LIGHT_SELECTION_* (kernels/types.h)
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 
 # kernels/types.h: BSDF_*
@@ -103,7 +104,8 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
                           ("environment", *VEC3F), ("scene_extent", "<f4"),
                           ("environment_width", "<i4"), ("environment_height", "<i4"),
                           ("environment_x", *VEC3F), ("environment_y", *VEC3F), ("environment_z", *VEC3F),
-                          ("n_disks", "<i4"), ("n_cylinders", "<i4"), ("n_instances", "<i4")])
+                          ("n_disks", "<i4"), ("n_cylinders", "<i4"), ("n_instances", "<i4"),
+                          ("light_selection", "<i4")])
 
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,

@@ -82,6 +82,8 @@ def render_tables(draw):
             render[sampler_key] = sampler
         if count != 1 or draw(st.booleans()):
             render[count_key] = count
+    if draw(st.booleans()):
+        render["light_selection"] = draw(st.sampled_from(["power", "uniform"]))
     return render
 
 

@@ -204,7 +204,28 @@ def emitter_tables(scene, triangles):
             chosen.append(table)
             start += len(index)
     triangles = np.concatenate(chosen[1:]) if len(chosen) > 1 else chosen[0]
+    if scene.emitters:
+        pdf, cdf = selection(scene, emitters)
+        emitters["selection_pdf"], emitters["selection_cdf"] = pdf, cdf
     return emitters, triangles
+
+
+def selection(scene, emitters):
+    """Each emitter's probability of being a light sample's (render.light_selection; light_sampling.cl) and the
+    cumulative probabilities, in float64: by power, an area emitter's pi A times its radiance's mean over the
+    channels (pbrt-v4's PowerLightSampler, section 12.6.2, averages its spectrum likewise); or uniform, and
+    uniform too where no emitter has power. The last cumulative value is 1 exactly, so that every u < 1 finds
+    an emitter."""
+    weights = np.ones(len(scene.emitters))
+    if scene.light_selection == "power":
+        power = np.array([math.pi * float(s["area"]) * float(np.mean(e.radiance))
+                          for s, e in zip(emitters, scene.emitters)])
+        if power.sum() > 0:
+            weights = power
+    pdf = weights / weights.sum()
+    cdf = np.cumsum(pdf)
+    cdf[-1] = 1.0
+    return pdf, cdf
 
 
 def packed_bsdf(material):
@@ -326,6 +347,7 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
     p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
     p["n_emitters"] = len(scene.emitters)
+    p["light_selection"] = structs.LIGHT_SELECTIONS[scene.light_selection]
     p["n_instances"] = len(scene.instances)
     p["n_disks"], p["n_cylinders"] = len(scene.disks), len(scene.cylinders)
     center = samplers.pattern("center", 1)

@@ -7,7 +7,7 @@ along the normal, a triangle with an area) is in `also`.
 """
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
-from ..structs import WRAP_MODES
+from ..structs import LIGHT_SELECTIONS, WRAP_MODES
 from . import bsdfs, texture_lookups
 from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
 from .model import BSDFS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
@@ -103,6 +103,11 @@ TABLES = {
                Key("light_sampler", "string", "the light sample pattern", default="grid",
                    choices=samplers.SAMPLERS, also='as sampler; with shading = "direct", not a single point (center, '
                                                    'or a grid of 1)'),
+               Key("light_selection", "string", "how each light sample chooses the emitting shape (a [[shapes]] "
+                   "table with radiance) it samples: in proportion to the shapes' power (pbrt-v4's power light "
+                   "sampler), or uniformly (Mitsuba 3's default); light_samples are then shared among the emitting "
+                   "shapes, while each [[lights]] rectangle takes light_samples of its own",
+                   default="power", choices=tuple(LIGHT_SELECTIONS)),
                Key("shading", "string", "the shading model: the course's Phong, radiometric direct lighting, or "
                    "global illumination by path tracing", default="phong", choices=SHADINGS),
                Key("max_depth", "integer", 'shading = "path": path vertices at most, Mitsuba\'s convention (1: the '

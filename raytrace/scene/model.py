@@ -316,6 +316,7 @@ class Scene:
     light_samples: int = 1
     sampler: str = "grid"
     light_sampler: str = "grid"
+    light_selection: str = "power"  # how a light sample chooses its emitting shape: LIGHT_SELECTIONS
     textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
     meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
     shading: str = "phong"  # one of SHADINGS

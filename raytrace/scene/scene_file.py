@@ -728,7 +728,8 @@ def parse_scene(table, path="<scene>", files=None):
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
                   textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment,
-                  environment_map=environment_map, seed=render.integer("seed"))
+                  environment_map=environment_map, seed=render.integer("seed"),
+                  light_selection=render.string("light_selection"))
 
     lights = r.raw("lights", [])  # keys.py: none only where rules.py allows it
     if not isinstance(lights, list):  # none at all: rules.py says when that is allowed
