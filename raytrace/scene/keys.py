@@ -95,7 +95,8 @@ TABLES = {
               Key("height", "integer", "pixels", low=1, high=MAX_IMAGE_SIDE)],
     "render": [Key("spp", "integer", "pixel samples", default=samplers.DEFAULT_SPP, low=1, high=MAX_SAMPLES,
                    also="1 by default with the center sampler"),
-               Key("light_samples", "integer", "samples per light per pixel sample", default=1, low=1,
+               Key("light_samples", "integer", "samples per light per pixel sample: per [[lights]] rectangle, and "
+                   "for the emitting shapes together (light_selection)", default=1, low=1,
                    high=MAX_SAMPLES),
                Key("sampler", "string", "the pixel sample pattern", default="grid", choices=samplers.SAMPLERS,
                    also='center takes 1 sample, the grids a square number; the default is sobol with shading = '
