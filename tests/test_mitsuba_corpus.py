@@ -52,7 +52,7 @@ SCENES = sorted(CORPUS.glob("*.xml"))
 SPP = 1024  # raytrace's samples per pixel: 16 chunks of 64 (a square and a power of two, as the grids need)
 # The scenes of a plugin raytrace does not render yet, and that plugin: their references are committed and their
 # test is skipped, naming it. Remove a scene's entry when its plugin lands.
-PENDING = {}
+PENDING = {"sun_sky_lights.xml": "the directional and spot emitters, the thinlens sensor, the gaussian rfilter"}
 
 
 def test_every_scene_has_a_reference():
