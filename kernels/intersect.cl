@@ -75,10 +75,11 @@ ALWAYS_INLINE Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
         __global const Light *light = &s->lights[i];
         vfloat t = intersect_rectangle(&light->shape, r, vmin(tmax, hit.t), &dt, &u, &v);
         t = SELECT((vfloat)(INFINITY), t, hit_in_range(t, dt, tmax));
-#if HAS_PATH_TRACING /* a light with a material reflects: its hits get a point to shade, as a rectangle's do */
+#if RADIOMETRIC /* a light with a material reflects (the path model's), and camera rays pass a light they do
+                * not see (hide_emitters.cl): those hits get a point, to shade or to leave, as a rectangle's do */
         vfloat err = 0.0f;
         vec3 p = hit.p;
-        if (light->shape.material >= 0 && ANY(t < hit.t))
+        if ((light->shape.material >= 0 || s->params->hide_emitters) && ANY(t < hit.t))
             p = rectangle_point(&light->shape, u, v, &err);
         hit_update(&hit, r, t, p, err, v3_uniform(light->shape.normal), light->shape.material, light->colour,
                    SHAPE_NONE, i, (vfloat)(0.0f), (vfloat)(0.0f));

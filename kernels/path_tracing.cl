@@ -194,6 +194,7 @@ typedef struct {
     vfloat pdf;
 #if HAS_NULLS
     vfloat travelled;
+    vint direct; /* no vertex yet, see-through passes alone: what the ray reaches the camera sees directly */
 #endif
 #if HAS_ENVIRONMENT
     vfloat cos_s;
@@ -215,6 +216,7 @@ inline void start_paths(PathState *path, Ray r, vint lanes)
     path->pdf = SELECT(path->pdf, (vfloat)(1.0f), lanes);
 #if HAS_NULLS
     path->travelled = SELECT(path->travelled, (vfloat)(0.0f), lanes);
+    path->direct = SELECT(path->direct, (vint)(-1), lanes) != 0;
 #endif
 }
 
@@ -258,7 +260,16 @@ inline vint path_hit(const Scene *s, PathState *path, Hit hit, vint lanes)
     weighed |= on_emitter;
 #endif
     vfloat w = SELECT((vfloat)(1.0f), power_weight(x), weighed & !specular);
-    const vint seen = max_depth != 0 ? lanes : (vint)(0); /* max_depth 0: nothing, not even the emitters */
+    vint seen = max_depth != 0 ? lanes : (vint)(0); /* max_depth 0: nothing, not even the emitters */
+    if (s->params->hide_emitters) { /* the emitters the camera sees, directly or through see-through surfaces,
+                                     * are hidden (Mitsuba's path: its result counts only once a vertex other
+                                     * than a null pass is met); render.cl's pass_emitters passed the lights */
+#if HAS_NULLS
+        seen &= !path->direct;
+#else
+        seen &= path->depth > 0;
+#endif
+    }
 #if HAS_ENVIRONMENT
     vint escaped = seen & (hit.t == INFINITY);
     if (ANY(escaped)) { /* the environment reached by the BSDF's sample: x = p_env / p_bsdf, weight 1 after the
@@ -345,10 +356,10 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
     alive &= (bs.pdf > 0.0f) & SELECT(cos_g > 0.0f, cos_g < 0.0f, transmit);
     beta = v3_select(beta, v3_mul(beta, bs.weight), alive);
 
-    /* Russian roulette from vertex RR_DEPTH on, on the throughput onwards: here, after the vertex's light
+    /* Russian roulette from vertex rr_depth on, on the throughput onwards: here, after the vertex's light
      * samples and before its ray is traced, as in Mitsuba 3's `path` and pbrt-v4's PathIntegrator, so that a
      * path it ends keeps its vertex's sampled light (the estimate's low-variance part) and costs no ray */
-    alive &= russian_roulette(alive & (path->depth >= RR_DEPTH), v.x, &beta);
+    alive &= russian_roulette(alive & (path->depth >= s->params->rr_depth), v.x, &beta);
     Ray next = {offset_ray_origin(sp.p, sp.err, v3_select(sp.ng, v3_scale(sp.ng, -1.0f), transmit)), wi};
     *rays += MASK_TO_ONE(alive);
     path->r = next;
@@ -357,6 +368,7 @@ inline vint path_vertex(const Scene *s, TextureStore ts, PathState *path, Shadin
 #if HAS_NULLS
     const vint passing = sp.bsdf == BSDF_NULL; /* the MIS state stays the vertex's before */
     path->travelled = SELECT((vfloat)(0.0f), path->travelled, passing);
+    path->direct &= passing;
 #else
     const vint passing = (vint)(0);
 #endif

@@ -21,6 +21,9 @@
 #else
 #include "shading.cl" /* the course's Phong model */
 #endif
+#if RADIOMETRIC
+#include "hide_emitters.cl"
+#endif
 
 /* The output's planes (above): R, G, B, the ray count, R, G, B of the first n_first samples, the counts. */
 #define RAYS_PLANE 3
@@ -153,6 +156,8 @@ inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active
         if (!ANY(in_path))
             return;
         Hit hit = closest_hit(s, path.r, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), in_path));
+        if (s->params->hide_emitters) /* the camera rays pass the emitters */
+            hit = pass_emitters(s, &path.r, hit, in_path, in_path & (path.depth == 0));
         vint alive = path_hit(s, &path, hit, in_path);
         if (ANY(alive))
             alive = path_vertex(s, ts, &path, shading_point(s, ts, path.r, hit), alive, light_samples, &ps,
@@ -175,6 +180,10 @@ inline void render_samples(const Scene *s, TextureStore ts, Tile tile, vuint key
         PixelSample ps = start_pixel_sample(key, first + tile.sample);
         Ray ray = camera_ray(s, tile, &ps, pixel_samples, all);
         Hit hit = closest_hit(s, ray, (vfloat)(INFINITY));
+#if RADIOMETRIC
+        if (s->params->hide_emitters)
+            hit = pass_emitters(s, &ray, hit, all, all);
+#endif
         ShadingPoint sp = shading_point(s, ts, ray, hit);
         vec3 value = shade(s, ray, hit, sp, light_samples, &ps, &sums->rays);
         add_samples(sums, value, all, ps.index, sample0 + n_first, n_first);

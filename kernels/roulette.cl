@@ -1,15 +1,13 @@
 /* Russian roulette (pbrt-v4 section 13.1.1; Mitsuba 3's `path`), which the renderer's path tracer
- * (path_tracing.cl's path_vertex) and the tests' own (tests/path_support.py) play alike: from vertex RR_DEPTH
- * on, a path continues with probability q = min(max(throughput), RR_MAX_Q) and its throughput is divided by q,
- * so that the estimate stays unbiased while dim paths end. */
+ * (path_tracing.cl's path_vertex) and the tests' own (tests/path_support.py) play alike: from vertex rr_depth
+ * on (RenderParams, render.rr_depth: Mitsuba's rr_depth, default 5; a run-time value, so that changing it
+ * rebuilds nothing), a path continues with probability q = min(max(throughput), RR_MAX_Q) and its throughput
+ * is divided by q, so that the estimate stays unbiased while dim paths end. */
 #ifndef ROULETTE_CL
 #define ROULETTE_CL
 
 #include "vmath.h"
 
-#ifndef RR_DEPTH
-#define RR_DEPTH 5     /* the first vertex at which Russian roulette may end a path (Mitsuba's rr_depth) */
-#endif
 #define RR_MAX_Q 0.95f /* a path always has a chance to end there, however bright its throughput */
 
 /* The lanes that survive the roulette played on the lanes of `roulette` with the uniform number u, throughput

@@ -2,7 +2,8 @@
  * HAS_RECTANGLES, HAS_TRIANGLES, HAS_ELLIPSOIDS, HAS_DISKS and HAS_CYLINDERS, and HAS_COLOUR_MAPS, HAS_NORMAL_MAPS and
  * HAS_HEIGHT_MAPS and HAS_SMOOTH_NORMALS (set by the host from the scene) leave out the code of what a scene
  * lacks; HAS_BVH picks traversal of a hierarchy over a loop over every shape, HAS_DIRECT_LIGHTING and
- * HAS_PATH_TRACING the shading model (direct_lighting.cl, path_tracing.cl, else the course's Phong, shading.cl). The kernel's arguments stay the same in every variant.
+ * HAS_PATH_TRACING the shading model (direct_lighting.cl, path_tracing.cl, else the course's Phong, shading.cl),
+ * HAS_BSDF_SAMPLING the direct model's BSDF samples. The kernel's arguments stay the same in every variant.
  * COUNT_VISITS (never derived from a scene: `bench` and `bench --scaling` set it) builds a render
  * kernel that also counts the nodes and primitives its traversals test (below). */
 #ifndef SCENE_H
@@ -13,7 +14,8 @@
 /* Any texture at all: hits then carry what is needed to find their texture coordinates. */
 #define HAS_TEXTURES (HAS_COLOUR_MAPS || HAS_NORMAL_MAPS || HAS_HEIGHT_MAPS || HAS_LOOKUPS)
 /* Hits carry their shape and barycentrics for texturing or for interpolating smooth normals. */
-#define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING) /* path: which light was hit */
+#define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING || HAS_BSDF_SAMPLING) /* path and
+                                                                       * the direct model's BSDF samples: which light */
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
 /* the path model's BSDFs (bsdf.cl): with a microfacet distribution (microfacet.cl), with a coat over a diffuse
  * base, with hits that must know whether they come from inside (the index of refraction inverts; a back side) */

@@ -316,6 +316,9 @@ typedef struct {
     int n_disks, n_cylinders;
     int n_instances;       /* HAS_INSTANCES: the Instance table's entries */
     int light_selection;   /* LIGHT_SELECTION_*: how a light sample chooses its emitter (light_sampling.cl) */
+    int rr_depth;          /* the path model's first vertex at which Russian roulette may end a path (roulette.cl) */
+    int hide_emitters;     /* the radiometric models: camera rays do not see the emitters (hide_emitters.cl) */
+    int bsdf_samples;      /* HAS_BSDF_SAMPLING: the direct model's BSDF samples (direct_lighting.cl) */
 } RenderParams;
 
 /* How a light sample chooses among the Emitter table's entries (render.light_selection): in proportion to

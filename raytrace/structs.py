@@ -105,7 +105,8 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
                           ("environment_width", "<i4"), ("environment_height", "<i4"),
                           ("environment_x", *VEC3F), ("environment_y", *VEC3F), ("environment_z", *VEC3F),
                           ("n_disks", "<i4"), ("n_cylinders", "<i4"), ("n_instances", "<i4"),
-                          ("light_selection", "<i4")])
+                          ("light_selection", "<i4"), ("rr_depth", "<i4"), ("hide_emitters", "<i4"),
+                          ("bsdf_samples", "<i4")])
 
 # name in kernels/types.h -> dtype
 STRUCTS = {"Camera": CAMERA, "Rectangle": RECTANGLE, "Triangle": TRIANGLE, "TriangleUV": TRIANGLE_UV,

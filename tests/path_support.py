@@ -55,7 +55,7 @@ def assert_mean(image, expected):
 # by the cosine about the normal) at every vertex, and counts what the BSDF's sample reaches only where no such
 # sample could have met it: a delta lobe's direction, or one not above both ng and n (through glass, say); 2 counts
 # what the BSDF's sample reaches, always, and samples nothing else. Both end paths by the renderer's Russian roulette
-# (roulette.cl: from vertex RR_DEPTH, q = min(max(throughput), 0.95)); any roulette keeps them unbiased. 1 counting
+# (roulette.cl: from vertex rr_depth, q = min(max(throughput), 0.95)); any roulette keeps them unbiased. 1 counting
 # what the BSDF's sample reaches everywhere, a light sample without its cos(theta_l), or the environment's samples
 # scaled by 0.9 fail the tests that use them (seen).
 ESTIMATORS = """
@@ -159,7 +159,7 @@ inline vec3 trace_alone(const Scene *s, TextureStore ts, Ray r, Hit hit, Shading
         vfloat cos_g = v3_dot(sp.ng, bs.wi);
         alive &= (bs.pdf > 0.0f) & SELECT(cos_g > 0.0f, cos_g < 0.0f, bs.transmit);
         beta = v3_select(beta, v3_mul(beta, bs.weight), alive);
-        alive &= russian_roulette(alive & ((vint)(depth) >= RR_DEPTH), v.x, &beta);
+        alive &= russian_roulette(alive & ((vint)(depth) >= s->params->rr_depth), v.x, &beta);
         whole = bs.delta | (cos_g <= 0.0f) | (v3_dot(sp.n, bs.wi) <= 0.0f);
         if (!lights)
             whole = (vint)(-1) != 0;
@@ -215,7 +215,7 @@ def traced(harness, scene, p, n, sampling, lanes=1024, samples=16, shaded=False,
     ESTIMATOR: 0 the renderer's MIS, 1 the lights alone, 2 the BSDF alone); with `shaded`, the points have
     material 0's BSDF, else a white Lambertian one; with `solid_angle`, the lights sampled by solid angle
     (LIGHT_SOLID_ANGLE); with `cut` (MIS), no ray traced from the last vertex max_depth allows; defines_too,
-    more build options (RR_DEPTH)."""
+    more build options."""
     pattern = samplers.pattern("sobol", 1)
     features = dataclasses.replace(Features.of(scene, harness.lanes), direct_lighting=False, path_tracing=True)
     defines = dict(option[2:].split("=") for option in features.options() if not option.startswith("-DLANES"))

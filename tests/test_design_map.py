@@ -156,14 +156,14 @@ def test_every_switch_the_kernels_test_is_on_the_page():
 
 def test_the_parsers_see_what_is_there():
     """The parsers find the page's parts (a test that finds nothing passes nothing): the map holds render.cl and
-    path_tracing.cl, the host table LANES and HAS_PATH_TRACING, the second table RR_DEPTH; the kernels'
+    path_tracing.cl, the host table LANES and HAS_PATH_TRACING, the second table LIGHT_SOLID_ANGLE; the kernels'
     directives give scene.h's guard, LANES's default and scene.h's HAS_BACKFACES; and a page without a row or
     a map line loses that name."""
     assert {"render.cl", "path_tracing.cl"} <= set(kernel_map(PAGE))
     assert {"LANES", "HAS_PATH_TRACING"} <= table_names(HOST_HEADER)
-    assert "RR_DEPTH" in table_names(OTHER_HEADER)
+    assert "LIGHT_SOLID_ANGLE" in table_names(OTHER_HEADER)
     tested, guards, defaults, derived = kernel_switches()
-    assert {"SCENE_H", "PATH_TRACING_CL"} <= guards and {"LANES", "RR_DEPTH"} <= defaults
+    assert {"SCENE_H", "PATH_TRACING_CL"} <= guards and {"LANES", "LIGHT_SOLID_ANGLE"} <= defaults
     assert "HAS_BACKFACES" in derived and "HAS_BACKFACES" in tested
     cut = "\n".join(line for line in PAGE.splitlines() if not line.startswith("  microfacet.cl"))
     assert "microfacet.cl" not in kernel_map(cut)

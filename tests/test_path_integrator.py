@@ -94,21 +94,25 @@ def test_light_sampling_bsdf_sampling_and_mis_agree(harness, cornell):
 
 def test_roulette_comes_after_the_light_samples(harness, cornell):
     """Russian roulette decides after a vertex's light samples and BSDF sample, before its ray is traced, as
-    in Mitsuba 3 and pbrt-v4 (path_tracing.cl). The renderer's path tracer stopped before the ray of the last
-    vertex max_depth allows (path_support's `cut`: path_tracing.cl's own steps, that ray not traced) with
-    max_depth = RR_DEPTH + 1: the last vertex shaded is the first where roulette plays, and it can only cut
-    the ray that is not traced, so every lane's estimate equals, to the bit, that of a build whose roulette
-    never plays (RR_DEPTH 100; the numbers drawn are the same). One vertex deeper, roulette cuts paths
-    before a vertex's light samples, and the two builds differ: the comparison sees roulette where it acts.
+    in Mitsuba 3 and pbrt-v4 (path_tracing.cl), from vertex render.rr_depth on. The renderer's path tracer
+    stopped before the ray of the last vertex max_depth allows (path_support's `cut`: path_tracing.cl's own
+    steps, that ray not traced) with max_depth = rr_depth + 1: the last vertex shaded is the first where
+    roulette plays, and it can only cut the ray that is not traced, so every lane's estimate equals, to the
+    bit, that of a scene whose roulette never plays (rr_depth 100; the numbers drawn are the same). One
+    vertex deeper, roulette cuts paths before a vertex's light samples, and the two differ: the comparison
+    sees roulette where it acts, at Mitsuba's default 5 and at 1 and 3 (a run-time value: RenderParams).
     Roulette played right after a vertex's hit, before its light samples (the placement before commit
-    07d2363), fails the first part."""
+    07d2363), fails the first part; so do roulette from vertex rr_depth + 1 (`>` for `>=`), from vertex
+    rr_depth - 1, and the kernel's rr_depth fixed at 5 (each seen)."""
     scene = raytrace.load_file(cornell.path.replace("cornell.toml", "cornell_direct.toml"))
-    for depth, same in ((6, True), (7, False)):
-        at = dataclasses.replace(scene, max_depth=depth)
-        with_roulette = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 0, lanes=64, cut=True)
-        without = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 0, lanes=64, cut=True, RR_DEPTH=100)
-        assert np.array_equal(with_roulette, without) == same, depth
-        assert np.all(np.isfinite(with_roulette)) and np.all(with_roulette >= 0)
+    for rr_depth in (5, 1, 3):
+        for depth, same in ((rr_depth + 1, True), (rr_depth + 2, False)):
+            at = dataclasses.replace(scene, max_depth=depth, rr_depth=rr_depth)
+            with_roulette = traced(harness, at, LIGHT_POINTS, LIGHT_NORMALS, 0, lanes=64, cut=True)
+            without = traced(harness, dataclasses.replace(at, rr_depth=100), LIGHT_POINTS, LIGHT_NORMALS, 0,
+                             lanes=64, cut=True)
+            assert np.array_equal(with_roulette, without) == same, (rr_depth, depth)
+            assert np.all(np.isfinite(with_roulette)) and np.all(with_roulette >= 0)
 
 
 @at_lane_ends

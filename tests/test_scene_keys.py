@@ -215,8 +215,10 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
                     "bound")
     if key.name == "shape_index" and value > 0 and accepted:
         pytest.skip("a shape_index above 0 needs a .serialized file holding that many shapes, not only the bound")
-    if key.name == "max_depth":  # the path model's key
+    if key.name in ("max_depth", "rr_depth"):  # the path model's keys
         radiometric(scene, "path")
+    if key.name == "bsdf_samples":  # the direct model's
+        radiometric(scene, "direct")
     if table_name in BSDF_TABLES:
         partner = bsdfs.BY_NAME[BSDF_TABLES[table_name]].parameter(key.name).together
         if partner:  # alpha_u and alpha_v, given together and instead of alpha

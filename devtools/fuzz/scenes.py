@@ -262,7 +262,8 @@ def shapes(draw, material_names, files):
 @st.composite
 def valid_scenes(draw, max_shapes=4, min_files=0):
     """A small scene that must render: every table of the grammar, optional keys present or not; images
-    1..16 pixels a side, a few samples; in a quarter of them the direct model, some shapes black emitters."""
+    1..16 pixels a side, a few samples; in a quarter of them the direct model, some shapes black emitters, perhaps
+    BSDF samples and hidden emitters."""
     files = []
     table = {"camera": draw(cameras()),
              "image": {"width": draw(st.integers(1, 16)), "height": draw(st.integers(1, 16))}}
@@ -279,6 +280,8 @@ def valid_scenes(draw, max_shapes=4, min_files=0):
         render = table.setdefault("render", {})
         render.update(shading="direct", light_sampler=draw(st.sampled_from(["random", "jittered", "halton",
                                                                             "sobol"])))
+        if draw(st.booleans()):  # BSDF samples besides the lights', and the emitters hidden from the camera
+            render.update(bsdf_samples=draw(st.integers(0, 3)), hide_emitters=draw(st.booleans()))
         table.pop("ambient", None)
         for light in table["lights"]:
             light["radiance"] = light.pop("colour")
@@ -519,14 +522,17 @@ def path_scenes(draw):
     """SMALL_SCENE in the path model, 8 x 8: a floor, a sphere and a triangle, perhaps a disk and a cylinder under
     any to_world, of up to three materials of any BSDF (the first perhaps with a float colour map), some of them
     emitting any radiance (black, or reflecting by their material), a light of any radiance (reflecting by a
-    material or not), an environment (none, constant or an envmap) of any radiance or scale and texels, any max_depth, 1
-    to 4 pixel and light samples. Most values lie anywhere
+    material or not), an environment (none, constant or an envmap) of any radiance or scale and texels, any max_depth,
+    perhaps an rr_depth and hidden emitters, 1 to 4 pixel and light samples. Most values lie anywhere
     in their keys' ranges, so that the rules between them (raytrace/scene/ranges.py) decide."""
     table = copy.deepcopy(SMALL_SCENE)
     table["image"] = {"width": 8, "height": 8}
     table["render"] = {"shading": "path", "sampler": "sobol", "light_sampler": "sobol",
                        "spp": draw(st.integers(1, 4)), "light_samples": draw(st.integers(1, 4)),
                        "max_depth": draw(st.one_of(st.just(-1), st.integers(0, 8), st.integers(0, 1024)))}
+    if draw(st.booleans()):  # Russian roulette from any vertex; the emitters hidden from the camera
+        table["render"].update(rr_depth=draw(st.one_of(st.integers(1, 8), st.just(2**31 - 1))),
+                               hide_emitters=draw(st.booleans()))
     names = [f"m{i}" for i in range(draw(st.integers(1, 3)))]
     table["materials"] = {name: draw(path_materials()) for name in names}
     light = table["lights"][0]

@@ -356,6 +356,7 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["seed"] = seed % 2**32
     p["light_samples"], p["width"], p["height"] = light_samples, width, height
     p["max_depth"] = scene.max_depth
+    p["rr_depth"], p["hide_emitters"], p["bsdf_samples"] = scene.rr_depth, scene.hide_emitters, scene.bsdf_samples
     p["environment"] = np.zeros(3) if scene.environment is None else scene.environment
     if scene.environment_map is not None:
         m = scene.environment_map

@@ -64,6 +64,7 @@ class Features:
     perturbed_normals: bool = False  # Mitsuba's normalmap or bumpmap (a material's maps normal, bump)
     principled_lookups: bool = False  # a principled(thin) material's textured weight (maps roughness .. eta)
     shape_emitters: bool = False   # area emitters on shapes (Scene.emitters; kernels/emitters.cl)
+    bsdf_sampling: bool = False    # the direct model's BSDF samples (render.bsdf_samples > 0; direct_lighting.cl)
     instances: bool = False        # instances of shape groups: a two-level BVH (kernels/instances.cl)
     disks: bool = True             # Mitsuba's disk (kernels/disk.cl)
     cylinders: bool = True         # Mitsuba's cylinder (kernels/cylinder.cl)
@@ -108,7 +109,8 @@ class Features:
                    perturbed_normals=any(slot in ("normal", "bump") for m in materials for slot, _ in m.maps),
                    principled_lookups=any(slot in PRINCIPLED_SLOTS + THIN_SLOTS for m in materials
                                           for slot, _ in m.maps),
-                   shape_emitters=bool(scene.emitters), instances=bool(scene.instances))
+                   shape_emitters=bool(scene.emitters), instances=bool(scene.instances),
+                   bsdf_sampling=scene.shading == "direct" and scene.bsdf_samples > 0)
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -125,7 +127,7 @@ class Features:
                  "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
                  "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups,
                  "SHAPE_EMITTERS": self.shape_emitters,
-                 "INSTANCES": self.instances}
+                 "INSTANCES": self.instances, "BSDF_SAMPLING": self.bsdf_sampling}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

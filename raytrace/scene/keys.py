@@ -10,7 +10,7 @@ from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import LIGHT_SELECTIONS, WRAP_MODES
 from . import bsdfs, texture_lookups
 from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
-from .model import BSDFS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, SHADINGS
+from .model import BSDFS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, RR_DEPTH, SHADINGS
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 MAX_GENERATED_TRIANGLES = 50_000_000
@@ -114,7 +114,15 @@ TABLES = {
                Key("max_depth", "integer", 'shading = "path": path vertices at most, Mitsuba\'s convention (1: the '
                    "emitters seen directly, 2: direct light, -1: unbounded)", default=-1, low=-1, high=MAX_DEPTH),
                Key("seed", "integer", "the seed of the random patterns' per-pixel randomisation", default=0, low=0,
-                   high=2**32 - 1)],
+                   high=2**32 - 1),
+               Key("rr_depth", "integer", 'shading = "path": the first path vertex at which Russian roulette may '
+                   "end a path (Mitsuba's rr_depth)", default=RR_DEPTH, low=1, high=2**31 - 1),
+               Key("hide_emitters", "boolean", 'shading = "direct" or "path": camera rays do not see the lights, '
+                   "the emitting shapes and the environment, but pass the emitters by (Mitsuba's hide_emitters)",
+                   default=False),
+               Key("bsdf_samples", "integer", 'shading = "direct": BSDF samples per pixel sample, combined with the '
+                   "light_samples per light by multiple importance sampling (Mitsuba's direct bsdf_samples)",
+                   default=0, low=0, high=MAX_SAMPLES)],
     "lights[]": _rectangle(_COLOUR),
     "lights[] (direct, path)": _rectangle(_RADIANCE) + [_LIGHT_MATERIAL],
     "materials.NAME": [

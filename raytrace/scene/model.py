@@ -37,6 +37,7 @@ DEFAULT_ALPHA = 0.1  # Mitsuba's default roughness of its rough BSDFs
 ENVIRONMENTS = ("constant", "envmap")  # the path model's environment emitters, with Mitsuba's names
 DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
+RR_DEPTH = 5  # Mitsuba's rr_depth: the first path vertex at which Russian roulette may end a path
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
 SCENE_EXPECTED = "must be a raytrace.scene.Scene, from load_file, load_dict or load_string"
 
@@ -322,6 +323,9 @@ class Scene:
     shading: str = "phong"  # one of SHADINGS
     max_depth: int = -1     # the path model's vertices per path, Mitsuba's convention (-1: unbounded)
     seed: int = 0           # the random patterns' per-pixel randomisation
+    rr_depth: int = RR_DEPTH  # the path model's first vertex at which Russian roulette may end a path
+    hide_emitters: bool = False  # the radiometric models: camera rays do not see the emitters (Mitsuba's)
+    bsdf_samples: int = 0   # the direct model's BSDF samples, besides light_samples per light (Mitsuba's direct)
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
     emitters: list = field(default_factory=list)  # ShapeEmitter: area emitters on shapes, after the lights

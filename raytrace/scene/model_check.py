@@ -39,7 +39,8 @@ BSDF_FIELDS = ("eta", "k", "int_ior", "ext_ior", "alpha", "alpha_v", "distributi
 _value = rules.value
 # The keys of the image and render tables a model holds as attributes of the same name.
 IMAGE = ("width", "height")
-RENDER = ("spp", "light_samples", "sampler", "light_sampler", "light_selection", "shading", "max_depth", "seed")
+RENDER = ("spp", "light_samples", "sampler", "light_sampler", "light_selection", "shading", "max_depth", "seed",
+          "rr_depth", "hide_emitters", "bsdf_samples")
 READ = {"number": "number", "integer": "integer", "string": "string", "vector": "vector", "number-or-vector": "vector",
         "vectors": "vectors", "number-or-name": "number_or_name", "boolean": "boolean"}
 

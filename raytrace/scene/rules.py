@@ -22,7 +22,7 @@ import numpy as np
 
 from . import bsdfs, meshes, ranges, texture_lookups
 from .. import samplers
-from .model import RADIOMETRIC, Ellipsoid, MeshShape, Triangle, normalize
+from .model import RADIOMETRIC, RR_DEPTH, Ellipsoid, MeshShape, Triangle, normalize
 from ..numerics import FLOAT32_MAX
 
 
@@ -58,6 +58,14 @@ def _shading(scene, places):
                         f'is the Phong model\'s: shading = "{scene.shading}" has no ambient term')
     if scene.max_depth != -1:
         _path_only(places.render, "max_depth", scene.max_depth, scene.shading)
+    if scene.rr_depth != RR_DEPTH:
+        _path_only(places.render, "rr_depth", scene.rr_depth, scene.shading)
+    if scene.hide_emitters and scene.shading not in RADIOMETRIC:
+        places.render.fail("hide_emitters", True, 'hides the radiometric models\' emitters: only with shading = '
+                           f'"direct" or "path", not "{scene.shading}"')
+    if scene.bsdf_samples != 0 and scene.shading != "direct":
+        places.render.fail("bsdf_samples", scene.bsdf_samples, 'is the direct model\'s: only with shading = '
+                           f'"direct", not "{scene.shading}" (the path model samples its BSDFs at every vertex)')
     if scene.environment is not None and scene.environment_map is not None:
         places.top.fail("environment", value(scene.environment), "a constant radiance and an envmap cannot both be set")
     if scene.environment is not None or scene.environment_map is not None:

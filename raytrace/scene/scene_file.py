@@ -728,7 +728,8 @@ def parse_scene(table, path="<scene>", files=None):
     scene = Scene(path, camera, width, height, r.vector("ambient"), [],
                   materials, spp=spp, light_samples=light_samples, sampler=sampler, light_sampler=light_sampler,
                   textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment,
-                  environment_map=environment_map, seed=render.integer("seed"),
+                  environment_map=environment_map, seed=render.integer("seed"), rr_depth=render.integer("rr_depth"),
+                  hide_emitters=render.boolean("hide_emitters"), bsdf_samples=render.integer("bsdf_samples"),
                   light_selection=render.string("light_selection"))
 
     lights = r.raw("lights", [])  # keys.py: none only where rules.py allows it

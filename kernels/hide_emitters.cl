@@ -1,0 +1,50 @@
+/* Mitsuba's hide_emitters (its `path` and `direct` integrators; Integrator::skip_area_emitters in
+ * src/render/integrator.cpp): the camera does not see the emitters. A camera ray that meets an emitter, a
+ * rectangular light or an emitting shape, from either side, passes it as if it were not there and goes on to
+ * what lies beyond, which it sees as it would without the emitter in front; the emitters still light the
+ * scene (their samples' shadow rays and the path model's later vertices meet them as always). What else the
+ * camera does not see, the environment and emitters seen through see-through surfaces, is the path model's
+ * (path_tracing.cl's path_hit). */
+#ifndef HIDE_EMITTERS_CL
+#define HIDE_EMITTERS_CL
+
+#include "intersect.cl"
+
+/* Emitters a camera ray passes at most: each pass moves its origin past one surface, so only a ray through
+ * more emitters than this (a stack of lights, a mesh light folded on itself) stops at the next, and shows it
+ * black. */
+#define MAX_EMITTERS_PASSED 64
+
+/* The lanes whose hit is on an emitter: a light (kind SHAPE_NONE), or a shape with an Emitter. The direct
+ * model's lights and emitting shapes reflect nothing (scene/rules.py): there, they alone have no material. */
+inline vint hits_emitter(Hit hit)
+{
+#if HAS_PATH_TRACING
+    vint on = (hit.kind == SHAPE_NONE) & (hit.t < INFINITY);
+#if HAS_SHAPE_EMITTERS
+    on |= hit.emitter >= 0;
+#endif
+    return on;
+#else
+    return (hit.t < INFINITY) & (hit.material < 0);
+#endif
+}
+
+/* The hit of each lane of `camera` past the emitters along its ray *r, whose origin moves to just beyond the
+ * last emitter passed (so that the hit's t and the shading point's ray stay each other's); `traced`, the
+ * lanes whose ray was traced at all (the others keep a miss). The lanes to pass are traced again, and the
+ * others with them (to the same hit, their rays unchanged): one traversal a step, where the renderer's
+ * packets would otherwise merge per-lane hits of every kind field by field. */
+inline Hit pass_emitters(const Scene *s, Ray *r, Hit hit, vint traced, vint camera)
+{
+    vint passing = camera & hits_emitter(hit);
+    for (int k = 0; k < MAX_EMITTERS_PASSED && ANY(passing); ++k) {
+        /* beyond the surface: hit.n faces the incoming ray */
+        r->o = v3_select(r->o, offset_ray_origin(hit.p, hit.err, v3_scale(hit.n, -1.0f)), passing);
+        hit = closest_hit(s, *r, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), traced));
+        passing &= hits_emitter(hit);
+    }
+    return hit;
+}
+
+#endif
