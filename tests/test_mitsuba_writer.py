@@ -206,7 +206,8 @@ def assert_same_model(scene, back, light_sampler=None, k=None):
     for u, v in zip(scene.camera.basis(), camera.basis()):
         _close(u, v)
     assert camera.fov_deg == pytest.approx(scene.camera.fov_deg, rel=1e-13)
-    for name in ("width", "height", "spp", "sampler", "seed", "shading", "max_depth", "light_samples"):
+    for name in ("width", "height", "spp", "sampler", "seed", "shading", "max_depth", "light_samples", "rr_depth",
+                 "hide_emitters", "bsdf_samples"):
         assert getattr(back, name) == getattr(scene, name), name
     assert back.light_sampler == (light_sampler or scene.light_sampler)
 
@@ -324,11 +325,27 @@ def test_materials_and_an_envmap(tmp_path):
     assert_same_images(scene, back, exact=True)
 
 
-def test_direct_model(tmp_path):
-    """cornell_direct.toml (its ellipsoid a sphere): the direct integrator with emitter_samples. The XML gives its
-    light a black BSDF, which raytrace's reader leaves out, with a warning, under ignore_unsupported."""
-    toml = _variant(tmp_path, "cornell_direct.toml", [(ELLIPSOID, SPHERE)])
+@pytest.mark.parametrize("render", ["", "bsdf_samples = 2\nhide_emitters = true\n"])
+def test_direct_model(tmp_path, render):
+    """cornell_direct.toml (its ellipsoid a sphere): the direct integrator with emitter_samples and bsdf_samples
+    (0 by raytrace's default, written all the same: Mitsuba's is 1), and with 2 BSDF samples and the emitters
+    hidden. The XML gives its light a black BSDF, which raytrace's reader leaves out, with a warning, under
+    ignore_unsupported. Writing no bsdf_samples where it is 0 fails the first case (seen)."""
+    toml = _variant(tmp_path, "cornell_direct.toml", [(ELLIPSOID, SPHERE), ("light_samples = 16\n",
+                                                                             "light_samples = 16\n" + render)])
     scene, back = _round_trip(toml, tmp_path, allowed_warnings=(DIRECT_LIGHT_BSDF,))
+    assert_same_model(scene, back)
+    assert_same_images(scene, back)
+
+
+def test_path_integrator_parameters(tmp_path):
+    """cornell_path.toml (its ellipsoid a sphere) with rr_depth 2 and the emitters hidden: the path integrator
+    writes both, and the XML reads back to the same model and images. Leaving rr_depth out fails it (seen)."""
+    toml = _variant(tmp_path, "cornell_path.toml", [(ELLIPSOID, SPHERE), ('shading = "path"\n',
+                                                                          'shading = "path"\nrr_depth = 2\n'
+                                                                          "hide_emitters = true\n")])
+    scene, back = _round_trip(toml, tmp_path)
+    assert (scene.rr_depth, scene.hide_emitters) == (2, True)
     assert_same_model(scene, back)
     assert_same_images(scene, back)
 

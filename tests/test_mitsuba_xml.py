@@ -189,6 +189,43 @@ def test_bad_xml_is_one_line_with_its_line(tmp_path, text, where, message):
 
 # --- the plugins ---------------------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("integrator, render", [
+    ('<integrator type="direct"/>', {"light_samples": 1, "bsdf_samples": 1}),
+    ('<integrator type="direct"><integer name="shading_samples" value="3"/></integrator>',
+     {"light_samples": 3, "bsdf_samples": 3}),
+    ('<integrator type="direct"><integer name="emitter_samples" value="2"/><integer name="bsdf_samples" value="0"/>'
+     '<boolean name="hide_emitters" value="true"/></integrator>',
+     {"light_samples": 2, "bsdf_samples": 0, "hide_emitters": True}),
+    ('<integrator type="direct"><integer name="bsdf_samples" value="4"/></integrator>',
+     {"light_samples": 1, "bsdf_samples": 4}),
+    ('<integrator type="path"><integer name="rr_depth" value="1"/><boolean name="hide_emitters" value="true"/>'
+     '</integrator>', {"rr_depth": 1, "hide_emitters": True}),
+])
+def test_integrator_parameters(tmp_path, integrator, render):
+    """Mitsuba's direct integrator with its defaults (1 emitter and 1 BSDF sample), shading_samples setting both,
+    each given alone or both, and hide_emitters; the path integrator's rr_depth and hide_emitters: each becomes
+    its render key (the light's BSDF, which the direct model leaves out, ignored)."""
+    text = BOX.replace('<integrator type="path"><integer name="max_depth" value="$depth"/></integrator>', integrator)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnsupportedWarning)
+        scene = raytrace.load_file(write(tmp_path, text), ignore_unsupported=True)
+    t = scene.source["render"]
+    assert {k: t[k] for k in render} == render
+    for key, value in render.items():
+        assert getattr(scene, key) == value
+
+
+def test_shading_samples_not_with_either_count(tmp_path):
+    """Mitsuba refuses shading_samples beside emitter_samples or bsdf_samples, and so does raytrace, at the
+    parameter."""
+    text = BOX.replace('<integrator type="path"><integer name="max_depth" value="$depth"/></integrator>',
+                       '<integrator type="direct"><integer name="shading_samples" value="2"/>\n'
+                       '<integer name="bsdf_samples" value="1"/></integrator>')
+    error = error_of(tmp_path, text)
+    assert "shading_samples" in str(error) and "not with emitter_samples or bsdf_samples" in str(error)
+    assert f"scene.xml:{line_of(text, 'shading_samples')}" in str(error)
+
+
 def test_a_box_translates_into_raytraces_table(tmp_path):
     scene = load(tmp_path, defines={"spp": 9})
     t = scene.source

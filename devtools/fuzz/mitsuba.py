@@ -516,10 +516,16 @@ def valid_trees(draw, max_shapes=3):
             params.append(prop("integer", "max_depth", str(draw(st.sampled_from([-1, 1, 2, 3, 6])))))
         if draw(st.booleans()):
             params.append(prop("integer", "rr_depth", str(draw(st.integers(1, 8)))))
+        if draw(st.booleans()):
+            params.append(prop("boolean", "hide_emitters", draw(st.sampled_from(["true", "false"]))))
         children.append(Element("integrator", (("type", "path"),), tuple(params)))
     elif integrator == "direct":
-        params = [prop("integer", draw(st.sampled_from(["emitter_samples", "shading_samples"])),
-                       str(draw(st.integers(1, 2))))] if draw(st.booleans()) else []
+        counts = draw(st.sampled_from([(), ("shading_samples",), ("emitter_samples",), ("bsdf_samples",),
+                                       ("emitter_samples", "bsdf_samples")]))
+        params = [prop("integer", name, str(draw(st.integers(1 if name != "bsdf_samples" else 0, 2))))
+                  for name in counts]
+        if draw(st.booleans()):
+            params.append(prop("boolean", "hide_emitters", draw(st.sampled_from(["true", "false"]))))
         children.append(Element("integrator", (("type", "direct"),), tuple(params)))
     elif integrator == "moment":
         children.append(el("integrator", el("integrator", type="path"), type="moment"))
@@ -714,6 +720,7 @@ RANGE_VALUES = {
     "focal_length": ("0mm", "-1mm", "mm", "1e400mm", "nanmm", "infmm", "50", "1e-300mm", "50 mm", "50MM"),
     "fov_axis": ("z", "X", "", "diagonal "), "distribution": ("beckmann", "GGX", ""),
     "material": ("Xx", "none ", "au", ""), "emitter_samples": ("0", "-1", "100000"), "shading_samples": ("0", "-2"),
+    "bsdf_samples": ("-1", "100000"), "hide_emitters": ("1", "yes", ""),
     "eta": ("-1", "0", "1e30"), "k": ("-1", "1e39"), "specular_reflectance": ("-1", "2", "0"),
     "specular_transmittance": ("0.5", "-1"), "pixel_format": ("xyz", "rgba", ""),
     "component_format": ("uint32", "float64"), "file_format": ("png", "jpeg"), "crop_width": ("1", "0", "-1"),

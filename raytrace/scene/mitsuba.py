@@ -184,14 +184,14 @@ PLUGINS = {
         only_default=(("crop_offset_x", 0), ("crop_offset_y", 0))),
     "box": Plugin("rfilter", "each pixel the average of its own samples", ()),
     "path": Plugin("integrator", "path tracing", (
-        Param("max_depth", -1, "render max_depth"),
-        Param("rr_depth", 5, "", "noise only: raytrace's own Russian roulette")),
-        only_default=(("hide_emitters", False),)),
+        Param("max_depth", -1, "render max_depth"), Param("rr_depth", 5, "render rr_depth"),
+        Param("hide_emitters", False, "render hide_emitters"))),
     "direct": Plugin("integrator", "direct lighting", (
-        Param("shading_samples", 1, "render light_samples", "emitter_samples' default"),
-        Param("emitter_samples", 1, "render light_samples"),
-        Param("bsdf_samples", 1, "", "noise only: raytrace samples the lights")),
-        only_default=(("hide_emitters", False),)),
+        Param("shading_samples", 1, "render light_samples", "emitter_samples' and bsdf_samples' default"),
+        Param("emitter_samples", 1, "render light_samples", "per light (Mitsuba: per pixel sample, of one "
+              "emitter each)"),
+        Param("bsdf_samples", 1, "render bsdf_samples"),
+        Param("hide_emitters", False, "render hide_emitters"))),
     "moment": Plugin("integrator", "a wrapper: raytrace renders the integrator inside", (
         Param("integrator", None, "", "one integrator"),)),
     "independent": Plugin("sampler", "uniform random samples: raytrace's random", (
@@ -483,16 +483,22 @@ class _Translator:
         params = self.params(node, key, name)
         render["shading"] = name
         if name == "path":
-            if "max_depth" in params:
-                render["max_depth"] = self.number(params["max_depth"], node, key, "max_depth", integer=True)
-                self.origin("render.max_depth", node, key, "max_depth")
-            if "rr_depth" in params:
-                self.number(params["rr_depth"], node, key, "rr_depth", integer=True)
-        else:
-            samples = params.get("emitter_samples", params.get("shading_samples", 1))
-            param = "emitter_samples" if "emitter_samples" in params else "shading_samples"
-            render["light_samples"] = self.number(samples, node, key, param, integer=True)
-            self.origin("render.light_samples", node, key, param)
+            for param in ("max_depth", "rr_depth"):
+                if param in params:
+                    render[param] = self.number(params[param], node, key, param, integer=True)
+                    self.origin(f"render.{param}", node, key, param)
+        else:  # Mitsuba's direct: shading_samples sets both counts, and refuses to be given with either
+            if "shading_samples" in params and ("emitter_samples" in params or "bsdf_samples" in params):
+                self.fail(self.where(node, key).of("shading_samples"), f"{key}.shading_samples",
+                          params["shading_samples"], "not with emitter_samples or bsdf_samples (as in Mitsuba)")
+            for param, table_key in (("emitter_samples", "light_samples"), ("bsdf_samples", "bsdf_samples")):
+                given = param if param in params else "shading_samples"
+                render[table_key] = self.number(params.get(given, 1), node, key, given, integer=True)
+                if given in params:
+                    self.origin(f"render.{table_key}", node, key, given)
+        if "hide_emitters" in params:
+            render["hide_emitters"] = self.boolean(params["hide_emitters"], node, key, "hide_emitters")
+            self.origin("render.hide_emitters", node, key, "hide_emitters")
         self.out.origins["render.shading"] = (self.where(node, key).at, f"integrator {name}")
 
     def sensor(self, key, node):

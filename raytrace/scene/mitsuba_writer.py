@@ -2,7 +2,8 @@
 mitsuba_xml.py and mitsuba.py, whose PLUGINS table this follows plugin for plugin, so that the reader gives the
 written scene's model back. Mitsuba 3's plugin reference is the specification of the names and the defaults.
 
-What the XML holds: the integrator of the shading model (`path` with max_depth, `direct` with emitter_samples);
+What the XML holds: the integrator of the shading model (`path` with max_depth and rr_depth, `direct` with
+emitter_samples and bsdf_samples; hide_emitters);
 a `perspective` sensor (fov_axis y: raytrace's fov is vertical) with an `hdrfilm` of box filter and the sampler
 nearest the pixel pattern; each material something uses, as a `bsdf` with the material's name as its id and
 its parameters by Mitsuba's names (raytrace/scene/bsdfs.py; a two-sided material Mitsuba scatters from the
@@ -36,7 +37,7 @@ import numpy as np
 
 from ..errors import InputError
 from . import bsdfs
-from .model import WRAPPERS, fingerprint
+from .model import RR_DEPTH, WRAPPERS, fingerprint
 from .mitsuba import view_depths
 from .transform import mesh_matrix
 
@@ -159,12 +160,18 @@ class _Writer:
         if scene.shading == "path":
             integrator = ET.SubElement(root, "integrator", type="path")
             ET.SubElement(integrator, "integer", name="max_depth", value=str(int(scene.max_depth)))
+            if scene.rr_depth != RR_DEPTH:
+                ET.SubElement(integrator, "integer", name="rr_depth", value=str(int(scene.rr_depth)))
             if scene.light_samples != 1:
                 integrator.append(_comment(f"raytrace's light_samples = {scene.light_samples}: Mitsuba's path "
                                            "tracer takes one emitter sample per vertex (the same estimate, noisier)"))
         else:
             integrator = ET.SubElement(root, "integrator", type="direct")
             ET.SubElement(integrator, "integer", name="emitter_samples", value=str(int(scene.light_samples)))
+            # always written: Mitsuba's default is 1, raytrace's 0 (the light samples alone)
+            ET.SubElement(integrator, "integer", name="bsdf_samples", value=str(int(scene.bsdf_samples)))
+        if scene.hide_emitters:
+            ET.SubElement(integrator, "boolean", name="hide_emitters", value="true")
 
     def sensor(self, root):
         scene, camera = self.scene, self.scene.camera
