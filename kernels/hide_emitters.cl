@@ -11,8 +11,8 @@
 #include "intersect.cl"
 
 /* Emitters a camera ray passes at most: each pass moves its origin past one surface, so only a ray through
- * more emitters than this (a stack of lights, a mesh light folded on itself) stops at the next, and shows it
- * black. */
+ * more emitters than this (a stack of lights, a mesh light folded on itself) stops at the next, which it
+ * shows black. */
 #define MAX_EMITTERS_PASSED 64
 
 /* The lanes whose hit is on an emitter: a light (kind SHAPE_NONE), or a shape with an Emitter. The direct
@@ -44,6 +44,7 @@ inline Hit pass_emitters(const Scene *s, Ray *r, Hit hit, vint traced, vint came
         hit = closest_hit(s, *r, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), traced));
         passing &= hits_emitter(hit);
     }
+    hit.emitted = v3_select(hit.emitted, v3_splat(0.0f, 0.0f, 0.0f), passing); /* past the cap: black */
     return hit;
 }
 
