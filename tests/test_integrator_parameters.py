@@ -35,8 +35,9 @@ Mutations tried (each in the kernels, undone after; every one failed the tests n
 """
 import copy
 import tomllib
+import warnings
 
-import numpy as np
+import pytest
 
 import raytrace
 from devtools.judge import judge
@@ -186,3 +187,31 @@ def test_bsdf_samples_keep_the_expectation(lanes):
     assert alone.mean() > 0.1
     _judged(mis, mis_var, alone, alone_var, f"direct, 4 BSDF samples against 1 light sample, lanes {lanes}")
     assert mis_var.sum() < alone_var.sum(), (mis_var.sum(), alone_var.sum())
+
+
+def test_counts_and_depths_rebuild_nothing():
+    """rr_depth, hide_emitters and a nonzero bsdf_samples are values of the run (RenderParams): an edit of them
+    (raytrace.parameters) changes no build option; only the direct model's BSDF samples turned on or off does
+    (HAS_BSDF_SAMPLING), and the packed values follow the edits."""
+    from raytrace.parameters import FeaturesChanged
+    from raytrace.renderer.packing import params_struct
+    scene = raytrace.load_dict(cornell_path())
+    params = raytrace.parameters(scene)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FeaturesChanged)
+        params["render.rr_depth"] = 2
+        params["render.hide_emitters"] = True
+        params.update()
+    packed = params_struct(scene)
+    assert (scene.rr_depth, scene.hide_emitters) == (2, True)
+    assert (packed["rr_depth"], packed["hide_emitters"]) == (2, 1)
+    direct = raytrace.load_dict(close_light(1))
+    params = raytrace.parameters(direct)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FeaturesChanged)
+        params["render.bsdf_samples"] = 3
+        params.update()
+    assert params_struct(direct)["bsdf_samples"] == 3
+    params["render.bsdf_samples"] = 0
+    with pytest.warns(FeaturesChanged):
+        params.update()
