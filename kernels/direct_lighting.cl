@@ -16,7 +16,8 @@
  * heuristic weighted by the counts (Veach 1997, section 9.2.4; Mitsuba's direct.cpp):
  *   w_light = (N p_l)^2 / ((N p_l)^2 + (M p_b)^2),  w_bsdf = (M p_b)^2 / ((N p_l)^2 + (M p_b)^2),
  * p_l the density per solid angle of one of the light's samples towards the direction (r^2 / (A cos(theta_l))
- * for a light, emitters.cl's emitter_pdf for an emitting shape), each sample's value divided by its own
+ * for a light, light_selection.cl's hit_emitter_pdf for an emitting shape: its choice among the emitting shapes
+ * included, as they share the N samples), each sample's value divided by its own
  * technique's count. The expectation is the light-only model's; where a large light is close, the BSDF's
  * samples take the weight that the light's (whose density grows with r^2 / cos(theta_l)) cannot carry. */
 #ifndef DIRECT_LIGHTING_CL
@@ -110,12 +111,8 @@ inline vec3 bsdf_samples_sum(const Scene *s, ShadingPoint sp, vint surface, __gl
         vint weighed = on_light;
 #if HAS_SHAPE_EMITTERS /* an emitting shape's: emitters.cl's density of its samples */
         vint on_emitter = sampled & (hit.t < INFINITY) & (hit.emitter >= 0);
-        for (int ei = 0; ei < s->params->n_emitters; ++ei) {
-            vint here = on_emitter & (hit.emitter == ei);
-            if (ANY(here))
-                x = SELECT(x, n * emitter_pdf(s, &s->emitters[ei], sp.p, hit.p, hit.t, cos_l) / (p_b * (float)m),
-                           here);
-        }
+        if (ANY(on_emitter)) /* the emitter's choice included (light_selection.cl) */
+            x = SELECT(x, n * hit_emitter_pdf(s, hit, sp.p, hit.t, cos_l, on_emitter) / (p_b * (float)m), on_emitter);
         weighed |= on_emitter;
 #endif
         sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_scale(hit.emitted, power_weight(x)), weighed));

@@ -136,28 +136,6 @@ inline vfloat hit_light_solid_angle(const Scene *s, Hit hit, vec3 o)
 }
 #endif
 
-#if HAS_SHAPE_EMITTERS
-/* The density per solid angle with which the light sampling at `ref` would have chosen each lane's hit on an
- * emitting shape (emitters.cl), met at `distance` from ref with |cos(theta_l)| = cos_l, the emitter's choice
- * (light_sampling.cl's choose_emitters) included; 0 elsewhere. Each emitter the lanes hit is visited once. */
-inline vfloat hit_emitter_pdf(const Scene *s, Hit hit, vec3 ref, vfloat distance, vfloat cos_l, vint lanes)
-{
-    vfloat pdf = 0.0f;
-    vint left = lanes;
-    while (ANY(left)) {
-        int index[LANES], use[LANES], first = 0;
-        VSTORE(hit.emitter, index);
-        VSTORE(left, use);
-        while (!use[first])
-            ++first;
-        __global const Emitter *e = &s->emitters[index[first]];
-        const vint here = left & (hit.emitter == index[first]);
-        pdf = SELECT(pdf, e->selection_pdf * emitter_pdf(s, e, ref, hit.p, distance, cos_l), here);
-        left &= !here;
-    }
-    return pdf;
-}
-#endif
 
 #if HAS_ENVIRONMENT
 /* The lanes of `active` whose ray from o along the unit d leaves the scene: no shape and no light meets it

@@ -15,12 +15,13 @@ run on a machine of 4 widths. u.y passes unchanged (exactly), and with one emitt
 that a scene of one emitting shape renders the same image whatever the selection).
 
 Light, judged per pixel by devtools/judge.py's Z-test (CHUNKS renders; each scale at ALPHA = 1e-4: about 4e-4
-per image, 8 images at the lane-width ends, 3e-3 per run): a diffuse floor under three sphere lights of
+per image): a diffuse floor under three sphere lights of
 different sizes and radiances, each wholly above the floor's horizon, whose irradiance is the sum of pi L (r /
 d)^2 cos(beta) (Lambert), radiance rho E / pi averaged over each pixel's footprint (a 6 x 6 grid), in the
 direct model (light samples alone: a choice's probability left out of the density shows as a ratio per
-emitter) and the path model at max_depth 2 (MIS against the BSDF's samples, whose density for a hit emitter must
-include its choice's probability, path_tracing.cl's hit_emitter_pdf), by power and uniformly.
+emitter), the direct model with 2 BSDF samples, and the path model at max_depth 2 (the last two weigh light
+and BSDF samples by MIS, whose density for a hit emitter must include its choice's probability,
+light_selection.cl's hit_emitter_pdf), by power and uniformly: 12 images, 5e-3 per run.
 
 Mutations tried (each in a copy of the kernels or host; every one failed the tests named, then was undone):
 - light_selection.cl choose_emitters: u.x not rescaled within the chosen share: the rescaled-u chi-square;
@@ -28,8 +29,8 @@ Mutations tried (each in a copy of the kernels or host; every one failed the tes
   chi-square (u.x equal to a cumulative value has probability 2^-24), recorded here as the one survivor;
 - light_selection.cl sample_chosen: the density not multiplied by the choice's probability: the direct and
   path floors;
-- path_tracing.cl hit_emitter_pdf: the choice's probability left out of the hit's density: the path floors (the
-  MIS weights then do not sum to 1);
+- light_selection.cl hit_emitter_pdf: the choice's probability left out of the hit's density: the path and
+  direct+bsdf floors (the MIS weights then do not sum to 1);
 - packing.py selection: the power without the radiance's mean (area alone): the probabilities test.
 """
 import math
@@ -79,6 +80,8 @@ def floor_scene(shading, selection, max_depth=2, spheres=SPHERES):
     alone: no silhouette, whose pixels' coverage a Z-test cannot judge)."""
     render = {"shading": shading, "light_selection": selection, **({"max_depth": max_depth} if shading == "path"
                                                                     else {})}
+    if shading == "direct+bsdf":  # the direct model with BSDF samples too, weighed against the lights' by MIS
+        render.update(shading="direct", bsdf_samples=2)
     return {"camera": {"position": [0.0, -0.3, 0.7], "look_at": [0.0, 0.1, 0.0], "up": [0.0, 0.0, 1.0], "fov": 60.0},
             "image": {"width": 24, "height": 24}, "render": render,
             "materials": {"floor": {"colour": RHO.tolist()}},
@@ -173,7 +176,7 @@ def floor_radiance(table):
 
 
 @at_lane_ends
-@pytest.mark.parametrize("shading", ["direct", "path"])
+@pytest.mark.parametrize("shading", ["direct", "direct+bsdf", "path"])
 @pytest.mark.parametrize("selection", ["power", "uniform"])
 def test_many_sphere_lights_on_a_floor(lanes, shading, selection):
     """The floor under three sphere lights, one light sample per vertex shared among them, against the sum of
