@@ -58,12 +58,13 @@ inline float light_scale(__global const Light *light)
     return 4.0f * light->shape.half_x * light->shape.half_y * M_1_PI_F;
 }
 
-/* An emitting shape's sample (emitters.cl), of density pdf per solid angle: cos(theta_s) / (pi pdf). */
-inline vfloat emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n, vint active)
+/* An emitter's sample (emitters.cl), of density pdf per solid angle: cos(theta_s) / (pi pdf) (a delta light's
+ * alike: pdf = r^2, or 1 for a directional one). */
+inline vfloat emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n, vint active, vint delta)
 {
     vfloat weight = v3_dot(sp.n, l) * M_1_PI_F / pdf;
-#if HAS_BSDF_SAMPLING /* times w_light: x = M p_b / (N p_l), p_b = cos(theta_s) / pi */
-    weight *= power_weight(weight * (bsdf_count(v) / (float)n));
+#if HAS_BSDF_SAMPLING /* times w_light: x = M p_b / (N p_l), p_b = cos(theta_s) / pi; 1 for a delta light */
+    weight *= SELECT(power_weight(weight * (bsdf_count(v) / (float)n)), (vfloat)(1.0f), delta);
 #endif
     return weight;
 }

@@ -12,7 +12,13 @@
  * Densities are per unit solid angle at the reference point: an area density p_A becomes p_A r^2 / cos(theta_l).
  *
  * A shape emits from its front side only (where its normal points; Mitsuba's `area`): a sample counts only where
- * the reference point sees that side (the models' sample_counts), and a point inside a sphere gets none. */
+ * the reference point sees that side (the models' sample_counts), and a point inside a sphere gets none.
+ *
+ * The delta lights (HAS_DELTA_EMITTERS; Mitsuba 3.9.1's point, spot, directional and projector, each in its
+ * src/emitters/NAME.cpp; pbrt-v4 section 12.1) have one "sample" each, the light itself: its radiance / pdf is
+ * what arrives at the reference point, pdf = r^2 (a directional light's 1, its radiance the irradiance). Its
+ * normal points from the light towards the reference point, so that the models' rule for the side a light emits
+ * from passes. */
 #ifndef EMITTERS_CL
 #define EMITTERS_CL
 
@@ -20,12 +26,18 @@
 #include "local_frame.cl"
 #include "vmath.h"
 
+#if HAS_DELTA_EMITTERS
+#include "lookups.cl"
+#endif
+
 typedef struct {
     vec3 p;     /* the point sampled */
     vec3 n;     /* the unit normal of its emitting side */
     vfloat err; /* p's distance from the surface along n (ray.h) */
     vfloat pdf; /* the sample's density per unit solid angle at the reference point; 0: no sample */
-    vec3 radiance; /* the radiance it brings to the reference point */
+    vec3 radiance; /* what arrives along the sample per unit of 1 / pdf: an area emitter's radiance, a delta
+                    * light's intensity (times its falloff, its image) or irradiance */
+    vint delta;    /* a delta light's sample (no BSDF sample meets it: its MIS weight is 1) */
 } EmitterSample;
 
 /* 1 - cos(theta_max) of the cone a sphere of squared radius r2 subtends from a point at squared distance d2 >
@@ -89,14 +101,72 @@ inline void sample_mesh(const Scene *s, __global const Emitter *e, vec2 u, vint 
 }
 #endif
 
+#if HAS_DELTA_EMITTERS
+/* The image value of a spot's texture or a projector's irradiance (lookup l) at Mitsuba's image coordinates
+ * (u, v), v down the image: the lookup takes a surface's (u, v), v up (lookups.cl), and a point's footprint. */
+inline vec3 delta_image(const Scene *s, int l, vfloat u, vfloat v)
+{
+    UVDerivatives none = {0.0f, 0.0f, 0.0f, 0.0f};
+    vec2 uv = {u, 1.0f - v};
+    return lookup_value(s->textures, l, uv, none, FILTER_BILINEAR);
+}
+
+/* Delta light e seen from ref (Mitsuba's sample_direction of each): es.radiance / es.pdf arrives at ref. */
+inline EmitterSample sample_delta(const Scene *s, __global const Emitter *e, vec3 ref, vint active)
+{
+    EmitterSample es;
+    es.err = 0.0f;
+    es.radiance = v3_uniform(e->radiance);
+    es.delta = (vint)(0) == 0;
+    if (e->kind == EMITTER_DIRECTIONAL) { /* from beyond the scene (path_tracing.cl's escapes), against its
+                                           * direction: a finite shadow segment */
+        es.n = v3_uniform(e->axis);
+        es.p = v3_sub(ref, v3_scale(es.n, 4.0f * s->params->scene_extent));
+        es.pdf = SELECT((vfloat)(0.0f), (vfloat)(1.0f), active);
+        return es;
+    }
+    es.p = v3_uniform(e->position);
+    vec3 w = v3_sub(ref, es.p); /* from the light to ref */
+    vfloat d2 = v3_dot(w, w);
+    es.n = v3_scale(w, vrsqrt(d2));
+    es.pdf = SELECT((vfloat)(0.0f), d2, active & (d2 > 0.0f));
+    if (e->kind == EMITTER_POINT)
+        return es;
+    vec3 q = mat3_apply(e->to_local, w); /* ref in the light's frame, +z its axis */
+    vfloat u = MAD(0.5f * e->uv_scale[0], q.x / q.z, 0.5f), v = MAD(0.5f * e->uv_scale[1], q.y / q.z, 0.5f);
+    if (e->kind == EMITTER_SPOT) { /* Mitsuba's falloff_curve: linear in the angle from beam_width to cutoff */
+        vfloat cos_theta = q.z * vrsqrt(v3_dot(q, q));
+        vfloat falloff = SELECT((e->cutoff - acos(vmin(cos_theta, 1.0f))) * e->inv_transition, (vfloat)(1.0f),
+                                cos_theta >= e->cos_beam);
+        active &= cos_theta > e->cos_cutoff;
+        falloff = SELECT((vfloat)(0.0f), falloff, active);
+        es.radiance = v3_scale(es.radiance, falloff);
+    } else { /* the projector: its image at (u, v), times pi scale / (z^2 cos(theta)), Mitsuba's scale for an
+              * irradiance pi scale E(u, v) on the plane z = 1; as a density's multiple: r^2 / (z^2 cos) */
+        active &= (u >= 0.0f) & (u <= 1.0f) & (v >= 0.0f) & (v <= 1.0f) & (q.z > 0.0f);
+        vfloat cos_theta = v3_dot(v3_uniform(e->axis), es.n);
+        es.radiance = v3_scale(es.radiance, SELECT((vfloat)(0.0f), d2 / (q.z * q.z * cos_theta), active));
+    }
+    if (e->lookup >= 0 && ANY(active))
+        es.radiance = v3_mul(es.radiance, delta_image(s, e->lookup, u, v));
+    es.pdf = SELECT((vfloat)(0.0f), es.pdf, active);
+    return es;
+}
+#endif
+
 /* Emitter e sampled from the reference point `ref` with u in [0, 1)^2, for the lanes of `active`. */
 inline EmitterSample sample_emitter(const Scene *s, __global const Emitter *e, vec3 ref, vec2 u, vint active)
 {
+#if HAS_DELTA_EMITTERS
+    if (EMITTER_IS_DELTA(e->kind))
+        return sample_delta(s, e, ref, active);
+#endif
     EmitterSample es;
     es.pdf = 0.0f;
     es.err = 0.0f;
     es.p = es.n = v3_splat(0.0f, 0.0f, 0.0f);
     es.radiance = v3_uniform(e->radiance);
+    es.delta = (vint)(0);
 #if HAS_ELLIPSOIDS
     if (e->kind == SHAPE_ELLIPSOID) {
         __global const Ellipsoid *sphere = &s->ellipsoids[e->index];

@@ -11,7 +11,7 @@
 
 #include "lights.cl"
 #include "material.cl"
-#if HAS_SHAPE_EMITTERS
+#if HAS_EMITTERS
 #include "light_selection.cl"
 #endif
 #if LIGHT_SOLID_ANGLE
@@ -30,11 +30,11 @@
  * with 1 light sample; the same bits. A group of 2 was slower than 4 (measured in commit 9fec4db). */
 #define LIGHT_SAMPLE_GROUP 4
 
-#if HAS_SHAPE_EMITTERS
-/* The emitting shapes' share of lights_sum (emitters.cl): n samples from one stream, after the rectangular
- * lights' streams, each of an emitter chosen per lane (choose_emitters), weighted by the model's emitter_weight
- * (the sample's value over its density per solid angle, pdf, the choice's probability included) and by the
- * radiance it brings, from the origin `origin` off the surface. */
+#if HAS_EMITTERS
+/* The emitters' share of lights_sum (emitters.cl): n samples from one stream, after the rectangular lights'
+ * streams, each of an emitter chosen per lane (choose_emitters), weighted by the model's emitter_weight (the
+ * sample's value over its density per solid angle, pdf, the choice's probability included; a delta light's,
+ * which no BSDF sample meets, whole) and by the radiance it brings, from the origin `origin` off the surface. */
 inline vec3 emitters_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, vec3 origin,
                          __global const uint2 *light_samples, PixelSample *ps, vfloat *rays)
 {
@@ -52,9 +52,9 @@ inline vec3 emitters_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, 
         *rays += MASK_TO_ONE(lit);
         lit &= !occluded(s, shadow_segment(origin, es.p, es.err, es.n), 0u, lit PASSES(sp.passes) OWN(own));
 #if LIGHT_VALUE_VEC3
-        vec3 weight = emitter_weight(sp, l, v, es.pdf, n_samples, lit);
+        vec3 weight = emitter_weight(sp, l, v, es.pdf, n_samples, lit, es.delta);
 #else
-        vfloat w = emitter_weight(sp, l, v, es.pdf, n_samples, lit);
+        vfloat w = emitter_weight(sp, l, v, es.pdf, n_samples, lit, es.delta);
         vec3 weight = v3(w, w, w);
 #endif
         total = v3_add(total, v3_select(v3_splat(0.0f, 0.0f, 0.0f), v3_mul(weight, es.radiance), lit));
@@ -140,7 +140,7 @@ inline vec3 lights_sum(const Scene *s, ShadingPoint sp, vec3 v, vint surface, __
         total = v3_madd(total, sum * (light_scale(light) / n_samples), v3_uniform(light->colour));
 #endif
     }
-#if HAS_SHAPE_EMITTERS
+#if HAS_EMITTERS
     total = v3_add(total, emitters_sum(s, sp, v, surface, origin, light_samples, ps, rays));
 #endif
     ps->dimension = dimension + s->params->n_lights + (s->params->n_emitters > 0); /* the emitters' one stream */

@@ -1,6 +1,6 @@
 /* Choosing the emitter a light sample samples (render.light_selection): among the Emitter table's entries (the
- * emitting shapes, kernels/emitters.cl) one per sample and lane, with the probabilities the host set
- * (raytrace/renderer/packing.py's selection: in proportion to power, pbrt-v4 section 12.6.2's
+ * emitting shapes and the delta lights, kernels/emitters.cl) one per sample and lane, with the probabilities the
+ * host set (raytrace/renderer/packing.py's selection: in proportion to power, pbrt-v4 section 12.6.2's
  * PowerLightSampler, or uniform, Mitsuba 3's default), so that a scene of many emitters costs a light sample
  * per sample, not one per emitter. The rectangular lights (lights.cl) are not chosen among: each takes its own
  * samples (light_sampling.cl). */
@@ -11,10 +11,11 @@
 
 /* The emitting shape that cannot block the segments to its own sampled points: a sphere (its point is on the
  * side of it the origin sees), a cylinder whose front faces out, a plane (primitive.cl's OWN); -1 for a mesh or
- * a cylinder whose front faces in. */
+ * a cylinder whose front faces in, and for a delta light, which is no shape. */
 inline int own_shape(const Scene *s, __global const Emitter *e)
 {
-    return e->kind == SHAPE_TRIANGLE || (e->kind == SHAPE_CYLINDER && s->cylinders[e->index].normal_sign < 0.0f)
+    return e->kind == SHAPE_TRIANGLE || EMITTER_IS_DELTA(e->kind)
+                   || (e->kind == SHAPE_CYLINDER && s->cylinders[e->index].normal_sign < 0.0f)
          ? -1 : SHAPE_REFERENCE(e->kind, e->index);
 }
 
@@ -55,6 +56,7 @@ inline EmitterSample sample_chosen(const Scene *s, vint chosen, vec3 ref, vec2 u
     EmitterSample es;
     es.p = es.n = es.radiance = v3_splat(0.0f, 0.0f, 0.0f);
     es.err = es.pdf = 0.0f;
+    es.delta = (vint)(0);
     *own = -1;
     vint left = active;
     while (ANY(left)) {
@@ -72,12 +74,14 @@ inline EmitterSample sample_chosen(const Scene *s, vint chosen, vec3 ref, vec2 u
         es.radiance = v3_select(es.radiance, one.radiance, here);
         es.err = SELECT(es.err, one.err, here);
         es.pdf = SELECT(es.pdf, one.pdf * e->selection_pdf, here);
+        es.delta = SELECT(es.delta, one.delta, here);
         *own = SELECT(*own, (vint)(own_shape(s, e)), here);
         left &= !here;
     }
     return es;
 }
 
+#if HAS_SHAPE_EMITTERS
 /* The density per solid angle with which the light sampling at `ref` would have chosen each lane's hit on an
  * emitting shape (emitters.cl), met at `distance` from ref with |cos(theta_l)| = cos_l, the emitter's choice
  * (light_sampling.cl's choose_emitters) included; 0 elsewhere. Each emitter the lanes hit is visited once. */
@@ -98,5 +102,6 @@ inline vfloat hit_emitter_pdf(const Scene *s, Hit hit, vec3 ref, vfloat distance
     }
     return pdf;
 }
+#endif
 
 #endif

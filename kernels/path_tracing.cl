@@ -84,14 +84,15 @@ inline vec3 sample_weight(ShadingPoint sp, vec3 w, vec3 l, vec3 light_normal, ve
 
 inline float light_scale(__global const Light *light) { return 4.0f * light->shape.half_x * light->shape.half_y; }
 
-#if HAS_SHAPE_EMITTERS
-/* An emitting shape's sample (emitters.cl): f cos(theta_s) / p_light, p_light its density per solid angle, times
- * its MIS weight against the BSDF's own sample of the direction: x = p_bsdf / (n p_light). */
-inline vec3 emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n, vint active)
+#if HAS_EMITTERS
+/* An emitter's sample (emitters.cl): f cos(theta_s) / p_light, p_light its density per solid angle, times its
+ * MIS weight against the BSDF's own sample of the direction: x = p_bsdf / (n p_light); 1 for a delta light, which
+ * no BSDF sample meets. */
+inline vec3 emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n, vint active, vint delta)
 {
     vfloat pdf_b;
     vec3 value = bsdf_eval_pdf(sp, v, l, active, &pdf_b);
-    return v3_scale(value, power_weight(pdf_b / ((float)n * pdf)) / pdf);
+    return v3_scale(value, SELECT(power_weight(pdf_b / ((float)n * pdf)), (vfloat)(1.0f), delta) / pdf);
 }
 #endif
 

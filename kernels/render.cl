@@ -230,7 +230,7 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
     int visits[VISIT_KINDS] = {0};
     scene.visits = visits;
 #endif
-#if HAS_NULLS
+#if HAS_NULLS || HAS_DELTA_EMITTERS
     scene.textures = ts;
 #endif
     const int width = params->width, height = params->height;

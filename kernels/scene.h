@@ -17,6 +17,8 @@
 #define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING || HAS_BSDF_SAMPLING) /* path and
                                                                        * the direct model's BSDF samples: which light */
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
+/* The Emitter table's entries: area emitters on shapes, delta lights (point, spot, directional, projector) */
+#define HAS_EMITTERS (HAS_SHAPE_EMITTERS || HAS_DELTA_EMITTERS)
 /* the path model's BSDFs (bsdf.cl): with a microfacet distribution (microfacet.cl), with a coat over a diffuse
  * base, with hits that must know whether they come from inside (the index of refraction inverts; a back side) */
 /* principled.cl's values (ShadingPoint.principled) and helpers, which principledthin.cl shares */
@@ -49,7 +51,7 @@ typedef struct {
     __global const Cylinder *cylinders;
     __global const Instance *instances; /* HAS_INSTANCES: the shape groups' placements (bvh.cl) */
     __global const Light *lights;
-    __global const Emitter *emitters;                  /* HAS_SHAPE_EMITTERS: area emitters on shapes */
+    __global const Emitter *emitters;                  /* HAS_EMITTERS: area emitters on shapes, delta lights */
     __global const EmitterTriangle *emitter_triangles; /* their meshes' triangles (emitters.cl) */
     __global const Material *materials;
     __constant const Camera *camera;
@@ -59,8 +61,9 @@ typedef struct {
     __global const uint *culled_subtrees; /* per node: the bits of the rectangles it holds when it holds only
                                            * rectangles shadow rays may skip (intersect.cl), else 0 */
     __global const float *environment_map; /* HAS_ENVIRONMENT_MAP: texels and sampling tables (environment.cl) */
-#if HAS_NULLS
-    TextureStore textures; /* for shadow rays, the masks' opacities (primitive.cl; the kernel sets it) */
+#if HAS_NULLS || HAS_DELTA_EMITTERS
+    TextureStore textures; /* for shadow rays, the masks' opacities (primitive.cl), and the delta lights' images
+                            * (emitters.cl); the kernel sets it */
 #endif
 #if COUNT_VISITS
     int *visits; /* a measuring build's counts of the work-item's traversal work, VISITS_* below */

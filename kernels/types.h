@@ -100,15 +100,34 @@ typedef struct {
     uint planes_in_front, planes_behind;
 } Light;
 
-/* An area emitter on a shape (Mitsuba's `area` on any shape; kernels/emitters.cl): its shape's points emit the
- * radiance from their front side (the side the shape's normal points to). Each emitting shape has a material of
- * its own, whose `emitter` names it, so that a hit finds its emission through the material it reads anyway. */
+/* Emitters that are no shape (Mitsuba's point, spot, directional and projector; kernels/emitters.cl): delta
+ * lights, which no ray meets and no BSDF sample reaches, so that their light samples count whole (weight 1). */
+#define EMITTER_POINT 8
+#define EMITTER_SPOT 9
+#define EMITTER_DIRECTIONAL 10
+#define EMITTER_PROJECTOR 11
+#define EMITTER_IS_DELTA(kind) ((kind) >= EMITTER_POINT)
+
+/* An emitter (kernels/emitters.cl). An area emitter on a shape (Mitsuba's `area` on any shape): its shape's points
+ * emit the radiance from their front side (the side the shape's normal points to). Each emitting shape has a
+ * material of its own, whose `emitter` names it, so that a hit finds its emission through the material it reads
+ * anyway. A delta light (EMITTER_*): `radiance` is a point's or spot's intensity, a directional's irradiance, a
+ * projector's pi scale times its constant irradiance (1 with an image, `lookup`). */
 typedef struct {
-    int kind;      /* SHAPE_*: SHAPE_TRIANGLE, a mesh's triangles; or one rectangle or (a sphere) ellipsoid */
+    int kind;      /* SHAPE_*: SHAPE_TRIANGLE, a mesh's triangles; or one rectangle or (a sphere) ellipsoid; or EMITTER_* */
     int index;     /* the rectangle's or ellipsoid's index; a mesh's first entry in the EmitterTriangle table */
     int count;     /* a mesh's triangles (1 for the other kinds) */
     int reflects;  /* 0: its material is black (no BSDF: Mitsuba's default for an emitting shape) */
     float area;    /* the whole shape's area: triangles are chosen in proportion to theirs */
+    Vec3f position;      /* point, spot, projector: where the light is */
+    Vec3f axis;          /* directional: the unit direction its light travels; projector: to_world (0, 0, 1) */
+    float to_local[9];   /* spot, projector: the world-to-light 3 x 3 map (row-major), light's +z its axis */
+    float cos_cutoff;    /* spot: cos(cutoff_angle), beyond which it is black */
+    float cos_beam;      /* spot: cos(beam_width), within which the falloff is 1 */
+    float cutoff;        /* spot: cutoff_angle in radians */
+    float inv_transition; /* spot: 1 / (cutoff - beam_width) in radians: the linear falloff's slope */
+    float uv_scale[2];   /* spot, projector: (u, v) = 1/2 + uv_scale (x, y) / (2 z), Mitsuba's image coordinates */
+    int lookup;          /* spot's texture, projector's irradiance image: a TextureLookup, -1 none */
     Vec3f radiance;
     /* Its share in choosing the emitter of a light sample (light_sampling.cl): the probability, and the
      * cumulative probability up to and including it (the last emitter's is 1). */
@@ -301,7 +320,7 @@ typedef struct {
 typedef struct {
     Vec3f ambient;
     int n_rectangles, n_triangles, n_ellipsoids, n_lights;
-    int n_emitters;        /* HAS_SHAPE_EMITTERS: the Emitter table's entries */
+    int n_emitters;        /* HAS_EMITTERS: the Emitter table's entries */
     Sampler pixel_sampler, light_sampler;
     uint seed;
     int light_samples;

@@ -39,7 +39,12 @@ PRIM_KINDS = 1 << PRIM_KIND_BITS
 BVH_NODE = np.dtype([("lo", "<f4", (3,)), ("hi", "<f4", (3,)), ("offset", "<i4"), ("count", "<i4")])
 
 EMITTER = np.dtype([("kind", "<i4"), ("index", "<i4"), ("count", "<i4"), ("reflects", "<i4"), ("area", "<f4"),
-                    ("radiance", *VEC3F), ("selection_pdf", "<f4"), ("selection_cdf", "<f4")])
+                    ("position", *VEC3F), ("axis", *VEC3F), ("to_local", "<f4", (9,)), ("cos_cutoff", "<f4"),
+                    ("cos_beam", "<f4"), ("cutoff", "<f4"), ("inv_transition", "<f4"), ("uv_scale", "<f4", (2,)),
+                    ("lookup", "<i4"), ("radiance", *VEC3F), ("selection_pdf", "<f4"),
+                    ("selection_cdf", "<f4")])
+# kernels/types.h: EMITTER_*, the delta lights' kinds (after the shapes')
+EMITTER_KINDS = {"point": 8, "spot": 9, "directional": 10, "projector": 11}
 EMITTER_TRIANGLE = np.dtype([("triangle", "<i4"), ("cdf", "<f4")])
 
 LIGHT = np.dtype([("shape", RECTANGLE), ("colour", *VEC3F), ("planes_in_front", "<u4"), ("planes_behind", "<u4")])

@@ -60,7 +60,7 @@ def test_padding_is_found(cl_env):
 
 
 def test_constants_match_device(cl_env):
-    """The WRAP_*, FILTER_*, RANDOMIZE_*, BSDF_*, SHAPE_*, PRIM_KIND*, MAP_*, LOOKUP_* and TEXELS_* macros of kernels/types.h and the limits of
+    """The WRAP_*, FILTER_*, RANDOMIZE_*, BSDF_*, SHAPE_*, EMITTER_*, PRIM_KIND*, MAP_*, LOOKUP_* and TEXELS_* macros of kernels/types.h and the limits of
     kernels/limits.h against their mirrors in raytrace/structs.py."""
     names = {f"WRAP_{k.upper()}": v for k, v in structs.WRAP_MODES.items()}
     names |= {f"FILTER_{k.upper()}": v for k, v in structs.FILTERS.items()}
@@ -68,6 +68,7 @@ def test_constants_match_device(cl_env):
     names |= {f"BSDF_{k.upper()}": v for k, v in structs.BSDFS.items()}
     names |= {f"MICROFACET_{k.upper()}": v for k, v in structs.MICROFACETS.items()}
     names |= {f"SHAPE_{k.upper()}": v for k, v in structs.SHAPES.items()}
+    names |= {f"EMITTER_{k.upper()}": v for k, v in structs.EMITTER_KINDS.items()}
     names |= {"PRIM_KIND_BITS": structs.PRIM_KIND_BITS, "PRIM_KINDS": structs.PRIM_KINDS}
     names |= {f"MAP_{k.upper()}": v for k, v in structs.MAP_SLOTS.items()}
     names |= {f"LOOKUP_{k.upper()}": v for k, v in structs.LOOKUPS.items()}

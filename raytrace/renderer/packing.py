@@ -11,7 +11,8 @@ from ..scene import mipmap
 from ..structs import CULLED_RECTANGLES, MAX_WORDS
 from ..scene import bsdfs, plastic_terms, principled_terms, rough_transmittance, texture_lookups
 from ..scene.course_maps import kernel_materials
-from ..scene.model import WRAPPERS, Material
+from ..scene.emitter_power import emitter_power
+from ..scene.model import WRAPPERS, Material, ShapeEmitter
 from .culling import light_sides
 from .geometry import DEFAULT_UV
 
@@ -162,7 +163,9 @@ def emitter_tables(scene, triangles):
     given the packed Triangle records in the kernel's order: an emitter's shape is the one with its material, its
     own; a mesh's triangles are chosen by their areas, in float64 of the float32 corners the kernel meets."""
     emitters = np.zeros(max(len(scene.emitters), 1), structs.EMITTER)
+    emitters["lookup"] = -1
     chosen = [np.zeros(1, structs.EMITTER_TRIANGLE)]
+    lookups = emitter_lookups(scene)[0]
     mesh = triangles["material"][:scene.triangle_count]
     # each emitter's shape by its material, its own (one pass over each table, not one per emitter)
     holder = {kind: {} for kind in ("rectangles", "ellipsoids", "disks", "cylinders")}
@@ -170,10 +173,14 @@ def emitter_tables(scene, triangles):
         for i, shape in enumerate(getattr(scene, kind)):
             found.setdefault(shape.material, i)
     by_material = np.argsort(mesh, kind="stable")  # a mesh emitter's triangles, in their order
-    bounds = np.searchsorted(mesh[by_material], [e.material for e in scene.emitters], side="left")
-    ends = np.searchsorted(mesh[by_material], [e.material for e in scene.emitters], side="right")
+    own = [getattr(e, "material", -1) for e in scene.emitters]  # (a delta light has none)
+    bounds = np.searchsorted(mesh[by_material], own, side="left")
+    ends = np.searchsorted(mesh[by_material], own, side="right")
     start = 0
     for k, (s, e) in enumerate(zip(emitters, scene.emitters)):
+        if not isinstance(e, ShapeEmitter):
+            delta_struct(s, e, lookups.get(k, -1))
+            continue
         s["radiance"], s["reflects"], s["count"] = e.radiance, e.reflects, 1
         rectangles, spheres, disks, cylinders = ([holder[kind][e.material]] if e.material in holder[kind] else []
                                                  for kind in ("rectangles", "ellipsoids", "disks", "cylinders"))
@@ -213,19 +220,55 @@ def emitter_tables(scene, triangles):
 def selection(scene, emitters):
     """Each emitter's probability of being a light sample's (render.light_selection; light_sampling.cl) and the
     cumulative probabilities, in float64: by power, an area emitter's pi A times its radiance's mean over the
-    channels (pbrt-v4's PowerLightSampler, section 12.6.2, averages its spectrum likewise); or uniform, and
+    channels (pbrt-v4's PowerLightSampler, section 12.6.2, averages its spectrum likewise), a delta light's
+    emitter_power.py's; or uniform, and
     uniform too where no emitter has power. The last cumulative value is 1 exactly, so that every u < 1 finds
     an emitter."""
     weights = np.ones(len(scene.emitters))
     if scene.light_selection == "power":
-        power = np.array([math.pi * float(s["area"]) * float(np.mean(e.radiance))
-                          for s, e in zip(emitters, scene.emitters)])
+        power = np.array([math.pi * float(s["area"]) * float(np.mean(e.radiance)) if isinstance(e, ShapeEmitter)
+                          else emitter_power(scene, e) for s, e in zip(emitters, scene.emitters)])
         if power.sum() > 0:
             weights = power
     pdf = weights / weights.sum()
     cdf = np.cumsum(pdf)
     cdf[-1] = 1.0
     return pdf, cdf
+
+
+def emitter_lookups(scene):
+    """({emitter index: its TextureLookup's index in the kernel's table}, [those lookups]): the delta lights'
+    images (a spot's texture, a projector's irradiance) follow the materials' lookups (lookup_structs)."""
+    first = sum(len(m.maps) for m in material_table(kernel_materials(scene)))
+    indices, lookups = {}, []
+    for k, e in enumerate(scene.emitters):
+        if getattr(e, "texture", None) is not None:
+            indices[k] = first + len(lookups)
+            lookups.append(e.texture)
+    return indices, lookups
+
+
+def delta_struct(s, e, lookup):
+    """Fill Emitter record s with delta light e (model.PointEmitter, ...; kernels/emitters.cl's sample_delta), its
+    image the TextureLookup of index `lookup` (-1: none)."""
+    kind = type(e).__name__.removesuffix("Emitter").lower()
+    s["kind"], s["count"], s["radiance"], s["lookup"] = structs.EMITTER_KINDS[kind], 1, e.radiance, lookup
+    if kind == "point":
+        s["position"] = e.position
+    elif kind == "directional":
+        s["axis"] = np.asarray(e.direction, np.float64) / np.linalg.norm(e.direction)
+    else:
+        m = np.asarray(e.to_world, np.float64)
+        s["position"], s["axis"], s["to_local"] = m[:3, 3], m[:3, 2], np.linalg.inv(m[:3, :3]).ravel()
+    if kind == "spot":  # Mitsuba's update(): the angles in radians, (u, v) = 1/2 + (x, y) / (2 z tan(cutoff))
+        cutoff, beam = math.radians(e.cutoff_angle), math.radians(e.beam)
+        s["cos_cutoff"], s["cos_beam"], s["cutoff"] = math.cos(cutoff), math.cos(beam), cutoff
+        s["inv_transition"] = 1 / (cutoff - beam) if cutoff > beam else 0.0  # (beam = cutoff: no ramp)
+        s["uv_scale"] = 1 / math.tan(cutoff)
+    elif kind == "projector":  # Mitsuba's perspective_projection: u = 1/2 - x / (2 z tan(fov / 2)), v likewise
+        # by aspect / tan(fov / 2), both turned (its image's u runs along the camera's -x: lookat's left)
+        tan_half = math.tan(math.radians(e.fov) / 2)
+        s["uv_scale"] = (-1 / tan_half, -e.aspect / tan_half)
 
 
 def packed_bsdf(material):
@@ -244,11 +287,11 @@ def material_table(materials):
     return list(materials) + [Material("null", np.zeros(3), bsdf="null")] * masks
 
 
-def lookup_structs(materials, triangles=0):
-    """(the TextureLookup table, each material's maps) of the materials' textured parameters: one lookup per
-    parameter, a float parameter's reading its lookup's luminance. to_uv becomes the kernel's, whose t runs down
-    the image: t' = 1 - t. A mesh attribute's lookup starts at its block of `triangles` entries in the attribute
-    table (attribute_table)."""
+def lookup_structs(materials, triangles=0, extra=()):
+    """(the TextureLookup table, each material's maps) of the materials' textured parameters, then the `extra`
+    lookups (emitter_lookups'): one lookup per parameter, a float parameter's reading its lookup's luminance.
+    to_uv becomes the kernel's, whose t runs down the image: t' = 1 - t. A mesh attribute's lookup starts at its
+    block of `triangles` entries in the attribute table (attribute_table)."""
     table, maps, names = [], [], texture_lookups.attribute_names(materials)
     for m in materials:
         slots = np.full(structs.MAPS, -1, np.int32)
@@ -261,6 +304,11 @@ def lookup_structs(materials, triangles=0):
                           lookup.colour1, first, lookup.scale))
             slots[structs.MAP_SLOTS[slot]] = len(table) - 1
         maps.append(slots)
+    for lookup in extra:
+        a, b, c, d, e, f = lookup.to_uv
+        table.append((structs.LOOKUPS[lookup.kind], lookup.texture, structs.WRAP_MODES[lookup.wrap],
+                       -1 if lookup.filter is None else structs.FILTERS[lookup.filter], False,
+                       (a, b, c, -d, -e, 1.0 - f), lookup.colour0, lookup.colour1, 0, lookup.scale))
     return np.array(table or [(0, 0, 0, 0, 0, (0.0,) * 6, (0.0,) * 3, (0.0,) * 3, 0, 1.0)],
                     structs.TEXTURE_LOOKUP), maps
 
@@ -336,7 +384,8 @@ def texture_tables(scene):
     texels, levels, textures = pack_textures(scene.textures, scene.path)
     return {"textures": textures, "mip_levels": levels, "texels": texels,
             "srgb_to_linear": mipmap.SRGB8_TO_LINEAR.astype(np.float32),
-            "lookups": lookup_structs(material_table(kernel_materials(scene)), scene.triangle_count)[0]}
+            "lookups": lookup_structs(material_table(kernel_materials(scene)), scene.triangle_count,
+                                      emitter_lookups(scene)[1])[0]}
 
 
 def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filter="trilinear",

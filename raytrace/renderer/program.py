@@ -14,7 +14,7 @@ from ..scene import bsdfs
 from ..scene.bsdfs import PRINCIPLED_SLOTS, THIN_SLOTS
 from ..scene.course_maps import kernel_materials
 from .packing import packed_bsdf
-from ..scene.model import WRAPPERS
+from ..scene.model import WRAPPERS, ShapeEmitter
 
 
 def kernel_dir():
@@ -65,6 +65,7 @@ class Features:
     principled_lookups: bool = False  # a principled(thin) material's textured weight (maps roughness .. eta)
     shape_emitters: bool = False   # area emitters on shapes (Scene.emitters; kernels/emitters.cl)
     bsdf_sampling: bool = False    # the direct model's BSDF samples (render.bsdf_samples > 0; direct_lighting.cl)
+    delta_emitters: bool = False   # point, spot, directional or projector lights (Scene.emitters; emitters.cl)
     instances: bool = False        # instances of shape groups: a two-level BVH (kernels/instances.cl)
     disks: bool = True             # Mitsuba's disk (kernels/disk.cl)
     cylinders: bool = True         # Mitsuba's cylinder (kernels/cylinder.cl)
@@ -109,7 +110,9 @@ class Features:
                    perturbed_normals=any(slot in ("normal", "bump") for m in materials for slot, _ in m.maps),
                    principled_lookups=any(slot in PRINCIPLED_SLOTS + THIN_SLOTS for m in materials
                                           for slot, _ in m.maps),
-                   shape_emitters=bool(scene.emitters), instances=bool(scene.instances),
+                   shape_emitters=any(isinstance(e, ShapeEmitter) for e in scene.emitters),
+                   delta_emitters=any(not isinstance(e, ShapeEmitter) for e in scene.emitters),
+                   instances=bool(scene.instances),
                    bsdf_sampling=scene.shading == "direct" and scene.bsdf_samples > 0)
 
     def options(self):
@@ -126,7 +129,7 @@ class Features:
                  "ANISOTROPIC": self.anisotropic,
                  "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
                  "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups,
-                 "SHAPE_EMITTERS": self.shape_emitters,
+                 "SHAPE_EMITTERS": self.shape_emitters, "DELTA_EMITTERS": self.delta_emitters,
                  "INSTANCES": self.instances, "BSDF_SAMPLING": self.bsdf_sampling}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)

@@ -10,7 +10,7 @@ from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import LIGHT_SELECTIONS, WRAP_MODES
 from . import bsdfs, texture_lookups
 from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
-from .model import BSDFS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, RR_DEPTH, SHADINGS
+from .model import BSDFS, DELTA_EMITTERS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, RR_DEPTH, SHADINGS
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 MAX_GENERATED_TRIANGLES = 50_000_000
@@ -52,6 +52,10 @@ def _rectangle(emission=None):
 _COLOUR = Key("colour", "vector", "Phong shading: the light's colour", length=3, low=0)
 _RADIANCE = Key("radiance", "number-or-vector", 'shading = "direct" or "path": the emitted radiance, from the '
                 "side the normal points to (one number: the same in every channel)", length=3, low=0)
+_DELTA_TO_WORLD = Key("to_world", "vectors", "a 4 x 4 affine matrix, rows acting on columns: the light's frame to the "
+                      "world, the light at its origin looking along its local +z (Mitsuba's to_world; default: the "
+                      "identity)", length=4, count=4, default=None, also="last row 0 0 0 1, invertible")
+FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")  # Mitsuba's fov_axis (a projector's)
 _LIGHT_MATERIAL = Key("material", "string", "the material the light reflects with (default: none, black)",
                       default=None, also='shading = "path" only; one of the materials')
 
@@ -67,7 +71,47 @@ TABLES = {
          Key("shapes", "tables", "the shapes", default=()),
          Key("groups", "named-tables", "shape groups by name: meshes kept once, which shapes of type = \"instance\" "
              "place (Mitsuba's shapegroup)", default={}),
-         Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None)],
+         Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None),
+         Key("emitters", "tables", "Mitsuba's emitters that are no shape: point, spot, directional and projector "
+             "lights", default=(), also='shading = "direct" or "path"')],
+    "emitters[]": [Key("type", "string", "the emitter, with Mitsuba's names", choices=DELTA_EMITTERS)],
+    'emitters[] type = "point"': [
+        Key("position", "vector", "where the light is (default: to_world's origin)", length=3, default=None,
+            also="not with to_world"),
+        Key("to_world", "vectors", "a 4 x 4 affine matrix, rows acting on columns, whose origin is the light's "
+            "position", length=4, count=4, default=None, also="last row 0 0 0 1"),
+        Key("intensity", "number-or-vector", "the radiant intensity, per steradian (one number: the same in every "
+            "channel)", length=3, low=0, default=1.0)],
+    'emitters[] type = "spot"': [
+        _DELTA_TO_WORLD,
+        Key("intensity", "number-or-vector", "the radiant intensity along the axis, per steradian", length=3, low=0,
+            default=1.0),
+        Key("cutoff_angle", "number", "degrees from the axis beyond which the light is black", default=20.0, low=0,
+            high=180, open_low=True, also="below 90 with texture"),
+        Key("beam_width", "number", "degrees from the axis within which the intensity is whole; it falls off "
+            "linearly in the angle from there to cutoff_angle (default: 3/4 of cutoff_angle)", default=None, low=0,
+            high=180, also="at most cutoff_angle"),
+        Key("texture", "table", "an image or checkerboard (a texture's table) projected over the cone, (u, v) = "
+            "(1/2, 1/2) + (x, y) / (2 z tan(cutoff_angle)) in the light's frame, v down the image", default=None)],
+    'emitters[] type = "directional"': [
+        Key("direction", "vector", "the direction the light travels (default: to_world's +z)", length=3,
+            nonzero=True, default=None, also="not with to_world"),
+        Key("to_world", "vectors", "a 4 x 4 affine matrix, rows acting on columns, whose +z is the direction",
+            length=4, count=4, default=None, also="last row 0 0 0 1, invertible"),
+        Key("irradiance", "number-or-vector", "the irradiance on a surface facing the light (one number: the "
+            "same in every channel)", length=3, low=0, default=1.0)],
+    'emitters[] type = "projector"': [
+        _DELTA_TO_WORLD,
+        Key("irradiance", "number-or-vector", "the image projected: a constant, or a texture's table (an image, "
+            "whose aspect ratio the projection takes; v down the image); the plane z = 1 receives pi scale times "
+            "its value (Mitsuba's convention)", length=3, low=0, default=1.0),
+        Key("scale", "number", "a factor on the irradiance", default=1.0, low=0, high=FLOAT32_MAX),
+        Key("fov", "number", "the field of view, degrees, along fov_axis (default: from focal_length)", low=0,
+            high=180, open_low=True, open_high=True, default=None, also="not with focal_length"),
+        Key("fov_axis", "string", "the image axis fov spans (Mitsuba's)", default="x", choices=FOV_AXES,
+            also="with fov"),
+        Key("focal_length", "number", "a 35 mm film's focal length in mm, the diagonal's field of view",
+            default=50.0, low=0, high=FLOAT32_MAX, open_low=True, also="not with fov")],
     "environment": [Key("type", "string", "the emitter, with Mitsuba's names: a constant radiance, or an "
                         "equirectangular image (envmap)", choices=ENVIRONMENTS),
                     Key("radiance", "number-or-vector", "constant: the radiance arriving from every direction (one "

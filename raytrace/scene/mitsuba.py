@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import InputError, did_you_mean, printable
 from . import bsdfs, mesh_file, spectra
 from .mitsuba_xml import WHERE, Where
+from .delta_lights import FOV_OR_FOCAL_LENGTH
 from .keys import MAX_GENERATED_TRIANGLES
 from .model import LOOKUPS
 from .transform import AFFINE
@@ -542,7 +543,7 @@ class _Translator:
         at = self.where(node, key)
         if "fov" in params and "focal_length" in params:
             self.fail(at.of("focal_length"), f"{key}.focal_length", params["focal_length"],
-                      "give either a focal length or a field of view (fov)")
+                      FOV_OR_FOCAL_LENGTH)
         if "fov" in params:
             fov = self.number(params["fov"], node, key, "fov")
             axis = self.string(params.get("fov_axis", "x"), node, key, "fov_axis",

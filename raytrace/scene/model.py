@@ -256,6 +256,72 @@ class ShapeEmitter:
     reflects: bool = True
 
 
+DELTA_EMITTERS = ("point", "spot", "directional", "projector")  # Mitsuba's emitters that are no shape
+
+
+@dataclass(frozen=True)
+class PointEmitter:
+    """Mitsuba's `point`: radiant intensity `intensity` (RGB, per steradian) in every direction from `position`
+    (the radiometric models; kernels/emitters.cl)."""
+    position: np.ndarray
+    intensity: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+    @property
+    def radiance(self):  # the Emitter table's colour (and what ranges.py bounds brightness by)
+        return np.asarray(self.intensity, np.float64)
+
+
+@dataclass(frozen=True)
+class SpotEmitter:
+    """Mitsuba's `spot`: intensity `intensity` along its axis, the local +z of the affine 4 x 4 to_world from its
+    origin, falling off linearly in the angle from beam_width to cutoff_angle (degrees; beam_width None: 3/4 of
+    the cutoff), times an optional texture (a TextureLookup) projected over the cone."""
+    to_world: np.ndarray
+    intensity: np.ndarray = field(default_factory=lambda: np.ones(3))
+    cutoff_angle: float = 20.0
+    beam_width: float | None = None
+    texture: TextureLookup | None = None
+
+    @property
+    def beam(self):
+        """beam_width in degrees, Mitsuba's default where none is given."""
+        return self.cutoff_angle * 3 / 4 if self.beam_width is None else self.beam_width
+
+    @property
+    def radiance(self):
+        return np.asarray(self.intensity, np.float64)
+
+
+@dataclass(frozen=True)
+class DirectionalEmitter:
+    """Mitsuba's `directional`: irradiance `irradiance` (RGB, on a surface facing it) arriving along the
+    direction `direction` (where the light travels to) from beyond the scene."""
+    direction: np.ndarray
+    irradiance: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+    @property
+    def radiance(self):
+        return np.asarray(self.irradiance, np.float64)
+
+
+@dataclass(frozen=True)
+class ProjectorEmitter:
+    """Mitsuba's `projector`: a perspective camera in reverse, at the affine 4 x 4 to_world's origin looking along
+    its local +z, of horizontal field of view `fov` (degrees), projecting an image (`texture`, a TextureLookup;
+    None: the constant `irradiance`) times `scale`: the plane z = 1 receives pi scale times the image's value
+    (Mitsuba's convention). aspect: the image's width over its height (1 without an image)."""
+    to_world: np.ndarray
+    fov: float
+    irradiance: np.ndarray = field(default_factory=lambda: np.ones(3))
+    scale: float = 1.0
+    texture: TextureLookup | None = None
+    aspect: float = 1.0
+
+    @property
+    def radiance(self):
+        return math.pi * self.scale * np.asarray(self.irradiance, np.float64)
+
+
 @dataclass(frozen=True)
 class MeshShape:
     """A triangle mesh read from a file or generated (raytrace.scene.meshes.Mesh), in world space. smooth: shade
@@ -328,7 +394,7 @@ class Scene:
     bsdf_samples: int = 0   # the direct model's BSDF samples, besides light_samples per light (Mitsuba's direct)
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
-    emitters: list = field(default_factory=list)  # ShapeEmitter: area emitters on shapes, after the lights
+    emitters: list = field(default_factory=list)  # ShapeEmitter, and the delta lights (PointEmitter, ...)
     groups: list = field(default_factory=list)     # ShapeGroup: meshes kept once, which instances place
     instances: list = field(default_factory=list)  # Instance: the groups' placements
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from

@@ -14,8 +14,10 @@ from . import bsdfs, ranges, rules
 from .. import structs
 from ..errors import InputError
 from ..numerics import FLOAT32_MAX
-from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, Ellipsoid, EnvironmentMap, Light, MeshShape, Rectangle,
-                    Instance, ShapeEmitter, ShapeGroup, TextureLookup, Triangle, fingerprint)
+from . import delta_lights
+from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, DirectionalEmitter, Ellipsoid, EnvironmentMap, Light,
+                    MeshShape, PointEmitter, ProjectorEmitter, Rectangle, Instance, ShapeEmitter, ShapeGroup,
+                    SpotEmitter, TextureLookup, Triangle, fingerprint)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
 from .scene_file import LIGHTS_SPEC, Reader, check_affine_shape, check_axes, check_frame, check_triangle, map_placement
@@ -120,7 +122,10 @@ def _check_maps(source, m, textures):
         colours = np.asarray([lookup.colour0, lookup.colour1], np.float64)
         if to_uv.shape != (6,) or not np.all(np.abs(to_uv) <= FLOAT32_MAX) or colours.shape != (2, 3) or not (
                 np.all(colours >= 0) and np.all(colours <= FLOAT32_MAX)):
-            raise InputError(source, prefix, lookup, "to_uv must be 6 finite numbers, the colours 3 numbers >= 0")
+            raise InputError(source, prefix, lookup, LOOKUP_VALUES)
+
+
+LOOKUP_VALUES = "to_uv must be 6 finite numbers, the colours 3 numbers >= 0"
 
 
 def check_value(source, table, key, value):
@@ -259,6 +264,7 @@ def check_model(scene, source="render()"):
             r.fail("mesh.faces", None, f"must index the {len(shape.mesh.vertices)} vertices")
         shapes.append((Reader(source, {"scale": None}, prefix), shape))
     _check_emitters(source, scene)
+    _check_delta_lights(source, scene)
     _check_instances(source, scene)
     rules.check(scene, rules.Places(top, render, camera, materials, lights, shapes))
 
@@ -305,6 +311,8 @@ def _check_emitters(source, scene):
     radiance a scene file's."""
     for i, e in enumerate(scene.emitters):
         prefix = f"emitters[{i}]."
+        if isinstance(e, DELTA):
+            continue
         _typed(source, prefix, e, ShapeEmitter)
         _index(source, prefix + "material", e.material, len(scene.materials))
         Reader(source, {"radiance": _value(np.asarray(e.radiance, np.float64))}, prefix, "shapes[]").vector("radiance")
@@ -329,3 +337,52 @@ def _check_emitters(source, scene):
                 Reader(source, {}, f"materials.{m.name}.").fail("emitter", m.emitter, "names an emitter of another "
                                                                 "material")
 
+
+
+DELTA = (PointEmitter, SpotEmitter, DirectionalEmitter, ProjectorEmitter)
+# (the model's attribute, the key it was read from) of each delta light (delta_lights.py), by its table's type
+DELTA_FIELDS = {PointEmitter: ("point", [("position", "position"), ("intensity", "intensity")]),
+                SpotEmitter: ("spot", [("to_world", "to_world"), ("intensity", "intensity"),
+                                       ("cutoff_angle", "cutoff_angle"), ("beam", "beam_width")]),
+                DirectionalEmitter: ("directional", [("direction", "direction"), ("irradiance", "irradiance")]),
+                ProjectorEmitter: ("projector", [("to_world", "to_world"), ("irradiance", "irradiance"),
+                                                 ("scale", "scale"), ("fov", "fov")])}
+
+
+def _check_delta_lights(source, scene):
+    """The delta lights of Scene.emitters (delta_lights.py), named by their place among them, as the scene file's
+    [[emitters]] tables: their values read back under their keys, to_world affine (and invertible where the light
+    has a frame), beam_width within cutoff_angle, their images lookups of the scene's textures."""
+    k = 0
+    for e in scene.emitters:
+        if isinstance(e, ShapeEmitter):
+            continue
+        prefix = f"emitters[{k}]."
+        k += 1
+        if not isinstance(e, DELTA):
+            Reader(source, {}, prefix).fail("", type(e).__name__, "must be a raytrace.scene.ShapeEmitter, "
+                                            "PointEmitter, SpotEmitter, DirectionalEmitter or ProjectorEmitter")
+        kind, fields = DELTA_FIELDS[type(e)]
+        r = _reader(source, prefix, f'emitters[] type = "{kind}"', e, fields)
+        _read(r, fields)
+        if kind in ("spot", "projector"):
+            delta_lights.to_world(r)
+        texture = getattr(e, "texture", None)
+        if kind == "spot":
+            delta_lights.check_spot(r, e.cutoff_angle, e.beam_width, texture is not None)
+        if kind == "projector" and not (isinstance(e.aspect, (int, float)) and 0 < e.aspect <= ranges.FLOAT32_MAX):
+            r.fail("aspect", _value(e.aspect), "must be a finite number > 0: the image's width over its height")
+        if texture is not None:
+            key = "texture" if kind == "spot" else "irradiance"
+            if not isinstance(texture, TextureLookup) or texture.kind not in ("bitmap", "checkerboard"):
+                r.fail(key, texture, "must be a raytrace.scene.TextureLookup of kind bitmap or checkerboard")
+            if texture.kind == "bitmap":
+                _index(source, prefix + key + ".texture", texture.texture, len(scene.textures))
+            if texture.wrap not in structs.WRAP_MODES or (texture.filter is not None
+                                                            and texture.filter not in structs.FILTERS):
+                r.fail(key, texture, "unknown wrap or filter")
+            to_uv = np.asarray(texture.to_uv, np.float64)
+            colours = np.asarray([texture.colour0, texture.colour1], np.float64)
+            if to_uv.shape != (6,) or not np.all(np.abs(to_uv) <= FLOAT32_MAX) or colours.shape != (2, 3) or not (
+                    np.all(colours >= 0) and np.all(colours <= FLOAT32_MAX)):
+                r.fail(key, texture, LOOKUP_VALUES)

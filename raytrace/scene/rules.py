@@ -22,7 +22,7 @@ import numpy as np
 
 from . import bsdfs, meshes, ranges, texture_lookups
 from .. import samplers
-from .model import RADIOMETRIC, RR_DEPTH, Ellipsoid, MeshShape, Triangle, normalize
+from .model import RADIOMETRIC, RR_DEPTH, Ellipsoid, MeshShape, ShapeEmitter, Triangle, normalize
 from ..numerics import FLOAT32_MAX
 
 
@@ -49,6 +49,13 @@ def _path_only(reader, key, shown, shading):
     reflects), in a scene of another shading model."""
     if shading != "path":
         reader.fail(key, value(shown), f'is the path model\'s: only with shading = "path", not "{shading}"')
+
+
+def _radiometric_only(reader, key, shown, shading):
+    """An emitter other than [[lights]] (an emitting shape, a delta light) in a scene of the Phong model."""
+    if shading not in RADIOMETRIC:
+        reader.fail(key, value(shown), f'is the radiometric models\' (shading = "direct" or "path"), not '
+                    f'"{shading}": the Phong model\'s lights are [[lights]]')
 
 
 def _shading(scene, places):
@@ -83,6 +90,10 @@ def _shading(scene, places):
     for reader, shape in places.shapes:
         _shape_emitter(scene, reader, shape)
     _emitting_areas(scene, places)
+    delta = [e for e in scene.emitters if not isinstance(e, ShapeEmitter)]
+    if delta and scene.shading not in RADIOMETRIC:  # (the delta lights are named by their place among them)
+        kind = type(delta[0]).__name__.removesuffix("Emitter").lower()
+        _radiometric_only(places.top, "emitters[0].type", kind, scene.shading)
 
 
 def _emitting_areas(scene, places):
@@ -111,9 +122,7 @@ def _shape_emitter(scene, reader, shape):
     if material.emitter < 0:
         return
     emitter = scene.emitters[material.emitter]
-    if scene.shading not in RADIOMETRIC:
-        reader.fail("radiance", value(emitter.radiance), 'is the radiometric models\' (shading = "direct" or '
-                    f'"path"), not "{scene.shading}": the Phong model\'s lights are [[lights]]')
+    _radiometric_only(reader, "radiance", emitter.radiance, scene.shading)
     if emitter.reflects:
         _path_only(reader, "material", material.name, scene.shading)
     if isinstance(shape, Ellipsoid):

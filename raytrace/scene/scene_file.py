@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import bsdfs, environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, named_materials, ranges, \
+from . import bsdfs, delta_lights, environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, named_materials, ranges, \
     rules, texture_lookups
 from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
 from .. import samplers
@@ -625,7 +625,7 @@ def _textured(r, kind, textures):
     table, maps = dict(r.table), []
     for key, value in r.table.items():
         if key in PERTURBING and not texture_lookups.is_texture(value):
-            r.fail(key, value, "must be a texture's table (type = \"bitmap\" or \"checkerboard\")")
+            r.fail(key, value, texture_lookups.TEXTURE_TABLE)
         if not texture_lookups.is_texture(value):
             continue
         if kind in WRAPPERS:
@@ -752,6 +752,11 @@ def parse_scene(table, path="<scene>", files=None):
     for i, shape in enumerate(tables):
         sr = Reader(path, shape, f"shapes[{i}].", "shapes[]")
         shapes.extend((placed(sr), added) for added in _load_shape(scene, sr, material_index, files))
+    emitters = r.raw("emitters", [])  # keys.py declares its default: none
+    if not isinstance(emitters, list):
+        r.fail("emitters", emitters, "must be an array of [[emitters]] tables")
+    for i, emitter in enumerate(emitters):
+        delta_lights.read(Reader(path, emitter, f"emitters[{i}].", "emitters[]"), scene, textures, _rgb, own_keys)
     rules.check(scene, rules.Places(r, render, c, material_readers, light_readers, shapes))
     scene.source, scene.checked = source, fingerprint(scene)
     return scene

@@ -33,6 +33,8 @@ from .mipmap import SRGB8_TO_LINEAR
 from .model import FILTER_TYPES, LOOKUPS, WRAP_MODES, TextureLookup
 from .. import structs
 
+TEXTURE_TABLE = 'must be a texture\'s table (type = "bitmap" or "checkerboard")'  # where a value will not do
+
 # A mesh attribute's name starts with one of these (Mitsuba's Mesh::add_attribute: a value per vertex, or per face)
 ATTRIBUTE_KINDS = ("vertex_", "face_")
 
