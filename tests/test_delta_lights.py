@@ -22,15 +22,17 @@ MIS weight is 1: no BSDF sample reaches it). Tolerance 2e-5 relative to the imag
 ray's hit on the plane and the sample's cosine and distance are a few dozen float32 operations (under 3e-6), the
 spot's falloff as above; pixels whose reference value lies within 1e-3 of a discontinuity are left out.
 
-Mutations tried (each failed the tests named; the copies were discarded):
-- emitters.cl sample_delta: pdf r instead of r^2 (sqrt(d2)): the samples' densities, every floor;
-- emitters.cl sample_delta: the spot's falloff dropped (1 inside the cone): the spot's samples and floor;
-- emitters.cl sample_delta: the spot's cone test on cos_beam for cos_cutoff: the spot's samples and floor;
-- emitters.cl sample_delta: the projector's 1 / cos(theta_p) dropped: the projector's samples and floor;
-- emitters.cl sample_delta: the directional light's far point 0.5 extent away, not 4: its shadow;
+Mutations tried (each failed the tests named, 40 of 61 for the first; the file was restored after each):
+- emitters.cl sample_delta: pdf r instead of r^2 (sqrt(d2)): the samples and floors of every light but the sun;
+- emitters.cl sample_delta: the spot's falloff dropped (1 inside the cone): the spot's samples and floors;
+- emitters.cl sample_delta: the spot's cone test on cos_beam for cos_cutoff: the spot's samples and floors;
+- emitters.cl sample_delta: the projector's 1 / cos(theta_p) dropped: the projectors' samples and floors;
+- emitters.cl sample_delta: the directional light's far point 0.5 extents away, not 4: its samples; 0.25
+  extents (short of the sphere): its floors (the shadow);
 - direct_lighting.cl emitter_weight: cos(theta_s) dropped: every direct floor;
 - path_tracing.cl emitter_weight: the delta light's MIS weight the power heuristic's: every path floor;
-- packing.py delta_struct: the projector's v not turned (uv_scale[1] > 0): the projector's samples and floor.
+- packing.py delta_struct: the projector's v not turned (uv_scale[1] > 0): the checkered projector's samples
+  and floors.
 """
 import math
 
