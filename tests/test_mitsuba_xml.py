@@ -459,7 +459,7 @@ def test_a_sheared_rectangle_is_two_triangles(tmp_path):
      "not supported (raytrace renders: rectangle, obj, ply, serialized, cube, sphere, disk, cylinder, shapegroup, "
      "instance)"),
     ('<shape type="rectangle"><bsdf type="pplastic"/></shape>', "bsdf pplastic", "raytrace renders: diffuse"),
-    ('<emitter type="point"/>', "emitter point", "raytrace renders: area"),
+    ('<emitter type="directionalarea"/>', "emitter directionalarea", "raytrace renders: area"),
 ])
 def test_what_is_not_supported_is_one_line_or_a_warning(tmp_path, extra, where, message):
     text = scene_text(f"\n{extra}")
@@ -653,3 +653,38 @@ def test_flip_normals_turns_a_mesh_file_inside_out(tmp_path):
         np.testing.assert_array_equal(shapes[True].faces, shapes[False].faces[:, ::-1])
         if shapes[False].normals is not None:
             np.testing.assert_array_equal(shapes[True].normals, -shapes[False].normals)
+
+
+DELTA_XML = """
+<emitter type="point"><point name="position" x="0.1" y="0.2" z="1.5"/><rgb name="intensity" value="1, 2, 3"/>
+</emitter>
+<emitter type="spot">
+    <transform name="to_world"><lookat origin="0, 0, 2" target="0, 0.5, 0" up="0, 1, 0"/></transform>
+    <float name="cutoff_angle" value="30"/>
+    <float name="beam_width" value="BEAM"/>
+    <texture type="checkerboard" name="texture"/>
+</emitter>
+<emitter type="directional"><vector name="direction" x="0" y="0" z="-2"/><rgb name="irradiance" value="0.5"/></emitter>
+<emitter type="projector">
+    <transform name="to_world"><lookat origin="0, -1, 1" target="0, 0, 1" up="0, 0, 1"/></transform>
+    <string name="focal_length" value="35mm"/>
+</emitter>"""
+
+
+def test_delta_lights_are_read_with_mitsubas_names_and_defaults(tmp_path):
+    """Point, spot (a lookat, a checkerboard), directional and projector (a focal length) emitters become the
+    scene's [[emitters]], beside the box's own light; a spot's beam wider than its cutoff is named at its line."""
+    from raytrace.scene.model import DirectionalEmitter, PointEmitter, ProjectorEmitter, SpotEmitter
+    text = scene_text(DELTA_XML.replace("BEAM", "20"))
+    scene = raytrace.load_file(write(tmp_path, text), {"depth": 3})
+    point, spot, sun, projector = [e for e in scene.emitters if not hasattr(e, "reflects")]
+    assert isinstance(point, PointEmitter) and point.position.tolist() == [0.1, 0.2, 1.5]
+    assert isinstance(spot, SpotEmitter) and spot.cutoff_angle == 30 and spot.beam_width == 20
+    assert np.allclose(spot.to_world[:3, 2], np.array([0, 0.5, -2]) / np.linalg.norm([0, 0.5, -2]))
+    assert spot.texture.kind == "checkerboard" and spot.texture.to_uv == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+    assert isinstance(sun, DirectionalEmitter) and sun.direction.tolist() == [0.0, 0.0, -1.0]
+    assert isinstance(projector, ProjectorEmitter)
+    assert projector.fov == pytest.approx(2 * math.degrees(math.atan(math.hypot(36, 24) / 70 / math.sqrt(2))))
+    text = scene_text(DELTA_XML.replace("BEAM", "31"))
+    error = error_of(tmp_path, text)
+    assert error.source.endswith(f"scene.xml:{line_of(text, 'beam_width')}") and "at most cutoff_angle" in str(error)

@@ -13,7 +13,7 @@ from helpers import ROOT
 from raytrace.errors import InputError
 from raytrace.scene import bsdfs, parse_scene
 from raytrace.scene.keys import REQUIRED, TABLES
-from raytrace.scene.model import fingerprint
+from raytrace.scene.model import DELTA_EMITTERS, fingerprint
 
 SCENE_PATH = str(ROOT / "scenes" / "every_table.toml")  # textures are read relative to it (it need not exist)
 RECTANGLE = {"center": [0.0, 0.0, 0.0], "size": [2.0, 2.0], "normal": [0.0, 0.0, 1.0], "tangent": [1.0, 0.0, 0.0]}
@@ -105,6 +105,15 @@ EVERY_BSDF_KEY = {
 # A blend and a mask of material "m", every key given; a textured reflectance (a bitmap, every key of its kind)
 WRAPPER_TABLES = {bsdfs.table_name(name): name for name in bsdfs.WRAPPER_KEYS}
 EVERY_WRAPPER_KEY = {"blendbsdf": {"weight": 0.3, "bsdfs": ["m", "m"]}, "mask": {"opacity": 0.7, "bsdf": "m"}}
+# A delta light of each type ([[emitters]], the radiometric models'), every key it can hold together (a point's
+# position, not its to_world; a projector's fov, not its focal_length; a spot's texture with its own tests)
+EMITTER_TABLES = {f'emitters[] type = "{kind}"': kind for kind in DELTA_EMITTERS}
+DOWN = [[1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 2.0], [0.0, 0.0, 0.0, 1.0]]
+EVERY_EMITTER_KEY = {
+    "point": {"position": [0.0, 0.0, 1.5], "intensity": [1.0, 2.0, 3.0]},
+    "spot": {"to_world": DOWN, "intensity": 2.0, "cutoff_angle": 30.0, "beam_width": 20.0},
+    "directional": {"direction": [0.0, 0.2, -1.0], "irradiance": [1.0, 0.9, 0.8]},
+    "projector": {"to_world": DOWN, "irradiance": 0.5, "scale": 2.0, "fov": 40.0, "fov_axis": "y"}}
 TEXTURE = "texture"
 EVERY_TEXTURE_KEY = {"type": "bitmap", "filename": "../assets/textures/bricks_colour.png", "raw": False,
                      "filter_type": "nearest", "wrap_mode": "mirror", "to_uv": [[2.0, 0.0, 0.1], [0.0, 2.0, 0.2]]}
@@ -141,6 +150,11 @@ def scene_with(table_name, key_name=None):
         radiometric(scene, "path")
         scene["materials"]["b"] = {"type": kind, **copy.deepcopy(EVERY_WRAPPER_KEY[kind])}
         return scene, scene["materials"]["b"], "materials.b."
+    if table_name in EMITTER_TABLES or table_name == "emitters[]":
+        radiometric(scene, "direct")
+        kind = EMITTER_TABLES.get(table_name, "point")
+        scene["emitters"] = [{"type": kind, **copy.deepcopy(EVERY_EMITTER_KEY[kind])}]
+        return scene, scene["emitters"][0], "emitters[0]."
     if table_name == TEXTURE:  # a bitmap, or for a mesh_attribute's own keys, one of those
         radiometric(scene, "path")
         texture = ({"type": "mesh_attribute", "name": "vertex_color", "scale": 0.5} if key_name in ("name", "scale")
@@ -158,11 +172,16 @@ def declared_keys(table_name):
     names = {key.name for key in TABLES[table_name]}
     if table_name == "materials.NAME" or table_name in BSDF_TABLES or table_name in WRAPPER_TABLES:
         return sorted({key.name for key in TABLES["materials.NAME"]} | set(bsdfs.KEY_NAMES))
+    if table_name in EMITTER_TABLES:
+        names |= {key.name for key in TABLES["emitters[]"]}
     return sorted(names | ({key.name for key in TABLES["shapes[]"]} if table_name in SHAPE else set()))
 
 
 def test_every_declared_table_is_exercised():
-    assert set(TABLES) == set(PLACES) | {DIRECT, ENVIRONMENT, TEXTURE} | set(BSDF_TABLES) | set(WRAPPER_TABLES)
+    assert set(TABLES) == (set(PLACES) | {DIRECT, ENVIRONMENT, TEXTURE, "emitters[]"} | set(BSDF_TABLES)
+                           | set(WRAPPER_TABLES) | set(EMITTER_TABLES))
+    for table_name in EMITTER_TABLES:
+        parse_scene(scene_with(table_name)[0], SCENE_PATH)
     parse_scene(every_table(), SCENE_PATH)
     for table_name in (TEXTURE, *WRAPPER_TABLES):
         parse_scene(scene_with(table_name)[0], SCENE_PATH)
@@ -175,8 +194,8 @@ def test_every_declared_table_is_exercised():
 @pytest.mark.parametrize("table_name", list(TABLES))
 def test_the_declared_keys_are_the_accepted_keys(table_name):
     """An unknown key is refused with the declared list, in order: the list the manual prints."""
-    if table_name == "shapes[]":
-        pytest.skip("shared by every shape table, checked with each of them")
+    if table_name in ("shapes[]", "emitters[]"):
+        pytest.skip("shared by every shape (emitter) table, checked with each of them")
     scene, table, prefix = scene_with(table_name)
     table["no_such_key"] = 1
     with pytest.raises(InputError) as error:
@@ -215,6 +234,13 @@ def test_each_declared_bound_is_the_readers(table_name, key, value, accepted):
                     "bound")
     if key.name == "shape_index" and value > 0 and accepted:
         pytest.skip("a shape_index above 0 needs a .serialized file holding that many shapes, not only the bound")
+    if table_name == 'emitters[] type = "spot"' and key.name == "beam_width" and value > table["cutoff_angle"]:
+        pytest.skip("a beam this wide is refused by the rule between the two angles (beam_width <= cutoff_angle), "
+                    "not by the bound")
+    if table_name == 'emitters[] type = "projector"' and key.name == "scale" and accepted and value > 1:
+        pytest.skip("a projector this bright is refused by the brightness rules (ranges.py), not by the bound")
+    if table_name == 'emitters[] type = "projector"' and key.name == "focal_length":  # instead of fov
+        del table["fov"], table["fov_axis"]
     if key.name in ("max_depth", "rr_depth"):  # the path model's keys
         radiometric(scene, "path")
     if key.name == "bsdf_samples":  # the direct model's

@@ -3,7 +3,7 @@ it refers to), the same mutated with hostile values, scene texts that are no TOM
 texture or mesh files are replaced by hostile ones (from files.py), path-model scenes whose values lie
 anywhere in their keys' ranges (for the path model's range rules, tests/test_path_ranges.py), the same with
 their environment maps written as real or hostile image files and hostile values, and a scene that reads a file
-of every kind (for outputs that alias an input)."""
+of every kind (for outputs that alias an input). Direct and path scenes hold delta lights ([[emitters]]) now and then."""
 import copy
 import dataclasses
 import math
@@ -16,7 +16,8 @@ from hypothesis import strategies as st
 from raytrace.numerics import FLOAT32_MAX, FLOAT32_TINY
 from raytrace.renderer.packing import SMOOTH_ALPHA  # below it a rough conductor or glass renders smooth
 from raytrace.scene.bsdfs import BY_NAME
-from raytrace.scene.model import BSDFS, DISTRIBUTIONS
+from raytrace.scene.keys import FOV_AXES
+from raytrace.scene.model import BSDFS, DELTA_EMITTERS, DISTRIBUTIONS
 from raytrace.scene.named_materials import CONDUCTORS, IORS
 from raytrace.scene.toml_writer import to_toml
 
@@ -215,6 +216,52 @@ def emitting(draw, shape, reflecting=True, radiances=finite(0.0, 4.0)):
 
 
 @st.composite
+def delta_lights(draw, intensities=finite(0.0, 4.0)):
+    """One [[emitters]] table (the radiometric models'): a point, spot, directional or projector light, each
+    optional key given or not, to_world any affine map (a spot's, a projector's) or a translation (a point's),
+    a spot's or projector's image a checkerboard now and then."""
+    kind = draw(st.sampled_from(DELTA_EMITTERS))
+    light = {"type": kind}
+    checker = {"type": "checkerboard", "color0": draw(number_or_vector(finite(0.0, 2.0)))}
+    if kind == "point":
+        if draw(st.booleans()):
+            light["position"] = draw(vectors(3, -1.0, 2.0))
+        elif draw(st.booleans()):
+            t = draw(vectors(3, -1.0, 2.0))
+            light["to_world"] = [[1.0, 0.0, 0.0, t[0]], [0.0, 1.0, 0.0, t[1]], [0.0, 0.0, 1.0, t[2]],
+                                 [0.0, 0.0, 0.0, 1.0]]
+    elif kind == "directional":
+        if draw(st.booleans()):
+            light["direction"] = draw(vectors(3, -1.0, 1.0).filter(lambda a: np.linalg.norm(a) > 0.1))
+        elif draw(st.booleans()):
+            light["to_world"] = draw(affine_matrices())
+    elif draw(st.sampled_from([True, True, False])):
+        light["to_world"] = draw(affine_matrices())
+    key = {"point": "intensity", "spot": "intensity", "directional": "irradiance", "projector": "irradiance"}[kind]
+    if draw(st.booleans()):
+        light[key] = draw(number_or_vector(intensities))
+    if kind == "spot":
+        if draw(st.booleans()):
+            light["cutoff_angle"] = draw(finite(1.0, 89.0))
+        if draw(st.booleans()):
+            light["beam_width"] = draw(finite(0.0, light.get("cutoff_angle", 20.0)))
+        if draw(st.booleans()):
+            light["texture"] = checker
+    if kind == "projector":
+        if draw(st.booleans()):
+            light["irradiance"] = checker
+        if draw(st.booleans()):
+            light["scale"] = draw(finite(0.0, 4.0))
+        if draw(st.booleans()):
+            light["fov"] = draw(finite(1.0, 170.0))
+            if draw(st.booleans()):
+                light["fov_axis"] = draw(st.sampled_from(FOV_AXES))
+        elif draw(st.booleans()):
+            light["focal_length"] = draw(finite(5.0, 200.0))
+    return light
+
+
+@st.composite
 def shapes(draw, material_names, files):
     """One [[shapes]] table of any type, the course's shapes placed by transform keys or not (a rectangle's
     without a shear); mesh files it names are added to `files`."""
@@ -288,6 +335,9 @@ def valid_scenes(draw, max_shapes=4, min_files=0):
         for shape in table["shapes"]:
             if shape["type"] != "ellipsoid":  # a sphere's only, and these are not
                 emitting(draw, shape, reflecting=False)
+        table["emitters"] = draw(st.lists(delta_lights(), max_size=2))
+        if table["emitters"] and draw(st.booleans()):  # delta lights alone
+            del table["lights"]
     if not table["shapes"] and draw(st.booleans()):
         del table["shapes"]
     assume(len(files) >= min_files)
@@ -557,6 +607,9 @@ def path_scenes(draw):
                             tuple(draw(st.lists(magnitudes(), min_size=1, max_size=4)))),)
         table["materials"]["m0"]["texture"] = "colour.exr"
     files += draw(wrapped_and_textured(table["materials"], table["shapes"]))
+    if draw(st.booleans()):
+        table["emitters"] = draw(st.lists(delta_lights(st.one_of(finite(0.0, 4.0), magnitudes())), min_size=1,
+                                          max_size=2))
     kind = draw(st.sampled_from(["none", "constant", "envmap"]))
     if kind == "constant":
         table["environment"] = {"type": "constant", "radiance": draw(number_or_vector(magnitudes()))}

@@ -30,7 +30,12 @@ def relocated(table, scene_folder, out_folder):
         for key, value in list(material.items()):
             if isinstance(value, dict) and "filename" in value:  # a texture's table
                 material[key] = {**value, "filename": moved(value["filename"])}
-    assert set(FILE_KEYS) == {"shapes[].file", "environment.filename", "materials.NAME.PARAMETER.filename"}
+    if "emitters" in table:  # a spot's texture, a projector's image
+        table["emitters"] = [{key: {**value, "filename": moved(value["filename"])}
+                              if isinstance(value, dict) and "filename" in value else value
+                              for key, value in light.items()} for light in table["emitters"]]
+    assert set(FILE_KEYS) == {"shapes[].file", "environment.filename", "materials.NAME.PARAMETER.filename",
+                              "emitters[].PARAMETER.filename"}
     return table
 
 

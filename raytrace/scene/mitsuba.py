@@ -31,8 +31,11 @@ SAMPLER_PATTERNS = {"independent": "random", "stratified": "jittered", "multijit
                     "orthogonal": "jittered", "ldsampler": "sobol"}
 SPECTRUM_PLUGINS = {"d65": ("scale", 1.0), "uniform": ("value", 1.0), "srgb": ("color", None)}  # their parameter
 # the scene table's keys that name files
-FILE_KEYS = ("shapes[].file", "environment.filename", "materials.NAME.PARAMETER.filename")
+FILE_KEYS = ("shapes[].file", "environment.filename", "materials.NAME.PARAMETER.filename",
+             "emitters[].PARAMETER.filename")
 DEFAULT_DIFFUSE = 0.5  # the BSDF Mitsuba gives a shape that names none: diffuse, reflectance 0.5
+DELTA_EMITTERS = ("point", "spot", "directional", "projector")  # [[emitters]] (delta_lights.py)
+FOCAL_LENGTH_FORM = 'must be of the form "<x>mm", x > 0'
 
 
 @dataclass(frozen=True)
@@ -164,6 +167,29 @@ PLUGINS = {
         Param("filename", None, "environment filename"), Param("scale", 1.0, "environment scale"),
         Param("to_world", "identity", "environment up", "a rotation: its y and z columns are up and forward"),
         Param("mis_compensation", False, "", "noise only"))),
+    "point": Plugin("emitter", "light from a point, the same intensity every way", (
+        Param("position", "to_world's origin", 'emitters[] type = "point" position', "a point; not with to_world"),
+        Param("to_world", "identity", 'emitters[] type = "point" to_world', "its origin the position"),
+        Param("intensity", 1.0, 'emitters[] type = "point" intensity', "an RGB colour or a spectrum"))),
+    "spot": Plugin("emitter", "a cone of light along to_world's +z, falling off linearly in the angle", (
+        Param("to_world", "identity", 'emitters[] type = "spot" to_world', "a lookat: origin, target, up"),
+        Param("intensity", 1.0, 'emitters[] type = "spot" intensity', "an RGB colour or a spectrum"),
+        Param("cutoff_angle", 20.0, 'emitters[] type = "spot" cutoff_angle'),
+        Param("beam_width", "3/4 cutoff_angle", 'emitters[] type = "spot" beam_width'),
+        Param("texture", None, 'emitters[] type = "spot" texture', "a bitmap or a checkerboard projected over the "
+              "cone"))),
+    "directional": Plugin("emitter", "light from beyond the scene along one direction (the sun)", (
+        Param("irradiance", 1.0, 'emitters[] type = "directional" irradiance', "an RGB colour or a spectrum"),
+        Param("direction", "to_world's +z", 'emitters[] type = "directional" direction', "not with to_world"),
+        Param("to_world", "identity", 'emitters[] type = "directional" to_world'))),
+    "projector": Plugin("emitter", "a perspective camera in reverse: an image projected along to_world's +z", (
+        Param("irradiance", 1.0, 'emitters[] type = "projector" irradiance', "a colour, or a bitmap or checkerboard"),
+        Param("scale", 1.0, 'emitters[] type = "projector" scale'),
+        Param("to_world", "identity", 'emitters[] type = "projector" to_world', "a lookat: origin, target, up"),
+        Param("fov", "focal_length's", 'emitters[] type = "projector" fov', "degrees along fov_axis"),
+        Param("fov_axis", "x", 'emitters[] type = "projector" fov_axis', "x, y, diagonal, smaller or larger"),
+        Param("focal_length", "50mm", 'emitters[] type = "projector" focal_length', "instead of fov: a 35 mm "
+              "film's focal length"))),
     "perspective": Plugin("sensor", "a pinhole camera", (
         Param("to_world", "identity", "camera position", "rigid (no scale): the eye, its local +z the view, +y up"),
         Param("fov", "focal_length's", "camera fov", "degrees along fov_axis"),
@@ -420,20 +446,23 @@ class _Translator:
                 self.instance(key, value)
             elif value["type"] != "shapegroup":  # a shapegroup is drawn where instances place it only
                 self.shape(key, value)
-        environments = groups["emitter"]
+        environments = [(key, value) for key, value in groups["emitter"] if value["type"] not in DELTA_EMITTERS]
         for i, (key, value) in enumerate(environments):
             if i:
                 self.unsupported(self.where(value, key).at, "a second environment emitter",
                                  "raytrace takes one constant or envmap emitter")
             else:
                 self.environment(key, value)
-        if not self.table["lights"] and "environment" not in self.table and not any(
+        for key, value in groups["emitter"]:
+            if value["type"] in DELTA_EMITTERS:
+                self.delta_light(key, value)
+        if not self.table["lights"] and "environment" not in self.table and not self.table.get("emitters") and not any(
                 "radiance" in shape for shape in self.table["shapes"]):
             self.fail(self.source, "emitter", None, "the scene has none that raytrace renders: an area emitter on a "
-                      "shape, a constant or an envmap")
+                      "shape, a constant, an envmap, a point, a spot, a directional or a projector")
         if not self.table["materials"]:  # raytrace's format names one at least; a scene of lights alone has none
             self.material(None, "")
-        order = ("render", "camera", "image", "environment", "materials", "lights", "groups", "shapes")
+        order = ("render", "camera", "image", "environment", "materials", "lights", "groups", "shapes", "emitters")
         self.out.table = {k: self.table[k] for k in order if k in self.table}
         return self.out
 
@@ -559,7 +588,7 @@ class _Translator:
             except ValueError:
                 f = math.nan
             if not f > 0 or not math.isfinite(f):
-                self.fail(at.of("focal_length"), f"{key}.focal_length", text, 'must be of the form "<x>mm", x > 0')
+                self.fail(at.of("focal_length"), f"{key}.focal_length", text, FOCAL_LENGTH_FORM)
             fov, axis = 2 * math.degrees(math.atan(math.sqrt(36 * 36 + 24 * 24) / (2 * f))), "diagonal"
         if not 0 < fov < 180:
             self.fail(at.of("fov"), f"{key}.fov", fov, "must be in (0, 180) degrees")
@@ -1092,7 +1121,7 @@ class _Translator:
             self.fail(self.where(node, key).at, key, name, "an area emitter belongs inside a shape")
         if name not in ("constant", "envmap"):
             self.unsupported(self.where(node, key).at, f"emitter {name}", "not supported (raytrace renders: area, "
-                             "constant, envmap)")
+                             "constant, envmap, point, spot, directional, projector)")
             return
         params = self.params(node, key, name)
         if name == "constant":
@@ -1112,6 +1141,43 @@ class _Translator:
             for k, param in (("filename", "filename"), ("scale", "scale"), ("up", "to_world"), ("forward", "to_world")):
                 self.origin(f"environment.{k}", node, key, param)
         self.table["environment"] = env
+
+    def delta_light(self, key, node):
+        """An [[emitters]] table (delta_lights.py) of Mitsuba's point, spot, directional or projector: its
+        parameters under their own names, colours as RGB, textures as texture tables (their to_uv composed for a
+        light's (u, v), whose v the scene format counts up from the image's bottom: delta_lights.py)."""
+        name = node["type"]
+        params = self.params(node, key, name)
+        index = len(self.table.setdefault("emitters", []))
+        light, prefix = {"type": name}, f"emitters[{index}]"
+        for param, value in params.items():
+            value = self.resolve(value, key)
+            if param == "to_world":
+                light[param] = self.matrix(value, node, key, param).tolist()
+            elif param in ("position", "direction"):
+                light[param] = value
+            elif param in ("irradiance", "texture") and _type(value) in LOOKUPS:
+                table = self.texture(value, f"{key}.{param}")
+                (a, b, c), (d, e, f) = table["to_uv"]
+                table["to_uv"] = [[a, -b, b + c], [d, -e, f + e]]  # of (u, 1 - v), not of (u, v)
+                light[param] = table
+            elif param in ("intensity", "irradiance"):
+                light[param] = self.colour(value, node, key, param, emission=True)
+            elif param in ("cutoff_angle", "beam_width", "scale", "fov"):
+                light[param] = float(self.number(value, node, key, param))
+            elif param == "fov_axis":
+                light[param] = self.string(value, node, key, param).lower()
+            elif param == "focal_length":
+                text = str(value)
+                try:
+                    light[param] = float(text[:-2] if text.endswith("mm") else text)
+                except ValueError:
+                    self.fail(self.where(node, key).of(param), f"{key}.{param}", text, FOCAL_LENGTH_FORM)
+            else:
+                light[param] = value
+            self.origin(f"{prefix}.{param}", node, key, param)
+        self.origin(prefix, node, key, "type")
+        self.table["emitters"].append(light)
 
 
 # Mitsuba 3's cube (src/shapes/cube.cpp): 24 vertices, four per face, each face's (u, v) over [0, 1]^2, 12 triangles

@@ -12,7 +12,9 @@ the rough ones' distribution always written, Mitsuba's default being Beckmann an
 a `rectangle` with an `area` emitter and a BSDF (its material, or a black diffuse: a raytrace light reflects
 nothing, and Mitsuba's default BSDF would be a grey diffuse); the shapes (disks and cylinders as Mitsuba's,
 under their to_world), each emitting one with its `area` emitter and a BSDF as a light's: the material it
-copies (the shape's own is that material with its emitter named), or the black diffuse; the environment.
+copies (the shape's own is that material with its emitter named), or the black diffuse; the environment; the
+delta lights (point, spot, directional, projector) by Mitsuba's parameters, their images as bitmap or
+checkerboard textures.
 Every number is written by repr(), which Python and Mitsuba's parser read back to the same float64.
 
 Meshes raytrace holds itself (triangles and meshes written in the scene file, generated meshes, and a mesh
@@ -37,7 +39,7 @@ import numpy as np
 
 from ..errors import InputError
 from . import bsdfs
-from .model import RR_DEPTH, WRAPPERS, fingerprint
+from .model import RR_DEPTH, WRAPPERS, PointEmitter, ProjectorEmitter, ShapeEmitter, SpotEmitter, fingerprint
 from .mitsuba import view_depths
 from .transform import mesh_matrix
 
@@ -140,13 +142,15 @@ class _Writer:
         self.sensor(root)
         for index in used:
             self.material(root, index)
-        if any(light.material < 0 for light in scene.lights) or not all(e.reflects for e in scene.emitters):
+        if any(light.material < 0 for light in scene.lights) or not all(e.reflects for e in scene.emitters
+                                                                         if isinstance(e, ShapeEmitter)):
             self.black = self.unique_id("black")
             root.append(_comment("a light or an emitting shape without a material reflects nothing in raytrace"))
             twosided = ET.SubElement(root, "bsdf", type="twosided", id=self.black)
             ET.SubElement(ET.SubElement(twosided, "bsdf", type="diffuse"), "rgb", name="reflectance",
                           value=_numbers([0.0, 0.0, 0.0]))
         self.environment(root)
+        self.delta_lights(root)
         for i, light in enumerate(scene.lights):
             self.light(root, i, light)
         for key, kind, objects, table in shapes:
@@ -220,7 +224,7 @@ class _Writer:
         in Python), which the XML would drop."""
         carried = {self.scene.materials[o.material].emitter for _, _, objects, _ in shapes for o in objects}
         for i, emitter in enumerate(self.scene.emitters):
-            if i not in carried:
+            if i not in carried and isinstance(emitter, ShapeEmitter):
                 self.fail(f"emitters[{i}]", emitter.radiance.tolist(), "no shape carries this emitter (its "
                           f"material, materials[{emitter.material}], is no shape's): the XML would drop its light")
 
@@ -348,6 +352,53 @@ class _Writer:
             m = np.eye(4)
             m[:3, 0], m[:3, 1], m[:3, 2] = envmap.frame()
             ET.SubElement(ET.SubElement(emitter, "transform", name="to_world"), "matrix", value=_matrix(m))
+
+    def delta_lights(self, root):
+        """Each delta light (delta_lights.py) as Mitsuba's emitter of its type, by its parameters."""
+        for e in self.scene.emitters:
+            if isinstance(e, ShapeEmitter):
+                continue
+            kind = type(e).__name__.removesuffix("Emitter").lower()
+            emitter = ET.SubElement(root, "emitter", type=kind)
+            if isinstance(e, PointEmitter):
+                ET.SubElement(emitter, "point", name="position", value=_numbers(e.position))
+            elif kind == "directional":
+                ET.SubElement(emitter, "vector", name="direction", value=_numbers(e.direction))
+            else:
+                ET.SubElement(ET.SubElement(emitter, "transform", name="to_world"), "matrix", value=_matrix(e.to_world))
+            if isinstance(e, ProjectorEmitter):
+                ET.SubElement(emitter, "float", name="fov", value=_number(e.fov))  # Mitsuba's default axis: x
+                ET.SubElement(emitter, "float", name="scale", value=_number(e.scale))
+            if isinstance(e, SpotEmitter):
+                ET.SubElement(emitter, "float", name="cutoff_angle", value=_number(e.cutoff_angle))
+                if e.beam_width is not None:  # (else Mitsuba's default, the same)
+                    ET.SubElement(emitter, "float", name="beam_width", value=_number(e.beam_width))
+            colour = "intensity" if kind in ("point", "spot") else "irradiance"
+            image = getattr(e, "texture", None)
+            if image is not None:
+                if isinstance(e, ProjectorEmitter) and not np.all(np.asarray(e.irradiance) == 1):
+                    self.fail("emitters.irradiance", np.asarray(e.irradiance).tolist(), "a projector's image "
+                              "times a colour has no Mitsuba 3 equivalent (its irradiance is one or the other)")
+                self.light_texture(emitter, "texture" if kind == "spot" else colour, image)
+            if image is None or kind == "spot":
+                ET.SubElement(emitter, "rgb", name=colour, value=_numbers(getattr(e, colour)))
+
+    def light_texture(self, emitter, name, lookup):
+        """A light's image (a TextureLookup) as Mitsuba's bitmap or checkerboard: its to_uv, of a light's (u, 1 - v)
+        (delta_lights.py), turned back into Mitsuba's of (u, v) (mitsuba.py's delta_light reads it so)."""
+        texture = ET.SubElement(emitter, "texture", type=lookup.kind, name=name)
+        a, b, c, d, e, f = lookup.to_uv
+        m = np.array([[a, -b, 0.0, c + b], [-d, e, 0.0, 1.0 - f - e], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+        if lookup.kind == "bitmap":
+            image = self.scene.textures[lookup.texture]
+            ET.SubElement(texture, "string", name="filename", value=self.file_name(image.path))
+            ET.SubElement(texture, "boolean", name="raw", value=str(image.role != "colour").lower())
+            ET.SubElement(texture, "string", name="filter_type", value=lookup.filter or "bilinear")
+            ET.SubElement(texture, "string", name="wrap_mode", value=lookup.wrap)
+        else:
+            ET.SubElement(texture, "rgb", name="color0", value=_numbers(lookup.colour0))
+            ET.SubElement(texture, "rgb", name="color1", value=_numbers(lookup.colour1))
+        ET.SubElement(ET.SubElement(texture, "transform", name="to_uv"), "matrix", value=_matrix(m))
 
     def file_name(self, path):
         """A file's name relative to the XML's folder, with forward slashes."""
