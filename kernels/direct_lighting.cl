@@ -19,7 +19,11 @@
  * for a light, light_selection.cl's hit_emitter_pdf for an emitting shape: its choice among the emitting shapes
  * included, as they share the N samples), each sample's value divided by its own
  * technique's count. The expectation is the light-only model's; where a large light is close, the BSDF's
- * samples take the weight that the light's (whose density grows with r^2 / cos(theta_l)) cannot carry. */
+ * samples take the weight that the light's (whose density grows with r^2 / cos(theta_l)) cannot carry.
+ *
+ * An environment (HAS_ENVIRONMENT: constant or envmap, as Mitsuba's direct integrator sees it) lights the
+ * surfaces through directions sampled by the cosine (its own technique: a BSDF sample that leaves the scene
+ * counts nothing), and is seen where a ray leaves the scene. */
 #ifndef DIRECT_LIGHTING_CL
 #define DIRECT_LIGHTING_CL
 
@@ -70,6 +74,33 @@ inline vfloat emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n,
 }
 
 #include "light_sampling.cl"
+#if HAS_ENVIRONMENT
+#include "environment.cl"
+#include "warp.cl"
+
+/* The environment's share of E / pi at sp (Mitsuba's direct integrator sees it too): n directions about the
+ * shading normal by the cosine (p = cos / pi, so that each counts L, and E / pi = (1 / n) sum V L), a constant's
+ * and a map's alike, from the light sampler's stream after the lights'; *rays counts the shadow rays. */
+inline vec3 environment_sum(const Scene *s, ShadingPoint sp, vint surface, __global const uint2 *light_samples,
+                            PixelSample *ps, vfloat *rays)
+{
+    const int n = s->params->light_samples;
+    SampleStream stream = next_stream(ps, s->params->light_sampler, n);
+    vec3 origin = offset_ray_origin(sp.p, sp.err, sp.ng), sum = v3_splat(0.0f, 0.0f, 0.0f);
+    for (int j = 0; j < n && ANY(surface); ++j) {
+        vec2 u = stream_2d(light_samples, s->params->light_sampler, stream, (vint)(j));
+        vec3 we = cosine_direction(sp.n, u);
+        vint sampled = surface & (v3_dot(sp.ng, we) > 0.0f) & (v3_dot(sp.n, we) > 0.0f);
+        if (!ANY(sampled))
+            continue;
+        *rays += MASK_TO_ONE(sampled);
+        vint open = escapes(s, origin, we, sampled PASSES(sp.passes));
+        if (ANY(open))
+            sum = v3_add(sum, v3_select(v3_splat(0.0f, 0.0f, 0.0f), environment_radiance(s, we, open), open));
+    }
+    return v3_scale(sum, 1.0f / n);
+}
+#endif
 
 #if HAS_BSDF_SAMPLING
 /* The BSDF's M samples' share of E / pi at sp, for the lanes of `surface`: (1 / M) sum_j L_e w_bsdf over the
@@ -136,6 +167,13 @@ inline vec3 shade(const Scene *s, Ray r, Hit hit, ShadingPoint sp, __global cons
     vec3 irradiance = lights_sum(s, sp, v, surface, light_samples, ps, rays);
 #if HAS_BSDF_SAMPLING
     irradiance = v3_add(irradiance, bsdf_samples_sum(s, sp, surface, light_samples, ps, rays));
+#endif
+#if HAS_ENVIRONMENT /* and seen where the ray leaves the scene (but with hide_emitters, as Mitsuba's) */
+    irradiance = v3_add(irradiance, environment_sum(s, sp, surface, light_samples, ps, rays));
+    vint escaped = hit.t == INFINITY;
+    if (!s->params->hide_emitters && ANY(escaped))
+        return v3_select(v3_select(hit.emitted, v3_mul(sp.k, irradiance), surface),
+                         environment_radiance(s, r.d, escaped), escaped);
 #endif
     return v3_select(hit.emitted, v3_mul(sp.k, irradiance), surface);
 }

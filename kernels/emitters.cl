@@ -118,7 +118,7 @@ inline EmitterSample sample_delta(const Scene *s, __global const Emitter *e, vec
     es.err = 0.0f;
     es.radiance = v3_uniform(e->radiance);
     es.delta = (vint)(0) == 0;
-    if (e->kind == EMITTER_DIRECTIONAL) { /* from beyond the scene (path_tracing.cl's escapes), against its
+    if (e->kind == EMITTER_DIRECTIONAL) { /* from beyond the scene (environment.cl's escapes), against its
                                            * direction: a finite shadow segment */
         es.n = v3_uniform(e->axis);
         es.p = v3_sub(ref, v3_scale(es.n, 4.0f * s->params->scene_extent));

@@ -1,4 +1,4 @@
-/* The path model's environment emitter (`[environment]`, docs/global-illumination.md): the radiance arriving
+/* The radiometric models' environment emitter (`[environment]`, docs/global-illumination.md): the radiance arriving
  * along every direction in which a ray leaves the scene. HAS_ENVIRONMENT builds it; `constant` is one radiance
  * everywhere (RenderParams.environment), `envmap` (HAS_ENVIRONMENT_MAP) an equirectangular image times that
  * value (its `scale`).
@@ -28,6 +28,7 @@
 #define ENVIRONMENT_CL
 
 #include "scene.h"
+#include "intersect.cl" /* (escapes: the shadow rays towards it) */
 
 #if HAS_ENVIRONMENT_MAP
 #define M_1_2PI_F (0.5f * M_1_PI_F)
@@ -122,6 +123,21 @@ inline float3 environment_sample(__constant const RenderParams *p, __global cons
     return l.x * f3(p->environment_x) + l.y * f3(p->environment_y) + l.z * f3(p->environment_z);
 }
 #endif
+
+/* The lanes of `active` whose ray from o along the unit d leaves the scene: no shape and no light meets it
+ * before it is beyond every coordinate the scene has (the segment to o + 4 extent d, |o| being within
+ * sqrt(3) extent of the origin). */
+inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active PASSES_PARAMETER)
+{
+    Ray r = {o, v3_scale(d, 4.0f * s->params->scene_extent)};
+    vint blocked = occluded(s, r, 0u, active PASSES(passes) OWN(-1));
+    vfloat dt, u, v;
+    for (int i = 0; i < s->params->n_lights; ++i) {
+        vfloat t = intersect_rectangle(&s->lights[i].shape, r, (vfloat)(1.0f), &dt, &u, &v);
+        blocked |= hit_on_segment(t, dt);
+    }
+    return active & !blocked;
+}
 
 /* The environment's radiance along each lane's unit direction d, in the lanes of `lanes` (0 in the others: a
  * map's lookups are one lane at a time, and a packet's lanes seldom all need one). */

@@ -138,23 +138,6 @@ inline vfloat hit_light_solid_angle(const Scene *s, Hit hit, vec3 o)
 #endif
 
 
-#if HAS_ENVIRONMENT
-/* The lanes of `active` whose ray from o along the unit d leaves the scene: no shape and no light meets it
- * before it is beyond every coordinate the scene has (the segment to o + 4 extent d, |o| being within
- * sqrt(3) extent of the origin). */
-inline vint escapes(const Scene *s, vec3 o, vec3 d, vint active PASSES_PARAMETER)
-{
-    Ray r = {o, v3_scale(d, 4.0f * s->params->scene_extent)};
-    vint blocked = occluded(s, r, 0u, active PASSES(passes) OWN(-1));
-    vfloat dt, u, v;
-    for (int i = 0; i < s->params->n_lights; ++i) {
-        vfloat t = intersect_rectangle(&s->lights[i].shape, r, (vfloat)(1.0f), &dt, &u, &v);
-        blocked |= hit_on_segment(t, dt);
-    }
-    return active & !blocked;
-}
-#endif
-
 /* A path in each lane (pbrt-v4's PathIntegrator::Li, cut at its closest-hit call so that the lanes of a packet
  * may stand at different vertices: render.cl starts a lane's next pixel sample where its path ends): the ray
  * it follows next, from the camera (depth 0) or from its vertex `depth`, the throughput beta, the radiance

@@ -31,8 +31,8 @@ def test_lights_only_an_environment_may_replace():
     table = {"camera": {"position": [0, -3, 0], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40.0},
              "image": {"width": 4, "height": 4}, "render": {"shading": "path"}, "materials": {"m": {"colour": [1] * 3}},
              "lights": []}
-    problem = ('must hold one or more lights: only a scene with an [environment] (shading = "path") or a shape with '
-               'radiance needs none')
+    problem = ('must hold one or more lights: only a scene with an [environment], [[emitters]] or a shape with '
+               'radiance (shading = "direct" or "path") needs none')
     with pytest.raises(raytrace.InputError) as error:
         raytrace.load_dict(table)
     assert str(error.value) == f"load_dict(): lights = []: {problem}"

@@ -314,6 +314,6 @@ def test_bad_maps_and_keys(tmp_path):
     for bad, message in ((edited(texels=np.ones((4, 8))), "environment.texels = '(4, 8)'"),
                          (edited(texels=nan), "channel 1 is nan"), (edited(scale=np.inf), "environment.scale"),
                          (scene.__class__(**{**vars(scene), "environment": np.ones(3)}), "cannot both be set"),
-                         (scene.__class__(**{**vars(scene), "shading": "direct"}), "only with shading = \"path\"")):
+                         (scene.__class__(**{**vars(scene), "shading": "phong"}), "is the radiometric models'")):
         with pytest.raises(InputError, match=re.escape(message)):
             raytrace.render(bad, spp=1)

@@ -77,8 +77,7 @@ def test_environment_keys_are_checked():
             "image": {"width": 8, "height": 8}, "materials": {"m": {"colour": [0.5] * 3}},
             "lights": [{"center": [0, 0, 2], "size": [1, 1], "normal": [0, 0, -1], "tangent": [1, 0, 0],
                         "radiance": 1.0}]}
-    cases = [({"shading": "direct"}, {"type": "constant", "radiance": 1.0}, "environment = [1.0, 1.0, 1.0]: is the path model's"),
-             ({"shading": "path"}, {"type": "sky", "radiance": 1.0}, "environment.type = 'sky': must be one of"),
+    cases = [({"shading": "path"}, {"type": "sky", "radiance": 1.0}, "environment.type = 'sky': must be one of"),
              ({"shading": "path"}, {"type": "constant", "radiance": -1.0}, "environment.radiance = -1.0"),
              ({"shading": "path"}, {"type": "constant"}, "environment.radiance"),
              ({"shading": "path"}, {"type": "constant", "radiance": 1.0, "scale": 2}, "environment.scale")]
@@ -88,3 +87,10 @@ def test_environment_keys_are_checked():
     scene = raytrace.load_dict({**base, "render": {"shading": "path"},
                                 "environment": {"type": "constant", "radiance": [0.1, 0.2, 0.3]}})
     assert scene.environment.tolist() == [0.1, 0.2, 0.3]
+    assert raytrace.load_dict({**base, "render": {"shading": "direct"}, "environment": {
+        "type": "constant", "radiance": 1.0}}).environment.tolist() == [1.0] * 3  # Mitsuba's direct sees it too
+    phong = {**base, "lights": [{**base["lights"][0], "colour": [1.0] * 3}], "environment": {
+        "type": "constant", "radiance": 1.0}}
+    del phong["lights"][0]["radiance"]
+    with pytest.raises(InputError, match=re.escape("environment = [1.0, 1.0, 1.0]: is the radiometric models'")):
+        raytrace.load_dict(phong)

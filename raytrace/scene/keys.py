@@ -66,12 +66,14 @@ TABLES = {
          Key("image", "table", "the image size"),
          Key("render", "table", "the render's defaults (the command line overrides them)", default={}),
          Key("lights", "tables", "rectangular area lights", default=(),
-             also='one or more; none only with an environment (shading = "path") or a shape with radiance'),
+             also='one or more; none only with an environment, [[emitters]] or a shape with radiance (shading = '
+             '"direct" or "path")'),
          Key("materials", "named-tables", "materials by name, one or more"),
          Key("shapes", "tables", "the shapes", default=()),
          Key("groups", "named-tables", "shape groups by name: meshes kept once, which shapes of type = \"instance\" "
              "place (Mitsuba's shapegroup)", default={}),
-         Key("environment", "table", 'shading = "path": light from every direction nothing blocks', default=None),
+         Key("environment", "table", 'shading = "direct" or "path": light from every direction nothing blocks',
+             default=None),
          Key("emitters", "tables", "Mitsuba's emitters that are no shape: point, spot, directional and projector "
              "lights", default=(), also='shading = "direct" or "path"')],
     "emitters[]": [Key("type", "string", "the emitter, with Mitsuba's names", choices=DELTA_EMITTERS)],

@@ -246,9 +246,11 @@ def plastic_albedo(material, k):
 
 
 def brightest(scene):
-    """An upper bound on every pixel value of the scene's Phong image (rule 4)."""
+    """An upper bound on every pixel value of the scene's Phong or direct image (rule 4); the direct model's
+    environment counts as a light of its brightest radiance (each of its samples adds k L: direct_lighting.cl)."""
     k = max(largest_albedo(scene, m) for m in scene.materials)
     lights = [float(light.colour.max()) for light in scene.lights] + [float(e.radiance.max()) for e in scene.emitters]
+    lights += [environment_brightest(scene)] * (scene.environment is not None or scene.environment_map is not None)
     return max(k * (float(scene.ambient.max()) + 2 * sum(lights)), *lights, 0.0)
 
 

@@ -45,8 +45,8 @@ def value(x):
 
 
 def _path_only(reader, key, shown, shading):
-    """What only the path model renders (a BSDF other than diffuse, an environment, a bounded depth, a light that
-    reflects), in a scene of another shading model."""
+    """What only the path model renders (a BSDF other than diffuse, a bounded depth, a light that reflects), in a
+    scene of another shading model."""
     if shading != "path":
         reader.fail(key, value(shown), f'is the path model\'s: only with shading = "path", not "{shading}"')
 
@@ -77,10 +77,10 @@ def _shading(scene, places):
         places.top.fail("environment", value(scene.environment), "a constant radiance and an envmap cannot both be set")
     if scene.environment is not None or scene.environment_map is not None:
         shown = scene.environment if scene.environment is not None else scene.environment_map.path
-        _path_only(places.top, "environment", shown, scene.shading)
-    elif not scene.lights and not scene.emitters:  # the environment, the path model's, is the only other light
-        places.top.fail("lights", [], "must hold one or more lights: only a scene with an [environment] (shading = "
-                        '"path") or a shape with radiance needs none')
+        _radiometric_only(places.top, "environment", shown, scene.shading)
+    elif not scene.lights and not scene.emitters:  # the environment, the radiometric models', is the only other
+        places.top.fail("lights", [], "must hold one or more lights: only a scene with an [environment], "
+                        "[[emitters]] or a shape with radiance (shading = \"direct\" or \"path\") needs none")
     for material, reader in zip(scene.materials, places.materials):
         if material.bsdf != "diffuse":
             _path_only(reader, "type", material.bsdf, scene.shading)
