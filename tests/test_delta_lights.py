@@ -124,7 +124,9 @@ def arriving(name, ref):
         cos = q[:, 2] / np.linalg.norm(q, axis=1)
         cutoff, beam = math.radians(light["cutoff_angle"]), math.radians(light["beam_width"])
         inside = cos > math.cos(cutoff)
-        falloff = np.where(cos >= math.cos(beam), 1.0, (cutoff - np.arccos(np.minimum(cos, 1))) / (cutoff - beam))
+        with np.errstate(divide="ignore", invalid="ignore"):  # (beam = cutoff: no ramp, its slope unused)
+            ramp = (cutoff - np.arccos(np.minimum(cos, 1))) / (cutoff - beam)
+        falloff = np.where(cos >= math.cos(beam), 1.0, ramp)
         falloff = np.where(inside, falloff, 0.0)
         radiance = np.array(light["intensity"]) * falloff[:, None]
         if "texture" in light:
