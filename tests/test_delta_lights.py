@@ -297,3 +297,19 @@ def test_the_power_of_a_delta_light():
                 directions)
         del LIGHTS[f"{name}_power"]
         assert emitter_power(scene, scene.emitters[0]) == pytest.approx(expected, rel=rtol), name
+
+
+def test_the_light_selection_weighs_a_delta_light_by_its_power():
+    """render.light_selection = "power" chooses among two point lights and a spot in proportion to
+    emitter_power's powers (packing.py's selection); "uniform" alike."""
+    from raytrace.renderer.scene_tables import scene_tables
+    from raytrace.scene.emitter_power import emitter_power
+    table = floor_scene(LIGHTS["point"])
+    table["emitters"] += [{**LIGHTS["point"], "intensity": 6.0}, LIGHTS["spot"]]
+    for selection in ("power", "uniform"):
+        table["render"]["light_selection"] = selection
+        scene = raytrace.load_dict(table)
+        power = np.array([emitter_power(scene, e) for e in scene.emitters])
+        expected = power / power.sum() if selection == "power" else np.full(3, 1 / 3)
+        packed = scene_tables(scene)["emitters"]["selection_pdf"]
+        np.testing.assert_allclose(packed, expected, rtol=1e-6)

@@ -142,7 +142,7 @@ TABLES = {
     "render": [Key("spp", "integer", "pixel samples", default=samplers.DEFAULT_SPP, low=1, high=MAX_SAMPLES,
                    also="1 by default with the center sampler"),
                Key("light_samples", "integer", "samples per light per pixel sample: per [[lights]] rectangle, and "
-                   "for the emitting shapes together (light_selection)", default=1, low=1,
+                   "for the emitting shapes and [[emitters]] together (light_selection)", default=1, low=1,
                    high=MAX_SAMPLES),
                Key("sampler", "string", "the pixel sample pattern", default="grid", choices=samplers.SAMPLERS,
                    also='center takes 1 sample, the grids a square number; the default is sobol with shading = '
@@ -151,9 +151,9 @@ TABLES = {
                    choices=samplers.SAMPLERS, also='as sampler; with shading = "direct", not a single point (center, '
                                                    'or a grid of 1)'),
                Key("light_selection", "string", "how each light sample chooses the emitting shape (a [[shapes]] "
-                   "table with radiance) it samples: in proportion to the shapes' power (pbrt-v4's power light "
-                   "sampler), or uniformly (Mitsuba 3's default); light_samples are then shared among the emitting "
-                   "shapes, while each [[lights]] rectangle takes light_samples of its own",
+                   "table with radiance) or the [[emitters]] light it samples: in proportion to their power "
+                   "(pbrt-v4's power light sampler), or uniformly (Mitsuba 3's default); light_samples are then "
+                   "shared among them, while each [[lights]] rectangle takes light_samples of its own",
                    default="power", choices=tuple(LIGHT_SELECTIONS)),
                Key("shading", "string", "the shading model: the course's Phong, radiometric direct lighting, or "
                    "global illumination by path tracing", default="phong", choices=SHADINGS),
