@@ -2,8 +2,8 @@
 raytrace/renderer/packing.py's selection): the probabilities against the emitters' power, the kernel's choices
 against those probabilities by chi-square, and the light of many emitters on a floor against its closed form.
 
-Probabilities (float64 on the host, then float32 in the Emitter table): by power, each emitter's pi A L-bar (its
-area times pi times its radiance's mean over the channels, pbrt-v4's PowerLightSampler) over their sum; uniform
+Probabilities (float64 on the host, then float32 in the Emitter table): by power, each emitter's pi A Y(L) (its
+area times pi times its radiance's luminance, pbrt-v4's PowerLightSampler) over their sum; uniform
 1 / n; uniform too where no emitter has power. Compared at relative 1e-6: float32 rounding of a probability is
 2^-24, and the host's float64 sum of a handful of terms nothing.
 
@@ -31,7 +31,7 @@ Mutations tried (each in a copy of the kernels or host; every one failed the tes
   path floors;
 - light_selection.cl hit_emitter_pdf: the choice's probability left out of the hit's density: the path and
   direct+bsdf floors (the MIS weights then do not sum to 1);
-- packing.py selection: the power without the radiance's mean (area alone): the probabilities test.
+- packing.py selection: the power without the radiance's luminance (area alone): the probabilities test.
 """
 import math
 
@@ -91,7 +91,8 @@ def floor_scene(shading, selection, max_depth=2, spheres=SPHERES):
 
 
 def expected_probabilities(spheres, selection):
-    power = np.array([math.pi * 4 * math.pi * r * r * np.mean(radiance) for _, r, radiance in spheres])
+    luminance = np.array([0.212671, 0.715160, 0.072169])  # linear sRGB's Y row (Mitsuba's luminance)
+    power = np.array([math.pi * 4 * math.pi * r * r * radiance @ luminance for _, r, radiance in spheres])
     return power / power.sum() if selection == "power" and power.sum() > 0 else np.full(len(spheres), 1 / len(spheres))
 
 

@@ -219,14 +219,13 @@ def emitter_tables(scene, triangles):
 
 def selection(scene, emitters):
     """Each emitter's probability of being a light sample's (render.light_selection; light_sampling.cl) and the
-    cumulative probabilities, in float64: by power, an area emitter's pi A times its radiance's mean over the
-    channels (pbrt-v4's PowerLightSampler, section 12.6.2, averages its spectrum likewise), a delta light's
-    emitter_power.py's; or uniform, and
-    uniform too where no emitter has power. The last cumulative value is 1 exactly, so that every u < 1 finds
+    cumulative probabilities, in float64: by power (pbrt-v4's PowerLightSampler, section 12.6.2), the
+    luminance of each one's RGB power, an area emitter's pi A L (A the area packed for the kernel), a delta
+    light's emitter_power.py's; or uniform, and uniform too where no emitter has power. The last cumulative value is 1 exactly, so that every u < 1 finds
     an emitter."""
     weights = np.ones(len(scene.emitters))
     if scene.light_selection == "power":
-        power = np.array([math.pi * float(s["area"]) * float(np.mean(e.radiance)) if isinstance(e, ShapeEmitter)
+        power = np.array([math.pi * float(s["area"]) * texture_lookups.luminance(e.radiance) if isinstance(e, ShapeEmitter)
                           else emitter_power(scene, e) for s, e in zip(emitters, scene.emitters)])
         if power.sum() > 0:
             weights = power

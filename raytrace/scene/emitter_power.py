@@ -2,7 +2,8 @@
 selection by power weighs the emitters by: pbrt-v4's Light::Phi (section 12.1 to 12.5) for each kind, with
 Mitsuba's parameters.
 
-- an area emitter on a shape (ShapeEmitter), emitting L from its front side: pi A L;
+- an area emitter on a shape (ShapeEmitter), emitting L from its front side: pi A L, which packing.py's
+  selection forms from the area it packs for the kernel;
 - point: 4 pi I;
 - spot: 2 pi I (1 - (cos(beam_width) + cos(cutoff_angle)) / 2), pbrt-v4's SpotLight::Phi (which ramps
   smoothly between the two cones; Mitsuba's linear ramp in the angle differs by little), times its texture's
@@ -17,14 +18,12 @@ import math
 
 import numpy as np
 
-from .model import DirectionalEmitter, PointEmitter, ProjectorEmitter, ShapeEmitter, SpotEmitter
+from .model import DirectionalEmitter, PointEmitter, ProjectorEmitter, SpotEmitter
 from .texture_lookups import luminance, texture_mean
 
 
 def emitter_power(scene, emitter):
-    """Phi of `emitter`, an entry of scene.emitters (float64 >= 0)."""
-    if isinstance(emitter, ShapeEmitter):
-        return math.pi * shape_area(scene, emitter.material) * luminance(emitter.radiance)
+    """Phi of `emitter`, a delta light of scene.emitters (float64 >= 0)."""
     if isinstance(emitter, PointEmitter):
         return 4 * math.pi * luminance(emitter.intensity)
     if isinstance(emitter, SpotEmitter):
@@ -46,33 +45,6 @@ def _image_mean(scene, lookup):
     if lookup.kind == "checkerboard":
         return luminance((np.asarray(lookup.colour0) + np.asarray(lookup.colour1)) / 2)
     return luminance(texture_mean(scene.textures[lookup.texture]))
-
-
-def shape_area(scene, material):
-    """The area of the shape whose material is `material` (an emitting shape's own; a mesh's triangles
-    together), as packing.py's emitter table takes it."""
-    for r in scene.rectangles:
-        if r.material == material:
-            return float(np.prod(r.size))
-    for e in scene.ellipsoids:  # a sphere (rules.py): its squared radius the mean of its axes'
-        if e.material == material:
-            return 4 * math.pi * float(np.mean(np.sum(e.axes ** 2, 1)))
-    for d in scene.disks:
-        if d.material == material:
-            linear = d.matrix[:3, :3]
-            return math.pi * float(np.linalg.norm(np.cross(linear[:, 0], linear[:, 1])))
-    for c in scene.cylinders:
-        if c.material == material:
-            linear = c.matrix[:3, :3]
-            phi = np.linspace(0, 2 * math.pi, 256, endpoint=False)
-            dphi = np.column_stack([-np.sin(phi), np.cos(phi), np.zeros_like(phi)]) @ linear.T
-            return 2 * math.pi * float(np.mean(np.linalg.norm(np.cross(dphi, linear[:, 2]), axis=1)))
-    v = [t.vertices for t in scene.triangles if t.material == material]
-    v += [m.mesh.vertices[m.mesh.faces] for m in scene.meshes if m.material == material]
-    if not v:
-        return 0.0
-    v = np.concatenate([np.asarray(x, np.float64).reshape(-1, 3, 3) for x in v])
-    return float(np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum() / 2)
 
 
 def scene_radius(scene):
