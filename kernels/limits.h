@@ -15,6 +15,8 @@
 #define WRAPPER_DEPTH 8
 /* The values of a principled or principledthin BSDF in types.h's Material (PRINCIPLED_* there). */
 #define PRINCIPLED_PARAMETERS 19
+/* The nodes of a reconstruction filter's sampling tables (types.h's Camera.rfilter_*): 128 bins at most. */
+#define RFILTER_NODES 129
 /* The lane widths lanes.h accepts: pixel samples a work-item holds at once. */
 #define LANE_WIDTH_ACCEPTED(n) ((n) == 1 || (n) == 4 || (n) == 8 || (n) == 16)
 

@@ -152,8 +152,8 @@ inline TexturedHits textured_hits(const Scene *s, Hit hit, Surface surface, vec3
     h.surface = surface;
     h.frame = shading_frame(h.surface);
     vec3 dpdx, dpdy;
-    camera_footprint(s->camera, params->footprint_scale, 1.0f / params->width, 1.0f / params->height, d, p, ng,
-                     &dpdx, &dpdy);
+    camera_footprint(s->camera, params->footprint_scale, 1.0f / s->camera->film_width,
+                     1.0f / s->camera->film_height, d, p, ng, &dpdx, &dpdy);
     h.duv = uv_derivatives(h.surface, dpdx, dpdy);
     return h;
 }

@@ -14,6 +14,9 @@
  * tested, each shared equally among its pixels. */
 #include "camera.cl"
 #include "tile.h"
+#if HAS_RFILTER
+#include "film_filter.cl"
+#endif
 #if HAS_PATH_TRACING
 #include "path_tracing.cl"
 #elif HAS_DIRECT_LIGHTING
@@ -117,15 +120,31 @@ inline void add_samples(Sums *sums, vec3 value, vint lanes, vint index, int firs
     }
 }
 
-/* Lane l's camera ray through its pixel (x, y) for the pixel sample ps (whose pair counter is advanced in the
- * lanes of `lanes` only). */
-inline Ray camera_ray(const Scene *s, Tile tile, PixelSample *ps, __global const uint2 *pixel_samples, vint lanes)
+/* Lane l's camera ray through its pixel (x, y) of the crop window for the pixel sample ps (whose pair counter
+ * is advanced in the lanes of `lanes` only: the pixel offset's pair, and a thin lens's lens point's after it,
+ * which no other camera draws), *tmax where its far clip plane ends it, and *weight its reconstruction
+ * filter's weight (film_filter.cl; 1 with the box filter, whose offsets are uniform in the pixel). The pixel
+ * is placed in the whole film (camera.cl). */
+inline Ray camera_ray(const Scene *s, Tile tile, PixelSample *ps, __global const uint2 *pixel_samples, vint lanes,
+                      vfloat *tmax, vfloat *weight)
 {
-    const int width = s->params->width, height = s->params->height;
+    __constant const Camera *cam = s->camera;
     vec2 offset = stream_2d(pixel_samples, s->params->pixel_sampler,
                             next_stream_in(ps, s->params->pixel_sampler, 1, lanes), (vint)(0));
-    return generate_camera_ray(s->camera, CONVERT_VFLOAT(tile.x) + offset.x, CONVERT_VFLOAT(tile.y) + offset.y,
-                               1.0f / width, 1.0f / height);
+    vec2 lens = offset;
+#if HAS_THIN_LENS
+    lens = stream_2d(pixel_samples, s->params->pixel_sampler, next_stream_in(ps, s->params->pixel_sampler, 1, lanes),
+                     (vint)(0));
+#endif
+    *weight = (vfloat)(1.0f);
+#if HAS_RFILTER
+    vfloat weight_x, weight_y;
+    offset.x = rfilter_offsets(cam, offset.x, tile.x, cam->crop_width, &weight_x);
+    offset.y = rfilter_offsets(cam, offset.y, tile.y, cam->crop_height, &weight_y);
+    *weight = weight_x * weight_y;
+#endif
+    return generate_camera_ray(cam, CONVERT_VFLOAT(tile.x + cam->crop_x) + offset.x,
+                               CONVERT_VFLOAT(tile.y + cam->crop_y) + offset.y, lens, tmax);
 }
 
 #if HAS_PATH_TRACING
@@ -144,18 +163,23 @@ inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active
     PixelSample ps = start_pixel_sample(key, (vint)(0));
     PathState path = {0};
     vint next = sample0 + tile.sample, in_path = (vint)(0) != 0;
+    vfloat weight = (vfloat)(1.0f); /* the lanes' samples' filter weights (camera_ray) */
     for (;;) {
         vint start = active & !in_path & (next < end);
+        vfloat tmax = SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), in_path);
         if (ANY(start)) {
             ps.index = SELECT(ps.index, next, start);
             ps.dimension = SELECT(ps.dimension, (vint)(0), start);
             next = SELECT(next, next + tile.group, start);
-            start_paths(&path, camera_ray(s, tile, &ps, pixel_samples, start), start);
+            vfloat camera_tmax, camera_weight;
+            start_paths(&path, camera_ray(s, tile, &ps, pixel_samples, start, &camera_tmax, &camera_weight), start);
+            tmax = SELECT(tmax, camera_tmax, start);
+            weight = SELECT(weight, camera_weight, start);
             in_path |= start;
         }
         if (!ANY(in_path))
             return;
-        Hit hit = closest_hit(s, path.r, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), in_path));
+        Hit hit = closest_hit(s, path.r, tmax);
         if (s->params->hide_emitters) /* the camera rays pass the emitters */
             hit = pass_emitters(s, &path.r, hit, in_path, in_path & (path.depth == 0));
         vint alive = path_hit(s, &path, hit, in_path);
@@ -164,7 +188,11 @@ inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active
                                 &sums->rays);
         vint ended = in_path & !alive;
         if (ANY(ended)) {
+#if HAS_RFILTER
+            add_samples(sums, v3_scale(path.radiance, weight), ended, ps.index, sample0 + n_first, n_first);
+#else
             add_samples(sums, path.radiance, ended, ps.index, sample0 + n_first, n_first);
+#endif
             in_path = alive;
         }
     }
@@ -178,14 +206,18 @@ inline void render_samples(const Scene *s, TextureStore ts, Tile tile, vuint key
     const vint all = (vint)(-1) != 0;
     for (int first = sample0; first < sample0 + n_samples; first += tile.group) {
         PixelSample ps = start_pixel_sample(key, first + tile.sample);
-        Ray ray = camera_ray(s, tile, &ps, pixel_samples, all);
-        Hit hit = closest_hit(s, ray, (vfloat)(INFINITY));
+        vfloat tmax, weight;
+        Ray ray = camera_ray(s, tile, &ps, pixel_samples, all, &tmax, &weight);
+        Hit hit = closest_hit(s, ray, tmax);
 #if RADIOMETRIC
         if (s->params->hide_emitters)
             hit = pass_emitters(s, &ray, hit, all, all);
 #endif
         ShadingPoint sp = shading_point(s, ts, ray, hit);
         vec3 value = shade(s, ray, hit, sp, light_samples, &ps, &sums->rays);
+#if HAS_RFILTER
+        value = v3_scale(value, weight);
+#endif
         add_samples(sums, value, all, ps.index, sample0 + n_first, n_first);
     }
 }
@@ -239,7 +271,9 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS,
     if (!ANY(active))
         return;
 
-    vuint key = pixel_key(AS_VUINT(y * width + x), params->seed);
+    /* keyed by its place in the whole film: a crop window's pixels are the film's */
+    const int film_width = scene.camera->film_width;
+    vuint key = pixel_key(AS_VUINT((y + scene.camera->crop_y) * film_width + x + scene.camera->crop_x), params->seed);
     Sums sums = {0};
 #if HAS_PATH_TRACING
     render_paths(&scene, ts, tile, active, key, pixel_samples, light_samples, sample0, n_samples, n_first, &sums);

@@ -5,14 +5,26 @@
 #define TYPES_H
 
 #include "lanes.h"
+#include "limits.h"
 
 typedef struct { float x, y, z; } Vec3f;
 
 typedef struct {
     Vec3f position, forward, right, up; /* orthonormal basis of docs/model.md, camera */
-    float scale_x;                      /* (W/H) * f * tan(fov/2) */
-    float scale_y;                      /* f * tan(fov/2) */
+    float scale_x;                      /* (W/H) * f * tan(fov/2); orthographic: half the view's width */
+    float scale_y;                      /* f * tan(fov/2); orthographic: half the view's height */
     float focal_length;
+    float near_clip, far_clip;          /* distances along forward (Mitsuba's); 0 and INFINITY: none */
+    float lens_radius, focus_distance;  /* thinlens (HAS_THIN_LENS): the aperture's radius, the focal plane's distance */
+    int film_width, film_height;        /* the whole film, in pixels */
+    int crop_x, crop_y, crop_width, crop_height; /* the rendered window of the film (hdrfilm's crop) */
+    int rfilter;                        /* RFILTER_*: the reconstruction filter (film_filter.cl, HAS_RFILTER) */
+    int rfilter_bins;                   /* its table's bins, spacing rfilter_step, over [-rfilter_reach, reach] */
+    float rfilter_reach, rfilter_step, rfilter_a, rfilter_b; /* a, b: the filter's parameters (film_filter.cl) */
+    float rfilter_integral;             /* the filter's integral over the line */
+    float rfilter_pdf[RFILTER_NODES];   /* |f| at the nodes, normalised: the piecewise-linear sampling density */
+    float rfilter_cdf[RFILTER_NODES];   /* that density's integral from -reach to each node */
+    float rfilter_cumulative[RFILTER_NODES]; /* f's own integral from -reach to each node, over rfilter_integral */
 } Camera;
 
 typedef struct {
@@ -303,6 +315,13 @@ typedef struct {
 #define FILTER_BILINEAR 1
 #define FILTER_TRILINEAR 2
 #define FILTER_ANISOTROPIC 3
+
+/* The film's reconstruction filters (types.h's Camera.rfilter; film_filter.cl), Mitsuba's rfilter plugins. */
+#define RFILTER_BOX 0
+#define RFILTER_TENT 1
+#define RFILTER_GAUSSIAN 2
+#define RFILTER_MITCHELL 3
+#define RFILTER_LANCZOS 4
 
 /* How a sample pattern's table (points in 0.32 fixed point, the same for every pixel) is randomised per
  * pixel and per sample stream, so that neighbouring pixels get independent patterns (samplers.cl). */

@@ -117,7 +117,9 @@ def resolve(scene, options):
 
 
 def _settings(final):
-    return (final.width, final.height, final.spp, final.light_samples, samplers.pattern(final.sampler, final.spp),
+    """The image is the film's crop window (the whole film by default)."""
+    _, _, width, height = final.crop
+    return (width, height, final.spp, final.light_samples, samplers.pattern(final.sampler, final.spp),
             samplers.pattern(final.light_sampler, final.light_samples))
 
 
@@ -302,11 +304,13 @@ def render_progressive(scene, **kwargs):
         raise InputError(API, "scene", type(scene).__name__, SCENE_EXPECTED)
     final = final_model(scene, options)
     options = dataclasses.replace(options, seed=final.seed)  # the devices read the seed from the options
-    # The kernel reads a model's shading, max_depth and light selection, the rest of the settings from `r`: when
-    # the options leave those as they are, the passes render the scene itself, whose packed geometry is kept
-    # between renders.
+    # The kernel reads a model's shading, max_depth, light selection and film, the rest of the settings from `r`:
+    # when the options leave those as they are, the passes render the scene itself, whose packed geometry is kept
+    # between renders. A crop window places the image in the film of the final model's size.
     if (final.shading, final.max_depth, final.light_selection) != (scene.shading, scene.max_depth,
-                                                                   scene.light_selection):
+                                                                   scene.light_selection) or (
+            final.crop != (0, 0, final.width, final.height) and (final.width, final.height) != (scene.width,
+                                                                                                 scene.height)):
         scene = final
     _option(options.accumulate, API, "accumulate", lambda v: v in (None, "device", "host"),
             'must be "device" or "host"')

@@ -11,8 +11,16 @@ MAPS = 21  # textured parameters a material has room for (Material.maps)
 WRAPPER_DEPTH = 8  # nested wrappers (blendbsdf, mask, twosided) a hit passes through, at most
 PRINCIPLED_PARAMETERS = 19    # a principled or principledthin BSDF's values (Material.principled: types.h's PRINCIPLED_*)
 
+RFILTER_NODES = 129  # the nodes of a reconstruction filter's sampling tables (Camera.rfilter_*)
+
 CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F), ("up", *VEC3F),
-                   ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4")])
+                   ("scale_x", "<f4"), ("scale_y", "<f4"), ("focal_length", "<f4"),
+                   ("near_clip", "<f4"), ("far_clip", "<f4"), ("lens_radius", "<f4"), ("focus_distance", "<f4"),
+                   ("film_width", "<i4"), ("film_height", "<i4"), ("crop_x", "<i4"), ("crop_y", "<i4"),
+                   ("crop_width", "<i4"), ("crop_height", "<i4"), ("rfilter", "<i4"), ("rfilter_bins", "<i4"),
+                   ("rfilter_reach", "<f4"), ("rfilter_step", "<f4"), ("rfilter_a", "<f4"), ("rfilter_b", "<f4"),
+                   ("rfilter_integral", "<f4"), ("rfilter_pdf", "<f4", (RFILTER_NODES,)),
+                   ("rfilter_cdf", "<f4", (RFILTER_NODES,)), ("rfilter_cumulative", "<f4", (RFILTER_NODES,))])
 
 RECTANGLE = np.dtype([("center", *VEC3F), ("normal", *VEC3F), ("tangent", *VEC3F), ("bitangent", *VEC3F),
                       ("half_x", "<f4"), ("half_y", "<f4"), ("material", "<i4")])
@@ -82,6 +90,8 @@ QUAD_TEXELS = (TEXELS_QUAD8, TEXELS_QUAD16, TEXELS_QUADF)  # height maps' quads
 FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in the texel buffer
 LIGHT_SELECTIONS = {"power": 0, "uniform": 1}  # render.light_selection: LIGHT_SELECTION_* (kernels/types.h)
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
+# kernels/types.h: RFILTER_*, the film's reconstruction filters (Mitsuba's rfilter plugins)
+RFILTERS = {"box": 0, "tent": 1, "gaussian": 2, "mitchell": 3, "lanczos": 4}
 
 # kernels/types.h: BSDF_*
 BSDFS = {"diffuse": 0, "conductor": 1, "dielectric": 2, "roughconductor": 3, "thindielectric": 4, "roughdielectric": 5,

@@ -8,9 +8,11 @@ from raytrace.renderer.packing import camera_struct
 SOURCE = """
 #include "camera.cl"
 __kernel void rays(int n, __constant const Camera *cam, __global const float *x, __global const float *y,
-                   float inv_w, float inv_h, __global float *o, __global float *d)
+                   __global float *o, __global float *d)
 {
-    Ray r = generate_camera_ray(cam, IN(x), IN(y), inv_w, inv_h);
+    vec2 lens = {(vfloat)(0.0f), (vfloat)(0.0f)};
+    vfloat tmax;
+    Ray r = generate_camera_ray(cam, IN(x), IN(y), lens, &tmax);
     OUT3(o, r.o);
     OUT3(d, r.d);
 }
@@ -24,8 +26,7 @@ TOL = 2e-6
 
 def run_rays(harness, scene, x, y, width, height):
     cam = camera_struct(scene.camera, width, height)
-    out = harness.run(SOURCE, "rays", len(x), [cam, x.astype(np.float32), y.astype(np.float32),
-                                               np.float32(1 / width), np.float32(1 / height)], {"o": 3, "d": 3})
+    out = harness.run(SOURCE, "rays", len(x), [cam, x.astype(np.float32), y.astype(np.float32)], {"o": 3, "d": 3})
     return out["o"].T, out["d"].T
 
 

@@ -60,10 +60,11 @@ def test_padding_is_found(cl_env):
 
 
 def test_constants_match_device(cl_env):
-    """The WRAP_*, FILTER_*, RANDOMIZE_*, BSDF_*, SHAPE_*, EMITTER_*, PRIM_KIND*, MAP_*, LOOKUP_* and TEXELS_* macros of kernels/types.h and the limits of
+    """The WRAP_*, FILTER_*, RFILTER_*, RANDOMIZE_*, BSDF_*, SHAPE_*, EMITTER_*, PRIM_KIND*, MAP_*, LOOKUP_* and TEXELS_* macros of kernels/types.h and the limits of
     kernels/limits.h against their mirrors in raytrace/structs.py."""
     names = {f"WRAP_{k.upper()}": v for k, v in structs.WRAP_MODES.items()}
     names |= {f"FILTER_{k.upper()}": v for k, v in structs.FILTERS.items()}
+    names |= {f"RFILTER_{k.upper()}": v for k, v in structs.RFILTERS.items()}
     names |= {f"RANDOMIZE_{k.upper()}": v for k, v in structs.RANDOMIZE.items()}
     names |= {f"BSDF_{k.upper()}": v for k, v in structs.BSDFS.items()}
     names |= {f"MICROFACET_{k.upper()}": v for k, v in structs.MICROFACETS.items()}
@@ -77,7 +78,8 @@ def test_constants_match_device(cl_env):
               "TEXELS_FLOAT": structs.TEXELS_FLOAT, "TEXELS_QUAD8": structs.TEXELS_QUAD8,
               "TEXELS_QUADF": structs.TEXELS_QUADF, "TEXELS_QUAD16": structs.TEXELS_QUAD16}
     names |= {"BVH_STACK": structs.BVH_STACK, "CULLED_RECTANGLES": structs.CULLED_RECTANGLES,
-              "ROUGH_TRANSMITTANCE_RES": structs.ROUGH_TRANSMITTANCE_RES}
+              "ROUGH_TRANSMITTANCE_RES": structs.ROUGH_TRANSMITTANCE_RES,
+              "RFILTER_NODES": structs.RFILTER_NODES}
     names |= {"PRINCIPLED_PARAMETERS": structs.PRINCIPLED_PARAMETERS}
     names |= {f"PRINCIPLED_{k.upper()}": i for i, k in enumerate(structs.PRINCIPLED)}
     assert run_int_kernel(cl_env, values_kernel(names), len(names)) == list(names.values())

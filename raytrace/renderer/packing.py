@@ -14,19 +14,39 @@ from ..scene.course_maps import kernel_materials
 from ..scene.emitter_power import emitter_power
 from ..scene.model import WRAPPERS, Material, ShapeEmitter
 from .culling import light_sides
+from .film_filter import rfilter_tables
 from .geometry import DEFAULT_UV
 
 
-def camera_struct(camera, width, height):
-    """The focal length cancels in the camera's ray directions and footprints (the image plane grows with it,
+def camera_struct(camera, width, height, crop=None, rfilter=("box", {})):
+    """The camera of a film of width x height pixels, of which the window crop = (x, y, crop width, crop height)
+    is rendered (None: the whole film), with the reconstruction filter rfilter = (name, {parameter: value}).
+    The focal length cancels in the camera's ray directions and footprints (the image plane grows with it,
     the field of view fixed): it is packed as 1, so that no value of it overflows or underflows float32."""
     forward, right, up = camera.basis()
-    tan_half = math.tan(math.radians(camera.fov_deg) / 2)
     c = np.zeros((), structs.CAMERA)
     c["position"], c["forward"], c["right"], c["up"] = camera.position, forward, right, up
-    c["scale_x"] = width / height * tan_half
-    c["scale_y"] = tan_half
+    if camera.kind == "orthographic":
+        c["scale_x"], c["scale_y"] = camera.size[0] / 2, camera.size[1] / 2
+    else:
+        tan_half = math.tan(math.radians(camera.fov_deg) / 2)
+        c["scale_x"] = width / height * tan_half
+        c["scale_y"] = tan_half
     c["focal_length"] = 1.0
+    c["near_clip"], c["far_clip"] = camera.near_clip, camera.far_clip
+    if camera.kind == "thinlens":
+        c["lens_radius"], c["focus_distance"] = camera.aperture_radius, camera.focus_distance
+    c["film_width"], c["film_height"] = width, height
+    c["crop_x"], c["crop_y"], c["crop_width"], c["crop_height"] = (0, 0, width, height) if crop is None else crop
+    name, parameters = rfilter
+    c["rfilter"] = structs.RFILTERS[name]
+    if name != "box":
+        tables = rfilter_tables(name, parameters)
+        c["rfilter_bins"], c["rfilter_reach"], c["rfilter_step"] = tables.bins, tables.reach, tables.step
+        c["rfilter_a"], c["rfilter_b"], c["rfilter_integral"] = tables.a, tables.b, tables.integral
+        n = tables.bins + 1
+        c["rfilter_pdf"][:n], c["rfilter_cdf"][:n], c["rfilter_cumulative"][:n] = (tables.pdf, tables.cdf,
+                                                                                 tables.cumulative)
     return c
 
 

@@ -69,6 +69,9 @@ class Features:
     instances: bool = False        # instances of shape groups: a two-level BVH (kernels/instances.cl)
     disks: bool = True             # Mitsuba's disk (kernels/disk.cl)
     cylinders: bool = True         # Mitsuba's cylinder (kernels/cylinder.cl)
+    thin_lens: bool = False        # the camera is a thin lens (camera.type = "thinlens": kernels/camera.cl)
+    orthographic: bool = False     # the camera is orthographic (camera.type = "orthographic")
+    rfilter: bool = False          # a reconstruction filter other than the box (kernels/film_filter.cl)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -113,7 +116,9 @@ class Features:
                    shape_emitters=any(isinstance(e, ShapeEmitter) for e in scene.emitters),
                    delta_emitters=any(not isinstance(e, ShapeEmitter) for e in scene.emitters),
                    instances=bool(scene.instances),
-                   bsdf_sampling=scene.shading == "direct" and scene.bsdf_samples > 0)
+                   bsdf_sampling=scene.shading == "direct" and scene.bsdf_samples > 0,
+                   thin_lens=scene.camera.kind == "thinlens", orthographic=scene.camera.kind == "orthographic",
+                   rfilter=scene.rfilter != "box")
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -130,7 +135,8 @@ class Features:
                  "LOOKUPS": self.lookups, "WRAPPERS": self.wrappers, "NULLS": self.nulls,
                  "PERTURBED_NORMALS": self.perturbed_normals, "PRINCIPLED_LOOKUPS": self.principled_lookups,
                  "SHAPE_EMITTERS": self.shape_emitters, "DELTA_EMITTERS": self.delta_emitters,
-                 "INSTANCES": self.instances, "BSDF_SAMPLING": self.bsdf_sampling}
+                 "INSTANCES": self.instances, "BSDF_SAMPLING": self.bsdf_sampling, "THIN_LENS": self.thin_lens,
+                 "ORTHOGRAPHIC": self.orthographic, "RFILTER": self.rfilter}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
                 + ["-DCOUNT_VISITS=1"] * self.count_visits)
 

@@ -8,6 +8,7 @@ from .. import structs
 from ..scene.course_maps import kernel_materials
 from .culling import scene_extent
 from .geometry import bvh_structs, in_leaf_order, triangle_soup
+from .film_filter import parameters
 from .packing import (affine_shape_structs, instance_structs, attribute_table, camera_struct, ellipsoid_structs, emitter_tables, environment_table, light_structs, material_structs, params_struct,
                       rectangle_structs, triangle_normal_records, triangle_records, triangle_uv_records)
 
@@ -43,6 +44,15 @@ def _geometry_tables(scene, uv, smooth, use_bvh):
     return tables
 
 
+def film(scene, width, height):
+    """(film width, film height, crop) of an image of width x height pixels: the scene's film and its crop
+    window where it has one (the image is that window), else the whole of a film of the image's size."""
+    crop = scene.crop
+    if crop == (0, 0, scene.width, scene.height):
+        return width, height, None
+    return scene.width, scene.height, crop
+
+
 def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filter="trilinear", pixel_pattern=None,
                  light_pattern=None, seed=0, features=None):
     """The scene's tables, named after kernels/scene.h's SCENE_PARAMETERS. Tables a variant does not read
@@ -55,7 +65,7 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
                            seed)
     params["scene_extent"] = scene_extent(scene, triangles)
     emitters, emitter_triangles = emitter_tables(scene, triangles)
-    return {"camera": camera_struct(scene.camera, width, height), "params": params,
+    return {"camera": camera_struct(scene.camera, *film(scene, width, height), parameters(scene)), "params": params,
             "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
             "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
             "disks": affine_shape_structs(scene.disks), "cylinders": affine_shape_structs(scene.cylinders),

@@ -10,10 +10,12 @@ from ..numerics import FLOAT32_MAX, FLOAT32_TINY
 from ..structs import LIGHT_SELECTIONS, WRAP_MODES
 from . import bsdfs, texture_lookups
 from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
-from .model import BSDFS, DELTA_EMITTERS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH, RR_DEPTH, SHADINGS
+from .model import (BSDFS, CAMERAS, DELTA_EMITTERS, RFILTERS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH,
+                    RR_DEPTH, SHADINGS)
 from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
 
 MAX_GENERATED_TRIANGLES = 50_000_000
+MAX_RFILTER_RADIUS = 16.0  # pixels: film_filter.py's tables hold 128 bins, 4 per pixel at least
 SHAPE_KINDS = ("rectangle", "triangle", "mesh", "ellipsoid", "disk", "cylinder", "instance")
 GENERATED_SHAPES = ("sphere", "torus", "terrain")
 
@@ -133,12 +135,48 @@ TABLES = {
                    also="differs from position"),
                Key("up", "vector", "the reference up direction", length=3, nonzero=True,
                    also="not parallel to the view direction"),
-               Key("fov", "number", "the vertical field of view, degrees", low=0, high=180, open_low=True,
-                   open_high=True),
+               Key("type", "string", "the camera, with Mitsuba's sensor names: a pinhole, a thin lens (depth of "
+                   "field), or parallel rays", default="perspective", choices=CAMERAS),
+               Key("fov", "number", "the vertical field of view, degrees", default=None, low=0, high=180,
+                   open_low=True, open_high=True, also='required for type = "perspective" and "thinlens"; not '
+                   'with "orthographic"'),
                Key("focal_length", "number", "the distance to the image plane; it cancels in the camera model",
-                   default=1.0, low=0, open_low=True)],
-    "image": [Key("width", "integer", "pixels", low=1, high=MAX_IMAGE_SIDE),
-              Key("height", "integer", "pixels", low=1, high=MAX_IMAGE_SIDE)],
+                   default=1.0, low=0, open_low=True),
+               Key("near_clip", "number", "the near clip plane's distance along the view: nearer than it, "
+                   "nothing is seen (Mitsuba's: 0.01; raytrace's default: none)", default=0.0, low=0),
+               Key("far_clip", "number", "the far clip plane's distance along the view: beyond it a camera ray "
+                   "sees what a miss sees (Mitsuba's: 10^4; raytrace's default: none)", default=None, low=0,
+                   open_low=True, high=FLOAT32_MAX, also="above near_clip"),
+               Key("aperture_radius", "number", 'thinlens: the lens\'s radius', default=None, low=0,
+                   open_low=True, high=FLOAT32_MAX, also='required for type = "thinlens"'),
+               Key("focus_distance", "number", "thinlens: the distance along the view of the plane in focus",
+                   default=None, low=0, open_low=True, high=FLOAT32_MAX, also='required for type = "thinlens"'),
+               Key("size", "vector", "orthographic: the view's width and height in scene units (Mitsuba's "
+                   "to_world scale: 2 sx and 2 sy height / width)", length=2, low=0, default=None,
+                   also='required for type = "orthographic"; both > 0')],
+    "image": [Key("width", "integer", "pixels of the film", low=1, high=MAX_IMAGE_SIDE),
+              Key("height", "integer", "pixels of the film", low=1, high=MAX_IMAGE_SIDE),
+              Key("crop_offset_x", "integer", "the crop window's first column: the image is that window of the "
+                  "film, its pixels the film's (Mitsuba's hdrfilm crop)", default=0, low=0, high=MAX_IMAGE_SIDE - 1),
+              Key("crop_offset_y", "integer", "the crop window's first row", default=0, low=0,
+                  high=MAX_IMAGE_SIDE - 1),
+              Key("crop_width", "integer", "the crop window's width (default: to the film's edge)", default=None,
+                  low=1, high=MAX_IMAGE_SIDE, also="the window lies in the film"),
+              Key("crop_height", "integer", "the crop window's height (default: to the film's edge)", default=None,
+                  low=1, high=MAX_IMAGE_SIDE, also="the window lies in the film"),
+              Key("rfilter", "string", "the reconstruction filter, with Mitsuba's names: box averages each pixel's "
+                  "samples; the others weigh samples about the pixel (importance-sampled: docs/model.md, film)",
+                  default="box", choices=RFILTERS),
+              Key("rfilter_radius", "number", "tent: its radius, pixels", default=1.0, low=0, open_low=True,
+                  high=MAX_RFILTER_RADIUS),
+              Key("rfilter_stddev", "number", "gaussian: its standard deviation, pixels (cut off at 4 of them)",
+                  default=0.5, low=0, open_low=True, high=MAX_RFILTER_RADIUS / 4),
+              Key("rfilter_b", "number", "mitchell: Mitchell and Netravali's B", default=1.0 / 3.0, low=-10,
+                  high=10),
+              Key("rfilter_c", "number", "mitchell: Mitchell and Netravali's C", default=1.0 / 3.0, low=-10,
+                  high=10),
+              Key("rfilter_lobes", "integer", "lanczos: its lobes (its radius, pixels)", default=3, low=1,
+                  high=int(MAX_RFILTER_RADIUS))],
     "render": [Key("spp", "integer", "pixel samples", default=samplers.DEFAULT_SPP, low=1, high=MAX_SAMPLES,
                    also="1 by default with the center sampler"),
                Key("light_samples", "integer", "samples per light per pixel sample: per [[lights]] rectangle, and "

@@ -41,13 +41,26 @@ RR_DEPTH = 5  # Mitsuba's rr_depth: the first path vertex at which Russian roule
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
 SCENE_EXPECTED = "must be a raytrace.scene.Scene, from load_file, load_dict or load_string"
 
+CAMERAS = ("perspective", "thinlens", "orthographic")  # the camera types, with Mitsuba's sensor names
+RFILTERS = ("box", "tent", "gaussian", "mitchell", "lanczos")  # the film's reconstruction filters, Mitsuba's names
+
+
 @dataclass(frozen=True)
 class Camera:
+    """docs/model.md, camera: a pinhole (perspective), a thin lens (its aperture_radius and focus_distance,
+    Mitsuba's thinlens) or an orthographic view (`size`: the view's width and height in scene units; fov_deg
+    None), each with clip planes at near_clip and far_clip along the view (0 and inf: none)."""
     position: np.ndarray
     look_at: np.ndarray
     ref_up: np.ndarray
-    fov_deg: float
+    fov_deg: float | None
     focal_length: float = 1.0
+    kind: str = "perspective"  # one of CAMERAS
+    near_clip: float = 0.0
+    far_clip: float = math.inf
+    aperture_radius: float = 0.0
+    focus_distance: float | None = None
+    size: np.ndarray | None = None
 
     def basis(self):
         """forward, right, up as docs/model.md, camera defines them (float64)."""
@@ -392,6 +405,16 @@ class Scene:
     rr_depth: int = RR_DEPTH  # the path model's first vertex at which Russian roulette may end a path
     hide_emitters: bool = False  # the radiometric models: camera rays do not see the emitters (Mitsuba's)
     bsdf_samples: int = 0   # the direct model's BSDF samples, besides light_samples per light (Mitsuba's direct)
+    crop_offset_x: int = 0  # the film's window rendered (hdrfilm's crop): its top-left pixel and its size
+    crop_offset_y: int = 0
+    crop_width: int | None = None   # None: to the film's edge
+    crop_height: int | None = None
+    rfilter: str = "box"    # the film's reconstruction filter, one of RFILTERS, and its parameters (Mitsuba's)
+    rfilter_radius: float = 1.0    # tent
+    rfilter_stddev: float = 0.5    # gaussian
+    rfilter_b: float = 1.0 / 3.0   # mitchell
+    rfilter_c: float = 1.0 / 3.0
+    rfilter_lobes: int = 3         # lanczos
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
     emitters: list = field(default_factory=list)  # ShapeEmitter, and the delta lights (PointEmitter, ...)
@@ -400,6 +423,13 @@ class Scene:
     source: dict | None = field(default=None, compare=False, repr=False)  # the checked table it was made from
     revision: int = field(default=0, compare=False, repr=False)  # counts its edits (raytrace.parameters)
     checked: str | None = field(default=None, compare=False, repr=False)  # fingerprint() when last checked
+
+    @property
+    def crop(self):
+        """The window of the film rendered: (x, y, width, height), the whole film by default."""
+        return (self.crop_offset_x, self.crop_offset_y,
+                self.width - self.crop_offset_x if self.crop_width is None else self.crop_width,
+                self.height - self.crop_offset_y if self.crop_height is None else self.crop_height)
 
     @property
     def triangle_count(self):

@@ -20,11 +20,12 @@ from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, DirectionalEm
                     SpotEmitter, TextureLookup, Triangle, fingerprint)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
-from .scene_file import LIGHTS_SPEC, Reader, check_affine_shape, check_axes, check_frame, check_triangle, map_placement
+from .scene_file import CAMERA_KEYS, LIGHTS_SPEC, RFILTER_KEYS, Reader, read_camera, read_film, check_affine_shape, check_axes, check_frame, check_triangle, map_placement
 
 # (the model's attribute, the key of keys.py's table it was read from)
 CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("fov_deg", "fov"),
-          ("focal_length", "focal_length")]
+          ("focal_length", "focal_length"), ("kind", "type"), ("near_clip", "near_clip"), ("far_clip", "far_clip"),
+          ("aperture_radius", "aperture_radius"), ("focus_distance", "focus_distance"), ("size", "size")]
 RECTANGLE = [("center", "center"), ("size", "size"), ("normal", "normal"), ("tangent", "tangent")]
 MATERIAL = [("colour", "colour"), ("shininess", "shininess"), ("height_scale", "height_scale"),
             ("uv_scale", "uv_scale"), ("uv_offset", "uv_offset"), ("wrap", "wrap"), ("bsdf", "type")]
@@ -39,6 +40,7 @@ BSDF_FIELDS = ("eta", "k", "int_ior", "ext_ior", "alpha", "alpha_v", "distributi
 
 
 _value = rules.value
+OWN_CAMERA_KEYS = {key for keys in CAMERA_KEYS.values() for key in keys}
 # The keys of the image and render tables a model holds as attributes of the same name.
 IMAGE = ("width", "height")
 RENDER = ("spp", "light_samples", "sampler", "light_sampler", "light_selection", "shading", "max_depth", "seed",
@@ -180,9 +182,13 @@ def check_model(scene, source="render()"):
     rules.py it breaks."""
     top = Reader(source, {"ambient": _value(scene.ambient)}, "")
     top.vector("ambient")
-    image = Reader(source, {key: getattr(scene, key) for key in IMAGE}, "image.", "image")
+    film = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height", "rfilter",
+            *RFILTER_KEYS.get(scene.rfilter, ()))
+    image = Reader(source, {key: getattr(scene, key) for key in IMAGE + film if getattr(scene, key) is not None},
+                   "image.", "image")
     render = Reader(source, {key: getattr(scene, key) for key in RENDER}, "render.", "render")
     _read(image, [(None, key) for key in IMAGE])
+    read_film(image)
     _read(render, [(None, key) for key in RENDER])
     if scene.environment is not None:
         Reader(source, {"radiance": _value(np.asarray(scene.environment, np.float64))}, "environment.",
@@ -191,8 +197,12 @@ def check_model(scene, source="render()"):
         _check_environment_map(source, scene)
 
     _typed(source, "camera.", scene.camera, Camera)
-    camera = _reader(source, "camera.", "camera", scene.camera, CAMERA)
-    _read(camera, CAMERA)
+    own = CAMERA_KEYS.get(scene.camera.kind, ())  # the type's own keys; the model holds defaults of the others'
+    camera = Reader(source, {key: _value(getattr(scene.camera, attr)) for attr, key in CAMERA
+                             if (key in own or key not in OWN_CAMERA_KEYS) and getattr(scene.camera, attr) is not None
+                             and not (key == "far_clip" and getattr(scene.camera, attr) == np.inf)}, "camera.",
+                    "camera")
+    read_camera(camera)
 
     materials = []
     if not scene.materials:

@@ -565,6 +565,51 @@ def _environment(e, base_dir):
     return None, EnvironmentMap(str((base_dir / e.string("filename")).resolve()), texels, scale, up, forward)
 
 
+CAMERA_KEYS = {"perspective": ("fov",), "thinlens": ("fov", "aperture_radius", "focus_distance"),
+               "orthographic": ("size",)}  # each type's own keys; the others take its position, clip planes
+RFILTER_KEYS = {"box": (), "tent": ("rfilter_radius",), "gaussian": ("rfilter_stddev",),
+                "mitchell": ("rfilter_b", "rfilter_c"), "lanczos": ("rfilter_lobes",)}
+
+
+def read_camera(c):
+    """The camera table (a scene file's, or model_check's of a model): each type takes its own keys, and needs
+    them; the far clip plane beyond the near one."""
+    kind = c.string("type")
+    own_keys(c, kind, CAMERA_KEYS[kind], sorted({k for keys in CAMERA_KEYS.values() for k in keys}))
+    for key in CAMERA_KEYS[kind]:
+        c.raw(key)  # required: "missing"
+    near = c.number("near_clip")
+    far = c.number("far_clip") if c.has("far_clip") else math.inf
+    if not far > near:
+        c.fail("far_clip", far, f"must be above near_clip ({near})")
+    size = c.vector("size") if kind == "orthographic" else None
+    if size is not None and not np.all(size > 0):
+        c.fail("size", size.tolist(), "must be > 0 in both")
+    thin = kind == "thinlens"
+    return Camera(c.vector("position"), c.vector("look_at"), c.vector("up"),
+                  None if kind == "orthographic" else c.number("fov"), c.number("focal_length"), kind, near, far,
+                  c.number("aperture_radius") if thin else 0.0, c.number("focus_distance") if thin else None, size)
+
+
+def read_film(img):
+    """The image table's crop window and reconstruction filter, as the Scene's fields of the keys' names: the
+    window inside the film, each filter's own parameters only."""
+    film = {key: img.integer(key) for key in ("crop_offset_x", "crop_offset_y")}
+    for key, side, offset in (("crop_width", "width", "crop_offset_x"), ("crop_height", "height", "crop_offset_y")):
+        extent = img.integer(side)
+        if film[offset] >= extent:
+            img.fail(offset, film[offset], f"must lie in the film ({side} {extent})")
+        film[key] = img.integer(key) if img.has(key) else None
+        if film[key] is not None and film[offset] + film[key] > extent:
+            img.fail(key, film[key], f"must end in the film: {offset} + {key} <= {side} ({extent})")
+    kind = img.string("rfilter")
+    own_keys(img, kind, RFILTER_KEYS[kind], sorted({k for keys in RFILTER_KEYS.values() for k in keys}))
+    film["rfilter"] = kind
+    for key in RFILTER_KEYS[kind]:
+        film[key] = img.integer(key) if key == "rfilter_lobes" else img.number(key)
+    return film
+
+
 def map_placement(e):
     """An envmap's scale, up and forward from its reader (a scene file's table, or model_check's of a model),
     forward not parallel to up."""
@@ -695,12 +740,12 @@ def parse_scene(table, path="<scene>", files=None):
 
     c = r.sub("camera")
     c.check_keys()
-    camera = Camera(c.vector("position"), c.vector("look_at"), c.vector("up"), c.number("fov"),
-                    c.number("focal_length"))
+    camera = read_camera(c)
 
     img = r.sub("image")
     img.check_keys()
     width, height = img.integer("width"), img.integer("height")
+    film = read_film(img)
 
     render = r.sub("render") if r.has("render") else Reader(path, {}, "render.", "render")
     render.check_keys()
@@ -730,7 +775,7 @@ def parse_scene(table, path="<scene>", files=None):
                   textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment,
                   environment_map=environment_map, seed=render.integer("seed"), rr_depth=render.integer("rr_depth"),
                   hide_emitters=render.boolean("hide_emitters"), bsdf_samples=render.integer("bsdf_samples"),
-                  light_selection=render.string("light_selection"))
+                  light_selection=render.string("light_selection"), **film)
 
     lights = r.raw("lights", [])  # keys.py: none only where rules.py allows it
     if not isinstance(lights, list):  # none at all: rules.py says when that is allowed
