@@ -94,6 +94,9 @@ def final_model(scene, options):
         given["spp"] = MAX_SAMPLES
     if not given:
         return scene
+    if given.get("width", scene.width) != scene.width or given.get("height", scene.height) != scene.height:
+        # a crop window is a window of the scene's own film: a film of another size is rendered whole
+        given.update(crop_offset_x=0, crop_offset_y=0, crop_width=None, crop_height=None)
     final = dataclasses.replace(scene, **given)
     ensure_checked(final, scene.path)
     return final
@@ -162,8 +165,9 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
 
     Args:
         scene: the Scene to render.
-        width: the image width in pixels, in [1, 16384] (None: the scene's).
-        height: the image height in pixels, in [1, 16384] (None: the scene's).
+        width: the image width in pixels, in [1, 16384] (None: the scene's); a film of another size than the
+            scene's is rendered whole (the scene's crop window is of its own film).
+        height: the image height in pixels, in [1, 16384] (None: the scene's), as width.
         spp: pixel samples, in [1, 65536]; a square number for the grid samplers (None: the scene's).
         light_samples: samples per light per pixel sample, in [1, 65536] (None: the scene's).
         sampler: the pixel sample pattern: center, grid, rotated-grid-cw, rotated-grid-ccw, random,
@@ -304,13 +308,13 @@ def render_progressive(scene, **kwargs):
         raise InputError(API, "scene", type(scene).__name__, SCENE_EXPECTED)
     final = final_model(scene, options)
     options = dataclasses.replace(options, seed=final.seed)  # the devices read the seed from the options
-    # The kernel reads a model's shading, max_depth, light selection and film, the rest of the settings from `r`:
-    # when the options leave those as they are, the passes render the scene itself, whose packed geometry is kept
-    # between renders. A crop window places the image in the film of the final model's size.
-    if (final.shading, final.max_depth, final.light_selection) != (scene.shading, scene.max_depth,
-                                                                   scene.light_selection) or (
-            final.crop != (0, 0, final.width, final.height) and (final.width, final.height) != (scene.width,
-                                                                                                 scene.height)):
+    # The kernel reads a model's shading, max_depth and light selection, the rest of the settings from `r`: when
+    # the options leave those as they are, the passes render the scene itself, whose packed geometry is kept
+    # between renders. A crop window stays the scene's, unless final_model drops it with the film's size: then
+    # the kernel reads the final model's whole film.
+    if (final.shading, final.max_depth, final.light_selection, final.crop[:2]) != (
+            scene.shading, scene.max_depth, scene.light_selection, scene.crop[:2]) or (
+            scene.crop != (0, 0, scene.width, scene.height) and final.crop != scene.crop):
         scene = final
     _option(options.accumulate, API, "accumulate", lambda v: v in (None, "device", "host"),
             'must be "device" or "host"')

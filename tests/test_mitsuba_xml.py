@@ -230,7 +230,7 @@ def test_a_box_translates_into_raytraces_table(tmp_path):
     scene = load(tmp_path, defines={"spp": 9})
     t = scene.source
     assert t["render"] == {"shading": "path", "max_depth": 3, "spp": 9, "sampler": "random", "seed": 0}
-    assert t["image"] == {"width": 12, "height": 8} and scene.camera.fov_deg == 40
+    assert t["image"] == {"width": 12, "height": 8, "rfilter": "box"} and scene.camera.fov_deg == 40
     light = scene.lights[0]
     assert np.allclose(light.normal, [0, -1, 0], atol=1e-15) and np.allclose(light.size, [0.5, 0.5])
     assert np.allclose(light.center, [0, 0.99, 0]) and list(light.colour) == [10, 9, 8]
@@ -488,23 +488,27 @@ def test_an_unknown_parameter_gets_the_closest_name(tmp_path):
     assert "did you mean 'reflectance'?" in str(error_of(tmp_path, text))
 
 
-def test_clip_planes_that_cut_geometry_are_refused(tmp_path):
-    """raytrace has no clip planes: geometry in view nearer than the near plane, or farther than the far one, is
-    refused; geometry behind the eye (a wall at z = 9, the camera at z = 4 looking to -z) is not cut."""
+def test_clip_planes_are_kept_where_they_cut_geometry(tmp_path):
+    """A plane that cuts geometry in view (nearer than the near plane, farther than the far one) is the camera's;
+    one that cuts nothing is dropped (a ray from the eye renders the TOML's bits); geometry behind the eye (a wall
+    at z = 9, the camera at z = 4 looking to -z) is not cut."""
     text = scene_text().replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/><float '
                                 'name="far_clip" value="4.5"/>')
-    assert "far_clip = 4.5: geometry reaches 5 along the view" in str(error_of(tmp_path, text))
+    camera = raytrace.load_file(write(tmp_path, text), {"depth": 3}).camera
+    assert (camera.near_clip, camera.far_clip) == (0.0, 4.5)
     near = scene_text('<shape type="rectangle"><transform name="to_world"><scale value="0.1"/><translate '
                       'x="0.05" y="0.05" z="3.99"/></transform></shape>')
-    assert "near_clip = 0.01: geometry comes within 0.01 of the eye" in str(error_of(tmp_path, near))
+    scene = raytrace.load_file(write(tmp_path, near), {"depth": 3})
+    assert (scene.camera.near_clip, scene.camera.far_clip) == (0.01, math.inf)
+    assert scene.source["camera"]["near_clip"] == 0.01 and "far_clip" not in scene.source["camera"]
     (tmp_path / "quad.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n")
     mesh = near.replace('<shape type="rectangle"><transform', '<shape type="obj"><string name="filename" '
                         'value="quad.obj"/><transform')  # the same, as triangles: their exact distance
-    error = error_of(tmp_path, mesh)
-    assert (error.key, error.value) == ("near_clip", 0.01) and "comes within 0.01 of the eye" in error.problem
+    assert raytrace.load_file(write(tmp_path, mesh), {"depth": 3}).camera.near_clip == 0.01
     text = near.replace('z="3.99"', 'z="3.98"')  # 0.02 away: beyond the near plane's ball (0.0108)
-    raytrace.load_file(write(tmp_path, text), {"depth": 3})
-    load(tmp_path, '<shape type="rectangle"><transform name="to_world"><translate z="9"/></transform></shape>')
+    assert raytrace.load_file(write(tmp_path, text), {"depth": 3}).camera.near_clip == 0.0
+    wall = load(tmp_path, '<shape type="rectangle"><transform name="to_world"><translate z="9"/></transform></shape>')
+    assert (wall.camera.near_clip, wall.camera.far_clip) == (0.0, math.inf)
 
 
 def test_the_dict_form_loads_as_the_xml(tmp_path):

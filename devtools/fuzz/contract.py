@@ -425,8 +425,14 @@ def fuzz_scene(main, scene_bytes, files, table, must_render=False, texture_filte
     argv = ["render", "scene.toml", "-o", "out" + ext, "--no-progress", "--stats-json", stats,
             "--texture-filter", texture_filter, *flags]
     size = None
-    if table is not None:
+    if table is not None:  # the image is the film's crop window, to the film's edge by default
         width, height = plain_int(table, "image", "width"), plain_int(table, "image", "height")
+        if width is not None and height is not None:
+            x, y = plain_int(table, "image", "crop_offset_x", default=0), plain_int(table, "image", "crop_offset_y",
+                                                                                  default=0)
+            if x is not None and y is not None:
+                width = plain_int(table, "image", "crop_width", default=width - x)
+                height = plain_int(table, "image", "crop_height", default=height - y)
         size = (width, height) if width is not None and height is not None else None
     with tempfile.TemporaryDirectory(prefix="fuzz-") as d:
         directory = Path(d)

@@ -70,7 +70,39 @@ def cameras(draw):
               "up": [0.0, 0.0, 1.0], "fov": draw(finite(20.0, 100.0))}
     if draw(st.booleans()):
         camera["focal_length"] = draw(finite(0.1, 3.0))
+    kind = draw(st.sampled_from(["perspective", "perspective", "thinlens", "orthographic"]))
+    if kind != "perspective" or draw(st.booleans()):
+        camera["type"] = kind
+    if kind == "thinlens":
+        camera.update(aperture_radius=draw(finite(0.001, 0.3)), focus_distance=draw(finite(0.5, 6.0)))
+    elif kind == "orthographic":
+        del camera["fov"]
+        camera["size"] = [draw(finite(0.5, 4.0)), draw(finite(0.5, 4.0))]
+    if draw(st.booleans()):
+        camera["near_clip"] = draw(finite(0.0, 1.0))
+    if draw(st.booleans()):
+        camera["far_clip"] = draw(finite(2.0, 20.0))
     return camera
+
+
+@st.composite
+def images(draw):
+    """The image table: the film, in a quarter of them a crop window of it, and any reconstruction filter."""
+    image = {"width": draw(st.integers(1, 16)), "height": draw(st.integers(1, 16))}
+    if draw(st.integers(0, 3)) == 0:
+        x, y = draw(st.integers(0, image["width"] - 1)), draw(st.integers(0, image["height"] - 1))
+        image.update(crop_offset_x=x, crop_offset_y=y, crop_width=draw(st.integers(1, image["width"] - x)),
+                     crop_height=draw(st.integers(1, image["height"] - y)))
+    rfilter = draw(st.sampled_from(["box", "box", "tent", "gaussian", "mitchell", "lanczos"]))
+    if rfilter != "box" or draw(st.booleans()):
+        image["rfilter"] = rfilter
+    parameters = {"tent": {"rfilter_radius": finite(0.25, 3.0)}, "gaussian": {"rfilter_stddev": finite(0.1, 1.5)},
+                  "mitchell": {"rfilter_b": finite(0.0, 1.0), "rfilter_c": finite(0.0, 1.0)},
+                  "lanczos": {"rfilter_lobes": st.integers(1, 5)}}.get(rfilter, {})
+    for key, values in parameters.items():
+        if draw(st.booleans()):
+            image[key] = draw(values)
+    return image
 
 
 @st.composite
@@ -312,8 +344,7 @@ def valid_scenes(draw, max_shapes=4, min_files=0):
     1..16 pixels a side, a few samples; in a quarter of them the direct model, some shapes black emitters, perhaps
     BSDF samples and hidden emitters."""
     files = []
-    table = {"camera": draw(cameras()),
-             "image": {"width": draw(st.integers(1, 16)), "height": draw(st.integers(1, 16))}}
+    table = {"camera": draw(cameras()), "image": draw(images())}
     if draw(st.booleans()):
         table["render"] = draw(render_tables())
     if draw(st.booleans()):

@@ -8,6 +8,7 @@ place in raytrace's model is refused with one line naming the file, line, plugin
 `ignore_unsupported` left out with one warning per kind. A value the table's reader refuses is reported at the
 XML element (or dict entry) it came from: `origins` maps each key of the table back to it.
 """
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
@@ -20,7 +21,7 @@ from . import bsdfs, mesh_file, spectra
 from .mitsuba_xml import WHERE, Where
 from .delta_lights import FOV_OR_FOCAL_LENGTH
 from .keys import MAX_GENERATED_TRIANGLES
-from .model import LOOKUPS
+from .model import LOOKUPS, fingerprint
 from .transform import AFFINE
 
 # Mitsuba's samplers, and raytrace's pattern that takes the place of each: the same estimate (every sampler is
@@ -190,26 +191,46 @@ PLUGINS = {
         Param("fov_axis", "x", 'emitters[] type = "projector" fov_axis', "x, y, diagonal, smaller or larger"),
         Param("focal_length", "50mm", 'emitters[] type = "projector" focal_length', "instead of fov: a 35 mm "
               "film's focal length"))),
+    "thinlens": Plugin("sensor", "a thin lens camera: depth of field", (
+        Param("to_world", "identity", "camera position", "rigid (no scale): the lens's centre, its "
+              "local +z the view, +y up"),
+        Param("aperture_radius", None, "camera aperture_radius"),
+        Param("focus_distance", "far_clip", "camera focus_distance"),
+        Param("fov", "focal_length's", "camera fov", "degrees along fov_axis"),
+        Param("fov_axis", "x", "camera fov", "x, y, diagonal, smaller or larger"),
+        Param("focal_length", "50mm", "camera fov", "instead of fov: a 35 mm film's focal length"),
+        Param("near_clip", 0.01, "camera near_clip"), Param("far_clip", 10000.0, "camera far_clip"),
+        Param("film", "hdrfilm", "image"), Param("sampler", "independent", "render"))),
+    "orthographic": Plugin("sensor", "parallel rays", (
+        Param("to_world", "identity", "camera size", "a rotation and translation after a "
+              "scale of x and y: the view spans [-sx, sx] x [-sy, sy] height / width"),
+        Param("near_clip", 0.01, "camera near_clip"), Param("far_clip", 10000.0, "camera far_clip"),
+        Param("film", "hdrfilm", "image"), Param("sampler", "independent", "render"))),
     "perspective": Plugin("sensor", "a pinhole camera", (
         Param("to_world", "identity", "camera position", "rigid (no scale): the eye, its local +z the view, +y up"),
         Param("fov", "focal_length's", "camera fov", "degrees along fov_axis"),
         Param("fov_axis", "x", "camera fov", "x, y, diagonal, smaller or larger"),
         Param("focal_length", "50mm", "camera fov", "instead of fov: a 35 mm film's focal length"),
-        Param("near_clip", 0.01, "", "only where nothing lies nearer along the view"),
-        Param("far_clip", 10000.0, "", "only where nothing lies farther along the view"),
+        Param("near_clip", 0.01, "camera near_clip", "dropped where it cuts nothing"),
+        Param("far_clip", 10000.0, "camera far_clip", "dropped where it cuts nothing"),
         Param("film", "hdrfilm", "image"), Param("sampler", "independent", "render")),
         only_default=(("principal_point_offset_x", 0.0), ("principal_point_offset_y", 0.0))),
     "hdrfilm": Plugin("film", "the image", (
         Param("width", 768, "image width"), Param("height", 576, "image height"),
-        Param("rfilter", "gaussian", "", "box only: raytrace averages each pixel's samples"),
+        Param("rfilter", "gaussian", "image rfilter", "importance-sampled (docs/model.md, film)"),
         Param("file_format", "openexr", "", "the output's extension decides"),
         Param("pixel_format", "rgb", "", "rgb, or rgba (raytrace writes RGB)"),
         Param("component_format", "float16", "", "the output decides"),
-        Param("sample_border", False, "", "no effect with a box filter"),
-        Param("crop_width", "width", "", "the whole film only"), Param("crop_height", "height", "",
-                                                                         "the whole film only")),
-        only_default=(("crop_offset_x", 0), ("crop_offset_y", 0))),
+        Param("sample_border", False, "", "off: raytrace takes no sample outside the crop window"),
+        Param("crop_offset_x", 0, "image crop_offset_x"), Param("crop_offset_y", 0, "image crop_offset_y"),
+        Param("crop_width", "width", "image crop_width"), Param("crop_height", "height", "image crop_height"))),
     "box": Plugin("rfilter", "each pixel the average of its own samples", ()),
+    "tent": Plugin("rfilter", "a tent", (Param("radius", 1.0, "image rfilter_radius"),)),
+    "gaussian": Plugin("rfilter", "a Gaussian cut off at 4 standard deviations", (
+        Param("stddev", 0.5, "image rfilter_stddev"),)),
+    "mitchell": Plugin("rfilter", "Mitchell and Netravali's cubic, radius 2", (
+        Param("B", 1 / 3, "image rfilter_b"), Param("C", 1 / 3, "image rfilter_c"))),
+    "lanczos": Plugin("rfilter", "a windowed sinc", (Param("lobes", 3, "image rfilter_lobes"),)),
     "path": Plugin("integrator", "path tracing", (
         Param("max_depth", -1, "render max_depth"), Param("rr_depth", 5, "render rr_depth"),
         Param("hide_emitters", False, "render hide_emitters"))),
@@ -235,6 +256,13 @@ PLUGINS = {
     "ldsampler": Plugin("sampler", "a low-discrepancy sequence: raytrace's Owen-scrambled Sobol", (
         Param("sample_count", 4, "render spp", "rounded up to a power of two"), Param("seed", 0, "render seed"))),
 }
+SENSORS = ("perspective", "thinlens", "orthographic")
+NEAR_CLIP, FAR_CLIP = 0.01, 1e4  # Mitsuba's clip planes' defaults
+# each rfilter's parameters: (Mitsuba's name, the image table's key, an integer)
+RFILTER_PARAMETERS = {"tent": (("radius", "rfilter_radius", False),),
+                      "gaussian": (("stddev", "rfilter_stddev", False),),
+                      "mitchell": (("B", "rfilter_b", False), ("C", "rfilter_c", False)),
+                      "lanczos": (("lobes", "rfilter_lobes", True),)}
 CATEGORIES = ("integrator", "sensor", "film", "rfilter", "sampler", "shape", "bsdf", "emitter", "texture")
 
 
@@ -248,12 +276,10 @@ def supported(category):
 @dataclass
 class Translation:
     """raytrace's scene table of a Mitsuba scene, where each of its keys came from ({key path: (where, the
-    Mitsuba parameter)}), the warnings of what was left out, and the camera's clip planes (checked against
-    the scene once it is built)."""
+    Mitsuba parameter)}), and the warnings of what was left out."""
     table: dict
     origins: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
-    clip: tuple = (0.0, math.inf, None)
     files: mesh_file.MeshCache = field(default_factory=mesh_file.MeshCache)  # mesh files read, for the reader
 
 
@@ -533,9 +559,9 @@ class _Translator:
 
     def sensor(self, key, node):
         name = node["type"]
-        if name != "perspective":
+        if name not in SENSORS:
             self.unsupported(self.where(node, key).at, f"sensor {name}", "not supported (raytrace renders: "
-                             "perspective)")
+                             f"{', '.join(SENSORS)})")
             return
         params = self.params(node, key, name)
         film, sampler = None, None
@@ -550,22 +576,44 @@ class _Translator:
         self.sampler(*sampler) if sampler else self.sampler(f"{key}.sampler", {"type": "independent"})
         m = self.matrix(params["to_world"], node, key, "to_world") if "to_world" in params else np.eye(4)
         linear = m[:3, :3]
-        if not np.allclose(linear.T @ linear, np.eye(3), rtol=0, atol=1e-5) or np.linalg.det(linear) < 0:
+        camera = self.table["camera"] = {"type": name}
+        if name == "orthographic":  # the to_world's x and y scale set the view's extent (Mitsuba: x in [-1, 1])
+            scale = np.linalg.norm(linear, axis=0)
+            rotation = linear / np.where(scale > 0, scale, 1.0)
+            rigid = np.allclose(rotation.T @ rotation, np.eye(3), rtol=0, atol=1e-5) and np.linalg.det(linear) > 0
+            if not rigid or abs(scale[2] - 1) > 1e-5:
+                self.fail(self.where(node, key).of("to_world"), f"{key}.to_world", m.tolist(),
+                          "must be a rotation and translation after a scale of x and y only (the view's extent), "
+                          "as Mitsuba's orthographic sensor takes it")
+            linear = rotation
+            camera["size"] = [2 * float(scale[0]), 2 * float(scale[1]) * height / width]
+            self.origin("camera.size", node, key, "to_world")
+        elif not np.allclose(linear.T @ linear, np.eye(3), rtol=0, atol=1e-5) or np.linalg.det(linear) < 0:
             self.fail(self.where(node, key).of("to_world"), f"{key}.to_world", m.tolist(),
                       "must be rigid: scale factors are not allowed in a camera's to_world (as in Mitsuba)")
-        fov = self.fov(params, node, key, width / height)
-        position, forward, up = m[:3, 3], m[:3, 2], m[:3, 1]
-        self.table["camera"] = {"position": position.tolist(), "look_at": (position + forward).tolist(),
-                                "up": up.tolist(), "fov": fov}
+        position, forward, up = m[:3, 3], linear[:, 2], linear[:, 1]
+        camera.update({"position": position.tolist(), "look_at": (position + forward).tolist(), "up": up.tolist()})
         for k in ("position", "look_at", "up"):
             self.origin(f"camera.{k}", node, key, "to_world")
-        self.origin("camera.fov", node, key, "fov" if "fov" in params else "focal_length")
-        near = self.number(params.get("near_clip", 0.01), node, key, "near_clip")
-        far = self.number(params.get("far_clip", 1e4), node, key, "far_clip")
+        if name != "orthographic":
+            camera["fov"] = self.fov(params, node, key, width / height)
+            self.origin("camera.fov", node, key, "fov" if "fov" in params else "focal_length")
+        near = self.number(params.get("near_clip", NEAR_CLIP), node, key, "near_clip")
+        far = self.number(params.get("far_clip", FAR_CLIP), node, key, "far_clip")
         if not 0 < near < far:
             self.fail(self.where(node, key).of("near_clip"), f"{key}.near_clip", near,
                       f"must be > 0 and below far_clip ({far})")
-        self.out.clip = (near, far, self.where(node, key).of("near_clip" if "near_clip" in params else "to_world"))
+        camera["near_clip"], camera["far_clip"] = near, far
+        self.origin("camera.near_clip", node, key, "near_clip")
+        self.origin("camera.far_clip", node, key, "far_clip")
+        if name == "thinlens":
+            if "aperture_radius" not in params:
+                self.fail(self.where(node, key).at, f"{key}.aperture_radius", None, "missing: a thinlens needs its "
+                          "aperture_radius (as in Mitsuba)")
+            camera["aperture_radius"] = self.number(params["aperture_radius"], node, key, "aperture_radius")
+            camera["focus_distance"] = self.number(params.get("focus_distance", far), node, key, "focus_distance")
+            for k in ("aperture_radius", "focus_distance"):
+                self.origin(f"camera.{k}", node, key, k)
 
     def fov(self, params, node, key, aspect):
         """The vertical field of view of Mitsuba's fov, fov_axis or focal_length (Mitsuba's parse_fov)."""
@@ -611,18 +659,23 @@ class _Translator:
                                ("file_format", ("openexr", "exr", "rgbe", "pfm"))):
             if param in params:
                 self.string(params[param], node, key, param, choices)
-        for crop, side in (("crop_width", "width"), ("crop_height", "height")):
-            if crop in params and params[crop] != image[side]:
-                self.unsupported(self.where(node, key).of(crop), f"film hdrfilm: {crop}", "a crop of the film is "
-                                 "not supported (the whole film only)")
+        for param in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
+            if param in params:  # the image table's keys check the window against the film
+                image[param] = self.number(params[param], node, key, param, integer=True)
+                self.origin(f"image.{param}", node, key, param)
         if "sample_border" in params:
             self.boolean(params["sample_border"], node, key, "sample_border")
         rfilters = [(path, v) for path, v, category in self.objects(params, key, node) if category == "rfilter"]
-        if not rfilters:
-            self.unsupported(self.where(node, key).at, "rfilter gaussian", "hdrfilm's default reconstruction filter "
-                             "is gaussian, and raytrace has a box filter only: add <rfilter type=\"box\"/>")
-        for path, rfilter in rfilters:
-            self.params(rfilter, path, "box")
+        path, rfilter = rfilters[0] if rfilters else (f"{key}.rfilter", None)
+        kind = rfilter["type"] if rfilter else "gaussian"  # hdrfilm's default
+        image["rfilter"] = kind
+        if rfilter is not None:
+            self.origin("image.rfilter", rfilter, path, "type")
+            own = self.params(rfilter, path, kind)
+            for param, table_key, integer in RFILTER_PARAMETERS.get(kind, ()):
+                if param in own:
+                    image[table_key] = self.number(own[param], rfilter, path, param, integer=integer)
+                    self.origin(f"image.{table_key}", rfilter, path, param)
         return image["width"], image["height"]
 
     def objects(self, params, key, node):
@@ -1300,9 +1353,20 @@ def _triangle_soups(scene):
     return soups + [m.mesh.vertices[m.mesh.faces] for m in scene.meshes]
 
 
+def _boxes(scene):
+    """The eight corners of a world box about each disk, cylinder and instance (8 x 3 arrays): bounds that
+    contain them, for the clip planes' checks."""
+    unit = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (0.0, 1.0)])
+    boxes = [unit @ s.matrix[:3, :3].T + s.matrix[:3, 3] for s in scene.disks + scene.cylinders]
+    for instance in scene.instances:
+        lo, hi = instance.bounds(scene.groups[instance.group])
+        boxes.append(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]))
+    return boxes
+
+
 def view_depths(scene):
     """How far along the camera's view each primitive's extreme points lie: rectangles' and lights' corners,
-    triangles' vertices, ellipsoids' extents along the view (the clip planes' checks: check_clip, and the
+    triangles' vertices, ellipsoids' extents along the view, the corners of boxes about the others (without_idle_clip_planes, and the
     planes mitsuba_writer.py writes)."""
     eye = scene.camera.position
     forward, _, _ = scene.camera.basis()
@@ -1315,22 +1379,27 @@ def view_depths(scene):
     for e in scene.ellipsoids:
         mid, reach = np.dot(e.center - eye, forward), np.linalg.norm(e.axes @ forward)
         depths.append(np.array([mid - reach, mid + reach]))
+    depths += [(box - eye) @ forward for box in _boxes(scene)]
     return np.concatenate(depths)
 
 
-def check_clip(scene, translation):
+def without_idle_clip_planes(scene, table):
     """Mitsuba's clip planes: a camera ray starts on the near plane and ends on the far one, so what lies in view
-    nearer than near_clip, or farther than far_clip, along the view is cut. raytrace's camera has none, so a scene
-    renders only where they cut nothing. Near: the part of the view nearer than the near plane lies within a ball
-    of radius near * |(tan(fov_x / 2), tan(fov_y / 2), 1)| about the eye, and no primitive may reach into it (the
+    nearer than near_clip, or farther than far_clip, along the view is cut; raytrace's camera clips so too. A
+    pinhole's plane that cuts nothing is dropped (as the TOML's default, none), so that a scene renders bit for
+    bit as its TOML does: the ray from the eye and the ray from the near plane are the same ray in exact
+    arithmetic, not in float32. Near: the part of the view nearer than the near plane lies within a ball of
+    radius near * |(tan(fov_x / 2), tan(fov_y / 2), 1)| about the eye, and no primitive may reach into it (the
     exact distance to rectangles and triangles; an ellipsoid's centre less its longest semi-axis). Far: no point
-    of a primitive lies farther along the view (its corners; an ellipsoid's extent along the view)."""
-    near, far, at = translation.clip
-    if at is None:
-        return
+    of a primitive lies farther along the view (its corners; an ellipsoid's extent along the view). Disks,
+    cylinders and instances are bounded by boxes (_boxes). A dropped plane leaves the scene's table and `table`
+    (the translation's) too."""
+    camera = scene.camera
+    if camera.kind != "perspective" or (camera.near_clip == 0 and camera.far_clip == math.inf):
+        return scene
     import trimesh  # the distance to triangles (a dependency already: the mesh readers)
-    eye = scene.camera.position
-    tan_y = math.tan(math.radians(scene.camera.fov_deg) / 2)
+    eye, near = camera.position, camera.near_clip
+    tan_y = math.tan(math.radians(camera.fov_deg) / 2)
     ball = near * math.sqrt(1 + tan_y ** 2 * (1 + (scene.width / scene.height) ** 2))
     distances = [np.array([math.inf])]
     for r in scene.rectangles + scene.lights:  # the eye in the rectangle's frame, clamped to it
@@ -1348,11 +1417,18 @@ def check_clip(scene, translation):
             distances.append(np.linalg.norm(closest - eye, axis=1))
     for e in scene.ellipsoids:
         distances.append(np.array([np.linalg.norm(e.center - eye) - np.linalg.norm(e.axes, 2)]))
-    depths = view_depths(scene)
-    nearest, farthest = np.concatenate(distances).min(), depths.max(initial=-math.inf)
-    if nearest < ball:
-        raise InputError(at, "near_clip", near, f"geometry comes within {nearest:.6g} of the eye, where the near "
-                         "plane would cut it: raytrace has no clip planes (give a smaller near_clip)")
-    if farthest > far:
-        raise InputError(at, "far_clip", far, f"geometry reaches {farthest:.6g} along the view, beyond the far plane: "
-                         "raytrace has no clip planes (give a larger far_clip)")
+    for box in _boxes(scene):  # the distance to the box bounds the distance to what it holds
+        lo, hi = box.min(axis=0), box.max(axis=0)
+        distances.append(np.array([np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0))]))
+    nearest, farthest = np.concatenate(distances).min(), view_depths(scene).max(initial=-math.inf)
+    idle = {"near_clip": nearest >= ball, "far_clip": farthest <= camera.far_clip}
+    if not any(idle.values()):
+        return scene
+    scene.camera = dataclasses.replace(camera, near_clip=0.0 if idle["near_clip"] else near,
+                                       far_clip=math.inf if idle["far_clip"] else camera.far_clip)
+    for key, dropped in idle.items():  # from the scene's table, and the translation's (convert writes it)
+        for source in (scene.source, table):
+            if dropped and source is not None:
+                source["camera"].pop(key, None)
+    scene.checked = fingerprint(scene)
+    return scene

@@ -40,7 +40,7 @@ import numpy as np
 from ..errors import InputError
 from . import bsdfs
 from .model import RR_DEPTH, WRAPPERS, PointEmitter, ProjectorEmitter, ShapeEmitter, SpotEmitter, fingerprint
-from .mitsuba import view_depths
+from .mitsuba import FAR_CLIP, NEAR_CLIP, RFILTER_PARAMETERS, view_depths
 from .transform import mesh_matrix
 
 # raytrace's pixel patterns and the Mitsuba sampler written for each (mitsuba.py's SAMPLER_PATTERNS reads them
@@ -50,7 +50,6 @@ from .transform import mesh_matrix
 SAMPLERS = {"random": "independent", "jittered": "stratified", "sobol": "ldsampler", "halton": "ldsampler",
             "grid": "stratified", "rotated-grid-cw": "stratified", "rotated-grid-ccw": "stratified",
             "center": "stratified"}
-NEAR_CLIP, FAR_CLIP = 0.01, 1e4  # Mitsuba's perspective defaults: written only where they would cut the scene
 # An ellipsoid is written as a sphere where its axes' Gram matrix is radius^2 times the identity within this
 # fraction of radius^2: lengths and right angles within about 5e-7, a few float32 ulps (the kernel's resolution).
 SPHERE_TOLERANCE = 1e-6
@@ -179,15 +178,24 @@ class _Writer:
 
     def sensor(self, root):
         scene, camera = self.scene, self.scene.camera
-        sensor = ET.SubElement(root, "sensor", type="perspective")
-        ET.SubElement(sensor, "string", name="fov_axis", value="y")
-        ET.SubElement(sensor, "float", name="fov", value=_number(camera.fov_deg))
+        sensor = ET.SubElement(root, "sensor", type=camera.kind)
+        if camera.kind != "orthographic":
+            ET.SubElement(sensor, "string", name="fov_axis", value="y")
+            ET.SubElement(sensor, "float", name="fov", value=_number(camera.fov_deg))
         near, far = self.clip()
+        near = camera.near_clip if camera.near_clip > 0 else near
+        far = camera.far_clip if camera.far_clip < math.inf else far
         if near != NEAR_CLIP:
             ET.SubElement(sensor, "float", name="near_clip", value=_number(near))
         if far != FAR_CLIP:
             ET.SubElement(sensor, "float", name="far_clip", value=_number(far))
+        if camera.kind == "thinlens":
+            ET.SubElement(sensor, "float", name="aperture_radius", value=_number(camera.aperture_radius))
+            ET.SubElement(sensor, "float", name="focus_distance", value=_number(camera.focus_distance))
         transform = ET.SubElement(sensor, "transform", name="to_world")
+        if camera.kind == "orthographic":  # Mitsuba's view spans [-sx, sx] x [-sy, sy] height / width
+            ET.SubElement(transform, "scale", x=_number(camera.size[0] / 2),
+                          y=_number(camera.size[1] / 2 * scene.width / scene.height))
         ET.SubElement(transform, "lookat", origin=_numbers(camera.position), target=_numbers(camera.look_at),
                       up=_numbers(camera.ref_up))
         kind = SAMPLERS[scene.sampler]
@@ -207,11 +215,19 @@ class _Writer:
         ET.SubElement(film, "integer", name="width", value=str(int(scene.width)))
         ET.SubElement(film, "integer", name="height", value=str(int(scene.height)))
         ET.SubElement(film, "string", name="pixel_format", value="rgb")
-        ET.SubElement(film, "rfilter", type="box")
+        for key in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
+            if getattr(scene, key):
+                ET.SubElement(film, "integer", name=key, value=str(int(getattr(scene, key))))
+        rfilter = ET.SubElement(film, "rfilter", type=scene.rfilter)
+        for param, key, integer in RFILTER_PARAMETERS.get(scene.rfilter, ()):
+            value = getattr(scene, key)
+            ET.SubElement(rfilter, "integer" if integer else "float", name=param,
+                          value=str(int(value)) if integer else _number(value))
 
     def clip(self):
-        """Mitsuba's near and far clip planes, moved from its defaults where those would cut the scene (raytrace's
-        camera has none): near below the nearest point in front of the eye, far beyond the farthest."""
+        """Mitsuba's near and far clip planes for a camera without them (raytrace's default), moved from its
+        defaults where those would cut the scene: near below the nearest point in front of the eye, far beyond
+        the farthest."""
         depths = view_depths(self.scene)
         front = depths[depths > 0]
         near = NEAR_CLIP if not len(front) or front.min() >= NEAR_CLIP else float(front.min()) / 2

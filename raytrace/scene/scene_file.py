@@ -890,8 +890,7 @@ def _mitsuba(node, path, folder, ignore_unsupported):
         scene = parse_scene(translation.table, path, translation.files)
     except InputError as e:
         raise mitsuba.located(e, translation) from None
-    mitsuba.check_clip(scene, translation)
-    return scene, translation
+    return mitsuba.without_idle_clip_planes(scene, translation.table), translation
 
 
 KEY_NOT_STRING = "a key must be a string, as in a scene file"
