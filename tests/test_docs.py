@@ -104,7 +104,7 @@ def test_a_stale_generated_table_is_found(tmp_path):
     """The check above can fail: one cell of the scene format's tables edited, a key dropped from a copy of the
     page, each is stale, and the rewrite restores the page; the command's --check passes on the checkout."""
     page = (ROOT / "docs" / "scene-format.md").read_text()
-    for edit in (("| `fov` | number | required | (0, 180) |", "| `fov` | number | required | (0, 90) |"),
+    for edit in (("| `fov` | number | none | (0, 180);", "| `fov` | number | none | (0, 90);"),
                  ("| `smooth` | true or false | false | any |", "")):
         assert edit[0] in page
         copy = tmp_path / "scene-format.md"
@@ -164,7 +164,8 @@ def test_the_scene_format_tables_say_what_the_declarations_do(manual):
         for row, key in zip(rows[1:], keys):
             kind, values = accepted(key)
             assert row[:4] == [key.name, kind, unmark(default_text(key)), unmark(values)], (table, row)
-    by_hand = {("camera", "fov"): ["number", "required", "(0, 180)"],
+    by_hand = {("camera", "fov"): ["number", "none", '(0, 180); required for type = "perspective" and "thinlens"; '
+                                   'not with "orthographic"'],
                ("top level", "ambient"): ["3 numbers", "[0, 0, 0]", 'each >= 0; shading = "phong" only'],
                ("render", "max_depth"): ["integer", "-1", "[-1, 1024]"],
                ("render", "shading"): ["string", '"phong"', "one of phong, direct, path"],

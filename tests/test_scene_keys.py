@@ -13,6 +13,8 @@ from helpers import ROOT
 from raytrace.errors import InputError
 from raytrace.scene import bsdfs, parse_scene
 from raytrace.scene.keys import REQUIRED, TABLES
+from raytrace.scene.ranges import MAX_IMAGE_SIDE
+from raytrace.scene.scene_file import CAMERA_KEYS, RFILTER_KEYS
 from raytrace.scene.model import DELTA_EMITTERS, fingerprint
 
 SCENE_PATH = str(ROOT / "scenes" / "every_table.toml")  # textures are read relative to it (it need not exist)
@@ -165,6 +167,19 @@ def scene_with(table_name, key_name=None):
     node = scene
     for step in where:
         node = node[step]
+    if table_name == "camera":  # a type's own keys in a camera of that type
+        own = {"aperture_radius": "thinlens", "focus_distance": "thinlens", "size": "orthographic"}
+        if key_name in own:
+            node.update(type=own[key_name], aperture_radius=0.1, focus_distance=3.0, size=[2.0, 2.0])
+            for other in ("fov", "aperture_radius", "focus_distance", "size"):
+                if other not in CAMERA_KEYS[own[key_name]]:
+                    del node[other]
+    if table_name == "image" and key_name is not None:
+        if key_name.startswith("crop_"):  # a window anywhere in the largest film
+            node.update(width=MAX_IMAGE_SIDE, height=MAX_IMAGE_SIDE)
+        kind = [k for k, keys in RFILTER_KEYS.items() if key_name in keys]
+        if kind:  # a filter's own keys with that filter
+            node["rfilter"] = kind[0]
     return scene, node, prefix
 
 
