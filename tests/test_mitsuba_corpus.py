@@ -7,8 +7,10 @@ with the defines the record names) and runs devtools/judge.py's Z-test against t
 
 The corpus is one small scene per plugin family raytrace reads (diffuse, conductor, roughconductor, dielectric,
 rectangle placement, obj, ply and serialized meshes, shapegroup instances, constant and envmap emitters, the perspective sensor's fov
-axes and focal length, the samplers, the path, direct and moment integrators (path's rr_depth and hide_emitters,
-direct's BSDF samples beside its emitter samples), a version 0.6 file, $name parameters, include, ref;
+axes and focal length, the thinlens and orthographic sensors, clip planes, hdrfilm's crop window and its tent,
+gaussian, mitchell and lanczos rfilters, the samplers, the path, direct and moment integrators (path's rr_depth
+and hide_emitters, direct's BSDF samples beside its emitter samples), a version 0.6 file, $name parameters,
+include, ref;
 each BSDF; the textures bitmap, checkerboard and mesh_attribute (vertex, face and one-value attributes); the
 wrappers twosided, blendbsdf, mask, normalmap
 and bumpmap) and composite scenes (issue58.xml: a roughness-mapped metal, a masked leaf, a normal-mapped floor, a
