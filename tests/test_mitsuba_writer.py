@@ -18,7 +18,10 @@ so nothing the renderer sees moves), their normals within 1e-6 (float32's 2^-24,
 file under its transform comes back exactly: the same file, the same float64 matrix, the same arithmetic. So do
 disks and cylinders (their to_world, p0, p1 and radius written by repr() and read as written), and each emitting
 shape's emitter: its radiance, whether it reflects (a black BSDF, read back as none, where it does not) and the
-material it copies.
+material it copies. The camera's type, aperture and focus distance, the film's crop window and its filter with
+its parameters come back as written; an orthographic view's size through its to_world's scale (column lengths:
+1e-14); a clip plane as written, or none where a pinhole's cuts nothing, or Mitsuba's default (which the writer
+keeps only where it cuts nothing) where the model had none.
 
 The images. Both are rendered with the same options and seed, so the same sample patterns; the scenes' own
 samplers round-trip (sobol -> ldsampler -> sobol at a power of two; the sampler test checks each mapping), and
@@ -47,6 +50,7 @@ import raytrace
 from raytrace.errors import UnsupportedWarning
 from raytrace.numerics import f32
 from raytrace.scene.model import fingerprint
+from raytrace.scene.mitsuba import FAR_CLIP, NEAR_CLIP
 from raytrace.scene.mitsuba_writer import to_xml
 
 from helpers import ROOT
@@ -205,9 +209,21 @@ def assert_same_model(scene, back, light_sampler=None, k=None):
     assert np.array_equal(camera.position, scene.camera.position)
     for u, v in zip(scene.camera.basis(), camera.basis()):
         _close(u, v)
-    assert camera.fov_deg == pytest.approx(scene.camera.fov_deg, rel=1e-13)
+    if scene.camera.fov_deg is None:  # orthographic: its view's size through the to_world's scale
+        assert camera.fov_deg is None
+        _close(camera.size, scene.camera.size)
+    else:
+        assert camera.fov_deg == pytest.approx(scene.camera.fov_deg, rel=1e-13)
+    for name in ("kind", "aperture_radius", "focus_distance"):
+        assert getattr(camera, name) == getattr(scene.camera, name), name
+    for name, default, mitsuba in (("near_clip", 0.0, NEAR_CLIP), ("far_clip", math.inf, FAR_CLIP)):
+        # as written, or none where idle (a pinhole's); a camera without one gets Mitsuba's, which cuts nothing
+        allowed = (getattr(scene.camera, name), default) + ((mitsuba,) if getattr(scene.camera, name) == default
+                                                            else ())
+        assert getattr(camera, name) in allowed, name
     for name in ("width", "height", "spp", "sampler", "seed", "shading", "max_depth", "light_samples", "rr_depth",
-                 "hide_emitters", "bsdf_samples"):
+                 "hide_emitters", "bsdf_samples", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height", "rfilter", "rfilter_radius",
+                 "rfilter_stddev", "rfilter_b", "rfilter_c", "rfilter_lobes"):
         assert getattr(back, name) == getattr(scene, name), name
     assert back.light_sampler == (light_sampler or scene.light_sampler)
 
@@ -323,6 +339,28 @@ def test_materials_and_an_envmap(tmp_path):
     scene, back = _round_trip(toml, tmp_path)
     assert_same_model(scene, back)
     assert_same_images(scene, back, exact=True)
+
+
+CAMERAS = [('[camera]\ntype = "thinlens"\naperture_radius = 0.05\nfocus_distance = 3.5\nnear_clip = 0.5\n'
+            'far_clip = 9.0', '[image]\ncrop_offset_x = 3\ncrop_offset_y = 5\ncrop_width = 11\ncrop_height = 9\n'
+            'rfilter = "gaussian"\nrfilter_stddev = 0.4'),
+           ('[camera]\ntype = "orthographic"\nsize = [2.5, 1.5]\nfar_clip = 8.0', '[image]\nrfilter = "mitchell"\n'
+            'rfilter_b = 0.25\nrfilter_c = 0.4'),
+           ('[camera]\nnear_clip = 0.25', '[image]\nrfilter = "tent"\nrfilter_radius = 1.25'),
+           ('[camera]', '[image]\nrfilter = "lanczos"\nrfilter_lobes = 2\ncrop_offset_y = 4')]
+
+
+@pytest.mark.parametrize("camera, image", CAMERAS, ids=["thinlens", "orthographic", "clipped", "lanczos"])
+def test_cameras_clip_planes_crops_and_filters(tmp_path, camera, image):
+    """The camera types with their keys and clip planes (a pinhole's near plane that cuts nothing comes back as
+    none), a crop window and each filter with its parameters, written as Mitsuba's sensor, hdrfilm and rfilter
+    and read back as the same model; rendered alike (at 24 x 24: the whole film of that size)."""
+    replacements = [("[camera]", camera), ("[image]", image), (ELLIPSOID, SPHERE)]
+    if "orthographic" in camera:
+        replacements.append(("fov = 45.0            # vertical, degrees\n", ""))
+    scene, back = _round_trip(_variant(tmp_path, "cornell_path.toml", replacements), tmp_path)
+    assert_same_model(scene, back)
+    assert_same_images(scene, back)
 
 
 @pytest.mark.parametrize("render", ["", "bsdf_samples = 2\nhide_emitters = true\n"])
