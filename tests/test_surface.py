@@ -201,3 +201,61 @@ def test_ray_differentials_on_a_plane(harness, cornell):
     want = np.array(ref.footprint_by_offset_pixels(uv_of_pixel, x, y, spacing))
     np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-7)
     assert np.abs(want).max() > 1e-3, "a footprint that can be told from zero"
+
+
+def test_footprints_of_the_thin_lens_and_orthographic_cameras(harness, cornell):
+    """A thin lens's footprint is the pinhole's through the lens's centre and the hit (pbrt-v4's choice), whatever
+    lens point the ray left: given a ray of another direction to the same floor point, the kernel's (u, v)
+    derivatives are the pinhole's exact ones. An orthographic camera's neighbouring rays are its ray moved along
+    the film (2 spacing / W of the view's width to the right, 2 spacing / H of its height down), parallel: the
+    derivatives are the exact uv differences of those rays' floor hits. Tolerances as the pinhole's test above:
+    float32 rounding of differences of hit points, 1e-3 relative plus 1e-7 absolute. Mutations tried, each
+    failing it: the thin lens's footprint along the ray's own direction; the orthographic dp/dy not carried along
+    the view to the plane; its dy upwards. (Its dp/dx not carried to the plane passes: the camera's right is
+    horizontal, so that ray meets the floor where it starts.)"""
+    import dataclasses
+    floor = Rectangle(np.zeros(3), np.array([100.0, 100.0]), np.array([0.0, 0, 1]), np.array([1.0, 0, 0]))
+    width, height, spacing = 64, 48, 0.5
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(0, width, 256), rng.uniform(30, height, 256)
+    cam = cornell.camera
+    basis = ref.camera_basis(cam.position, cam.look_at, cam.ref_up)
+
+    def floor_uv(o, d):
+        t = reference.intersect_rectangle(floor, o, d, 0, np.inf)
+        s = ref.rectangle_surface(floor.center, floor.size, floor.normal, floor.tangent, o + t[:, None] * d)
+        return s["u"], s["v"], o + t[:, None] * d
+
+    def pinhole_uv(px, py):
+        d = ref.camera_direction(basis, cam.fov_deg, cam.focal_length, width, height, px, py)
+        return floor_uv(np.broadcast_to(cam.position, d.shape), d)[:2]
+
+    o, d = reference.camera_rays(cornell, x, y, width, height)
+    p = floor_uv(o, d)[2]
+    assert np.all(np.isfinite(p))
+    lens = dataclasses.replace(cam, kind="thinlens", aperture_radius=0.2, focus_distance=2.0)
+    tilted = p - (cam.position + rng.uniform(-0.2, 0.2, (256, 3)))  # from some lens point to the hit
+    tilted /= np.linalg.norm(tilted, axis=1, keepdims=True)
+    args = [camera_struct(lens, width, height), rectangle_structs([floor]), np.float32(spacing),
+            np.float32(1 / width), np.float32(1 / height), planar(tilted), planar(p)]
+    got = harness.run(SOURCE, "footprint", 256, args, {"out": 4}, HAS_THIN_LENS=1)["out"]
+    np.testing.assert_allclose(got, np.array(ref.footprint_by_offset_pixels(pinhole_uv, x, y, spacing)), rtol=1e-3,
+                               atol=1e-7)
+
+    ortho = dataclasses.replace(cam, kind="orthographic", fov_deg=None, size=np.array([2.0, 1.5]))
+    forward, right, up = cam.basis()
+
+    def ortho_uv(px, py):
+        o = (cam.position + ((2 * px / width - 1) * 1.0)[:, None] * right + ((1 - 2 * py / height) * 0.75)[:, None]
+             * up)
+        return floor_uv(o, np.broadcast_to(forward, o.shape))[:2]
+
+    o = cam.position + ((2 * x / width - 1) * 1.0)[:, None] * right + ((1 - 2 * y / height) * 0.75)[:, None] * up
+    p = floor_uv(o, np.broadcast_to(forward, o.shape))[2]
+    assert np.all(np.isfinite(p))
+    args = [camera_struct(ortho, width, height), rectangle_structs([floor]), np.float32(spacing),
+            np.float32(1 / width), np.float32(1 / height), planar(np.broadcast_to(forward, o.shape)), planar(p)]
+    got = harness.run(SOURCE, "footprint", 256, args, {"out": 4}, HAS_ORTHOGRAPHIC=1)["out"]
+    want = np.array(ref.footprint_by_offset_pixels(ortho_uv, x, y, spacing))
+    np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-7)
+    assert np.abs(want).max() > 1e-3
