@@ -47,8 +47,9 @@ __kernel void render(SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global const uint2 
     Sums sums = {0};
     for (int first = sample0; first < sample0 + n_samples; first += tile.group) {
         PixelSample ps = start_pixel_sample(key, first + tile.sample);
-        Ray ray = camera_ray(&scene, tile, &ps, pixel_samples, all);
-        Hit hit = closest_hit(&scene, ray, (vfloat)(INFINITY));
+        vfloat tmax, weight; /* the box filter's weight: 1 */
+        Ray ray = camera_ray(&scene, tile, &ps, pixel_samples, all, &tmax, &weight);
+        Hit hit = closest_hit(&scene, ray, tmax);
         ShadingPoint sp = shading_point(&scene, ts, ray, hit);
         vec3 value = trace_path(&scene, ts, ray, hit, sp, light_samples, &ps, &sums.rays, 0);
         add_samples(&sums, value, all, ps.index, sample0 + n_first, n_first);

@@ -240,7 +240,9 @@ __kernel void shading(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global cons
 {
     const Scene s = SCENE_FROM_PARAMETERS;
     const TextureStore ts = TEXTURES_FROM_PARAMETERS;
-    Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), 1.0f / params->width, 1.0f / params->height);
+    vec2 lens = {(vfloat)(0.0f), (vfloat)(0.0f)};
+    vfloat tmax;
+    Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), lens, &tmax);
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
     ShadingPoint sp = shading_point(&s, ts, r, hit);
     OUT3(nrm, sp.n);

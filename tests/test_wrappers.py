@@ -45,7 +45,9 @@ __kernel void wrapped(int n, SCENE_PARAMETERS, TEXTURE_PARAMETERS, __global cons
 {
     const Scene s = SCENE_FROM_PARAMETERS;
     const TextureStore ts = TEXTURES_FROM_PARAMETERS;
-    Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), 1.0f / params->width, 1.0f / params->height);
+    vec2 lens = {(vfloat)(0.0f), (vfloat)(0.0f)};
+    vfloat tmax;
+    Ray r = generate_camera_ray(camera, IN(xy), IN(xy + n), lens, &tmax);
     Hit hit = closest_hit(&s, r, (vfloat)(INFINITY));
 #if HAS_WRAPPERS
     OUT(material, CONVERT_VFLOAT(wrapped_materials(&s, ts, r, hit)));
