@@ -106,3 +106,18 @@ def test_beyond_the_far_plane_is_the_environment():
     assert np.abs(plain[14:22, 20:28] - centre).max(axis=2).min() > 0.1
     near = np.asarray(raytrace.render(box_scene(**{"camera.near_clip": 2.5}), progress=False)[0])
     assert np.abs(near[-4:] - plain[-4:]).max() > 0.1
+
+
+def test_a_moved_and_scaled_scene_scales_its_cameras_lengths():
+    """transform.transformed (the invariance tests' similarity x -> s x + t) scales the clip planes, a thin lens's
+    aperture and focus distance and an orthographic view's size with the scene: its image is the same."""
+    import dataclasses
+    from raytrace.scene.transform import transformed
+    scene = point_scene(2.0)
+    scene.camera = dataclasses.replace(scene.camera, near_clip=0.5, far_clip=9.0)
+    camera = transformed(scene, 3.0, (1.0, 2.0, 3.0)).camera
+    assert (camera.near_clip, camera.far_clip, camera.aperture_radius, camera.focus_distance) == (1.5, 27.0,
+                                                                                                  0.15 * 3.0, 12.0)
+    ortho = dataclasses.replace(scene.camera, kind="orthographic", fov_deg=None, size=np.array([2.0, 1.0]))
+    scene.camera = ortho
+    assert np.array_equal(transformed(scene, 3.0).camera.size, [6.0, 3.0])

@@ -17,7 +17,11 @@ from .model import normalize
 def _map(scene, point, length):
     replace = dataclasses.replace
     cam = scene.camera
-    camera = replace(cam, position=point(cam.position), look_at=point(cam.look_at))
+    lengths = {k: float(length(getattr(cam, k))) for k in ("near_clip", "far_clip", "aperture_radius",
+                                                           "focus_distance") if getattr(cam, k) is not None}
+    if cam.size is not None:  # an orthographic view's
+        lengths["size"] = length(cam.size)
+    camera = replace(cam, position=point(cam.position), look_at=point(cam.look_at), **lengths)
     rect = lambda r: replace(r, center=point(r.center), size=length(r.size))  # noqa: E731
     return replace(
         scene, camera=camera, lights=[rect(light) for light in scene.lights],
