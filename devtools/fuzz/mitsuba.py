@@ -2,8 +2,8 @@
 and how a run on one is checked.
 
 Valid scenes are built from the grammar of the plugins raytrace renders (PLUGINS in raytrace/scene/mitsuba.py): a
-perspective sensor (lookat or rotated, fov with each fov_axis or a focal length, clip planes), an hdrfilm of at most
-6 x 6 pixels with a box rfilter, each sampler, the path, direct and moment integrators, every BSDF raytrace declares
+perspective, thinlens or orthographic sensor (lookat or rotated, fov with each fov_axis or a focal length, clip
+planes), an hdrfilm of at most 6 x 6 pixels with a crop window or none and any rfilter, each sampler, the path, direct and moment integrators, every BSDF raytrace declares
 (raytrace/scene/bsdfs.py: diffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic,
 roughplastic, principled, principledthin; in twosided or not (a transmitting principled not, a principledthin never),
 by reference or inline, reflectances
@@ -392,8 +392,15 @@ def sensors(draw):
     steps = [el("lookat", **lookat)]
     if draw(st.booleans()):  # a turn about the view before it: still rigid
         steps.insert(0, el("rotate", z="1", angle=num(draw(rounded(-180.0, 180.0)))))
+    kind = draw(st.sampled_from(["perspective", "perspective", "thinlens", "orthographic"]))
+    if kind == "orthographic":  # its view's extent: a scale of x and y before the rest
+        steps.insert(0, el("scale", x=num(draw(rounded(0.5, 3.0))), y=num(draw(rounded(0.5, 3.0)))))
     params = [Element("transform", (("name", "to_world"),), tuple(steps))]
-    lens = draw(st.sampled_from(["fov", "fov", "focal_length", "default"]))
+    if kind == "thinlens":
+        params.append(prop("float", "aperture_radius", num(draw(rounded(0.001, 0.3)))))
+        if draw(st.booleans()):
+            params.append(prop("float", "focus_distance", num(draw(rounded(0.5, 8.0)))))
+    lens = "none" if kind == "orthographic" else draw(st.sampled_from(["fov", "fov", "focal_length", "default"]))
     if lens == "fov":
         params.append(prop("float", "fov", num(draw(rounded(15.0, 100.0)))))
         if draw(st.booleans()):
@@ -416,12 +423,18 @@ def sensors(draw):
                          ("file_format", ["openexr"])):
         if draw(st.integers(0, 3)) == 0:
             film.append(prop("string", name, draw(st.sampled_from(values))))
-    if draw(st.integers(0, 3)) == 0:
-        film.append(prop("integer", "crop_width", str(width)))
-    film.append(el("rfilter", type="box"))
+    size = (width, height)
+    if draw(st.integers(0, 3)) == 0:  # a crop window: the image is its size
+        x, y = draw(st.integers(0, width - 1)), draw(st.integers(0, height - 1))
+        size = (draw(st.integers(1, width - x)), draw(st.integers(1, height - y)))
+        film += [prop("integer", "crop_offset_x", str(x)), prop("integer", "crop_offset_y", str(y)),
+                 prop("integer", "crop_width", str(size[0])), prop("integer", "crop_height", str(size[1]))]
+    rfilter = draw(st.sampled_from(["box", "box", "tent", "gaussian", "mitchell", "lanczos", None]))
+    if rfilter is not None:  # None: hdrfilm's default, a gaussian
+        film.append(el("rfilter", type=rfilter))
     params.append(Element("film", (("type", "hdrfilm"),), tuple(film)))
     order = draw(st.permutations(range(len(params))))
-    return Element("sensor", (("type", "perspective"),), tuple(params[i] for i in order)), (width, height)
+    return Element("sensor", (("type", kind),), tuple(params[i] for i in order)), size
 
 
 QUAD_OBJ = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n"
