@@ -3,7 +3,8 @@ and how a run on one is checked.
 
 Valid scenes are built from the grammar of the plugins raytrace renders (PLUGINS in raytrace/scene/mitsuba.py): a
 perspective, thinlens or orthographic sensor (lookat or rotated, fov with each fov_axis or a focal length, clip
-planes), an hdrfilm of at most 6 x 6 pixels with a crop window or none and any rfilter, each sampler, the path, direct and moment integrators, every BSDF raytrace declares
+planes), an hdrfilm of at most 6 x 6 pixels with a crop window or none and any rfilter, each sampler, the path,
+direct and moment integrators, every BSDF raytrace declares
 (raytrace/scene/bsdfs.py: diffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic,
 roughplastic, principled, principledthin; in twosided or not (a transmitting principled not, a principledthin never),
 by reference or inline, reflectances

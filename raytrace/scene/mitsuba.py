@@ -1366,8 +1366,8 @@ def _boxes(scene):
 
 def view_depths(scene):
     """How far along the camera's view each primitive's extreme points lie: rectangles' and lights' corners,
-    triangles' vertices, ellipsoids' extents along the view, the corners of boxes about the others (without_idle_clip_planes, and the
-    planes mitsuba_writer.py writes)."""
+    triangles' vertices, ellipsoids' extents along the view, the corners of boxes about the others
+    (without_idle_clip_planes, and the planes mitsuba_writer.py writes)."""
     eye = scene.camera.position
     forward, _, _ = scene.camera.basis()
     depths = [np.empty(0)]

@@ -20,7 +20,8 @@ from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, DirectionalEm
                     SpotEmitter, TextureLookup, Triangle, fingerprint)
 from .environment_map import ROWS_PROBLEM
 from .textures import check_pixels
-from .scene_file import CAMERA_KEYS, LIGHTS_SPEC, RFILTER_KEYS, Reader, read_camera, read_film, check_affine_shape, check_axes, check_frame, check_triangle, map_placement
+from .scene_file import (CAMERA_KEYS, LIGHTS_SPEC, RFILTER_KEYS, Reader, read_camera, read_film, check_affine_shape,
+                         check_axes, check_frame, check_triangle, map_placement)
 
 # (the model's attribute, the key of keys.py's table it was read from)
 CAMERA = [("position", "position"), ("look_at", "look_at"), ("ref_up", "up"), ("fov_deg", "fov"),
