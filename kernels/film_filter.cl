@@ -8,9 +8,9 @@
  * Mitsuba's filters are separable (its ImageBlock weighs a sample by f(dx) f(dy)), and so is the sampling: each
  * axis draws from a piecewise-linear density through |f| at the nodes of the Camera's table (a node on each
  * half-integer offset), by inverting its integral. Mitsuba's film takes no sample outside the crop window (its
- * sample_border is off), so a pixel near the window's edge averages over the part of its filter inside: a
- * sample outside weighs 0 and the weights are over the filter's integral inside, read at half-integer nodes
- * from the table of f's cumulative integral (exact there). */
+ * sample_border is off by default), so a pixel near the window's edge averages over the part of its filter
+ * inside: a sample outside weighs 0 and the weights are over the filter's integral inside, read at
+ * half-integer nodes from the table of f's cumulative integral (exact there). */
 #ifndef FILM_FILTER_CL
 #define FILM_FILTER_CL
 
@@ -81,7 +81,8 @@ inline float rfilter_share(__constant const Camera *cam, float lo, float hi)
 
 /* One axis's offsets of the lanes' samples from their pixels' centres (pixel: the pixel's index in the crop
  * window of `window` pixels), from u in [0, 1), and each sample's weight along the axis: f / (p * the filter's
- * integral inside the window), 0 outside it. */
+ * integral inside the window), 0 outside it; with the camera's rfilter_border (Mitsuba's sample_border), the
+ * window bounds nothing: f / (p * the whole integral). */
 inline vfloat rfilter_offsets(__constant const Camera *cam, vfloat u, vint pixel, int window, vfloat *weight)
 {
     float us[LANES], w[LANES];
@@ -92,8 +93,9 @@ inline vfloat rfilter_offsets(__constant const Camera *cam, vfloat u, vint pixel
         float density;
         const float x = rfilter_sample(cam, us[l], &density);
         const float centre = (float)at[l] + 0.5f, lo = -centre, hi = (float)window - centre;
-        const float inside = rfilter_share(cam, lo, hi) * cam->rfilter_integral;
-        const int in = x >= lo && x < hi && density > 0.0f;
+        const int border = cam->rfilter_border; /* no window: the whole filter */
+        const float inside = border ? cam->rfilter_integral : rfilter_share(cam, lo, hi) * cam->rfilter_integral;
+        const int in = (border || (x >= lo && x < hi)) && density > 0.0f;
         w[l] = in ? rfilter_eval(cam, x) / (density * inside) : 0.0f;
         us[l] = 0.5f + x;
     }

@@ -20,6 +20,7 @@ typedef struct {
     int crop_x, crop_y, crop_width, crop_height; /* the rendered window of the film (hdrfilm's crop) */
     int rfilter;                        /* RFILTER_*: the reconstruction filter (film_filter.cl, HAS_RFILTER) */
     int rfilter_bins;                   /* its table's bins, spacing rfilter_step, over [-rfilter_reach, reach] */
+    int rfilter_border;                 /* samples may fall outside the crop window (hdrfilm's sample_border) */
     float rfilter_reach, rfilter_step, rfilter_a, rfilter_b; /* a, b: the filter's parameters (film_filter.cl) */
     float rfilter_integral;             /* the filter's integral over the line */
     float rfilter_pdf[RFILTER_NODES];   /* |f| at the nodes, normalised: the piecewise-linear sampling density */

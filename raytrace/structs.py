@@ -18,6 +18,7 @@ CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F),
                    ("near_clip", "<f4"), ("far_clip", "<f4"), ("lens_radius", "<f4"), ("focus_distance", "<f4"),
                    ("film_width", "<i4"), ("film_height", "<i4"), ("crop_x", "<i4"), ("crop_y", "<i4"),
                    ("crop_width", "<i4"), ("crop_height", "<i4"), ("rfilter", "<i4"), ("rfilter_bins", "<i4"),
+                   ("rfilter_border", "<i4"),
                    ("rfilter_reach", "<f4"), ("rfilter_step", "<f4"), ("rfilter_a", "<f4"), ("rfilter_b", "<f4"),
                    ("rfilter_integral", "<f4"), ("rfilter_pdf", "<f4", (RFILTER_NODES,)),
                    ("rfilter_cdf", "<f4", (RFILTER_NODES,)), ("rfilter_cumulative", "<f4", (RFILTER_NODES,))])

@@ -5,12 +5,13 @@ against the tables' density by a chi-square test, and the weighted samples again
 Statistics: each chi-square test fails by chance with probability SIGNIFICANCE = 1e-4 (devtools/chi_square.py's),
 and each weighted comparison is a z-test at |z| < Z = 5 (two-sided 5.7e-7 for a normal mean; the means are of
 2^20 samples of bounded weights, so the central limit holds closely): 5 filters x (1 chi-square + 17 z-tests)
-in the window and 5 x 3 at its edge, at 2 lane widths, fail by chance with probability below 2e-3 in all.
+in the window, 5 x 2 at its edge and 3 x 2 with a sample border, at 4 lane widths: 20 chi-square tests and 404
+z-tests, which fail by chance with probability below 2.3e-3 in all.
 
 Mutations tried, each failing this file: the bin's root as a / p0 (a constant density inside each bin: the
 chi-square); the weight without the density (f / integral: the weights' mean); the window's share read one node
 off (the edge's mean); Mitchell's far piece with +12B for -12B (its weighted bins); the gaussian's bias
-not passed to the kernel (its weighted bins)."""
+not passed to the kernel (its weighted bins); the border's whole integral ignored (the border's test)."""
 import math
 
 import numpy as np
@@ -38,9 +39,9 @@ N = 1 << 20
 Z = 5.0
 
 
-def run(harness, name, p, pixel, window, seed=1):
+def run(harness, name, p, pixel, window, seed=1, border=False):
     camera = Camera(np.zeros(3), np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0]), 45.0)
-    cam = camera_struct(camera, 16, 16, rfilter=(name, p))
+    cam = camera_struct(camera, 16, 16, rfilter=(name, p), border=border)
     u = np.random.default_rng(seed).random(N).astype(np.float32)
     out = harness.run(SOURCE, "offsets", N, [cam, u, np.int32(pixel), np.int32(window)], {"offset": 1, "weight": 1})
     return out["offset"], out["weight"]
@@ -104,6 +105,16 @@ def test_the_window_edge_takes_the_filter_inside(harness, name, p):
     assert np.all(w[(x < -0.5) | (x >= 2.5)] == 0)
     inside = quad(f, -0.5, min(2.5, radius))
     z = z_scores(np.stack([w, w * (x < 0)], axis=1), [1.0, quad(f, -0.5, 0.0) / inside])
+    assert np.abs(z).max() < Z, z
+
+
+@pytest.mark.parametrize("name, p", FILTERS[2:], ids=[f"{n}{list(p.values())[0]:g}" for n, p in FILTERS[2:]])
+def test_a_sample_border_takes_the_whole_filter(harness, name, p):
+    """With rfilter_border (Mitsuba's sample_border), pixel 0 of a window of 3 weighs samples outside the window
+    too: its weights' mean is 1 and the weighted share of [-radius, -0.5] is the formula's over its whole."""
+    radius, f, _, _ = formula(name, p)
+    x, w = run(harness, name, p, 0, 3, seed=4, border=True)
+    z = z_scores(np.stack([w, w * (x < -0.5)], axis=1), [1.0, quad(f, -radius, -0.5) / quad(f, -radius, radius)])
     assert np.abs(z).max() < Z, z
 
 

@@ -222,8 +222,9 @@ def assert_same_model(scene, back, light_sampler=None, k=None):
                                                             else ())
         assert getattr(camera, name) in allowed, name
     for name in ("width", "height", "spp", "sampler", "seed", "shading", "max_depth", "light_samples", "rr_depth",
-                 "hide_emitters", "bsdf_samples", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height", "rfilter", "rfilter_radius",
-                 "rfilter_stddev", "rfilter_b", "rfilter_c", "rfilter_lobes"):
+                 "hide_emitters", "bsdf_samples", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height",
+                 "rfilter", "rfilter_radius", "rfilter_stddev", "rfilter_b", "rfilter_c", "rfilter_lobes",
+                 "sample_border"):
         assert getattr(back, name) == getattr(scene, name), name
     assert back.light_sampler == (light_sampler or scene.light_sampler)
 
@@ -346,7 +347,7 @@ CAMERAS = [('[camera]\ntype = "thinlens"\naperture_radius = 0.05\nfocus_distance
             'rfilter = "gaussian"\nrfilter_stddev = 0.4'),
            ('[camera]\ntype = "orthographic"\nsize = [2.5, 1.5]\nfar_clip = 8.0', '[image]\nrfilter = "mitchell"\n'
             'rfilter_b = 0.25\nrfilter_c = 0.4'),
-           ('[camera]\nnear_clip = 0.25', '[image]\nrfilter = "tent"\nrfilter_radius = 1.25'),
+           ('[camera]\nnear_clip = 0.25', '[image]\nrfilter = "tent"\nrfilter_radius = 1.25\nsample_border = true'),
            ('[camera]', '[image]\nrfilter = "lanczos"\nrfilter_lobes = 2\ncrop_offset_y = 4')]
 
 

@@ -430,6 +430,8 @@ def sensors(draw):
         size = (draw(st.integers(1, width - x)), draw(st.integers(1, height - y)))
         film += [prop("integer", "crop_offset_x", str(x)), prop("integer", "crop_offset_y", str(y)),
                  prop("integer", "crop_width", str(size[0])), prop("integer", "crop_height", str(size[1]))]
+    if draw(st.integers(0, 3)) == 0:
+        film.append(prop("boolean", "sample_border", draw(st.sampled_from(["true", "false"]))))
     rfilter = draw(st.sampled_from(["box", "box", "tent", "gaussian", "mitchell", "lanczos", None]))
     if rfilter is not None:  # None: hdrfilm's default, a gaussian
         film.append(el("rfilter", type=rfilter))

@@ -102,6 +102,8 @@ def images(draw):
     for key, values in parameters.items():
         if draw(st.booleans()):
             image[key] = draw(values)
+    if draw(st.integers(0, 3)) == 0:
+        image["sample_border"] = draw(st.booleans())
     return image
 
 

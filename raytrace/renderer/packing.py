@@ -18,9 +18,10 @@ from .film_filter import rfilter_tables
 from .geometry import DEFAULT_UV
 
 
-def camera_struct(camera, width, height, crop=None, rfilter=("box", {})):
+def camera_struct(camera, width, height, crop=None, rfilter=("box", {}), border=False):
     """The camera of a film of width x height pixels, of which the window crop = (x, y, crop width, crop height)
-    is rendered (None: the whole film), with the reconstruction filter rfilter = (name, {parameter: value}).
+    is rendered (None: the whole film), with the reconstruction filter rfilter = (name, {parameter: value}),
+    whose samples fall outside the window too where `border` (Mitsuba's sample_border).
     The focal length cancels in the camera's ray directions and footprints (the image plane grows with it,
     the field of view fixed): it is packed as 1, so that no value of it overflows or underflows float32."""
     forward, right, up = camera.basis()
@@ -39,7 +40,7 @@ def camera_struct(camera, width, height, crop=None, rfilter=("box", {})):
     c["film_width"], c["film_height"] = width, height
     c["crop_x"], c["crop_y"], c["crop_width"], c["crop_height"] = (0, 0, width, height) if crop is None else crop
     name, parameters = rfilter
-    c["rfilter"] = structs.RFILTERS[name]
+    c["rfilter"], c["rfilter_border"] = structs.RFILTERS[name], border
     if name != "box":
         tables = rfilter_tables(name, parameters)
         c["rfilter_bins"], c["rfilter_reach"], c["rfilter_step"] = tables.bins, tables.reach, tables.step

@@ -65,7 +65,8 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
                            seed)
     params["scene_extent"] = scene_extent(scene, triangles)
     emitters, emitter_triangles = emitter_tables(scene, triangles)
-    return {"camera": camera_struct(scene.camera, *film(scene, width, height), parameters(scene)), "params": params,
+    return {"camera": camera_struct(scene.camera, *film(scene, width, height), parameters(scene),
+                                     scene.sample_border), "params": params,
             "rectangles": rectangle_structs(scene.rectangles), "triangles": triangles, "triangle_uvs": uvs,
             "triangle_normals": normals, "ellipsoids": ellipsoid_structs(scene.ellipsoids),
             "disks": affine_shape_structs(scene.disks), "cylinders": affine_shape_structs(scene.cylinders),

@@ -176,7 +176,9 @@ TABLES = {
               Key("rfilter_c", "number", "mitchell: Mitchell and Netravali's C", default=1.0 / 3.0, low=-10,
                   high=10),
               Key("rfilter_lobes", "integer", "lanczos: its lobes (its radius, pixels)", default=3, low=1,
-                  high=int(MAX_RFILTER_RADIUS))],
+                  high=int(MAX_RFILTER_RADIUS)),
+              Key("sample_border", "boolean", "a filter's samples fall outside the crop window too, so that a pixel "
+                  "at its edge averages its whole filter (Mitsuba's hdrfilm sample_border)", default=False)],
     "render": [Key("spp", "integer", "pixel samples", default=samplers.DEFAULT_SPP, low=1, high=MAX_SAMPLES,
                    also="1 by default with the center sampler"),
                Key("light_samples", "integer", "samples per light per pixel sample: per [[lights]] rectangle, and "

@@ -221,7 +221,7 @@ PLUGINS = {
         Param("file_format", "openexr", "", "the output's extension decides"),
         Param("pixel_format", "rgb", "", "rgb, or rgba (raytrace writes RGB)"),
         Param("component_format", "float16", "", "the output decides"),
-        Param("sample_border", False, "", "off: raytrace takes no sample outside the crop window"),
+        Param("sample_border", False, "image sample_border"),
         Param("crop_offset_x", 0, "image crop_offset_x"), Param("crop_offset_y", 0, "image crop_offset_y"),
         Param("crop_width", "width", "image crop_width"), Param("crop_height", "height", "image crop_height"))),
     "box": Plugin("rfilter", "each pixel the average of its own samples", ()),
@@ -664,7 +664,8 @@ class _Translator:
                 image[param] = self.number(params[param], node, key, param, integer=True)
                 self.origin(f"image.{param}", node, key, param)
         if "sample_border" in params:
-            self.boolean(params["sample_border"], node, key, "sample_border")
+            image["sample_border"] = self.boolean(params["sample_border"], node, key, "sample_border")
+            self.origin("image.sample_border", node, key, "sample_border")
         rfilters = [(path, v) for path, v, category in self.objects(params, key, node) if category == "rfilter"]
         path, rfilter = rfilters[0] if rfilters else (f"{key}.rfilter", None)
         kind = rfilter["type"] if rfilter else "gaussian"  # hdrfilm's default

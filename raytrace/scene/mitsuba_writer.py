@@ -218,6 +218,8 @@ class _Writer:
         for key in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
             if getattr(scene, key):
                 ET.SubElement(film, "integer", name=key, value=str(int(getattr(scene, key))))
+        if scene.sample_border:
+            ET.SubElement(film, "boolean", name="sample_border", value="true")
         rfilter = ET.SubElement(film, "rfilter", type=scene.rfilter)
         for param, key, integer in RFILTER_PARAMETERS.get(scene.rfilter, ()):
             value = getattr(scene, key)

@@ -183,7 +183,7 @@ def check_model(scene, source="render()"):
     rules.py it breaks."""
     top = Reader(source, {"ambient": _value(scene.ambient)}, "")
     top.vector("ambient")
-    film = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height", "rfilter",
+    film = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height", "rfilter", "sample_border",
             *RFILTER_KEYS.get(scene.rfilter, ()))
     image = Reader(source, {key: getattr(scene, key) for key in IMAGE + film if getattr(scene, key) is not None},
                    "image.", "image")

@@ -604,7 +604,7 @@ def read_film(img):
             img.fail(key, film[key], f"must end in the film: {offset} + {key} <= {side} ({extent})")
     kind = img.string("rfilter")
     own_keys(img, kind, RFILTER_KEYS[kind], sorted({k for keys in RFILTER_KEYS.values() for k in keys}))
-    film["rfilter"] = kind
+    film["rfilter"], film["sample_border"] = kind, img.boolean("sample_border")
     for key in RFILTER_KEYS[kind]:
         film[key] = img.integer(key) if key == "rfilter_lobes" else img.number(key)
     return film
