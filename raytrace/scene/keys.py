@@ -12,7 +12,7 @@ from . import bsdfs, texture_lookups
 from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
 from .model import (BSDFS, CAMERAS, DELTA_EMITTERS, RFILTERS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH,
                     RR_DEPTH, SHADINGS)
-from .ranges import MAX_IMAGE_SIDE, MAX_SAMPLES
+from .ranges import COORDINATE_LIMIT, MAX_IMAGE_SIDE, MAX_SAMPLES
 
 MAX_GENERATED_TRIANGLES = 50_000_000
 MAX_RFILTER_RADIUS = 16.0  # pixels: film_filter.py's tables hold 128 bins, 4 per pixel at least
@@ -148,9 +148,9 @@ TABLES = {
                    "sees what a miss sees (Mitsuba's: 10^4; raytrace's default: none)", default=None, low=0,
                    open_low=True, high=FLOAT32_MAX, also="above near_clip"),
                Key("aperture_radius", "number", 'thinlens: the lens\'s radius', default=None, low=0,
-                   open_low=True, high=FLOAT32_MAX, also='required for type = "thinlens"'),
+                   open_low=True, high=COORDINATE_LIMIT, also='required for type = "thinlens"'),
                Key("focus_distance", "number", "thinlens: the distance along the view of the plane in focus",
-                   default=None, low=0, open_low=True, high=FLOAT32_MAX, also='required for type = "thinlens"'),
+                   default=None, low=0, open_low=True, high=COORDINATE_LIMIT, also='required for type = "thinlens"'),
                Key("size", "vector", "orthographic: the view's width and height in scene units (Mitsuba's "
                    "to_world scale: 2 sx and 2 sy height / width)", length=2, low=0, default=None,
                    also='required for type = "orthographic"; both > 0')],

@@ -99,11 +99,27 @@ def float32_problem(x):
     return None
 
 
+def camera_points(camera):
+    """(key, point) of the points a camera's rays start from or aim at, with the key that places each: the eye,
+    look_at, the near plane's centre, a thin lens's extent and focal point, an orthographic view's corners."""
+    forward, right, up = camera.basis()
+    near = camera.position + camera.near_clip * forward
+    points = [("position", camera.position), ("look_at", camera.look_at), ("near_clip", near)]
+    if camera.kind == "thinlens":
+        lateral = camera.aperture_radius * (np.abs(right) + np.abs(up))
+        points += [("aperture_radius", camera.position - lateral), ("aperture_radius", camera.position + lateral),
+                   ("focus_distance", camera.position + camera.focus_distance * forward)]
+    if camera.kind == "orthographic":
+        half = camera.size[0] / 2 * np.abs(right) + camera.size[1] / 2 * np.abs(up)
+        points += [("size", near - half), ("size", near + half)]
+    return points
+
+
 def corners(shape):
     """(N, 3) points bounding `shape` (a Camera, Rectangle or Light, Triangle, Ellipsoid, Disk, Cylinder or
     MeshShape)."""
     if isinstance(shape, Camera):
-        return np.array([shape.position, shape.look_at])
+        return np.array([point for _, point in camera_points(shape)])
     if isinstance(shape, Rectangle):
         half = shape.size[0] / 2 * np.abs(shape.tangent) + shape.size[1] / 2 * np.abs(shape.bitangent)
         return np.array([shape.center - half, shape.center + half])
@@ -260,6 +276,9 @@ def _far_key(shape):
     anchor, reach = {Camera: ("position", "look_at"), Ellipsoid: ("center", "axes"), Triangle: ("vertices",) * 2,
                      MeshShape: ("scale", "scale"), Disk: ("to_world",) * 2, Cylinder: ("to_world",) * 2}.get(type(shape), ("center", "size"))
     at = shape.position if isinstance(shape, Camera) else getattr(shape, "center", None)
+    if isinstance(shape, Camera) and np.abs(at).max() <= COORDINATE_LIMIT:  # the first key whose point is beyond
+        beyond = [key for key, point in camera_points(shape) if np.abs(point).max() > COORDINATE_LIMIT]
+        return beyond[0] if beyond else reach
     return anchor if at is None or np.abs(at).max() > COORDINATE_LIMIT else reach
 
 
