@@ -170,3 +170,23 @@ def quad(f, a, b):
     cuts = np.unique(np.concatenate([[a, b], np.arange(math.ceil(2 * a), math.floor(2 * b) + 1) / 2]))
     return sum(float(np.sum(w * f((lo + hi) / 2 + (hi - lo) / 2 * x)) * (hi - lo) / 2)
                for lo, hi in zip(cuts[:-1], cuts[1:]))
+
+
+@pytest.mark.parametrize("key, value", [("aperture_radius", 1e18), ("focus_distance", 1e18), ("near_clip", 1e30),
+                                        ("size", [1e19, 1.0])])
+def test_camera_points_beyond_float32s_reach_are_refused(key, value):
+    """ranges.py's rule 2 takes the points a camera's rays start from or aim at (the near plane's centre, a thin
+    lens's extent and focal point, an orthographic view's corners): one beyond 2^60 (1.15e18) is refused naming its
+    key (the eye at 3e17 on each axis, within it)."""
+    camera = {"position": [3e17] * 3, "look_at": [3e17, 3e17 + 1e3, 3e17], "up": [0.0, 0.0, 1.0], key: value}
+    camera.update({"size": {"type": "orthographic"}}.get(key, {"type": "thinlens", "fov": 40.0}))
+    if camera["type"] == "thinlens":
+        camera.setdefault("aperture_radius", 0.1)
+        camera.setdefault("focus_distance", 2.0)
+    if key == "near_clip":
+        camera["far_clip"] = 3e30
+    with pytest.raises(raytrace.InputError) as error:
+        raytrace.load_dict({"camera": camera, "image": {"width": 4, "height": 4}, "render": {"shading": "path"},
+                            "materials": {"m": {"colour": [0.5, 0.5, 0.5]}},
+                            "environment": {"type": "constant", "radiance": 1.0}})
+    assert error.value.key == f"camera.{key}" and "2^60" in error.value.problem
