@@ -448,7 +448,7 @@ def render_xml(main, example, child=None):
         note(f"argv: {argv}")
         inputs = snapshot(directory)
         outcome = run_cli(main, argv, directory) if child is None else run_child(argv, directory, child)
-        size = (scene.width, scene.height) if scene is not None else None
+        size = scene.crop[2:] if scene is not None else None  # the image is the film's crop window
         mitsuba.check_run(outcome, directory, "out" + ext, size, example.sources(), inputs, example.valid,
                           example.text(), "stats.json")
 
