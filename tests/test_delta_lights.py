@@ -313,3 +313,19 @@ def test_the_light_selection_weighs_a_delta_light_by_its_power():
         expected = power / power.sum() if selection == "power" else np.full(3, 1 / 3)
         packed = scene_tables(scene)["emitters"]["selection_pdf"]
         np.testing.assert_allclose(packed, expected, rtol=1e-6)
+
+
+@pytest.mark.parametrize("shading", ["direct", "path"])
+def test_a_too_bright_delta_light_is_named(shading):
+    """The brightness rules (ranges.py's rules 4 and 5) bound a delta light by its intensity, and a light beyond
+    them is refused naming its key among the [[emitters]], not the floor's colour (seen before: the path model's
+    check fell over on a scene lit by delta lights alone, the direct model's named the material)."""
+    table = {"camera": {"position": [0.0, -3.0, 1.0], "look_at": [0.0, 0.0, 0.0], "up": [0.0, 0.0, 1.0],
+                        "fov": 40.0},
+             "image": {"width": 8, "height": 8}, "render": {"shading": shading},
+             "materials": {"floor": {"colour": [0.5, 0.5, 0.5]}},
+             "shapes": [{"type": "rectangle", "center": [0.0, 0.0, 0.0], "size": [2.0, 2.0],
+                         "normal": [0.0, 0.0, 1.0], "tangent": [1.0, 0.0, 0.0], "material": "floor"}],
+             "emitters": [{"type": "point", "position": [0.0, 0.0, 1.0], "intensity": 1e20}]}
+    with pytest.raises(InputError, match=r"emitters\[0\]\.intensity = "):
+        raytrace.load_dict(table)

@@ -75,7 +75,7 @@ import numpy as np
 from ..numerics import COORDINATE_LIMIT, FLOAT32_MAX, FLOAT32_TINY
 from ..structs import ROUGH_TRANSMITTANCE_RES
 from . import bsdfs, plastic_terms, principled_terms, rough_transmittance
-from .model import RADIOMETRIC, Camera, Cylinder, Disk, Ellipsoid, Light, MeshShape, Rectangle, Triangle
+from .model import RADIOMETRIC, Camera, Cylinder, Disk, Ellipsoid, Light, MeshShape, Rectangle, ShapeEmitter, Triangle
 
 MAX_IMAGE_SIDE = 16384  # pixels, the same for a scene file and the command line
 MAX_SAMPLES = 1 << 16   # pixel samples and light samples
@@ -341,12 +341,13 @@ def _check_brightness(scene, material_readers, light_readers, scene_reader, emit
                                                                          material)
     emission = "radiance" if scene.shading in RADIOMETRIC else "colour"
     sources = [((reader, emission), float(light.colour.max())) for reader, light in zip(light_readers, scene.lights)]
-    sources += [((reader, "radiance"), radiance) for reader, radiance in emitters]
+    sources += [((reader, key), radiance) for reader, key, radiance, _ in emitters]
+    shown = {(reader, key): given for reader, key, _, given in emitters}
     terms = {(scene_reader, "ambient"): float(scene.ambient.max()),
              **dict(sources[:1] and [max(sources, key=lambda source: source[1])]),
              (material_readers[brightest_material], material_key): max(albedos)}
     reader, key = max(terms, key=terms.get)
-    reader.fail(key, reader.raw(key), f"makes a pixel as bright as {value:.4g}, beyond the "
+    reader.fail(key, shown[reader, key] if (reader, key) in shown else reader.raw(key), f"makes a pixel as bright as {value:.4g}, beyond the "
                 f"{BRIGHTEST_LIMIT:.4g} (2^62) up to which float32 sums of samples and squares of pixel values stay finite")
 
 
@@ -436,11 +437,11 @@ def _path_places(scene, material_readers, light_readers, scene_reader, emitters=
         places.append((2 * _log2(index_ratio(scene)), max(indices, key=lambda x: x[0])[1]))
     sources = [(float(light.colour.max()), (reader, "radiance", light.colour))
                for reader, light in zip(light_readers, scene.lights)]
-    sources += [(radiance, (reader, "radiance", radiance)) for reader, radiance in emitters]
+    sources += [(radiance, (reader, key, given)) for reader, key, radiance, given in emitters]
     brightest_source, source = max(sources, key=lambda s: s[0]) if sources else (0.0, None)
     env = environment_brightest(scene)
-    if source is not None and env <= brightest_source:  # none: an environment lights it
-        emitter = source
+    if source is not None and env <= brightest_source or scene.environment is None and scene.environment_map is None:
+        emitter = source  # (None: nothing emits, and the bound is 0)
     elif scene.environment is not None:
         emitter = (scene_reader, "environment.radiance", scene.environment)
     elif scene.environment_map.scale >= np.max(scene.environment_map.texels):
@@ -508,7 +509,15 @@ def check_scene(scene, places, material_readers, light_readers, scene_reader):
             shape, Light) else -1
         if emitter >= 0:
             emitting.setdefault(emitter, reader)
-    emitters = [(emitting[e], float(scene.emitters[e].radiance.max())) for e in sorted(emitting)]
+    # each emitter's (reader, key, the largest channel of what ranges bound, the value shown): the emitting
+    # shapes' radiance; a delta light's intensity or irradiance, named by its place among the [[emitters]]
+    emitters = [(emitting[e], "radiance", float(scene.emitters[e].radiance.max()),
+                 scene.emitters[e].radiance.tolist()) for e in sorted(emitting)]
+    delta = [e for e in scene.emitters if not isinstance(e, ShapeEmitter)]
+    for j, e in enumerate(delta):
+        key = "intensity" if hasattr(e, "intensity") else "irradiance"
+        emitters.append((scene_reader, f"emitters[{j}].{key}", float(e.radiance.max()),
+                         np.asarray(getattr(e, key), np.float64).tolist()))
     if scene.shading == "path":
         _check_path_brightness(scene, material_readers, light_readers, scene_reader, emitters)
     else:
