@@ -31,18 +31,21 @@ inline vint hits_emitter(Hit hit)
 }
 
 /* The hit of each lane of `camera` past the emitters along its ray *r, whose origin moves to just beyond the
- * last emitter passed (so that the hit's t and the shading point's ray stay each other's); `traced`, the
- * lanes whose ray was traced at all (the others keep a miss). The lanes to pass are traced again, and the
- * others with them (to the same hit, their rays unchanged): one traversal a step, where the renderer's
- * packets would otherwise merge per-lane hits of every kind field by field. */
-inline Hit pass_emitters(const Scene *s, Ray *r, Hit hit, vint traced, vint camera)
+ * last emitter passed (so that the hit's t and the shading point's ray stay each other's); `tmax`, how far
+ * each lane's ray was traced (negative: not at all, and it keeps its miss; a camera ray's far clip plane). The
+ * lanes to pass are traced again, and the others with them (to the same hit, their rays unchanged): one
+ * traversal a step, where the renderer's packets would otherwise merge per-lane hits of every kind field by
+ * field. A ray that passed an emitter goes on without its far clip plane, as Mitsuba's spawn_ray drops the
+ * ray's maxt; the others keep theirs. */
+inline Hit pass_emitters(const Scene *s, Ray *r, Hit hit, vfloat tmax, vint camera)
 {
-    vint passing = camera & hits_emitter(hit);
+    vint passing = camera & hits_emitter(hit), passed = passing;
     for (int k = 0; k < MAX_EMITTERS_PASSED && ANY(passing); ++k) {
         /* beyond the surface: hit.n faces the incoming ray */
         r->o = v3_select(r->o, offset_ray_origin(hit.p, hit.err, v3_scale(hit.n, -1.0f)), passing);
-        hit = closest_hit(s, *r, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), traced));
+        hit = closest_hit(s, *r, SELECT(tmax, (vfloat)(INFINITY), passed));
         passing &= hits_emitter(hit);
+        passed |= passing;
     }
     hit.emitted = v3_select(hit.emitted, v3_splat(0.0f, 0.0f, 0.0f), passing); /* past the cap: black */
     return hit;

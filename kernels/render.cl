@@ -181,7 +181,7 @@ inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active
             return;
         Hit hit = closest_hit(s, path.r, tmax);
         if (s->params->hide_emitters) /* the camera rays pass the emitters */
-            hit = pass_emitters(s, &path.r, hit, in_path, in_path & (path.depth == 0));
+            hit = pass_emitters(s, &path.r, hit, tmax, in_path & (path.depth == 0));
         vint alive = path_hit(s, &path, hit, in_path);
         if (ANY(alive))
             alive = path_vertex(s, ts, &path, shading_point(s, ts, path.r, hit), alive, light_samples, &ps,
@@ -211,7 +211,7 @@ inline void render_samples(const Scene *s, TextureStore ts, Tile tile, vuint key
         Hit hit = closest_hit(s, ray, tmax);
 #if RADIOMETRIC
         if (s->params->hide_emitters)
-            hit = pass_emitters(s, &ray, hit, all, all);
+            hit = pass_emitters(s, &ray, hit, tmax, all);
 #endif
         ShadingPoint sp = shading_point(s, ts, ray, hit);
         vec3 value = shade(s, ray, hit, sp, light_samples, &ps, &sums->rays);

@@ -163,6 +163,25 @@ def test_camera_rays_pass_hidden_lights(lanes):
         _judged(hidden, hidden_var, without, without_var, f"{shading}, past a hidden light, lanes {lanes}")
 
 
+@at_lane_ends
+def test_a_hidden_light_keeps_the_far_clip_of_the_rays_beside_it(lanes):
+    """With hide_emitters and a far clip plane between the hidden light and the wall (the wall 6 along the view,
+    the plane at 5.5), a camera ray that passes the light goes on without its far clip (Mitsuba's spawn_ray drops
+    maxt) and sees the wall, while every other keeps its plane and sees nothing: black, exactly, wherever the
+    light is not seen (the pixels the unhidden light's render leaves black). Tracing a packet's other lanes
+    again without their plane, where one lane passes the light, fails it (seen: the review found it)."""
+    for shading in ("direct", "path"):
+        table = wall_behind_a_light(shading)
+        table["camera"]["far_clip"] = 5.5
+        hidden = raytrace.render(raytrace.load_dict(table), spp=4, lanes=lanes)[0]
+        table["render"]["hide_emitters"] = False
+        seen = raytrace.render(raytrace.load_dict(table), spp=4, lanes=lanes)[0]
+        light = (seen > 0).any(axis=2)
+        assert 0 < light.mean() < 0.5
+        assert (hidden[~light] == 0).all(), shading
+        assert hidden[light].mean() > 0.01, shading
+
+
 def close_light(bsdf_samples):
     """The direct model under a 2 x 2 light 0.25 above the floor (whose light samples peak at 1 / r^2 close to
     it) and a bright emitting sphere low beside it, the camera over both; 1 light sample per light (counts
