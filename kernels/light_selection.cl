@@ -84,7 +84,7 @@ inline EmitterSample sample_chosen(const Scene *s, vint chosen, vec3 ref, vec2 u
 #if HAS_SHAPE_EMITTERS
 /* The density per solid angle with which the light sampling at `ref` would have chosen each lane's hit on an
  * emitting shape (emitters.cl), met at `distance` from ref with |cos(theta_l)| = cos_l, the emitter's choice
- * (light_sampling.cl's choose_emitters) included; 0 elsewhere. Each emitter the lanes hit is visited once. */
+ * (choose_emitters) included; 0 elsewhere. Each emitter the lanes hit is visited once. */
 inline vfloat hit_emitter_pdf(const Scene *s, Hit hit, vec3 ref, vfloat distance, vfloat cos_l, vint lanes)
 {
     vfloat pdf = 0.0f;

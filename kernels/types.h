@@ -142,7 +142,7 @@ typedef struct {
     float uv_scale[2];   /* spot, projector: (u, v) = 1/2 + uv_scale (x, y) / (2 z), Mitsuba's image coordinates */
     int lookup;          /* spot's texture, projector's irradiance image: a TextureLookup, -1 none */
     Vec3f radiance;
-    /* Its share in choosing the emitter of a light sample (light_sampling.cl): the probability, and the
+    /* Its share in choosing the emitter of a light sample (light_selection.cl): the probability, and the
      * cumulative probability up to and including it (the last emitter's is 1). */
     float selection_pdf, selection_cdf;
 } Emitter;
@@ -354,16 +354,11 @@ typedef struct {
     Vec3f environment_x, environment_y, environment_z; /* the world directions of the map's local axes */
     int n_disks, n_cylinders;
     int n_instances;       /* HAS_INSTANCES: the Instance table's entries */
-    int light_selection;   /* LIGHT_SELECTION_*: how a light sample chooses its emitter (light_sampling.cl) */
     int rr_depth;          /* the path model's first vertex at which Russian roulette may end a path (roulette.cl) */
     int hide_emitters;     /* the radiometric models: camera rays do not see the emitters (hide_emitters.cl) */
     int bsdf_samples;      /* HAS_BSDF_SAMPLING: the direct model's BSDF samples (direct_lighting.cl) */
 } RenderParams;
 
-/* How a light sample chooses among the Emitter table's entries (render.light_selection): in proportion to
- * their power (pbrt-v4's PowerLightSampler), or uniformly (Mitsuba 3's default). */
-#define LIGHT_SELECTION_POWER 0
-#define LIGHT_SELECTION_UNIFORM 1
 
 inline vec3 v3_uniform(Vec3f a) { return v3_splat(a.x, a.y, a.z); }
 inline float3 f3(Vec3f a) { return (float3)(a.x, a.y, a.z); }

@@ -12,7 +12,7 @@ from dataclasses import MISSING, dataclass, field, fields
 from . import samplers, structs
 from .errors import API, did_you_mean  # noqa: F401 (API: the source of an option's errors, here with the options)
 from .renderer.progressive import PASS_WORK
-from .scene.model import SHADINGS
+from .scene.model import LIGHT_SELECTIONS, SHADINGS
 
 MAX_BAND_BYTES = 64 << 20  # the device output buffer: below the 128 MiB any full-profile device allows
 
@@ -34,7 +34,7 @@ class RenderOptions:
                                        choices=samplers.SAMPLERS)
     light_selection: str | None = option(None, "how each light sample chooses the emitting shape it samples: by "
                                          "power or uniformly (default: the scene's)",
-                                         choices=tuple(structs.LIGHT_SELECTIONS))
+                                         choices=LIGHT_SELECTIONS)
     texture_filter: str = option("trilinear", "how textures are filtered", choices=tuple(structs.FILTERS))
     shading: str | None = option(None, "the shading model: phong (the course's), direct (radiometric direct "
                                  "lighting; a light's colour is then its radiance) or path (global illumination) "

@@ -89,7 +89,6 @@ TEXELS_SRGB8, TEXELS_UNORM8, TEXELS_FLOAT, TEXELS_QUAD8, TEXELS_QUADF, TEXELS_QU
 TEXEL_WORDS = {TEXELS_SRGB8: 1, TEXELS_UNORM8: 1, TEXELS_FLOAT: 4, TEXELS_QUAD8: 1, TEXELS_QUADF: 4, TEXELS_QUAD16: 2}
 QUAD_TEXELS = (TEXELS_QUAD8, TEXELS_QUAD16, TEXELS_QUADF)  # height maps' quads
 FLOAT_TEXELS = (TEXELS_FLOAT, TEXELS_QUADF)  # float32 words, 16-byte aligned in the texel buffer
-LIGHT_SELECTIONS = {"power": 0, "uniform": 1}  # render.light_selection: LIGHT_SELECTION_* (kernels/types.h)
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}
 # kernels/types.h: RFILTER_*, the film's reconstruction filters (Mitsuba's rfilter plugins)
 RFILTERS = {"box": 0, "tent": 1, "gaussian": 2, "mitchell": 3, "lanczos": 4}
@@ -121,7 +120,7 @@ RENDER_PARAMS = np.dtype([("ambient", *VEC3F), ("n_rectangles", "<i4"), ("n_tria
                           ("environment_width", "<i4"), ("environment_height", "<i4"),
                           ("environment_x", *VEC3F), ("environment_y", *VEC3F), ("environment_z", *VEC3F),
                           ("n_disks", "<i4"), ("n_cylinders", "<i4"), ("n_instances", "<i4"),
-                          ("light_selection", "<i4"), ("rr_depth", "<i4"), ("hide_emitters", "<i4"),
+                          ("rr_depth", "<i4"), ("hide_emitters", "<i4"),
                           ("bsdf_samples", "<i4")])
 
 # name in kernels/types.h -> dtype

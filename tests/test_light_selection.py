@@ -2,10 +2,11 @@
 raytrace/renderer/packing.py's selection): the probabilities against the emitters' power, the kernel's choices
 against those probabilities by chi-square, and the light of many emitters on a floor against its closed form.
 
-Probabilities (float64 on the host, then float32 in the Emitter table): by power, each emitter's pi A Y(L) (its
-area times pi times its radiance's luminance, pbrt-v4's PowerLightSampler) over their sum; uniform
-1 / n; uniform too where no emitter has power. Compared at relative 1e-6: float32 rounding of a probability is
-2^-24, and the host's float64 sum of a handful of terms nothing.
+Probabilities: by power, each emitter's pi A Y(L) (its area times pi times its radiance's luminance, pbrt-v4's
+PowerLightSampler) over their sum; uniform 1 / n; uniform too where no emitter has power. The kernel chooses by
+the float32 cumulative values, each within 2^-24 of the float64 one (rounded once, below 1), and the stored
+probability is the width they give the emitter (rounded once more to float32): within 2^-23 + 2^-24 p of the
+float64 probability, the tolerance here.
 
 Choices, at every lane width: N draws of u through choose_emitters; the counts of each emitter, and of each
 emitter with its rescaled u.x in one of BINS equal bins (uniform within its share: the rescaled number must stay
@@ -98,14 +99,17 @@ def expected_probabilities(spheres, selection):
 
 @pytest.mark.parametrize("selection", ["power", "uniform"])
 def test_probabilities_follow_power(selection):
-    """The Emitter table's selection_pdf is pi A L-bar over the sum (power) or 1 / n (uniform), its cumulative
-    selection_cdf their running sum ending at 1 exactly; a scene whose emitters have no power chooses uniformly."""
+    """The Emitter table's selection_pdf is pi A Y(L) over the sum (power) or 1 / n (uniform), and exactly the
+    width its float32 cumulative selection_cdf gives it (ending at 1 exactly); a scene whose emitters have no
+    power chooses uniformly."""
     for spheres in (SPHERES, [(c, r, 0 * radiance) for c, r, radiance in SPHERES]):
         scene = raytrace.load_dict(floor_scene("direct", selection, spheres=spheres))
         emitters = scene_tables(scene)["emitters"]
         expected = expected_probabilities(spheres, selection)
-        np.testing.assert_allclose(emitters["selection_pdf"], expected, rtol=1e-6)
-        np.testing.assert_allclose(emitters["selection_cdf"], np.cumsum(expected), rtol=1e-6)
+        np.testing.assert_allclose(emitters["selection_pdf"], expected, rtol=2**-24, atol=2**-23)
+        np.testing.assert_allclose(emitters["selection_cdf"], np.cumsum(expected), rtol=0, atol=2**-24)
+        widths = np.diff(emitters["selection_cdf"].astype(np.float64), prepend=0.0)
+        np.testing.assert_allclose(emitters["selection_pdf"], widths, rtol=2**-24, atol=0)
         assert emitters["selection_cdf"][-1] == 1.0
 
 

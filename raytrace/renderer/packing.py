@@ -239,21 +239,22 @@ def emitter_tables(scene, triangles):
 
 
 def selection(scene, emitters):
-    """Each emitter's probability of being a light sample's (render.light_selection; light_sampling.cl) and the
-    cumulative probabilities, in float64: by power (pbrt-v4's PowerLightSampler, section 12.6.2), the
-    luminance of each one's RGB power, an area emitter's pi A L (A the area packed for the kernel), a delta
-    light's emitter_power.py's; or uniform, and uniform too where no emitter has power. The last cumulative value is 1 exactly, so that every u < 1 finds
-    an emitter."""
+    """Each emitter's probability of being a light sample's (render.light_selection; kernels/light_selection.cl)
+    and the float32 cumulative probabilities the kernel chooses by: weights by power (pbrt-v4's
+    PowerLightSampler, section 12.6.2), the luminance of each one's RGB power, an area emitter's pi A L (A the
+    area packed for the kernel), a delta light's emitter_power.py's; or uniform, and uniform too where no
+    emitter has power. The last cumulative value is 1 exactly, so that every u < 1 finds an emitter."""
     weights = np.ones(len(scene.emitters))
     if scene.light_selection == "power":
         power = np.array([math.pi * float(s["area"]) * texture_lookups.luminance(e.radiance) if isinstance(e, ShapeEmitter)
                           else emitter_power(scene, e) for s, e in zip(emitters, scene.emitters)])
         if power.sum() > 0:
             weights = power
-    pdf = weights / weights.sum()
-    cdf = np.cumsum(pdf)
+    cdf = np.cumsum(weights / weights.sum()).astype(np.float32)
     cdf[-1] = 1.0
-    return pdf, cdf
+    # the kernel chooses by the float32 cumulative values: each probability is the width it gives its emitter
+    # there (an emitter of a share below their rounding then has none, and the MIS weights it none either)
+    return np.diff(cdf.astype(np.float64), prepend=0.0), cdf
 
 
 def emitter_lookups(scene):
@@ -416,7 +417,6 @@ def params_struct(scene, spp=1, light_samples=1, width=1, height=1, texture_filt
     p["n_rectangles"], p["n_triangles"] = len(scene.rectangles), scene.triangle_count
     p["n_ellipsoids"], p["n_lights"] = len(scene.ellipsoids), len(scene.lights)
     p["n_emitters"] = len(scene.emitters)
-    p["light_selection"] = structs.LIGHT_SELECTIONS[scene.light_selection]
     p["n_instances"] = len(scene.instances)
     p["n_disks"], p["n_cylinders"] = len(scene.disks), len(scene.cylinders)
     center = samplers.pattern("center", 1)

@@ -7,10 +7,10 @@ along the normal, a triangle with an area) is in `also`.
 """
 from .. import samplers
 from ..numerics import FLOAT32_MAX, FLOAT32_TINY
-from ..structs import LIGHT_SELECTIONS, WRAP_MODES
+from ..structs import WRAP_MODES
 from . import bsdfs, texture_lookups
 from .declaration import REQUIRED, Key  # noqa: F401  (keys.REQUIRED: what the tests and the manual name)
-from .model import (BSDFS, CAMERAS, DELTA_EMITTERS, RFILTERS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH,
+from .model import (BSDFS, CAMERAS, DELTA_EMITTERS, LIGHT_SELECTIONS, RFILTERS, WRAPPERS, ENVIRONMENTS, DEFAULT_SHININESS, MAX_DEPTH,
                     RR_DEPTH, SHADINGS)
 from .ranges import COORDINATE_LIMIT, MAX_IMAGE_SIDE, MAX_SAMPLES
 
@@ -194,7 +194,7 @@ TABLES = {
                    "table with radiance) or the [[emitters]] light it samples: in proportion to their power "
                    "(pbrt-v4's power light sampler), or uniformly (Mitsuba 3's default); light_samples are then "
                    "shared among them, while each [[lights]] rectangle takes light_samples of its own",
-                   default="power", choices=tuple(LIGHT_SELECTIONS)),
+                   default="power", choices=LIGHT_SELECTIONS),
                Key("shading", "string", "the shading model: the course's Phong, radiometric direct lighting, or "
                    "global illumination by path tracing", default="phong", choices=SHADINGS),
                Key("max_depth", "integer", 'shading = "path": path vertices at most, Mitsuba\'s convention (1: the '

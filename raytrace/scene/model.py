@@ -37,6 +37,9 @@ DEFAULT_ALPHA = 0.1  # Mitsuba's default roughness of its rough BSDFs
 ENVIRONMENTS = ("constant", "envmap")  # the path model's environment emitters, with Mitsuba's names
 DEFAULT_INT_IOR, DEFAULT_EXT_IOR = 1.5046, 1.000277  # Mitsuba's dielectric defaults: BK7 glass, air
 RADIOMETRIC = ("direct", "path")  # the models whose lights have a radiance, emitted from their front face
+# How each light sample chooses the emitter it samples (packing.py's selection sets the probabilities the kernel
+# chooses by: kernels/light_selection.cl): in proportion to power, or uniformly.
+LIGHT_SELECTIONS = ("power", "uniform")
 RR_DEPTH = 5  # Mitsuba's rr_depth: the first path vertex at which Russian roulette may end a path
 MAX_DEPTH = 1024  # path vertices at most (max_depth); -1 is unbounded, Russian roulette ending every path
 SCENE_EXPECTED = "must be a raytrace.scene.Scene, from load_file, load_dict or load_string"
@@ -396,7 +399,7 @@ class Scene:
     light_samples: int = 1
     sampler: str = "grid"
     light_sampler: str = "grid"
-    light_selection: str = "power"  # how a light sample chooses its emitting shape: LIGHT_SELECTIONS
+    light_selection: str = "power"  # how a light sample chooses its emitter: one of LIGHT_SELECTIONS
     textures: list = field(default_factory=list)  # raytrace.textures.Texture, indexed by the materials
     meshes: list = field(default_factory=list)    # MeshShape; their triangles follow `triangles` in the kernel
     shading: str = "phong"  # one of SHADINGS
