@@ -31,9 +31,7 @@
 #include "material.cl"
 #if HAS_BSDF_SAMPLING
 #include "warp.cl"
-
-/* 1 / (1 + x^2): the power heuristic's weight of a technique whose density is 1 / x times the other's. */
-inline vfloat power_weight(vfloat x) { return 1.0f / MAD(x, x, 1.0f); }
+#include "mis.cl"
 
 /* The Lambertian model needs no view direction: shade hands lights_sum, as `v`, a vector whose length is the
  * BSDF sample count M, which the light samples' weights need and light_sampling.cl passes on untouched. */

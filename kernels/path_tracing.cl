@@ -29,6 +29,7 @@
 #include "vmath.h"
 #include "bsdf.cl"
 #include "warp.cl"
+#include "mis.cl"
 #include "roulette.cl"
 /* The light samples' weights are colours, the BSDF's value (bsdf.cl) with its colour: light_sampling.cl sums
  * them as such. */
@@ -48,8 +49,6 @@ inline vint sample_counts(ShadingPoint sp, vec3 l, vec3 light_normal)
     return (v3_dot(sp.ng, l) > 0.0f) & (v3_dot(sp.n, l) > 0.0f) & (v3_dot(light_normal, l) < 0.0f);
 }
 
-/* 1 / (1 + x^2): the power heuristic's weight of a technique whose density is 1 / x times the other's. */
-inline vfloat power_weight(vfloat x) { return 1.0f / MAD(x, x, 1.0f); }
 
 /* The model's sample_weight takes the solid angle light_sampling.cl sampled the light by (0: by area). */
 #if LIGHT_SOLID_ANGLE
