@@ -62,6 +62,15 @@ def test_the_circle_of_confusion_is_the_thin_lens_formula():
     assert lens == pytest.approx(pinhole, rel=0.02)
 
 
+def test_a_lens_of_no_aperture_is_a_pinhole():
+    """aperture_radius = 0 (which Mitsuba accepts, taking 1e-4 with a warning) loads and renders the pinhole's
+    image: the point at depth 2, far out of focus, has the pinhole's second moment within 2% (the tolerance of
+    the test above), where any lens would blur it."""
+    pinhole, lens = (second_moment(raytrace.render(point_scene(2.0, kind, aperture=0.0), progress=False)[0])
+                     for kind in ("perspective", "thinlens"))
+    assert lens == pytest.approx(pinhole, rel=0.02)
+
+
 def box_scene(**changes):
     """cornell_path.toml at 48 x 40, 16 samples, with a constant environment seen through the open front, the
     image table's or camera's `changes` ({"image.crop_width": 20, ...})."""

@@ -147,8 +147,9 @@ TABLES = {
                Key("far_clip", "number", "the far clip plane's distance along the view: beyond it a camera ray "
                    "sees what a miss sees (Mitsuba's: 10^4; raytrace's default: none)", default=None, low=0,
                    open_low=True, high=FLOAT32_MAX, also="above near_clip"),
-               Key("aperture_radius", "number", 'thinlens: the lens\'s radius', default=None, low=0,
-                   open_low=True, high=COORDINATE_LIMIT, also='required for type = "thinlens"'),
+               Key("aperture_radius", "number", 'thinlens: the lens\'s radius (0: a pinhole, where Mitsuba takes a '
+                   "radius of 1e-4 with a warning)", default=None, low=0, high=COORDINATE_LIMIT,
+                   also='required for type = "thinlens"'),
                Key("focus_distance", "number", "thinlens: the distance along the view of the plane in focus",
                    default=None, low=0, open_low=True, high=COORDINATE_LIMIT, also='required for type = "thinlens"'),
                Key("size", "vector", "orthographic: the view's width and height in scene units (Mitsuba's "
