@@ -236,8 +236,8 @@ PLUGINS = {
         Param("hide_emitters", False, "render hide_emitters"))),
     "direct": Plugin("integrator", "direct lighting", (
         Param("shading_samples", 1, "render light_samples", "emitter_samples' and bsdf_samples' default"),
-        Param("emitter_samples", 1, "render light_samples", "per light (Mitsuba: per pixel sample, of one "
-              "emitter each)"),
+        Param("emitter_samples", 1, "render light_samples", "each of one emitting shape or delta light chosen by "
+              "power; each [[lights]] rectangle takes as many of its own"),
         Param("bsdf_samples", 1, "render bsdf_samples"),
         Param("hide_emitters", False, "render hide_emitters"))),
     "moment": Plugin("integrator", "a wrapper: raytrace renders the integrator inside", (
