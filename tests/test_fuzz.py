@@ -197,8 +197,8 @@ def test_hostile_texture_and_mesh_files(texture_filter, example):
 @example(command=dataclasses.replace(plain_command(), scene="a\nb.toml"), example=small_scene())  # two lines
 @example(command=plain_command(("--spp", "5")), example=MESH_WITH_A_NOTE)  # the mesh's note, then the error
 def test_hostile_command_lines(command, example):
-    """render's options with hostile values and odd output names: an image of the size asked for, or one line
-    naming the command line (or the scene file, when the scene argument names no readable scene)."""
+    """render's options with hostile values and odd output names: an image of the size asked for (the scene's crop
+    window where the size asked for is its film's, or none is), or one line naming the command line (or the scene file, when the scene argument names no readable scene)."""
     table = example.table
     width = parsed_int(command.value("--width")) if command.value("--width") is not None \
         else table["image"]["width"]
@@ -206,6 +206,10 @@ def test_hostile_command_lines(command, example):
         else table["image"]["height"]
     spp = parsed_int(command.value("--spp")) or table.get("render", {}).get("spp", 1)
     ls = parsed_int(command.value("--light-samples")) or table.get("render", {}).get("light_samples", 1)
+    image = table["image"]
+    if (width, height) == (image["width"], image["height"]):  # the film's crop window, where the size is the film's
+        x, y = image.get("crop_offset_x", 0), image.get("crop_offset_y", 0)
+        width, height = image.get("crop_width", width - x), image.get("crop_height", height - y)
     if None not in (width, height) and 0 < width <= 16384 and 0 < height <= 16384 and 0 < spp <= 65536 \
             and 0 < ls <= 65536:
         time_limit_given = command.value("--time-limit") is not None
