@@ -29,6 +29,28 @@ def camera_rays(scene, x, y, width=None, height=None):
     return np.broadcast_to(scene.camera.position, d.shape).copy(), d
 
 
+FOOTPRINT_GRID = 6  # floor_footprint's points per pixel and axis
+
+
+def floor_footprint(scene):
+    """(o, d, t, p): the camera rays of a FOOTPRINT_GRID x FOOTPRINT_GRID grid in each pixel (row by row of the
+    image, then of the grid) and where they meet the floor z = 0, for a closed form averaged over each pixel's
+    footprint (pixel_means); every ray meets the floor ahead, within 10 of the origin."""
+    k = FOOTPRINT_GRID
+    ys, xs = np.mgrid[0:scene.height * k, 0:scene.width * k]
+    o, d = camera_rays(scene, (xs.ravel() + 0.5) / k, (ys.ravel() + 0.5) / k)
+    t = -o[:, 2] / d[:, 2]
+    p = o + t[:, None] * d
+    assert np.all(t > 0) and np.abs(p[:, :2]).max() < 10
+    return o, d, t, p
+
+
+def pixel_means(scene, value):
+    """floor_footprint's per-ray RGB values averaged over each pixel: H x W x 3."""
+    k = FOOTPRINT_GRID
+    return value.reshape(scene.height, k, scene.width, k, 3).mean(axis=(1, 3))
+
+
 # --- 2. geometry ---------------------------------------------------------------------------------------
 
 def intersect_rectangle(rect, o, d, tmin, tmax):

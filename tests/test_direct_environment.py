@@ -19,7 +19,7 @@ import numpy as np
 import raytrace
 from devtools.judge import judge
 from helpers import at_lane_ends
-from reference import camera_rays
+from reference import floor_footprint, pixel_means
 from render_judging import CHUNKS, assert_judged, chunked
 
 ALPHA = 1e-4
@@ -45,18 +45,13 @@ def floor_scene(look_at=(0.35, 0.25, 0.0)):
 def floor_radiance(table):
     """rho L (1 - (r / d)^2 cos(beta)) over each pixel's footprint (a 6 x 6 grid)."""
     scene = raytrace.load_dict(table)
-    k = 6
-    ys, xs = np.mgrid[0:scene.height * k, 0:scene.width * k]
-    o, d = camera_rays(scene, (xs.ravel() + 0.5) / k, (ys.ravel() + 0.5) / k)
-    t = -o[:, 2] / d[:, 2]
-    p = o + t[:, None] * d
-    assert np.all(t > 0) and np.abs(p[:, :2]).max() < 10
+    p = floor_footprint(scene)[3]
     to_centre = CENTRE - p
     d2 = np.sum(to_centre ** 2, 1)
     assert np.all(to_centre[:, 2] > RADIUS)  # the sphere wholly above every point's horizon
     hidden = RADIUS ** 2 / d2 * to_centre[:, 2] / np.sqrt(d2)
     value = RHO * L * (1 - hidden)[:, None]
-    return value.reshape(scene.height, k, scene.width, k, 3).mean(axis=(1, 3))
+    return pixel_means(scene, value)
 
 
 @at_lane_ends

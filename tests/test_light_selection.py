@@ -44,7 +44,7 @@ import raytrace
 from devtools.chi_square import SIGNIFICANCE
 from devtools.judge import judge
 from helpers import at_lane_ends
-from reference import camera_rays
+from reference import floor_footprint, pixel_means
 from render_judging import CHUNKS, assert_judged, chunked
 from raytrace.renderer.program import Features
 from raytrace.renderer.scene_tables import scene_tables
@@ -156,12 +156,7 @@ def floor_radiance(table):
     cos(beta) (each wholly above the floor's horizon, no camera ray meets one, and no sphere hides part of
     another from the floor: their cones of directions are apart)."""
     scene = raytrace.load_dict(table)
-    k = 6
-    ys, xs = np.mgrid[0:scene.height * k, 0:scene.width * k]
-    o, d = camera_rays(scene, (xs.ravel() + 0.5) / k, (ys.ravel() + 0.5) / k)
-    t = -o[:, 2] / d[:, 2]
-    p = o + t[:, None] * d
-    assert np.all(t > 0) and np.abs(p[:, :2]).max() < 10
+    o, d, t, p = floor_footprint(scene)
     value = np.zeros_like(p)
     for i, (a, ra, _) in enumerate(SPHERES):
         for b, rb, _ in SPHERES[i + 1:]:
@@ -177,7 +172,7 @@ def floor_radiance(table):
         disc = np.maximum(h * h - (np.sum(oc * oc, 1) - radius ** 2), 0)
         assert not np.any((disc > 0) & (-h + np.sqrt(disc) > 0) & (-h - np.sqrt(disc) < t))
         value += RHO * radiance * (radius ** 2 * to_centre[:, 2] / d2 ** 1.5)[:, None]
-    return value.reshape(scene.height, k, scene.width, k, 3).mean(axis=(1, 3))
+    return pixel_means(scene, value)
 
 
 @at_lane_ends

@@ -56,7 +56,7 @@ from devtools.chi_square import SIGNIFICANCE
 from devtools.judge import judge
 from helpers import ROOT, at_lane_ends
 from render_judging import CHUNKS, assert_judged, chunked
-from reference import camera_rays
+from reference import floor_footprint, pixel_means
 from raytrace.errors import InputError
 from raytrace.renderer.program import Features
 from raytrace.renderer.scene_tables import scene_tables
@@ -304,15 +304,10 @@ def floor_radiance(table, light="sphere"):
     distance rho from its axis, E = pi L / 2 (1 - (h^2 + rho^2 - R^2) / sqrt((h^2 + rho^2 + R^2)^2 - 4 rho^2
     R^2)) (the form factor of a coaxial disk to a parallel element)."""
     scene = raytrace.load_dict(table)
-    k = 6
-    ys, xs = np.mgrid[0:scene.height * k, 0:scene.width * k]
-    o, d = camera_rays(scene, (xs.ravel() + 0.5) / k, (ys.ravel() + 0.5) / k)
-    t = -o[:, 2] / d[:, 2]
-    p = o + t[:, None] * d
+    o, d, t, p = floor_footprint(scene)
     to_centre = SPHERE_CENTRE - p
     d2 = np.sum(to_centre ** 2, 1)
     cos_beta = to_centre[:, 2] / np.sqrt(d2)
-    assert np.all(t > 0) and np.abs(p[:, :2]).max() < 10
     oc = o - SPHERE_CENTRE  # no ray meets the sphere
     h = np.sum(oc * d, 1)
     assert np.all(h * h - (np.sum(oc * oc, 1) - SPHERE_RADIUS ** 2) < 0)
@@ -321,7 +316,7 @@ def floor_radiance(table, light="sphere"):
         h2, r2, big2 = DISK_HEIGHT ** 2, np.sum((p[:, :2] - [0.4, 0.3]) ** 2, 1), DISK_RADIUS ** 2
         irradiance_over_pi = 0.5 * (1 - (h2 + r2 - big2) / np.sqrt((h2 + r2 + big2) ** 2 - 4 * r2 * big2))
         value = RHO * SPHERE_RADIANCE * irradiance_over_pi[:, None]
-    return value.reshape(scene.height, k, scene.width, k, 3).mean(axis=(1, 3))
+    return pixel_means(scene, value)
 
 
 @at_lane_ends
