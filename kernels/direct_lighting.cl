@@ -128,16 +128,8 @@ inline vec3 bsdf_samples_sum(const Scene *s, ShadingPoint sp, vint surface, __gl
         Hit hit = closest_hit(s, ray, SELECT((vfloat)(-1.0f), (vfloat)(INFINITY), sampled));
         vfloat cos_l = vabs(v3_dot(hit.n, wi)), p_b = cos_s * M_1_PI_F;
         /* N p_l: a light's by area, r^2 / (A cos(theta_l)), as lights_sum samples it */
-        vint on_light = sampled & (hit.t < INFINITY) & (hit.kind == SHAPE_NONE);
-        int light[LANES], index[LANES];
-        float area[LANES];
-        VSTORE(on_light, light);
-        VSTORE(hit.index, index);
-        for (int i = 0; i < LANES; ++i) {
-            __global const Rectangle *shape = &s->lights[index[i]].shape;
-            area[i] = light[i] ? 4.0f * shape->half_x * shape->half_y : 0.0f;
-        }
-        vfloat x = n * hit.t * hit.t / (VLOAD(area) * cos_l * p_b * (float)m);
+        vint on_light = sampled & (hit.t < INFINITY) & (hit.kind == SHAPE_NONE); /* (the others have no ray) */
+        vfloat x = n * hit.t * hit.t / (hit_light_area(s, hit) * cos_l * p_b * (float)m);
         vint weighed = on_light;
 #if HAS_SHAPE_EMITTERS /* an emitting shape's: emitters.cl's density of its samples */
         vint on_emitter = sampled & (hit.t < INFINITY) & (hit.emitter >= 0);

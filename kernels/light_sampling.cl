@@ -23,6 +23,25 @@
 #define SOLID_ANGLE_ARGUMENT
 #endif
 
+#if HAS_SURFACE_DATA
+/* The area of the rectangular light each lane's hit is on (HAS_SURFACE_DATA: kind SHAPE_NONE and the light's
+ * index, for a hit; a miss has kind SHAPE_NONE too), 0 elsewhere: the direct and path models' BSDF samples weigh
+ * light they reach by it. */
+inline vfloat hit_light_area(const Scene *s, Hit hit)
+{
+    int kind[LANES], index[LANES];
+    float t[LANES], area[LANES];
+    VSTORE(hit.kind, kind);
+    VSTORE(hit.index, index);
+    VSTORE(hit.t, t);
+    for (int i = 0; i < LANES; ++i) {
+        __global const Rectangle *shape = &s->lights[index[i]].shape;
+        area[i] = kind[i] == SHAPE_NONE && t[i] < INFINITY ? 4.0f * shape->half_x * shape->half_y : 0.0f;
+    }
+    return VLOAD(area);
+}
+#endif
+
 /* How many light samples lights_sum forms at once: their points, directions and masks (sample_counts) are
  * independent work that the CPU overlaps, before their shadow rays are traced and their weights added in
  * order. Against one sample at a time, this saves time on scene 0, mesh_cornell, textured_cornell and

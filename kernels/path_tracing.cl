@@ -102,22 +102,6 @@ inline vec3 emitter_weight(ShadingPoint sp, vec3 l, vec3 v, vfloat pdf, int n, v
 
 
 
-/* The area of the light each lane's hit is on (HAS_SURFACE_DATA: kind SHAPE_NONE and the light's index, for a
- * hit; a miss has kind SHAPE_NONE too), 0 elsewhere. */
-inline vfloat hit_light_area(const Scene *s, Hit hit)
-{
-    int kind[LANES], index[LANES];
-    float t[LANES], area[LANES];
-    VSTORE(hit.kind, kind);
-    VSTORE(hit.index, index);
-    VSTORE(hit.t, t);
-    for (int i = 0; i < LANES; ++i) {
-        __global const Rectangle *shape = &s->lights[index[i]].shape;
-        area[i] = kind[i] == SHAPE_NONE && t[i] < INFINITY ? 4.0f * shape->half_x * shape->half_y : 0.0f;
-    }
-    return VLOAD(area);
-}
-
 #if LIGHT_SOLID_ANGLE
 /* The solid angle, seen from each lane's o, of the light each lane's hit is on where light_sampling.cl samples
  * that light by solid angle from o, 0 elsewhere (by area, or no light hit). */
