@@ -63,6 +63,14 @@ class RenderOptions:
                                     "(default: the device on GPUs, the host on CPUs)",
                                     choices=("device", "host"))
     client: object = option(None, "a dask.distributed.Client to render on, instead of scheduler", cli=False)
+    watch: list | None = option(None, "watchers called as the render goes (raytrace.Watcher: the progress of each "
+                                "pass, its image)", cli=False)
+    checkpoint: str | None = option(None, "a file the render's state is kept in, every checkpoint_every seconds and "
+                                    "at the end, to resume from", cli=False)
+    checkpoint_every: float = option(60.0, "seconds between checkpoints (0: after every pass)", cli=False)
+    resume: bool = option(False, "continue the render kept in checkpoint (the same scene and options)", cli=False)
+    checkpoint_command: dict | None = option(None, "what the command line keeps in a checkpoint to resume it",
+                                             cli=False)
 
 
 # Other renderers' words for render()'s options (Mitsuba 3's sample_count, pbrt-v4's pixelsamples, a

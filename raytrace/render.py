@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import samplers, structs
-from .errors import POSITIVE_SECONDS, InputError
+from .errors import POSITIVE_SECONDS, InputError, check_path
 from .numerics import is_real
 from .memory import available_memory
 from .renderer.cpu_target import lanes_for
@@ -25,7 +25,10 @@ from .renderer.program import Features
 from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_WORK,
                                    first_half, pass_size, row_chunks)
 from .options import API, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: callers')
+from .checkpoint import Checkpoints
 from .image import Image
+from .progress import Progress
+from .watch import PassReport, call, check_watchers
 from .scene.model import SCENE_EXPECTED, Scene
 from .scene.ranges import MAX_SAMPLES
 from .scene.model_check import check_value, ensure_checked
@@ -57,7 +60,7 @@ class RenderStats:
     seed: int
     texture_bytes: int
     passes: int
-    stopped_by: str        # "spp", "time-limit" or "target-error"
+    stopped_by: str        # "spp", "time-limit", "target-error", or a watcher's reason (the command line's "SIGINT")
     estimated_rmse: float | None
     estimated_relative_rmse: float | None
     history: list = field(default_factory=list)  # per pass: samples, seconds, estimated errors
@@ -110,6 +113,12 @@ def _options(options):
             POSITIVE_SECONDS)
     _option(options.target_error, API, "target_error", lambda v: v is None or is_real(v) and 0 < v < float("inf"),
             "must be a positive relative RMSE")
+    _option(options.checkpoint_every, API, "checkpoint_every", lambda v: is_real(v) and 0 <= v < float("inf"),
+            "must be a number of seconds, at least 0")
+    _option(options.resume, API, "resume", lambda v: v is False or v is True and options.checkpoint is not None,
+            "True needs a checkpoint file to resume from")
+    if options.checkpoint is not None:
+        check_path(options.checkpoint, API, "checkpoint")
 
 
 def resolve(scene, options):
@@ -153,7 +162,8 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
            light_selection=None, texture_filter="trilinear", shading=None, max_depth=None, seed=None, time_limit=None, target_error=None,
            device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
-           max_pass_work=PASS_WORK, accumulate=None, client=None):
+           max_pass_work=PASS_WORK, accumulate=None, client=None, watch=None, checkpoint=None,
+           checkpoint_every=60.0, resume=False, checkpoint_command=None):
     """Render `scene` (from load_file, load_dict or load_string); returns (image, stats).
 
     image is a raytrace.Image: an H x W x 3 float32 numpy array of linear radiance (row 0 at the top) that
@@ -196,6 +206,13 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
             host reads the images once: docs/gpu.md), "host" (float64 sums on the host, each pass read back),
             or None: the device on GPUs, the host on CPUs and on a Dask cluster.
         client: a dask.distributed.Client to render on, instead of scheduler.
+        watch: a list of watchers (raytrace.Watcher), told of the build, each pass (its samples, estimated error
+            and image so far; one may stop the render) and the end (raytrace/watch.py).
+        checkpoint: a file to keep the render's state in (every checkpoint_every seconds, and at the end), from
+            which resume=True continues it to the uninterrupted render's image, bit for bit (docs/cli.md).
+        checkpoint_every: seconds between checkpoints, >= 0 (0: after every pass).
+        resume: continue the render kept in `checkpoint`, made by the same scene, options and raytrace.
+        checkpoint_command: what the command line keeps in the checkpoint to resume the render (internal).
 
     Returns:
         (Image, RenderStats)
@@ -205,28 +222,9 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
         light_sampler=light_sampler, light_selection=light_selection, texture_filter=texture_filter, shading=shading, max_depth=max_depth, seed=seed,
         time_limit=time_limit, target_error=target_error, device=device, scheduler=scheduler, lanes=lanes,
         features=features, progress=progress, max_band_bytes=max_band_bytes, max_pass_work=max_pass_work,
-        client=client, accumulate=accumulate)
+        client=client, accumulate=accumulate, watch=watch, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
+        resume=resume, checkpoint_command=checkpoint_command)
     return Image.of(image, variance, stats, scene.path), stats
-
-
-class _Progress:
-    """A tqdm bar on stderr over the pixel samples, shown once the render has taken a second."""
-
-    def __init__(self, total, wanted):
-        self.total, self.wanted, self.bar = total, wanted, None
-
-    def update(self, elapsed, done, passes, relative_error):
-        if self.bar is None and self.wanted is not False and done < self.total and (self.wanted or elapsed > 1.0):
-            from tqdm import tqdm
-            self.bar = tqdm(total=self.total, unit="spp", file=sys.stderr, leave=False)
-        if self.bar is not None:
-            self.bar.update(done - self.bar.n)
-            error = "?" if relative_error is None else f"{relative_error:.2e}"
-            self.bar.set_postfix_str(f"pass {passes}, est. rel. error {error}", refresh=False)
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
 
 
 def _zero_nonfinite(image):
@@ -323,11 +321,36 @@ def render_progressive(scene, **kwargs):
                          'use "host" or None')
     r = resolve_all(final, options)
     check_memory(r.width, r.height)
+    watchers = [Progress(options.progress, options.time_limit, options.target_error),
+                *check_watchers(options.watch, API, "watch")]
+    try:
+        return _render_passes(scene, final, options, r, watchers)
+    finally:
+        watchers[0].finished(None)  # the bar's thread ends whatever happened
+
+
+def _report(r, acc, seconds, rmse=None, relative=None, stopped_by=None):
+    """A watch.PassReport of where the render stands, its image made from the sums on request."""
+    return PassReport(acc.passes, len(r.passes), acc.n_total, r.spp, seconds, rmse, relative, r.width, r.height,
+                      stopped_by, acc.mean)
+
+
+def _render_passes(scene, final, options, r, watchers):
+    """The passes, from a checkpoint's state where one is resumed, until the samples, the time limit, the target
+    error or a watcher ends them; returns render_progressive's (image, variance, stats)."""
+    call(watchers, "building", "building the kernel")
     passes = _passes(scene, options, r)
-    acc, render_seconds, history = passes.accumulator(), 0.0, []
-    progress, stopped_by = _Progress(r.spp, options.progress), "spp"
-    start = time.perf_counter()
-    for k, (_, n, n_first) in enumerate(r.passes):
+    acc, done = passes.accumulator(), {"render_seconds": 0.0, "wall_seconds": 0.0, "history": []}
+    keeper = options.checkpoint and Checkpoints(options, final, r, passes)
+    if keeper and options.resume:
+        done = keeper.resume(acc)
+    render_seconds, history, stopped_by = done["render_seconds"], done["history"], "spp"
+    rmse, relative = (history[-1]["estimated_rmse"], history[-1]["estimated_relative_rmse"]) if history else (None,
+                                                                                                             None)
+    start = time.perf_counter() - done["wall_seconds"]
+    call(watchers, "started", _report(r, acc, done["wall_seconds"], rmse, relative))
+    for k in range(acc.passes, len(r.passes)):
+        _, n, n_first = r.passes[k]
         pass_start = time.perf_counter()
         render_seconds += passes.run_pass(k, acc)
         acc.end_pass(n, n_first)
@@ -337,8 +360,11 @@ def render_progressive(scene, **kwargs):
                         "pass_seconds": now - pass_start,
                         "kernel_seconds": render_seconds, "estimated_rmse": rmse,
                         "estimated_relative_rmse": relative})
-        progress.update(now - start, acc.n_total, acc.passes, relative)
+        asked = call(watchers, "pass_done", _report(r, acc, now - start, rmse, relative))
         if acc.n_total >= r.spp:
+            break
+        if asked is not None:
+            stopped_by = asked
             break
         if (options.target_error is not None and acc.passes >= MIN_PASSES_FOR_TARGET
                 and relative <= options.target_error):
@@ -347,9 +373,13 @@ def render_progressive(scene, **kwargs):
         if options.time_limit is not None and now - start + (now - pass_start) > options.time_limit:
             stopped_by = "time-limit"
             break
+        if keeper:
+            keeper.save_if_due(acc, render_seconds, now - start, history)
     passes.cancel()
-    progress.close()
     wall_seconds = time.perf_counter() - start
+    if keeper:
+        keeper.save(acc, render_seconds, wall_seconds, history)
+    call(watchers, "finished", _report(r, acc, wall_seconds, rmse, relative, stopped_by))
 
     rays = acc.rays_traced()
     image, variance = acc.images()  # rmse and relative are the last pass's

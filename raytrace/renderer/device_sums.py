@@ -126,6 +126,34 @@ class DeviceSums(Halves):
             total += float(plane.sum(dtype=np.float64))
         return total
 
+    def state(self):
+        """(counts, arrays) as Accumulator.state: the double-float sums as their two float32 halves, read back."""
+        arrays = {}
+        for name, buffer in (("total_hi", self.total_hi), ("total_lo", self.total_lo), ("prefix", self.prefix)):
+            if name != "prefix" or self.has_prefix:
+                arrays[name] = np.empty(buffer.size // 4, np.float32)
+                cl.enqueue_copy(self.queue, arrays[name], buffer)
+        return self.counts(), arrays
+
+    def restore(self, counts, arrays):
+        """The state() of DeviceSums of the same size, written to the device; ValueError for one that is not."""
+        from .progressive import checked_array
+        self.restore_counts(counts)
+        self.has_prefix = "prefix" in arrays
+        for name, buffer in (("total_hi", self.total_hi), ("total_lo", self.total_lo), ("prefix", self.prefix)):
+            if name in arrays or name != "prefix":
+                cl.enqueue_copy(self.queue, buffer, checked_array(arrays, name, (buffer.size // 4,), np.float32))
+        self.queue.finish()
+
+    def mean(self):
+        """The image so far, H x W x CHANNELS float32, the sums kept (a watcher's: watch.PassReport.image)."""
+        pixels = self.width * self.height
+        hi, lo = (np.empty(CHANNELS * pixels, np.float32) for _ in range(2))
+        cl.enqueue_copy(self.queue, hi, self.total_hi)
+        cl.enqueue_copy(self.queue, lo, self.total_lo)
+        total = (hi.astype(np.float64) + lo).reshape(CHANNELS, self.height, self.width)
+        return np.moveaxis(total / max(self.n_total, 1), 0, -1).astype(np.float32)
+
     def images(self):
         """(mean, variance or None), H x W x CHANNELS float32, as Accumulator.images; the sums are spent."""
         shape = (self.height, self.width, CHANNELS)

@@ -66,6 +66,17 @@ class Halves:
         self.n_total += n
         self.passes += 1
 
+    def counts(self):
+        """The counts a checkpoint keeps (restore_counts takes them back)."""
+        return {"n_prefix": self.n_prefix, "n_total": self.n_total, "passes": self.passes}
+
+    def restore_counts(self, counts):
+        for name in ("n_prefix", "n_total", "passes"):
+            value = counts.get(name)
+            if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= 1 << 31:
+                raise ValueError(f"{name} = {value!r}")
+            setattr(self, name, value)
+
     def weights(self):
         """(prefix weight, total weight), float64: the half difference (A - B) sqrt(nA nB) / N, with A the mean
         of the first n_prefix samples and B of the rest, is prefix * (1/nA + 1/nB) - total / nB, scaled."""
@@ -111,6 +122,22 @@ class Accumulator(Halves):
     def rays_traced(self):
         """The rays traced, over every band added so far."""
         return self.rays
+
+    def state(self):
+        """(counts, arrays): everything the sums are, for a checkpoint (checkpoint.py); restore() takes it back
+        to the same bits."""
+        arrays = {"total": self.total}
+        if self.prefix is not None:
+            arrays["prefix"] = self.prefix
+        return {**self.counts(), "rays": self.rays}, arrays
+
+    def restore(self, counts, arrays):
+        """The state() of an Accumulator of the same shape; ValueError for one that is not."""
+        self.restore_counts(counts)
+        self.rays = float(counts.get("rays", 0.0))
+        self.total[...] = checked_array(arrays, "total", self.total.shape, np.float64)
+        self.prefix = None if "prefix" not in arrays else checked_array(arrays, "prefix", self.total.shape, np.float32)
+        self.kept_variance = None
 
     def _half_difference(self, rows):
         """(A - B) sqrt(nA nB) / N for `rows` (float64, planar), whose square estimates the variance of
@@ -165,6 +192,15 @@ class Accumulator(Halves):
             squares = sum(float(np.sum(np.square(self._half_difference(rows))))  # not np.dot: BLAS threads would
                           for rows in self._chunks())                         # spin on the render's cores
         return relative_rmse(math.sqrt(squares / self.total.size), float(np.mean(self.total)) / self.n_total)
+
+
+def checked_array(arrays, name, shape, dtype):
+    """arrays[name] if it has this shape and dtype (a checkpoint's, checked), else ValueError."""
+    a = arrays.get(name)
+    if not isinstance(a, np.ndarray) or a.shape != tuple(shape) or a.dtype != dtype:
+        raise ValueError(f"{name}: {getattr(a, 'dtype', None)} {getattr(a, 'shape', None)}, expected {np.dtype(dtype)} "
+                         f"{tuple(shape)}")
+    return a
 
 
 def relative_rmse(rmse, mean):
