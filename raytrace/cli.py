@@ -17,8 +17,9 @@ from pathlib import Path
 
 from . import samplers
 from .errors import InputError, UnsupportedWarning, did_you_mean, interrupted_line
-from .outputs import (Interrupted, Outputs, committed, handle_signals, raise_pending, scene_inputs,
-                      write_json)
+from .outputs import (Interrupted, Outputs, committed, handle_signals, keep_signals, kept_signal, raise_pending,
+                      scene_inputs, write_json)
+from .watch import Watcher
 from .image import metadata
 from .image_file import FORMATS, check_extension, write_image_file
 from .options import API, SYNONYMS, command_line_name, declared, option_type
@@ -103,11 +104,12 @@ def load_scene(args, translated=False):
     return (scene, translation) if translated else scene
 
 
-def _add_render_options(p, scene_help=None):
+def _add_render_options(p, scene_help=None, resumable=False):
     if scene_help:
         p.add_argument("scene", nargs="*", help=scene_help)
     else:
-        p.add_argument("scene", help="scene file (TOML, or Mitsuba 3 XML)")
+        p.add_argument("scene", nargs="?" if resumable else None,
+                       help="scene file (TOML, or Mitsuba 3 XML)" + (" (none with --resume)" if resumable else ""))
         _add_scene_loading(p)
     for name, default, doc, cli, choices, metavar in declared():
         if cli and name != "scheduler":
@@ -136,10 +138,16 @@ def parser():
     p.add_argument("--version", action="version", version=f"raytrace {_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     r = sub.add_parser("render", help="render a scene to an image file")
-    _add_render_options(r)
+    _add_render_options(r, resumable=True)
     r.add_argument("-o", "--output", required=True, help=f"image file ({', '.join(sorted(FORMATS))})")
     r.add_argument("--stats-json", help="write render statistics to this JSON file")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--checkpoint", metavar="FILE", help="keep the render's state in FILE (every "
+                   "--checkpoint-every seconds and at the end), to continue it with --resume FILE")
+    r.add_argument("--checkpoint-every", type=float, default=60.0, metavar="SECONDS",
+                   help="seconds between checkpoints; 0: after every pass (default: 60)")
+    r.add_argument("--resume", metavar="FILE", help="continue the render kept in the checkpoint FILE (its scene and "
+                   "options; keeps checkpointing into FILE) to the image the render would have made uninterrupted")
     b = sub.add_parser("bench", help="the benchmark suite: rays per second against the scalar kernel, build and "
                        "process seconds, memory (default: 512 x 512, 16 spp x 16 light samples)")
     _add_render_options(b, scene_help="scene files (TOML; default: the suite, scenes/cornell.toml, "
@@ -215,23 +223,79 @@ def _render_kwargs(args):
     return {name: getattr(args, name) for name, _, _, cli, _, _ in declared() if cli}
 
 
+class _KeepOnSignal(Watcher):
+    """`render`'s Ctrl-C: once the passes have begun, the first SIGINT or SIGTERM ends the render after its pass,
+    and what it has is written (outputs.keep_signals); cmd_render ends the keeping once the files are in place."""
+
+    def started(self, report):
+        keep_signals(True)
+
+    def pass_done(self, report):
+        signum = kept_signal()
+        return None if signum is None else signal.Signals(signum).name
+
+
+def _resumed(args):
+    """For `render --resume FILE`: args with the scene and the options the checkpoint keeps, or args unchanged.
+    A scene or render option given beside --resume is refused: the checkpoint's are the ones it continues."""
+    if args.resume is None:
+        if args.scene is None:
+            raise InputError("command line", "scene", None, "is required (or --resume FILE)")
+        return args
+    from .checkpoint import load
+    given = [a.option_strings[0] if a.option_strings else a.dest for a in parser_actions("render")
+             if a.dest in ("scene", "defines", "ignore_unsupported", "checkpoint", *_render_kwargs(args))
+             and getattr(args, a.dest) != a.default]
+    if given:
+        raise InputError("command line", given[0], None, "is not taken with --resume: the checkpoint's scene and "
+                         "options are the ones it continues")
+    meta, _ = load(args.resume)
+    command = meta.get("command")
+    if not isinstance(command, dict) or not isinstance(command.get("scene"), str):
+        raise InputError("command line", "--resume", args.resume, "keeps no command line (made by render(), not "
+                         "`raytrace render`): resume it with render(checkpoint=..., resume=True)")
+    kept = {"scene": command["scene"], "defines": command.get("defines", []),
+            "ignore_unsupported": command.get("ignore_unsupported", False), "checkpoint": args.resume,
+            "checkpoint_every": command.get("checkpoint_every", 60.0), **command.get("options", {})}
+    return argparse.Namespace(**{**vars(args), **kept})
+
+
+def _checkpoint_command(args):
+    """What a checkpoint keeps to be resumed from the command line: the scene (as an absolute path), its loading
+    options and the render options."""
+    return {"scene": str(Path(args.scene).absolute()), "defines": args.defines,
+            "ignore_unsupported": args.ignore_unsupported, "checkpoint_every": args.checkpoint_every,
+            "options": _render_kwargs(args)}
+
+
 def cmd_render(args):
     from .render import render_progressive
 
     check_extension(args.output, "command line", "-o")
+    args = _resumed(args)
     with Outputs(inputs=[args.scene]) as outputs:
         image_file = outputs.reserve("-o", args.output)
         stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)
+        if args.checkpoint:
+            outputs.check_other_file("--resume" if args.resume else "--checkpoint", args.checkpoint)
         scene = load_scene(args)
         outputs.add_inputs(scene_inputs(scene))
-        image, variance, stats = render_progressive(scene, **_render_kwargs(args),
-                                                    progress=False if args.no_progress else None)
+        image, variance, stats = render_progressive(
+            scene, **_render_kwargs(args), progress=False if args.no_progress else None, watch=[_KeepOnSignal()],
+            checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every, resume=args.resume is not None,
+            checkpoint_command=_checkpoint_command(args) if args.checkpoint else None)
         with outputs.writing(image_file):
             write_image_file(image_file, image, metadata(stats, args.scene), variance)
         if stats_file:
             with outputs.writing(stats_file):
                 write_json(stats_file, dataclasses.asdict(stats))
         outputs.commit()
+        signum = kept_signal()
+        keep_signals(False)
+    if signum is not None:  # the samples done are written: the one line says so
+        print(f"raytrace: interrupted by {signal.Signals(signum).name}: wrote {args.output} with {stats.spp} of "
+              f"{stats.max_spp} spp in {stats.passes} pass{'es' * (stats.passes != 1)}", file=sys.stderr)
+        return 128 + signum
     for mesh in scene.meshes:  # after the render: a run that ends in an error says that one line only
         if mesh.dropped:
             print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)

@@ -14,7 +14,9 @@ be made; it makes the temporary file (".raytrace-XXXXXXXX" + the extension) in t
 which proves the directory writable and makes the final rename atomic. A symbolic link is followed: its
 target is written (and a note says so), the link stays. handle_signals() turns SIGTERM, SIGHUP and SIGINT
 into Interrupted, raised in the main thread, so that clean-up runs; the creation, renaming and removal of
-files are never cut in half by one (a signal arriving then is raised right after)."""
+files are never cut in half by one (a signal arriving then is raised right after). While a render's passes run
+(keep_signals(True)), the first SIGINT or SIGTERM is kept instead, for the render to end after its pass and write
+what it has; a second signal is raised as ever."""
 import contextlib
 import json
 import math
@@ -31,6 +33,7 @@ from .errors import InputError
 
 PREFIX = ".raytrace-"
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+KEPT_SIGNALS = (signal.SIGINT, signal.SIGTERM)  # a render keeps its samples on these; SIGHUP (the terminal gone) not
 
 
 class Interrupted(BaseException):
@@ -46,10 +49,15 @@ class _State:
     signum = None      # the first signal received; the later ones are ignored, the way out is under way
     raised = False
     committed = 0      # outputs renamed into place so far (an interruption after them did not undo them)
+    keeping = False    # keep_signals(): the first of KEPT_SIGNALS is kept, not raised
+    kept = None        # that signal, once received
 
 
 def _on_signal(signum, frame):
     if _State.signum is not None:
+        return
+    if _State.keeping and _State.kept is None and signum in KEPT_SIGNALS:
+        _State.kept = signum
         return
     _State.signum = signum
     if not _State.held:
@@ -90,7 +98,7 @@ def handle_signals():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    _State.signum, _State.raised, _State.committed = None, False, 0
+    _State.signum, _State.raised, _State.committed, _State.keeping, _State.kept = None, False, 0, False, None
     _State.held += 1  # a signal while the handlers go in is held: raise_pending() raises it in the caller's try
     try:
         before = {s: signal.signal(s, _on_signal) for s in SIGNALS if signal.getsignal(s) is not signal.SIG_IGN}
@@ -110,12 +118,24 @@ def raise_pending():
         _raise()
 
 
+def keep_signals(keeping):
+    """While `keeping` (a render's passes), the first SIGINT or SIGTERM is kept (kept_signal()) rather than
+    raised: the render ends after the current pass and writes the samples done. A second signal, or one after
+    keep_signals(False), is raised as any other (the way out writes nothing)."""
+    _State.keeping = keeping
+
+
+def kept_signal():
+    """The signal keep_signals() kept, or None."""
+    return _State.kept
+
+
 def committed():
     """How many outputs were renamed into place since handle_signals() began."""
     return _State.committed
 
 
-def _umask():
+def umask():
     """The process's umask, read without setting it (os.umask would change it for every thread meanwhile)."""
     try:
         with open("/proc/self/status") as f:
@@ -206,6 +226,19 @@ class Outputs:
                     raise InputError(self.source, key, str(path), f"cannot make {directory}: {e.strerror}") from None
                 self.made.append(directory)
 
+    def check_other_file(self, key, path):
+        """Check `path`, a file the command keeps writing whatever happens (a checkpoint), outside the outputs'
+        all or nothing: its directory exists, it is no directory, input or output of this run."""
+        out = _Output(key, str(path), path, self.source)
+        if not os.path.isdir(os.path.dirname(out.target)):
+            raise out.error("its directory does not exist")
+        if os.path.isdir(out.target):
+            raise out.error("is a directory")
+        for other, resolved in self.inputs:
+            self._distinct(out, other, resolved, "an input of this run")
+        for other in self.outputs:
+            self._distinct(out, f"{other.key} {other.path}", other.target, "also another output")
+
     def reserve(self, key, path, given=None):
         """Check `path` as the output of option `key` (the user wrote `given`, by default the path) and make
         its temporary file beside it; returns the temporary's path, to be written with writing()."""
@@ -233,7 +266,7 @@ class Outputs:
             self._distinct(out, other, resolved, "an input of this run")
         for other in self.outputs:
             self._distinct(out, f"{other.key} {other.path}", other.target, "also another output")
-        mode = stat.S_IMODE(st.st_mode) if st is not None else 0o666 & ~_umask()
+        mode = stat.S_IMODE(st.st_mode) if st is not None else 0o666 & ~umask()
         with _held():
             try:
                 fd, out.tmp = tempfile.mkstemp(prefix=PREFIX, suffix=os.path.splitext(name)[1], dir=directory)

@@ -1,7 +1,12 @@
-"""SIGTERM, SIGHUP and SIGINT (Ctrl-C) sent to a real `python -m raytrace render` child while it renders and
-while it writes a large image: one line on stderr, exit status 128 + the signal's number, no traceback, and
-nothing left in the output directory (no output, no temporary file). A signal the parent ignored (nohup)
-stays ignored."""
+"""SIGTERM, SIGHUP and SIGINT (Ctrl-C) sent to a real `python -m raytrace render` child.
+
+Before its passes begin (the scene loading, the kernel build) any of them ends it with one line on stderr, exit
+status 128 + the signal's number, no traceback, and nothing left in the output directory (no output, no
+temporary file); so does SIGHUP at any time, and a second signal. Once the passes have begun, SIGINT and SIGTERM
+end the render after the current pass and write the samples done (their true spp in the metadata), with one line
+saying so and the same exit status; one arriving while the image is written lets it be written. A signal the
+parent ignored (nohup) stays ignored."""
+import json
 import os
 import signal
 import subprocess
@@ -9,6 +14,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 import pytest
 
 from helpers import CORNELL, child_env
@@ -41,11 +47,12 @@ def wait_for_temporary(child, out_dir, suffix, written):
 
 
 @pytest.mark.parametrize("signum, output, written", [
-    (signal.SIGTERM, "big.exr", True), (signal.SIGHUP, "big.png", True), (signal.SIGINT, "big.exr", True),
-    (signal.SIGTERM, "big.png", False), (signal.SIGHUP, "big.exr", False), (signal.SIGINT, "big.png", False),
-], ids=["term-writing-exr", "hup-writing-png", "int-writing-exr", "term-rendering", "hup-rendering",
-        "int-rendering"])
+    (signal.SIGHUP, "big.png", True), (signal.SIGTERM, "big.png", False), (signal.SIGHUP, "big.exr", False),
+    (signal.SIGINT, "big.png", False),
+], ids=["hup-writing-png", "term-loading", "hup-loading", "int-loading"])
 def test_signal_leaves_nothing(tmp_path, signum, output, written):
+    """The output's temporary is made before the scene is read: a signal as it appears lands before the passes
+    (nothing to keep), and SIGHUP while the image is written ends the command too."""
     child = start(tmp_path, output)
     try:
         wait_for_temporary(child, tmp_path, os.path.splitext(output)[1], written)
@@ -59,6 +66,68 @@ def test_signal_leaves_nothing(tmp_path, signum, output, written):
     assert child.returncode == 128 + signum, stderr
     assert stderr == f"raytrace: interrupted by {name}; nothing written\n" and stdout == ""
     assert list(tmp_path.iterdir()) == []
+
+
+# scene 0 at 512 x 512: 16 passes of 16 samples, a quarter second each; Sobol's points, whose first n are the
+# points of a render of n (a grid of 256 is not the grid of 128 and more)
+PASSES = ["--spp", 256, "--sampler", "sobol", "--light-sampler", "sobol", "--no-progress"]
+
+
+def start_passes(tmp_path, output):
+    """A render of many passes, checkpointed after each (a folder apart), and the moment its first pass is done:
+    its checkpoint appears."""
+    (tmp_path / "ck").mkdir()
+    checkpoint = tmp_path / "ck" / "passes.ckpt"
+    child = start(tmp_path / "out", output, size=[*PASSES, "--checkpoint", checkpoint, "--checkpoint-every", 0])
+    deadline = time.monotonic() + 300
+    while not checkpoint.exists():
+        assert child.poll() is None and time.monotonic() < deadline, child.stderr.read()
+        time.sleep(0.002)
+    return child
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+def test_a_signal_during_the_passes_keeps_them(tmp_path, signum):
+    """The render ends after the pass under way; the image of the samples done is written, with its true spp
+    in its metadata and the statistics, and equals (bit for bit, variance too) a render asked for that many
+    samples: its passes are the same passes."""
+    import OpenImageIO as oiio
+    import raytrace
+    (tmp_path / "out").mkdir()
+    child = start_passes(tmp_path, "kept.exr")
+    child.send_signal(signum)
+    stdout, stderr = child.communicate(timeout=300)
+    name, out = signal.Signals(signum).name, tmp_path / "out" / "kept.exr"
+    assert child.returncode == 128 + signum, stderr
+    stats = json.loads((tmp_path / "out" / "stats.json").read_text())
+    spp = stats["spp"]
+    assert 16 <= spp < 256 and spp % 16 == 0 and stats["stopped_by"] == name and stats["max_spp"] == 256
+    assert stderr == f"raytrace: interrupted by {name}: wrote {out} with {spp} of 256 spp in {spp // 16} passes\n"
+    assert stdout == "" and sorted(p.name for p in (tmp_path / "out").iterdir()) == ["kept.exr", "stats.json"]
+    written = oiio.ImageBuf(str(out))
+    assert written.spec().getattribute("raytrace:spp") == spp
+    image, _ = raytrace.render(raytrace.load_file(CORNELL), spp=spp, sampler="sobol", light_sampler="sobol",
+                               progress=False)
+    pixels = written.get_pixels(oiio.FLOAT)
+    assert np.array_equal(pixels[..., :3], image) and np.array_equal(pixels[..., 3:], image.variance)
+
+
+@pytest.mark.parametrize("signals", [(signal.SIGINT, signal.SIGTERM), (signal.SIGTERM, signal.SIGINT),
+                                     (signal.SIGHUP,)], ids=["int-term", "term-int", "hup"])
+def test_a_second_signal_or_a_hangup_writes_nothing(tmp_path, signals):
+    """A second signal during the passes (the first kept) ends the render at once, and so does SIGHUP (the
+    terminal gone): nothing written, the line of the signal that ended it. The second follows the first by a
+    moment: two pending at once are handled in the order of their numbers."""
+    (tmp_path / "out").mkdir()
+    child = start_passes(tmp_path, "never.png")
+    for signum in signals:
+        child.send_signal(signum)
+        time.sleep(0.02)
+    stdout, stderr = child.communicate(timeout=300)
+    name = signal.Signals(signals[-1]).name
+    assert child.returncode == 128 + signals[-1], stderr
+    assert stderr == f"raytrace: interrupted by {name}; nothing written\n" and stdout == ""
+    assert list((tmp_path / "out").iterdir()) == []
 
 
 def test_ignored_hangup_stays_ignored(tmp_path):
