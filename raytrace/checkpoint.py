@@ -96,8 +96,10 @@ def load(path, source="command line", key="--resume"):
         meta = json.loads(arrays.pop("meta").tobytes().decode())
     except OSError as e:
         raise InputError(source, key, str(path), f"cannot read: {e.strerror or e}") from None
-    except (ValueError, KeyError, UnicodeDecodeError, zipfile.BadZipFile, EOFError) as e:
-        raise InputError(source, key, str(path), f"is not a raytrace checkpoint ({e.__class__.__name__})") from None
+    except (zipfile.BadZipFile, EOFError):
+        raise InputError(source, key, str(path), "is not a raytrace checkpoint (not an .npz archive)") from None
+    except (ValueError, KeyError, UnicodeDecodeError):
+        raise InputError(source, key, str(path), "is not a raytrace checkpoint (no meta it can read)") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise InputError(source, key, str(path), f"is not a raytrace checkpoint (no '{FORMAT}' header)")
     return meta, arrays

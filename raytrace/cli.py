@@ -280,10 +280,15 @@ def cmd_render(args):
             outputs.check_other_file("--resume" if args.resume else "--checkpoint", args.checkpoint)
         scene = load_scene(args)
         outputs.add_inputs(scene_inputs(scene))
-        image, variance, stats = render_progressive(
-            scene, **_render_kwargs(args), progress=False if args.no_progress else None, watch=[_KeepOnSignal()],
-            checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every, resume=args.resume is not None,
-            checkpoint_command=_checkpoint_command(args) if args.checkpoint else None)
+        try:
+            image, variance, stats = render_progressive(
+                scene, **_render_kwargs(args), progress=False if args.no_progress else None, watch=[_KeepOnSignal()],
+                checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every, resume=args.resume is not None,
+                checkpoint_command=_checkpoint_command(args) if args.checkpoint else None)
+        except InputError as e:  # the checkpoint resumed is the one --resume named
+            if args.resume is None or (e.source, e.key) != (API, "checkpoint"):
+                raise
+            raise InputError("command line", "--resume", e.value, e.problem) from None
         with outputs.writing(image_file):
             write_image_file(image_file, image, metadata(stats, args.scene), variance)
         if stats_file:
