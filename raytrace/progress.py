@@ -89,14 +89,15 @@ class Progress(Watcher):
                 self._open("rendering", report.max_spp)
             if self.bar is None:
                 return None
-            self.bar.update(report.spp - self.bar.n)
             seconds, spp = self.first
             rate = (report.seconds - seconds) / (report.spp - spp) if report.spp > spp else None
             left = seconds_left(report, rate, self.time_limit, self.target_error)
             error = "?" if report.estimated_relative_rmse is None else f"{report.estimated_relative_rmse:.2e}"
             eta = "?" if left is None else _clock(left)
             self.bar.set_postfix_str(f"pass {report.passes}/{report.planned_passes}, est. rel. error {error}, "
-                                     f"{eta} left", refresh=True)
+                                     f"{eta} left", refresh=False)  # with the samples, in one redraw
+            self.bar.n = report.spp
+            self.bar.refresh()
         return None
 
     def finished(self, report):
