@@ -6,10 +6,10 @@ here, and a device's sums (accumulate="device") resume too.
 
 Equality is exact, not a tolerance: the passes are deterministic functions of their sample indices, the state
 restored is the state saved (float64 and float32 arrays written as they are), so any difference is a bug.
-Mutations tried (each fails a test here): restoring the prefix from the total (the variance channels differ);
-saving the counts before the pass is added (n_total short by a pass: the image's scale); resuming at pass k + 1
-(a pass left out); dropping the "scene" part of the fingerprint (the changed scene resumes); not restoring
-DeviceSums' low halves (the device sums differ)."""
+Mutations tried (each fails a test here): restoring the prefix from the total (the later passes' error estimates
+differ: the final variance alone does not show it, the prefix being taken again at the next power of two);
+resuming at pass k + 1 (a pass left out); dropping the "scene" part of the fingerprint (the changed scene
+resumes); not restoring DeviceSums' low halves (the device sums differ)."""
 import json
 import os
 import signal
@@ -120,7 +120,7 @@ def test_resume_from_python(tmp_path, accumulate):
     """render(checkpoint=..., resume=True): the host's float64 sums and a device's double-float sums both come
     back to the uninterrupted render's bits."""
     scene = raytrace.load_file(CORNELL)
-    whole, _ = raytrace.render(scene, **SMALL, accumulate=accumulate)
+    whole, whole_stats = raytrace.render(scene, **SMALL, accumulate=accumulate)
     ck = tmp_path / "py.ckpt"
     part, stats = raytrace.render(scene, **SMALL, accumulate=accumulate, checkpoint=str(ck), checkpoint_every=0,
                                   watch=[StopAfter(3)])
@@ -128,6 +128,9 @@ def test_resume_from_python(tmp_path, accumulate):
     resumed, stats = raytrace.render(scene, **SMALL, accumulate=accumulate, checkpoint=str(ck), resume=True)
     assert stats.passes == 8 and stats.stopped_by == "spp"
     assert np.array_equal(resumed, whole) and np.array_equal(resumed.variance, whole.variance)
+    # the error estimated after each pass too: the state's prefix, not only its total, came back
+    errors = [[h["samples"], h["estimated_rmse"]] for h in stats.history]
+    assert errors == [[h["samples"], h["estimated_rmse"]] for h in whole_stats.history]
 
 
 def test_a_dask_render_resumes_here(tmp_path):
