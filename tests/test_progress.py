@@ -4,8 +4,8 @@ samples done of those asked for, pass k of the passes planned and the time left;
 render shows none. The time left against its closed forms.
 
 Mutations tried (each fails a test here): the bar opened at the first pass, as before (no build label);
-the rate taken over the time since the bar opened, build included (the time left of the synthetic reports
-is too long); the target error's samples as spp (error / target) instead of its square."""
+the rate taken over the time since the bar opened, build included (the time left after a slow build is
+too long); the target error's samples as spp (error / target) instead of its square."""
 import fcntl
 import os
 import pty
@@ -86,3 +86,19 @@ def test_off_a_terminal_a_short_render_shows_no_bar(tmp_path):
                              "--width", "32", "--height", "24", "--spp", "4"], capture_output=True, text=True,
                             env=child_env())
     assert result.returncode == 0 and result.stderr.count("\n") == 1 and "building" not in result.stderr
+
+
+def test_the_rate_is_this_runs_passes_not_the_build(tmp_path):
+    """A build of 1.2 s, then 16 samples in 0.16 s of passes: the time left for 240 samples more is 2.4 s
+    ("00:02"), not the 18 s the time since the bar opened would give."""
+    import io
+    import time
+    from raytrace.progress import Progress
+    out = io.StringIO()
+    bar = Progress(True, file=out)
+    bar.building("building the kernel")
+    time.sleep(1.2)
+    bar.started(report(0, 0.0))
+    bar.pass_done(report(16, 0.16))
+    bar.finished(None)
+    assert "pass 1/16, est. rel. error ?, 00:02 left" in out.getvalue()
