@@ -43,9 +43,10 @@ from .parameters import SceneParameters, parameters  # noqa: E402
 from .render import RenderStats, render  # noqa: E402
 from .renderer.program import Features  # noqa: E402
 from .scene import Scene, load_dict, load_file, load_string  # noqa: E402
+from .watch import PassReport, Watcher  # noqa: E402
 
-__all__ = ["Features", "Image", "InputError", "RenderStats", "Scene", "SceneParameters", "load_dict", "load_file",
-           "load_string", "parameters", "render"]
+__all__ = ["Features", "Image", "InputError", "PassReport", "RenderStats", "Scene", "SceneParameters", "Watcher",
+           "load_dict", "load_file", "load_string", "parameters", "render"]
 
 
 def __dir__():  # the API, not the submodules and the standard library the package imported (PEP 562)

@@ -39,19 +39,21 @@ class PassReport:
 
 
 class Watcher:
-    """A render's watcher: override the moments it needs (see the module's docstring)."""
+    """A render's watcher, given as render(scene, watch=[...]): override the moments it needs; each is called
+    in the render's own thread, between passes (so a slow watcher slows the render)."""
 
     def building(self, what):
-        pass
+        """A slow step before the passes begins: `what` says which ("building the kernel")."""
 
     def started(self, report):
-        pass
+        """The passes are about to begin: report.spp is 0, or the samples a resumed render had."""
 
     def pass_done(self, report):
+        """A pass has been added; return a str to stop the render after it (RenderStats.stopped_by), else None."""
         return None
 
     def finished(self, report):
-        pass
+        """The passes ended (report.stopped_by says why); report.image() is the final image."""
 
 
 def check_watchers(watch, source, key):
