@@ -116,17 +116,18 @@ def test_a_signal_during_the_passes_keeps_them(tmp_path, signum):
                                      (signal.SIGHUP,)], ids=["int-term", "term-int", "hup"])
 def test_a_second_signal_or_a_hangup_writes_nothing(tmp_path, signals):
     """A second signal during the passes (the first kept) ends the render at once, and so does SIGHUP (the
-    terminal gone): nothing written, the line of the signal that ended it. The second follows the first by a
-    moment: two pending at once are handled in the order of their numbers."""
+    terminal gone): nothing written, the line of the signal that ended it. The two are sent back to back, so
+    that the pass under way cannot end between them (under load a pause between them outlasted a pass, and the
+    image was written before the second came); which of them Python handles first is its own (two pending at
+    once go in the order of their numbers), so either may be the one that ends it."""
     (tmp_path / "out").mkdir()
     child = start_passes(tmp_path, "never.png")
     for signum in signals:
         child.send_signal(signum)
-        time.sleep(0.02)
     stdout, stderr = child.communicate(timeout=300)
-    name = signal.Signals(signals[-1]).name
-    assert child.returncode == 128 + signals[-1], stderr
-    assert stderr == f"raytrace: interrupted by {name}; nothing written\n" and stdout == ""
+    ended = signal.Signals(child.returncode - 128)
+    assert ended in signals and (len(signals) == 1 or child.returncode - 128 in signals), stderr
+    assert stderr == f"raytrace: interrupted by {ended.name}; nothing written\n" and stdout == ""
     assert list((tmp_path / "out").iterdir()) == []
 
 
