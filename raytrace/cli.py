@@ -148,6 +148,8 @@ def parser():
                    help="seconds between checkpoints; 0: after every pass (default: 60)")
     r.add_argument("--resume", metavar="FILE", help="continue the render kept in the checkpoint FILE (its scene and "
                    "options; keeps checkpointing into FILE) to the image the render would have made uninterrupted")
+    r.add_argument("--display", metavar="tev[:HOST:PORT]", help="show each pass in the tev viewer, at tev's "
+                   "default address (127.0.0.1:14158) or HOST:PORT; without a tev, one warning")
     b = sub.add_parser("bench", help="the benchmark suite: rays per second against the scalar kernel, build and "
                        "process seconds, memory (default: 512 x 512, 16 spp x 16 light samples)")
     _add_render_options(b, scene_help="scene files (TOML; default: the suite, scenes/cornell.toml, "
@@ -268,11 +270,19 @@ def _checkpoint_command(args):
             "options": _render_kwargs(args)}
 
 
+def _display(args):
+    """--display's watcher: the image, named as the output file, in tev (raytrace/tev.py)."""
+    from .tev import TevDisplay, parse_display
+    host, port = parse_display(args.display)
+    return TevDisplay(Path(args.output).name, host, port, label=f"--display {args.display}")
+
+
 def cmd_render(args):
     from .render import render_progressive
 
     check_extension(args.output, "command line", "-o")
     args = _resumed(args)
+    displays = [_display(args)] if args.display is not None else []
     with Outputs(inputs=[args.scene]) as outputs:
         image_file = outputs.reserve("-o", args.output)
         stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)
@@ -282,7 +292,8 @@ def cmd_render(args):
         outputs.add_inputs(scene_inputs(scene))
         try:
             image, variance, stats = render_progressive(
-                scene, **_render_kwargs(args), progress=False if args.no_progress else None, watch=[_KeepOnSignal()],
+                scene, **_render_kwargs(args), progress=False if args.no_progress else None,
+                watch=[_KeepOnSignal(), *displays],
                 checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every, resume=args.resume is not None,
                 checkpoint_command=_checkpoint_command(args) if args.checkpoint else None)
         except InputError as e:  # the checkpoint resumed is the one --resume named
