@@ -7,11 +7,12 @@
     params.update()                                          # checked as a file's value would be
     image, stats = raytrace.render(scene, spp=16, light_samples=16)
     image.write("cornell.png")                               # as the command line writes it
+    image, stats = raytrace.show(scene, spp=256)             # in a notebook: the image shown as it converges
 
-The package: render.py (render), options.py (its options, shared with the command line), image.py (what it
-returns), parameters.py (editing a loaded scene), image_file.py (writing images), scene/ (the scene model,
-its readers and checks), renderer/ (the host side of the kernel in kernels/), commands/ (the commands that
-measure and verify the renderer: bench, converge, stability, compile, assets), cli.py.
+The package: render.py (render), notebook.py (show), options.py (its options, shared with the command line),
+image.py (what it returns), parameters.py (editing a loaded scene), image_file.py (writing images), scene/ (the
+scene model, its readers and checks), renderer/ (the host side of the kernel in kernels/), commands/ (the
+commands that measure and verify the renderer: bench, converge, stability, compile, assets), cli.py.
 """
 import os as _os
 import signal as _signal
@@ -39,6 +40,7 @@ if "-m" in _argv[:-1] and _argv[_argv.index("-m") + 1] == "raytrace":
 
 from .errors import InputError  # noqa: E402 (after the signals: these imports are what takes the time)
 from .image import Image  # noqa: E402
+from .notebook import show  # noqa: E402
 from .parameters import SceneParameters, parameters  # noqa: E402
 from .render import RenderStats, render  # noqa: E402
 from .renderer.program import Features  # noqa: E402
@@ -46,7 +48,7 @@ from .scene import Scene, load_dict, load_file, load_string  # noqa: E402
 from .watch import PassReport, Watcher  # noqa: E402
 
 __all__ = ["Features", "Image", "InputError", "PassReport", "RenderStats", "Scene", "SceneParameters", "Watcher",
-           "load_dict", "load_file", "load_string", "parameters", "render"]
+           "load_dict", "load_file", "load_string", "parameters", "render", "show"]
 
 
 def __dir__():  # the API, not the submodules and the standard library the package imported (PEP 562)
