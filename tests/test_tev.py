@@ -50,6 +50,20 @@ def listener():
     tev.close()
 
 
+def test_the_listener_reads_tevclient(listener):
+    """The listener against tevclient's own client (tevclient.Ipc, which tiles as it likes): what it sent is
+    what the listener has."""
+    import tevclient
+    pixels = np.random.default_rng(1).random((150, 200, 3), dtype=np.float32)
+    with tevclient.Ipc("127.0.0.1", listener.port) as tev:
+        tev.create_image("t", 200, 150, ["R", "G", "B"])
+        tev.update_image("t", pixels, ["R", "G", "B"])
+    listener.close()
+    assert listener.created == [("t", 200, 150, ["R", "G", "B"])] and not listener.errors
+    assert len(listener.frames) == 1
+    np.testing.assert_array_equal(listener.frames[0][1], pixels)
+
+
 def test_every_pass_reaches_tev(listener, cornell):
     """Through render(watch=...): 200 x 150 is four tiles of 128 x 128 at most, each update whole. The passes
     take milliseconds, less than the display's share allows (see test_a_slow_display_skips_passes_not_the_end):
