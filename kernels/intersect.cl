@@ -79,13 +79,24 @@ ALWAYS_INLINE Hit closest_hit(const Scene *s, Ray r, vfloat tmax)
                 * not see (hide_emitters.cl): those hits get a point, to shade or to leave, as a rectangle's do */
         vfloat err = 0.0f;
         vec3 p = hit.p;
+#if HAS_AOVS /* and the AOVs' position of any light (aovs.cl) */
+        if (ANY(t < hit.t))
+#else
         if ((light->shape.material >= 0 || s->params->hide_emitters) && ANY(t < hit.t))
+#endif
             p = rectangle_point(&light->shape, u, v, &err);
         hit_update(&hit, r, t, p, err, v3_uniform(light->shape.normal), light->shape.material, light->colour,
                    SHAPE_NONE, i, (vfloat)(0.0f), (vfloat)(0.0f));
 #else
+#if HAS_AOVS /* the AOVs' position of a light (aovs.cl) */
+        vfloat err;
+        vec3 p = ANY(t < hit.t) ? rectangle_point(&light->shape, u, v, &err) : hit.p;
+        hit_update(&hit, r, t, p, 0.0f, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
+                   (vfloat)(0.0f), (vfloat)(0.0f));
+#else
         hit_update(&hit, r, t, hit.p, 0.0f, v3_uniform(light->shape.normal), -1, light->colour, SHAPE_NONE, i,
                    (vfloat)(0.0f), (vfloat)(0.0f));
+#endif
 #endif
 #if RADIOMETRIC /* radiance leaves the front face only: a light's back is black, and hides what is behind */
         vint back = (t == hit.t) & (v3_dot(r.d, v3_uniform(light->shape.normal)) >= 0.0f);

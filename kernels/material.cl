@@ -64,7 +64,10 @@ typedef struct {
 #endif
 } ShadingPoint;
 
-#if HAS_TEXTURES
+#if HAS_TEXTURES || (HAS_AOVS & AOV_UV)
+#if !HAS_TEXTURES
+#include "surface.cl" /* the uv AOV's (aovs.cl) */
+#endif
 
 inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p, float b1, float b2)
 {
@@ -86,6 +89,9 @@ inline SurfacePoint surface_point(const Scene *s, int kind, int index, float3 p,
 #endif
     return surface_rectangle(&s->rectangles[index], p);
 }
+#endif
+
+#if HAS_TEXTURES
 
 #if HAS_INSTANCES
 /* A group's surface point as its instance places it in the world: its vectors by to_world, its normal by the

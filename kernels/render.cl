@@ -9,9 +9,10 @@
  * row0: R, G, B (sums over the launch's pixel samples, linear), the number of rays traced for the pixel, and,
  * where n_first > 0, R, G, B again over the launch's first n_first samples only: the first half of a pass that
  * holds both halves of the host's error estimate (raytrace/renderer/progressive.py), so that a pass may hold
- * all of a render's samples and a work-item's lanes as many of a pixel's. A measuring build (COUNT_VISITS,
- * scene.h) stores VISIT_KINDS planes more: the counts of nodes and primitives the work-item's traversals
- * tested, each shared equally among its pixels. */
+ * all of a render's samples and a work-item's lanes as many of a pixel's. A render with AOVs (HAS_AOVS,
+ * aovs.cl) stores AOV_PLANES planes more: their sums over the same samples, weighted as the beauty's. A
+ * measuring build (COUNT_VISITS, scene.h) stores VISIT_KINDS planes after those: the counts of nodes and
+ * primitives the work-item's traversals tested, each shared equally among its pixels. */
 #include "camera.cl"
 #include "tile.h"
 #if HAS_RFILTER
@@ -27,11 +28,20 @@
 #if RADIOMETRIC
 #include "hide_emitters.cl"
 #endif
+#if HAS_AOVS
+#include "aovs.cl"
+#endif
 
-/* The output's planes (above): R, G, B, the ray count, R, G, B of the first n_first samples, the counts. */
+/* The output's planes (above): R, G, B, the ray count, R, G, B of the first n_first samples, the AOVs
+ * (AOV_PLANES, types.h), the counts. */
 #define RAYS_PLANE 3
 #define FIRST_HALF_PLANE 4
 #define OUTPUT_PLANES 7
+#if HAS_AOVS
+#define VISITS_PLANE (OUTPUT_PLANES + AOV_PLANES)
+#else
+#define VISITS_PLANE OUTPUT_PLANES
+#endif
 
 /* sum += x, Kahan-compensated (Higham, "Accuracy and Stability of Numerical Algorithms", section 4.3): the
  * error stays within 2 roundings of the sum for any number of terms, where a plain float32 running sum of n
@@ -103,6 +113,9 @@ inline void store_lanes(__global float *plane, vint index, vfloat value, vint ac
 typedef struct {
     vec3 sum, carry, first_sum, first_carry;
     vfloat rays;
+#if HAS_AOVS
+    vfloat aov[AOV_PLANES], aov_carry[AOV_PLANES]; /* the AOVs' (aovs.cl), compensated as the beauty's */
+#endif
 } Sums;
 
 /* The lanes' pixel samples of `value` (their indices: index) added to the sums, in the lanes of `lanes`. */
@@ -119,6 +132,26 @@ inline void add_samples(Sums *sums, vec3 value, vint lanes, vint index, int firs
         sums->first_carry = v3_select(sums->first_carry, first_carry, lanes);
     }
 }
+
+#if HAS_AOVS
+/* The AOVs of the lanes' camera rays (aovs.cl's aov_values: r, the ray that met hit, from the camera's origin
+ * o) added to their sums, times the samples' filter weights, in the lanes of `lanes`. */
+inline void add_aovs(Sums *sums, const Scene *s, Ray r, vec3 o, Hit hit, ShadingPoint sp, vfloat weight,
+                     vint lanes)
+{
+    vfloat value[AOV_PLANES];
+    aov_values(s, r, o, hit, sp, value);
+    for (int k = 0; k < AOV_PLANES; ++k) {
+        vfloat x = value[k];
+#if HAS_RFILTER
+        x *= weight;
+#endif
+        vfloat y = x - sums->aov_carry[k], t = sums->aov[k] + y; /* kahan_add's steps, on one plane */
+        sums->aov_carry[k] = SELECT(sums->aov_carry[k], (t - sums->aov[k]) - y, lanes);
+        sums->aov[k] = SELECT(sums->aov[k], t, lanes);
+    }
+}
+#endif
 
 /* Lane l's camera ray through its pixel (x, y) of the crop window for the pixel sample ps (whose pair counter
  * is advanced in the lanes of `lanes` only: the pixel offset's pair, and a thin lens's lens point's after it,
@@ -180,10 +213,23 @@ inline void render_paths(const Scene *s, TextureStore ts, Tile tile, vint active
         if (!ANY(in_path))
             return;
         Hit hit = closest_hit(s, path.r, tmax);
+#if HAS_AOVS
+        const vint camera = in_path & (path.depth == 0);
+        const vec3 camera_o = path.r.o;
+#endif
         if (s->params->hide_emitters) /* the camera rays pass the emitters */
             hit = pass_emitters(s, &path.r, hit, tmax, in_path & (path.depth == 0));
         vint alive = path_hit(s, &path, hit, in_path);
+#if HAS_AOVS /* the camera rays' first hits, shaded also where their paths end there */
+        if (ANY(camera)) {
+            ShadingPoint sp = shading_point(s, ts, path.r, hit);
+            add_aovs(sums, s, path.r, camera_o, hit, sp, weight, camera);
+            if (ANY(alive))
+                alive = path_vertex(s, ts, &path, sp, alive, light_samples, &ps, &sums->rays);
+        } else if (ANY(alive))
+#else
         if (ANY(alive))
+#endif
             alive = path_vertex(s, ts, &path, shading_point(s, ts, path.r, hit), alive, light_samples, &ps,
                                 &sums->rays);
         vint ended = in_path & !alive;
@@ -209,11 +255,17 @@ inline void render_samples(const Scene *s, TextureStore ts, Tile tile, vuint key
         vfloat tmax, weight;
         Ray ray = camera_ray(s, tile, &ps, pixel_samples, all, &tmax, &weight);
         Hit hit = closest_hit(s, ray, tmax);
+#if HAS_AOVS
+        const vec3 camera_o = ray.o;
+#endif
 #if RADIOMETRIC
         if (s->params->hide_emitters)
             hit = pass_emitters(s, &ray, hit, tmax, all);
 #endif
         ShadingPoint sp = shading_point(s, ts, ray, hit);
+#if HAS_AOVS
+        add_aovs(sums, s, ray, camera_o, hit, sp, weight, all);
+#endif
         vec3 value = shade(s, ray, hit, sp, light_samples, &ps, &sums->rays);
 #if HAS_RFILTER
         value = v3_scale(value, weight);
@@ -244,10 +296,15 @@ inline void store_sums(const Scene *s, Tile tile, vint active, const Sums *sums,
         store_lanes(first + plane, index, pixel_sums(sums->first_sum.y, sums->first_carry.y, tile.group), stored);
         store_lanes(first + 2 * plane, index, pixel_sums(sums->first_sum.z, sums->first_carry.z, tile.group), stored);
     }
+#if HAS_AOVS
+    for (int k = 0; k < AOV_PLANES; ++k)
+        store_lanes(out + (OUTPUT_PLANES + k) * plane, index, pixel_sums(sums->aov[k], sums->aov_carry[k], tile.group),
+                    stored);
+#endif
 #if COUNT_VISITS
     const float pixels = (float)count_lanes(stored);
     for (int k = 0; k < VISIT_KINDS; ++k)
-        store_lanes(out + (OUTPUT_PLANES + k) * plane, index, (vfloat)(s->visits[k] / pixels), stored);
+        store_lanes(out + (VISITS_PLANE + k) * plane, index, (vfloat)(s->visits[k] / pixels), stored);
 #endif
 }
 

@@ -14,8 +14,8 @@
 /* Any texture at all: hits then carry what is needed to find their texture coordinates. */
 #define HAS_TEXTURES (HAS_COLOUR_MAPS || HAS_NORMAL_MAPS || HAS_HEIGHT_MAPS || HAS_LOOKUPS)
 /* Hits carry their shape and barycentrics for texturing or for interpolating smooth normals. */
-#define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING || HAS_BSDF_SAMPLING) /* path and
-                                                                       * the direct model's BSDF samples: which light */
+#define HAS_SURFACE_DATA (HAS_TEXTURES || HAS_SMOOTH_NORMALS || HAS_PATH_TRACING || HAS_BSDF_SAMPLING || HAS_AOVS)
+                                    /* path and the direct model's BSDF samples: which light; AOVs: uv, shape */
 #define RADIOMETRIC (HAS_DIRECT_LIGHTING || HAS_PATH_TRACING) /* lights emit a radiance from their front */
 /* The Emitter table's entries: area emitters on shapes, delta lights (point, spot, directional, projector) */
 #define HAS_EMITTERS (HAS_SHAPE_EMITTERS || HAS_DELTA_EMITTERS)
@@ -26,7 +26,8 @@
 #define HAS_MICROFACETS (HAS_ROUGH_CONDUCTORS || HAS_ROUGH_DIELECTRICS || HAS_ROUGH_PLASTICS || HAS_PRINCIPLED_VALUES)
 #define HAS_COATS (HAS_PLASTICS || HAS_ROUGH_PLASTICS)
 #define HAS_BACKFACES (HAS_DIELECTRICS || HAS_ROUGH_DIELECTRICS || HAS_WRAPPERS || HAS_PRINCIPLED_VALUES \
-                       || HAS_SHAPE_EMITTERS) /* an emitting shape's back side is black */
+                       || HAS_SHAPE_EMITTERS || HAS_AOVS) /* an emitting shape's back side is black; the AOVs'
+                                                           * normals are the shape's own side's (aovs.cl) */
 /* shading points carry a BSDF's own values: any BSDF besides diffuse */
 #define HAS_BSDF_PARAMETERS (HAS_CONDUCTORS || HAS_DIELECTRICS || HAS_THIN_DIELECTRICS || HAS_MICROFACETS || HAS_COATS \
                              || HAS_NULLS || HAS_PRINCIPLED_VALUES)

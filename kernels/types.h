@@ -324,6 +324,18 @@ typedef struct {
 #define RFILTER_MITCHELL 3
 #define RFILTER_LANCZOS 4
 
+/* The AOV types (kernels/aovs.cl; Mitsuba's aov integrator's, raytrace/aovs.py's TYPES in this order): bits of
+ * HAS_AOVS, and their output planes, in this order after render.cl's OUTPUT_PLANES. */
+#define AOV_ALBEDO 1      /* R, G, B */
+#define AOV_SH_NORMAL 2   /* X, Y, Z */
+#define AOV_GEO_NORMAL 4  /* X, Y, Z */
+#define AOV_DEPTH 8       /* T */
+#define AOV_POSITION 16   /* X, Y, Z */
+#define AOV_UV 32         /* U, V */
+#define AOV_PLANES (((HAS_AOVS & AOV_ALBEDO) ? 3 : 0) + ((HAS_AOVS & AOV_SH_NORMAL) ? 3 : 0)                     \
+                    + ((HAS_AOVS & AOV_GEO_NORMAL) ? 3 : 0) + ((HAS_AOVS & AOV_DEPTH) ? 1 : 0)                  \
+                    + ((HAS_AOVS & AOV_POSITION) ? 3 : 0) + ((HAS_AOVS & AOV_UV) ? 2 : 0))
+
 /* How a sample pattern's table (points in 0.32 fixed point, the same for every pixel) is randomised per
  * pixel and per sample stream, so that neighbouring pixels get independent patterns (samplers.cl). */
 #define RANDOMIZE_NONE 0        /* the table as it is: center, grid, rotated grids */

@@ -16,7 +16,8 @@ PACKAGE = ROOT / "raytrace"
 
 # The package's layers, lowest first: a module may import its own layer and those below, never one above. A
 # module's layer is that of the longest prefix of its name listed here.
-LAYERS = [["raytrace.errors", "raytrace.numerics", "raytrace.memory", "raytrace.structs"],
+LAYERS = [["raytrace.errors", "raytrace.numerics", "raytrace.memory", "raytrace.structs",
+           "raytrace.aovs"],
           ["raytrace.samplers"],
           ["raytrace.scene"],
           ["raytrace.renderer"],

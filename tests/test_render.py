@@ -83,7 +83,8 @@ def test_specialised_kernel(cornell):
                                   "-DHAS_LOOKUPS=0", "-DHAS_WRAPPERS=0", "-DHAS_NULLS=0",
                                   "-DHAS_PERTURBED_NORMALS=0", "-DHAS_PRINCIPLED_LOOKUPS=0", "-DHAS_SHAPE_EMITTERS=0",
                                   "-DHAS_DELTA_EMITTERS=0", "-DHAS_INSTANCES=0", "-DHAS_BSDF_SAMPLING=0",
-                                  "-DHAS_THIN_LENS=0", "-DHAS_ORTHOGRAPHIC=0", "-DHAS_RFILTER=0"]
+                                  "-DHAS_THIN_LENS=0", "-DHAS_ORTHOGRAPHIC=0", "-DHAS_RFILTER=0",
+                                  "-DHAS_AOVS=0"]
     special, s1 = raytrace.render(no_ellipsoid, width=32, height=32, spp=1, light_samples=4, sampler="center")
     full, s2 = raytrace.render(no_ellipsoid, width=32, height=32, spp=1, light_samples=4, sampler="center",
                                features=Features(8))

@@ -10,6 +10,7 @@ from pathlib import Path
 import pyopencl as cl
 
 from .cpu_target import current_llvm_cpu
+from .. import aovs as aov_types
 from ..scene import bsdfs
 from ..scene.bsdfs import PRINCIPLED_SLOTS, THIN_SLOTS
 from ..scene.course_maps import kernel_materials
@@ -72,6 +73,7 @@ class Features:
     thin_lens: bool = False        # the camera is a thin lens (camera.type = "thinlens": kernels/camera.cl)
     orthographic: bool = False     # the camera is orthographic (camera.type = "orthographic")
     rfilter: bool = False          # a reconstruction filter other than the box (kernels/film_filter.cl)
+    aovs: int = 0                  # HAS_AOVS: the bits of the AOV types the render stores (raytrace/aovs.py's mask)
     count_visits: bool = False     # a measuring build that counts BVH node visits (bench); never from a scene
     kernels: str = ""              # another kernels/ directory to build from (bench --baseline); never from a scene
 
@@ -118,7 +120,7 @@ class Features:
                    instances=bool(scene.instances),
                    bsdf_sampling=scene.shading == "direct" and scene.bsdf_samples > 0,
                    thin_lens=scene.camera.kind == "thinlens", orthographic=scene.camera.kind == "orthographic",
-                   rfilter=scene.rfilter != "box")
+                   rfilter=scene.rfilter != "box", aovs=aov_types.mask(scene.aovs))
 
     def options(self):
         flags = {"RECTANGLES": self.rectangles, "TRIANGLES": self.triangles, "ELLIPSOIDS": self.ellipsoids,
@@ -138,7 +140,7 @@ class Features:
                  "INSTANCES": self.instances, "BSDF_SAMPLING": self.bsdf_sampling, "THIN_LENS": self.thin_lens,
                  "ORTHOGRAPHIC": self.orthographic, "RFILTER": self.rfilter}
         return ([f"-DLANES={self.lanes}"] + [f"-DHAS_{name}={int(on)}" for name, on in flags.items()]
-                + ["-DCOUNT_VISITS=1"] * self.count_visits)
+                + [f"-DHAS_AOVS={self.aovs}"] + ["-DCOUNT_VISITS=1"] * self.count_visits)
 
 
 @contextlib.contextmanager

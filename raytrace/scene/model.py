@@ -419,6 +419,7 @@ class Scene:
     rfilter_c: float = 1.0 / 3.0
     rfilter_lobes: int = 3         # lanczos
     sample_border: bool = False    # a filter's samples fall outside the crop window too (hdrfilm's)
+    aovs: tuple = ()        # the AOVs a render stores beside the image: (name, type) pairs (raytrace/aovs.py)
     environment: np.ndarray | None = None  # the path model's constant environment radiance (RGB), or None
     environment_map: EnvironmentMap | None = None  # the path model's envmap emitter, or None
     emitters: list = field(default_factory=list)  # ShapeEmitter, and the delta lights (PointEmitter, ...)
