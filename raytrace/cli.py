@@ -15,7 +15,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from . import samplers
+from . import aovs as aov_types, samplers
 from .errors import InputError, UnsupportedWarning, did_you_mean, interrupted_line
 from .outputs import (Interrupted, Outputs, committed, handle_signals, keep_signals, kept_signal, raise_pending,
                       scene_inputs, write_json)
@@ -281,6 +281,9 @@ def cmd_render(args):
     from .render import render_progressive
 
     check_extension(args.output, "command line", "-o")
+    if args.aov and Path(args.output).suffix.lower() != ".exr":  # before any work: only an EXR holds them
+        raise InputError("command line", "--aov", args.aov, f"AOVs are written as channels of an .exr output; -o is "
+                         f"{str(args.output)!r}")
     args = _resumed(args)
     displays = [_display(args)] if args.display is not None else []
     with Outputs(inputs=[args.scene]) as outputs:
@@ -301,7 +304,8 @@ def cmd_render(args):
                 raise
             raise InputError("command line", "--resume", e.value, e.problem) from None
         with outputs.writing(image_file):
-            write_image_file(image_file, image, metadata(stats, args.scene), variance)
+            write_image_file(image_file, image, metadata(stats, args.scene), variance,
+                             aov_types.layers(stats.aovs, stats.aov_images))
         if stats_file:
             with outputs.writing(stats_file):
                 write_json(stats_file, dataclasses.asdict(stats))

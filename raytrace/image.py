@@ -6,6 +6,7 @@ import tempfile
 
 import numpy as np
 
+from . import aovs as aov_types
 from .errors import InputError
 from .image_file import write_image
 
@@ -19,6 +20,8 @@ def metadata(stats, scene_path):
             "seconds": float(stats.render_seconds), "device": stats.device, "scene": str(scene_path)}
     if stats.estimated_rmse is not None and math.isfinite(stats.estimated_rmse):
         data["estimated_rmse"] = float(stats.estimated_rmse)
+    if getattr(stats, "aovs", None):
+        data["aovs"] = aov_types.to_string(stats.aovs)  # Mitsuba's "name:type,...": which AOVs, of which types
     return data
 
 
@@ -27,24 +30,26 @@ class Image(np.ndarray):
     gives its data without a copy), with
 
     - variance: the H x W x 3 estimated variance of each pixel's mean, or None (one pixel sample);
+    - aovs: the AOVs render(aov=...) stored (raytrace/aovs.py), {name: H x W x C float32} in the order asked
+      (C: albedo 3, sh_normal 3, geo_normal 3, depth 1, position 3, uv 2), {} without;
     - stats: the RenderStats of the render that made it;
     - metadata: the attributes its files carry;
     - write(path): the file the command line would write (the format from the extension; .png, .jpg, .bmp,
       .tga in the course's 8-bit encoding ceil(255 x^(1/2.2)), .tif 16-bit, .exr and .hdr linear floats, an
-      .exr with the variance channels);
+      .exr with the variance channels, then the AOVs' as Mitsuba names them: NAME.R, NAME.G, NAME.B ...);
     - _repr_png_(): the 8-bit image, which Jupyter shows inline.
 
     A slice or a computed array is an Image without them."""
 
     @classmethod
-    def of(cls, pixels, variance=None, stats=None, scene_path=""):
+    def of(cls, pixels, variance=None, stats=None, scene_path="", aovs=None):
         image = np.asarray(pixels).view(cls)
-        image.variance, image.stats = variance, stats
+        image.variance, image.stats, image.aovs = variance, stats, dict(aovs or {})
         image.metadata = metadata(stats, scene_path) if stats is not None else {}
         return image
 
     def __array_finalize__(self, obj):
-        self.variance, self.stats, self.metadata = None, None, {}
+        self.variance, self.stats, self.metadata, self.aovs = None, None, {}, {}
 
     def write(self, path):
         """Write the image to `path` (a str or os.PathLike) atomically (a temporary file renamed into place).
@@ -52,7 +57,9 @@ class Image(np.ndarray):
         H x W x 3 real numbers, a value that is not a finite float32 (NaN, Inf, or a float64 beyond
         +-3.4e38; the error says how many), in an .hdr a negative value or one of 2^127 or more (RGBE cannot
         hold them), or a failed write."""
-        write_image(path, np.asarray(self), self.metadata, self.variance, key="path", source="Image.write()")
+        pairs = aov_types.parse(self.metadata.get("aovs"), "Image.write()", "metadata['aovs']")
+        write_image(path, np.asarray(self), self.metadata, self.variance, key="path", source="Image.write()",
+                    aovs=aov_types.layers(pairs, self.aovs))
 
     def _repr_png_(self):
         """The 8-bit PNG, or None (Jupyter then shows the text) for an array write() refuses."""

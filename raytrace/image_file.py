@@ -54,12 +54,13 @@ def _plural(n, one, many):
     return f"{n} {one if n == 1 else many}"
 
 
-def pixel_problem(ext, image, variance=None):
-    """Why the H x W x 3 arrays `image` (and `variance`, for an .exr) cannot be written in the format of
-    extension `ext`, or None: a value that is not a finite float32, in any format (the render's NaN and Inf are
-    never written; a float64 beyond float32's range would be written as Inf); in an .hdr, a value RGBE cannot
-    hold (HDR_LIMIT)."""
-    for name, array in (("the image", image), ("its variance", variance)):
+def pixel_problem(ext, image, variance=None, aovs=()):
+    """Why the H x W x 3 arrays `image` (and `variance` and the `aovs`' arrays, for an .exr) cannot be written in
+    the format of extension `ext`, or None: a value that is not a finite float32, in any format (the render's NaN
+    and Inf are never written; a float64 beyond float32's range would be written as Inf); in an .hdr, a value
+    RGBE cannot hold (HDR_LIMIT)."""
+    for name, array in (("the image", image), ("its variance", variance),
+                        *((f"its AOV {channels[0].rpartition('.')[0]!r}", a) for channels, a in aovs)):
         if array is None:
             continue
         bad = _not_finite_float32(array)
@@ -75,31 +76,34 @@ def pixel_problem(ext, image, variance=None):
     return None
 
 
-def _pixels(ext, image, variance):
-    """The file's pixels for some rows of `image` (and `variance`): encoded, in the written channel order."""
+def _pixels(ext, image, variance, aovs=()):
+    """The file's pixels for some rows of `image` (and `variance`, and the `aovs`' arrays for those rows): encoded,
+    in the written channel order."""
     if ext in EIGHT_BIT:
         return encode_8bit(image)
     if ext in SIXTEEN_BIT:
         return np.round(65535.0 * np.clip(image, 0, 1) ** (1 / 2.2)).astype(np.uint16)
-    if variance is None:
+    if variance is None and not aovs:
         return np.ascontiguousarray(image, dtype=np.float32)
-    return np.concatenate([image, variance], axis=-1, dtype=np.float32)
+    return np.concatenate([image, *([] if variance is None else [variance]), *aovs], axis=-1, dtype=np.float32)
 
 
-def _write(out, tmp, spec, ext, image, variance):
+def _write(out, tmp, spec, ext, image, variance, aovs=()):
     """Open `tmp`, write the image band by band, close; False at the first failure. OIIO 3.2's PNG writer
     reports a failed write (a full disk) only in has_error, its calls all returning True."""
     if out is None or not out.open(tmp, spec):
         return False
     for rows in _row_bands(image):
         band_variance = None if variance is None else variance[rows]
-        if not out.write_scanlines(rows.start, rows.stop, 0, _pixels(ext, image[rows], band_variance)) or out.has_error:
+        pixels = _pixels(ext, image[rows], band_variance, [a[rows] for _, a in aovs])
+        if not out.write_scanlines(rows.start, rows.stop, 0, pixels) or out.has_error:
             return False
     return out.close() and not out.has_error
 
 
-def _spec(ext, width, height, metadata, variance):
-    channels = ["R", "G", "B"] + (["variance.R", "variance.G", "variance.B"] if variance is not None else [])
+def _spec(ext, width, height, metadata, variance, aovs=()):
+    channels = (["R", "G", "B"] + (["variance.R", "variance.G", "variance.B"] if variance is not None else [])
+                + [name for names, _ in aovs for name in names])
     pixel_type = "uint8" if ext in EIGHT_BIT else "uint16" if ext in SIXTEEN_BIT else "float"
     spec = oiio.ImageSpec(width, height, len(channels), oiio.TypeDesc(pixel_type))
     spec.channelnames = channels
@@ -120,11 +124,12 @@ def _spec(ext, width, height, metadata, variance):
     return spec
 
 
-def write_image_file(path, image, metadata=None, variance=None):
+def write_image_file(path, image, metadata=None, variance=None, aovs=()):
     """Write H x W x 3 linear float `image` into the file `path` itself (a temporary reserved by
     raytrace.outputs.Outputs, which renames it into place), in the format of its extension; OSError when
     the writer fails (a full disk, a file too large). An EXR file also carries `variance` (H x W x 3, the
-    estimated variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B.
+    estimated variance of each pixel's mean), if given, as the channels variance.R, variance.G and variance.B,
+    and after them the `aovs`: (channel names, H x W x C array) each (raytrace/aovs.py's layers).
     Encoded and written in bands of rows, so that a large image needs no full-size copies. ValueError for an
     extension of no format and for pixels pixel_problem() refuses: the callers check their input first
     (write_image() with InputError); this is the last guard, never a file with NaN or Inf."""
@@ -133,17 +138,18 @@ def write_image_file(path, image, metadata=None, variance=None):
     if ext not in FORMATS:
         raise ValueError(f"{path}: unsupported extension (have: {', '.join(sorted(FORMATS))})")
     variance = variance if ext == ".exr" else None
-    problem = pixel_problem(ext, image, variance)
+    aovs = list(aovs) if ext == ".exr" else []
+    problem = pixel_problem(ext, image, variance, aovs)
     if problem:
         raise ValueError(f"{path}: {problem}")
-    _write_file(path, ext, image, metadata, variance)
+    _write_file(path, ext, image, metadata, variance, aovs)
 
 
-def _write_file(path, ext, image, metadata, variance):
+def _write_file(path, ext, image, metadata, variance, aovs=()):
     """write_image_file's writing, its input checked."""
-    spec = _spec(ext, image.shape[1], image.shape[0], metadata, variance)
+    spec = _spec(ext, image.shape[1], image.shape[0], metadata, variance, aovs)
     out = oiio.ImageOutput.create(path)
-    if not _write(out, path, spec, ext, image, variance):
+    if not _write(out, path, spec, ext, image, variance, aovs):
         message = oiio.geterror() or (out.geterror() if out else "") or "no writer"
         raise OSError(errno.EIO, message.splitlines()[0].strip(), path)
 
@@ -170,24 +176,35 @@ def check_array(array, source, key, shape=None):
     return array
 
 
-def write_image(path, image, metadata=None, variance=None, key="path", source="write_image()"):
+def _aov_array(array, source, names, shape):
+    """An AOV's array as numpy: H x W x len(names) real numbers, H x W the image's; InputError otherwise."""
+    key = f"aovs[{names[0].rpartition('.')[0]!r}]"
+    array = np.asarray(array)
+    if array.shape != (*shape[:2], len(names)) or array.dtype.kind not in "iuf":
+        raise InputError(source, key, f"{array.shape} {array.dtype}", f"must be an H x W x {len(names)} array of real "
+                         f"numbers, H x W the image's {shape[:2]}")
+    return array
+
+
+def write_image(path, image, metadata=None, variance=None, key="path", source="write_image()", aovs=()):
     """Write H x W x 3 linear float `image` to `path` as the command line does (write_image_file: the format
     from the extension, `metadata` as the file's attributes, an EXR with the `variance` channels), atomically:
     a temporary file beside `path` renamed into place, so a failed write leaves no partial file. Bad paths,
     arrays that are not H x W x 3 real numbers, pixels pixel_problem() refuses and failed writes raise
     InputError naming `source` and `key` (the path's; "image" and "variance" for the arrays), and nothing is
-    written."""
+    written. An EXR carries the `aovs` too, (channel names, H x W x C array) each, after the variance."""
     path = check_path(path, source, key)
     check_extension(path, source, key)
     ext = os.path.splitext(path)[1].lower()
     image = check_array(image, source, "image")
     variance = check_array(variance, source, "variance", image.shape) if variance is not None and ext == ".exr" \
         else None
-    problem = pixel_problem(ext, image, variance)
+    aovs = [(names, _aov_array(a, source, names, image.shape)) for names, a in aovs] if ext == ".exr" else []
+    problem = pixel_problem(ext, image, variance, aovs)
     if problem:
         raise InputError(source, key, path, problem)
     with Outputs(source=source) as outputs:
         tmp = outputs.reserve(key, path)
         with outputs.writing(tmp):
-            _write_file(tmp, ext, image, metadata, variance)
+            _write_file(tmp, ext, image, metadata, variance, aovs)
         outputs.commit()

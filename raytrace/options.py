@@ -71,6 +71,10 @@ class RenderOptions:
     resume: bool = option(False, "continue the render kept in checkpoint (the same scene and options)", cli=False)
     checkpoint_command: dict | None = option(None, "what the command line keeps in a checkpoint to resume it",
                                              cli=False)
+    aov: str | list | tuple | None = option(None, 'AOVs to store beside the image: albedo, normal, depth, position, '
+                                            'uv, geo_normal, or Mitsuba\'s "name:type" items, separated by commas '
+                                            "(an EXR output's channels NAME.R ...; default: the scene's)",
+                                            metavar="NAMES")
 
 
 # Other renderers' words for render()'s options (Mitsuba 3's sample_count, pbrt-v4's pixelsamples, a

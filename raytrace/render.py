@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import samplers, structs
+from . import aovs as aov_types, samplers, structs
 from .errors import POSITIVE_SECONDS, InputError, check_path
 from .numerics import is_real
 from .memory import available_memory
@@ -65,6 +65,9 @@ class RenderStats:
     estimated_relative_rmse: float | None
     history: list = field(default_factory=list)  # per pass: samples, seconds, estimated errors
     extra: dict = field(default_factory=dict)
+    aovs: list = field(default_factory=list)  # [name, type] of each AOV stored (raytrace/aovs.py)
+    aov_images = {}  # render_progressive's AOVs by name, H x W x C float32: a class attribute, no field, so that
+                     # --stats-json (dataclasses.asdict) holds no arrays
 
 
 def _option(value, source, key, check, problem):
@@ -95,6 +98,8 @@ def final_model(scene, options):
                              f"which only a pattern that extends can ({', '.join(samplers.EXTENDING)}); the sampler "
                              f"is {sampler!r}: choose one of those, or give spp")
         given["spp"] = MAX_SAMPLES
+    if options.aov is not None:  # (not a key's value: Mitsuba's string, or a list)
+        given["aovs"] = aov_types.parse(options.aov, API, "aov")
     if not given:
         return scene
     if given.get("width", scene.width) != scene.width or given.get("height", scene.height) != scene.height:
@@ -162,7 +167,7 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
            light_selection=None, texture_filter="trilinear", shading=None, max_depth=None, seed=None, time_limit=None, target_error=None,
            device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
-           max_pass_work=PASS_WORK, accumulate=None, client=None, watch=None, checkpoint=None,
+           max_pass_work=PASS_WORK, accumulate=None, client=None, aov=None, watch=None, checkpoint=None,
            checkpoint_every=60.0, resume=False, checkpoint_command=None):
     """Render `scene` (from load_file, load_dict or load_string); returns (image, stats).
 
@@ -206,6 +211,10 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
             host reads the images once: docs/gpu.md), "host" (float64 sums on the host, each pass read back),
             or None: the device on GPUs, the host on CPUs and on a Dask cluster.
         client: a dask.distributed.Client to render on, instead of scheduler.
+        aov: AOVs to store beside the image (raytrace/aovs.py): a string of items separated by commas, or a
+            list of them, each a short name (albedo, normal, depth, position, uv, geo_normal) or Mitsuba's
+            "name:type"; image.aovs then holds each as an H x W x C float32 array by its name (None: the
+            scene's, from its `aovs` or Mitsuba's aov integrator; "" or []: none).
         watch: a list of watchers (raytrace.Watcher), told of the build, each pass (its samples, estimated error
             and image so far; one may stop the render) and the end (raytrace/watch.py).
         checkpoint: a file to keep the render's state in (every checkpoint_every seconds, and at the end), from
@@ -222,9 +231,9 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
         light_sampler=light_sampler, light_selection=light_selection, texture_filter=texture_filter, shading=shading, max_depth=max_depth, seed=seed,
         time_limit=time_limit, target_error=target_error, device=device, scheduler=scheduler, lanes=lanes,
         features=features, progress=progress, max_band_bytes=max_band_bytes, max_pass_work=max_pass_work,
-        client=client, accumulate=accumulate, watch=watch, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
-        resume=resume, checkpoint_command=checkpoint_command)
-    return Image.of(image, variance, stats, scene.path), stats
+        client=client, accumulate=accumulate, aov=aov, watch=watch, checkpoint=checkpoint,
+        checkpoint_every=checkpoint_every, resume=resume, checkpoint_command=checkpoint_command)
+    return Image.of(image, variance, stats, scene.path, stats.aov_images), stats
 
 
 def _zero_nonfinite(image):
@@ -310,8 +319,8 @@ def render_progressive(scene, **kwargs):
     # the options leave those as they are, the passes render the scene itself, whose packed geometry is kept
     # between renders. A crop window stays the scene's, unless final_model drops it with the film's size: then
     # the kernel reads the final model's whole film.
-    if (final.shading, final.max_depth, final.light_selection, final.crop[:2]) != (
-            scene.shading, scene.max_depth, scene.light_selection, scene.crop[:2]) or (
+    if (final.shading, final.max_depth, final.light_selection, final.crop[:2], final.aovs) != (
+            scene.shading, scene.max_depth, scene.light_selection, scene.crop[:2], scene.aovs) or (
             scene.crop != (0, 0, scene.width, scene.height) and final.crop != scene.crop):
         scene = final
     _option(options.accumulate, API, "accumulate", lambda v: v in (None, "device", "host"),
@@ -382,12 +391,16 @@ def _render_passes(scene, final, options, r, watchers):
     call(watchers, "finished", _report(r, acc, wall_seconds, rmse, relative, stopped_by))
 
     rays = acc.rays_traced()
+    aov_means = acc.aov_means()
     image, variance = acc.images()  # rmse and relative are the last pass's
-    nonfinite = sum(_zero_nonfinite(a) for a in (image, variance) if a is not None)
+    aov_images = aov_types.images(final.aovs, aov_means) if final.aovs else {}
+    nonfinite = sum(_zero_nonfinite(a) for a in (image, variance, *aov_images.values()) if a is not None)
     info = passes.info()
     stats = RenderStats(render_seconds, wall_seconds, info["build_seconds"], int(rays), rays / render_seconds / 1e6,
                         info["device"], info["build_options"], r.width, r.height, acc.n_total, r.spp, r.n_light,
                         r.pixel.name, r.light.name, options.texture_filter, options.seed, info["texture_bytes"],
                         acc.passes, stopped_by, rmse, relative, history,
-                        {**info["extra"], "nonfinite_values": nonfinite, "spp_from": _spp_from(scene, options)})
+                        {**info["extra"], "nonfinite_values": nonfinite, "spp_from": _spp_from(scene, options)},
+                        [list(pair) for pair in final.aovs])
+    stats.aov_images = aov_images  # (no field: --stats-json holds no arrays)
     return image, variance, stats

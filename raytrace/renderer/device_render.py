@@ -2,9 +2,12 @@
 rendered as bands of whole rows, one launch each, through one device output buffer of a band. render.py
 drives it pass by pass in this process; renderer/distributed.py drives one per Dask worker, a band of one
 pass a task."""
+import dataclasses
+
 import numpy as np
 import pyopencl as cl
 
+from .. import aovs as aov_types
 from ..errors import API, InputError
 from ..structs import tile_shape
 from .cpu_target import apply_target, check_lanes, describe_target
@@ -17,7 +20,7 @@ from .program import Features, render_program
 from .progressive import CHANNELS, PASS_WORK, Accumulator
 
 # The kernel's output planes, float32 (kernels/render.cl's): R, G, B sums, the ray count, R, G, B over the
-# launch's first n_first samples; a measuring build's counts after them
+# launch's first n_first samples; the AOVs' sums (aovs.planes), then a measuring build's counts
 RAYS_PLANE, FIRST_HALF_PLANE, OUTPUT_PLANES = CHANNELS, CHANNELS + 1, 2 * CHANNELS + 1
 # A COUNT_VISITS build's planes more: the nodes and primitives its traversals test (kernels/scene.h's VISITS_*)
 VISIT_KINDS = ("closest_hit_nodes", "shadow_nodes", "closest_hit_primitives", "shadow_primitives", "path_lanes",
@@ -79,12 +82,12 @@ class _Bands:
     band or the image, and the kernel stores nothing there. A measuring build's counts (VISIT_KINDS) add up
     pixel by pixel in `visits`, a float64 array of VISIT_KINDS x height x width."""
 
-    def __init__(self, context, width, height, rows, lanes, local_size, planes=OUTPUT_PLANES):
+    def __init__(self, context, width, height, rows, lanes, local_size, planes=OUTPUT_PLANES, aov_planes=0):
         self.local_size = local_size
         self.rows, self.lanes, self.tile = rows, lanes, tile_shape(lanes, 1)
         self.width, self.height = width, height
-        self.planes = planes
-        self.visits = np.zeros((self.planes - OUTPUT_PLANES, height, width))  # empty unless counting
+        self.planes, self.aov_planes = planes, aov_planes
+        self.visits = np.zeros((self.planes - OUTPUT_PLANES - aov_planes, height, width))  # empty unless counting
         self.host = np.empty(self.planes * self.rows * width, np.float32)
         self.device = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, self.host.nbytes)
 
@@ -111,15 +114,17 @@ class _Bands:
     def run_band(self, queue, args, row0, rows=None):
         """Launch the band of `rows` (default: as many as fit, up to the image's end) from row0 with the
         kernel's other `args` set: (its CHANNELS x rows x width float32 sums and those of the first n_first
-        samples or None, views of the host buffer; rays traced; kernel seconds)."""
+        samples or None, views of the host buffer; rays traced; kernel seconds; the AOV planes' sums, a view,
+        or None without AOVs)."""
         event, rows = self.launch_band(queue, args, row0, rows)
         event.wait()
         out = self.host[:self.planes * rows * self.width].reshape(self.planes, rows, self.width)
         cl.enqueue_copy(queue, out, self.device)
-        self.visits[:, row0:row0 + rows] += out[OUTPUT_PLANES:]
+        aovs_end = OUTPUT_PLANES + self.aov_planes
+        self.visits[:, row0:row0 + rows] += out[aovs_end:]
         first = out[FIRST_HALF_PLANE:FIRST_HALF_PLANE + CHANNELS] if self.n_first else None
         return (out[:CHANNELS], first, out[RAYS_PLANE].sum(dtype=np.float64),
-                (event.profile.end - event.profile.start) * 1e-9)
+                (event.profile.end - event.profile.start) * 1e-9, out[OUTPUT_PLANES:aovs_end] if self.aov_planes else None)
 
     def run_pass(self, queue, args, acc):
         """Every band, its sums and rays added into `acc`, an Accumulator on the host or DeviceSums; returns
@@ -135,8 +140,8 @@ class _Bands:
             return sum((e.profile.end - e.profile.start) * 1e-9 for e in events)
         seconds = 0.0
         for row0 in self.starts():
-            sums, first, band_rays, band_seconds = self.run_band(queue, args, row0)
-            acc.add_rows(row0, sums, first, band_rays)
+            sums, first, band_rays, band_seconds, aovs = self.run_band(queue, args, row0)
+            acc.add_rows(row0, sums, first, band_rays, aovs)
             seconds += band_seconds
         return seconds
 
@@ -152,6 +157,8 @@ class DeviceRender:
         if options.lanes or options.features:
             check_lanes(apply_target(self.device), (options.features or options).lanes, "render()", "lanes")
         self.features = options.features or Features.of(scene, options.lanes or default_lanes(self.device))
+        if self.features.aovs != aov_types.mask(scene.aovs):  # a forced variant stores the render's AOVs too
+            self.features = dataclasses.replace(self.features, aovs=aov_types.mask(scene.aovs))
         program, self.build_seconds = render_program(context, self.features)
         self.args = KernelArguments(cl.Kernel(program, "render"))
         try:
@@ -164,10 +171,11 @@ class DeviceRender:
             raise InputError(scene.path, "shapes", f"{scene.triangle_count} triangles, {len(scene.textures)} textures",
                              "out of memory building the scene's BVH and tables") from None
         self.texture_bytes = textures["texels"].nbytes if scene.textures else 0  # the packed texels of every level
-        planes = OUTPUT_PLANES + len(VISIT_KINDS) * self.features.count_visits
+        aov_planes = aov_types.plane_count(self.features.aovs)
+        planes = OUTPUT_PLANES + aov_planes + len(VISIT_KINDS) * self.features.count_visits
         rows = band_rows(r, options.max_band_bytes, planes, work_per_launch(self.device))
         local_size = work_group_shape(self.device, self.args.kernel, self.features.lanes)
-        self.bands = _Bands(context, r.width, r.height, rows, self.features.lanes, local_size, planes)
+        self.bands = _Bands(context, r.width, r.height, rows, self.features.lanes, local_size, planes, aov_planes)
 
     def set_samples(self, sample0, n, n_first):
         """The launches that follow render the pixel samples [sample0, sample0 + n), the first n_first of them
@@ -190,13 +198,18 @@ class DeviceRender:
                               "visit_maps": bands.visits} if self.features.count_visits else {})}}
 
 
-def sums_on_device(device, counting, accumulate, width, height):
+def sums_on_device(device, counting, accumulate, width, height, aovs=False):
     """Whether a render's passes add up on its device (DeviceSums) rather than on the host (Accumulator): as
     the option `accumulate` says, and where it is None on a GPU whose memory holds the sums
-    (device_sums.device_fits); a measuring build (count_visits) reads its counts back each pass, so on the host.
-    On a CPU the host's sums are as near as the device's: the device's memory is the host's."""
+    (device_sums.device_fits); a measuring build (count_visits) reads its counts back each pass, so on the host,
+    and so does a render with AOVs (DeviceSums holds the beauty's sums only). On a CPU the host's sums are as
+    near as the device's: the device's memory is the host's."""
     if accumulate is None:
-        return not device.type & cl.device_type.CPU and not counting and device_fits(device, width, height)
+        return (not device.type & cl.device_type.CPU and not counting and not aovs
+                and device_fits(device, width, height))
+    if accumulate == "device" and aovs:
+        raise InputError(API, "accumulate", accumulate, 'a render with AOVs adds them up on the host: use "host" or '
+                         "None")
     if accumulate == "device" and counting:
         raise InputError(API, "accumulate", accumulate, "a counting build (features.count_visits) reads "
                          'its counts back every pass: use "host"')
@@ -213,16 +226,17 @@ class LocalPasses:
         # decided, and an accumulate the device cannot take refused, before the program is built
         counting = options.features is not None and options.features.count_visits  # never from a scene
         self.on_device = sums_on_device(select_device(options.device), counting, options.accumulate, r.width,
-                                        r.height)
+                                        r.height, bool(scene.aovs))
         self.d, self.passes = DeviceRender(scene, options, r), r.passes
         self.shape, self.sums = (CHANNELS, r.height, r.width), None
+        self.aov_planes = self.d.bands.aov_planes
 
     def accumulator(self):
         """Where the passes add up: DeviceSums on the device, or the host's Accumulator (sums_on_device)."""
         if self.on_device:
             self.sums = DeviceSums(self.d.queue.context, self.d.queue, self.shape[2], self.shape[1])
             return self.sums
-        return Accumulator(self.shape)
+        return Accumulator(self.shape, self.aov_planes)
 
     def run_pass(self, k, acc):
         """Pass k's bands added into `acc` (accumulator()); returns the kernel seconds."""

@@ -33,6 +33,7 @@ import tempfile
 import threading
 import time
 
+from .. import aovs as aov_types
 from ..errors import API, InputError
 from .device_render import DeviceRender
 from .progressive import CHANNELS, Accumulator
@@ -203,8 +204,9 @@ def render_band(payload, resolved, digest, sample0, n, n_first, row0, rows):
         _device_renders[digest] = DeviceRender(*pickle.loads(payload), resolved)
     d = _device_renders[digest]
     d.set_samples(sample0, n, n_first)
-    sums, first, rays, seconds = d.bands.run_band(d.queue, d.args, row0, rows)
-    return sums.copy(), None if first is None else first.copy(), rays, seconds, d.info()
+    sums, first, rays, seconds, aovs = d.bands.run_band(d.queue, d.args, row0, rows)
+    return (sums.copy(), None if first is None else first.copy(), rays, seconds, d.info(),
+            None if aovs is None else aovs.copy())
 
 
 class DaskPasses:
@@ -217,6 +219,7 @@ class DaskPasses:
             scene, dataclasses.replace(options, scheduler=None, client=None, progress=False))
         self.payload = client.scatter(payload, broadcast=True, hash=False)
         self.futures, self.last_info = {}, None
+        self.aov_planes = aov_types.plane_count(aov_types.mask(scene.aovs))
 
     def _submit(self, k):
         self.futures[k] = [self.client.submit(render_band, self.payload, self.resolved, self.digest,
@@ -224,7 +227,7 @@ class DaskPasses:
 
     def accumulator(self):
         """The client's float64 sums: the bands come from the workers' devices."""
-        return Accumulator((CHANNELS, self.resolved.height, self.resolved.width))
+        return Accumulator((CHANNELS, self.resolved.height, self.resolved.width), self.aov_planes)
 
     def run_pass(self, k, acc):
         """Pass k's bands added into `acc` in band order; returns the kernel seconds."""
@@ -233,8 +236,8 @@ class DaskPasses:
                 self._submit(j)
         seconds = 0.0
         for (row0, _), future in zip(self.bands, self.futures.pop(k)):
-            sums, first, band_rays, band_seconds, self.last_info = future.result()
-            acc.add_rows(row0, sums, first, band_rays)
+            sums, first, band_rays, band_seconds, self.last_info, aovs = future.result()
+            acc.add_rows(row0, sums, first, band_rays, aovs)
             seconds += band_seconds
         return seconds
 

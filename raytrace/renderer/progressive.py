@@ -86,11 +86,14 @@ class Halves:
 
 
 class Accumulator(Halves):
-    """The per-pixel sums of a progressive render, planar (CHANNELS x H x W)."""
+    """The per-pixel sums of a progressive render, planar (CHANNELS x H x W); with AOVs (raytrace/aovs.py), their
+    sums too, aov_planes x H x W float64 in aov_total (None without), apart from the image's: the error estimate
+    is the image's alone."""
 
-    def __init__(self, shape):
+    def __init__(self, shape, aov_planes=0):
         super().__init__()
         self.total = np.zeros(shape, np.float64)
+        self.aov_total = np.zeros((aov_planes, *shape[1:]), np.float64) if aov_planes else None
         self.prefix = None  # float32 sum of the first n_prefix samples, n_prefix a power of two
         self.kept_variance = None  # variance() as estimated_rmse(keep_variance=True) made it, until more sums come
         self.rays = 0.0  # rays traced, over every band added
@@ -98,11 +101,13 @@ class Accumulator(Halves):
     def _chunks(self):
         return row_chunks(self.total.shape[1], self.total.shape[2] * self.total.shape[0] * 8)
 
-    def add_rows(self, row0, sums, first=None, rays=0.0):
+    def add_rows(self, row0, sums, first=None, rays=0.0, aovs=None):
         """Add the current pass's sums for the rows [row0, row0 + len); end_pass() counts the pass. `first`:
         the sums over the first pass's first n_first samples (first_half), the first half of the estimate;
-        `rays`: the rays those rows' samples traced."""
+        `rays`: the rays those rows' samples traced; `aovs`: the AOVs' sums over the same samples."""
         rows = slice(row0, row0 + sums.shape[1])
+        if aovs is not None:
+            self.aov_total[:, rows] += aovs
         self.rays += rays
         self.kept_variance = None
         if first is None and self.prefix_from_total():
@@ -161,6 +166,12 @@ class Accumulator(Halves):
     def mean(self):
         """The image: H x W x CHANNELS float32 mean of the samples."""
         return self._interleaved(lambda rows: self.total[:, rows] / max(self.n_total, 1))
+
+    def aov_means(self):
+        """The AOVs' means, aov_planes x H x W float32 (planar, as the kernel's planes), or None without AOVs."""
+        if self.aov_total is None:
+            return None
+        return (self.aov_total / max(self.n_total, 1)).astype(np.float32)
 
     def variance(self):
         """H x W x CHANNELS float32 estimated variance of each pixel's mean, or None before the second
