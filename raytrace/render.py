@@ -391,7 +391,7 @@ def _render_passes(scene, final, options, r, watchers):
     call(watchers, "finished", _report(r, acc, wall_seconds, rmse, relative, stopped_by))
 
     rays = acc.rays_traced()
-    aov_means = acc.aov_means()
+    aov_means = acc.aov_means() if final.aovs else None  # (DeviceSums holds none: sums_on_device)
     image, variance = acc.images()  # rmse and relative are the last pass's
     aov_images = aov_types.images(final.aovs, aov_means) if final.aovs else {}
     nonfinite = sum(_zero_nonfinite(a) for a in (image, variance, *aov_images.values()) if a is not None)
