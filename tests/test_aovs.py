@@ -1,0 +1,198 @@
+"""AOVs (kernels/aovs.cl, raytrace/aovs.py): the kernel's values per pixel against float64 references, the
+option's parsing and refusals, and the EXR channels read back.
+
+The geometric AOVs are exact functions of the camera ray: a wall at a known distance, one sample per pixel at
+the pixel's centre (the center sampler), gives per pixel the depth t = (D - o.y) / d.y along the unit direction
+d of the float64 reference camera (reference_camera.camera_directions, the same formulas as camera.cl), the
+position o + t d, the normal and the uv of the rectangle. Tolerance: the kernel forms d from the film point in
+about 10 float32 roundings (camera.cl: the scaled film coordinates, three multiply-adds, rsqrt's 2 ulp as 4),
+t in about 10 more (rectangle.cl's plane distance and division, 2.5 ulp as 5), p and uv in 4 more each: within
+24 roundings, u = 2^-24 each, of values whose magnitude is at most the scene's M = 8 (the wall's distance and
+half size). A bound of 64 u M leaves more than a factor 2 over that count; a pixel off by a wrong formula (a
+depth from the camera's position instead of the near clip plane, a flipped normal, uv swapped) is off by 1e-2
+or more. The albedo is a checkerboard's colour, constant over each square: pixels whose uv lies within 1e-3 of a
+square's edge (where the uv's rounding may pick either) are left out.
+
+Mutations tried, each failing a test here: the normal turned towards the viewer (sign of `side`
+dropped: test_wall_values, back side), the planes of position and uv swapped in aovs.planes, misses not zeroed
+(the depth of a miss: test_wall_values, an Inf the host counts), the depth of a passed light from the moved
+origin (test_hidden_light_is_passed), the albedo of the material's constant colour instead of the textured one
+(test_albedo_of_a_checkerboard). Not caught: the rfilter weight left off the AOV sums (the weights' mean is 1
+to within 1e-4, so a constant AOV cannot tell; a test against a weighted reference is left to do).
+"""
+
+import numpy as np
+import pytest
+
+import raytrace
+from helpers import ROOT, run
+from raytrace import aovs
+from raytrace.commands.stability.reference_camera import camera_directions
+from raytrace.errors import InputError
+
+U = 2.0 ** -24
+D = 4.0       # the wall's distance from the camera along +y
+HALF = 2.0    # the wall's half size: the view's edges miss it (sky)
+W, H = 24, 16
+
+
+def wall_scene(normal_y=-1.0, shading="path", reflectance=None, extra=(), fov=70.0):
+    material = {"type": "diffuse", "reflectance": reflectance} if reflectance is not None else {"colour": [0.25, 0.5, 0.75]}
+    return raytrace.load_dict({
+        "camera": {"position": [0.0, 0.0, 0.0], "look_at": [0.0, 1.0, 0.0], "up": [0.0, 0.0, 1.0], "fov": fov},
+        "image": {"width": W, "height": H},
+        "render": {"shading": shading, "sampler": "center", "spp": 1},
+        "lights": [{"center": [0.0, 1.0, 3.0], "size": [0.5, 0.5], "normal": [0.0, 0.0, -1.0],
+                    "tangent": [1.0, 0.0, 0.0], **({"colour": [1.0, 1.0, 1.0]} if shading == "phong" else
+                                                   {"radiance": 5.0})}],
+        "materials": {"wall": material},
+        "shapes": [{"type": "rectangle", "center": [0.0, D, 0.0], "size": [2 * HALF, 2 * HALF],
+                    "normal": [0.0, normal_y, 0.0], "tangent": [1.0, 0.0, 0.0], "material": "wall"}, *extra]})
+
+
+def reference(scene):
+    """Per pixel (H x W): the float64 depth, position, normal (the rectangle's own), uv and whether the ray
+    meets the wall, for the pixel centres."""
+    y, x = np.mgrid[0:H, 0:W] + 0.5
+    d, _ = camera_directions(scene.camera, x, y, W, H)
+    t = D / d[:, 1]
+    p = t[:, None] * d
+    hit = (np.abs(p[:, 0]) < HALF) & (np.abs(p[:, 2]) < HALF)
+    u = p[:, 0] / (2 * HALF) + 0.5                  # along the tangent +x
+    normal = np.array([0.0, np.sign(scene.rectangles[0].normal[1]), 0.0])
+    v = np.cross(normal, [1.0, 0.0, 0.0]) @ p.T / (2 * HALF) + 0.5  # along normal x tangent
+    return {"depth": t.reshape(H, W, 1), "position": p.reshape(H, W, 3),
+            "normal": np.broadcast_to(normal, (H * W, 3)).reshape(H, W, 3),
+            "uv": np.stack([u, v], -1).reshape(H, W, 2), "hit": hit.reshape(H, W)}
+
+
+@pytest.mark.parametrize("shading", ["phong", "path"])
+@pytest.mark.parametrize("normal_y", [-1.0, 1.0], ids=["front", "back"])
+def test_wall_values(lanes, shading, normal_y):
+    """Depth, position, both normals and uv per pixel at every lane width, in the Phong and path models (their
+    own render loops: render_samples and render_paths), seen from the front and from the back (the normal is
+    the shape's own, not turned to the viewer); 0 in every plane where the ray misses."""
+    scene = wall_scene(normal_y, shading)
+    image, stats = raytrace.render(scene, lanes=lanes, aov="depth,position,normal,uv,g:geo_normal")
+    ref = reference(scene)
+    hit, bound = ref["hit"], 64 * U * 2 * D
+    assert hit.any() and not hit.all() and stats.extra["nonfinite_values"] == 0  # (the host zeroes an Inf)
+    assert stats.aovs == [["depth", "depth"], ["position", "position"], ["normal", "sh_normal"], ["uv", "uv"],
+                          ["g", "geo_normal"]]
+    for name, key in (("depth", "depth"), ("position", "position"), ("normal", "normal"), ("g", "normal"),
+                      ("uv", "uv")):
+        got = image.aovs[name]
+        assert got.dtype == np.float32 and got.shape == ref[key].shape
+        np.testing.assert_allclose(got[hit], ref[key][hit], rtol=0, atol=bound, err_msg=name)
+        assert not got[~hit].any(), name
+
+
+def test_albedo_of_a_checkerboard(lanes):
+    """The albedo AOV of a diffuse wall whose reflectance is a checkerboard (Mitsuba's eval_diffuse_reflectance
+    of diffuse: its reflectance at the hit) is the square's colour per pixel, and 0 off the wall."""
+    c0, c1 = [0.9, 0.5, 0.1], [0.05, 0.2, 0.6]
+    scene = wall_scene(reflectance={"type": "checkerboard", "color0": c0, "color1": c1, "to_uv": [[4, 0, 0], [0, 4, 0]]})
+    image, _ = raytrace.render(scene, lanes=lanes, aov="albedo")
+    ref = reference(scene)
+    st = np.stack([4 * ref["uv"][..., 0], 1 - 4 * ref["uv"][..., 1]], -1)  # the kernel's t runs down (packing.py)
+    frac = st - np.floor(st)
+    clear = ref["hit"] & (np.abs(frac - 0.5) > 1e-3).all(-1) & (np.minimum(frac, 1 - frac) > 1e-3).all(-1)
+    same = (frac[..., 0] > 0.5) == (frac[..., 1] > 0.5)
+    expected = np.where(same[..., None], c0, c1)
+    got = image.aovs["albedo"]
+    np.testing.assert_allclose(got[clear], expected[clear], rtol=1e-6)
+    assert not got[~ref["hit"]].any()
+
+
+def test_hidden_light_is_passed():
+    """With hide_emitters, a camera ray through a light records what lies beyond it (the surface the image shows),
+    its depth from the camera's origin, not from where it passed the light."""
+    light = {"type": "rectangle", "center": [0.0, 2.0, 0.0], "size": [8.0, 8.0], "normal": [0.0, -1.0, 0.0],
+             "tangent": [1.0, 0.0, 0.0], "radiance": 1.0}
+    scene = wall_scene(extra=[light])
+    scene.hide_emitters = True
+    scene.checked = None
+    image, _ = raytrace.render(scene, aov="depth,albedo")
+    ref = reference(scene)
+    hit = ref["hit"]
+    np.testing.assert_allclose(image.aovs["depth"][hit], ref["depth"][hit], rtol=0, atol=64 * U * 2 * D)
+    np.testing.assert_allclose(image.aovs["albedo"][hit], np.broadcast_to([0.25, 0.5, 0.75], (hit.sum(), 3)),
+                               rtol=1e-6)
+
+
+def test_filtered_mean_is_weighted():
+    """With a reconstruction filter, each sample's AOV counts with the sample's filter weight, as its radiance
+    does, and the host divides by the sample count as for the image: a constant AOV (the wall's normal, over the
+    pixels whose filter support, 2 pixels and a half for the Gaussian of stddev 0.5, lies on the wall) averages
+    to itself times the weights' mean, which is 1 to within the importance sampling's spread of the weights
+    (film_filter.cl: the tabulated density's error, measured below 1e-4 over 64 samples here)."""
+    scene = wall_scene(fov=50.0)
+    scene.rfilter, scene.checked = "gaussian", None
+    image, _ = raytrace.render(scene, aov="normal", spp=64, sampler="sobol")
+    inner = reference(scene)["hit"]
+    padded = np.pad(inner, 3)  # (the image's border rows too: their filter reaches past the image)
+    inner = np.all([padded[3 + dy:3 + dy + H, 3 + dx:3 + dx + W] for dy in range(-3, 4) for dx in range(-3, 4)], 0)
+    assert inner.sum() >= 10
+    np.testing.assert_allclose(image.aovs["normal"][inner][:, 1], -1.0, rtol=1e-3)
+
+
+def test_parse():
+    assert aovs.parse("albedo, normal", "x", "aov") == (("albedo", "albedo"), ("normal", "sh_normal"))
+    assert aovs.parse(["dd.y:depth", "nn:sh_normal"], "x", "aov") == (("dd.y", "depth"), ("nn", "sh_normal"))
+    assert aovs.parse("", "x", "aov") == () and aovs.parse(None, "x", "aov") == ()
+    assert aovs.channel_names((("dd.y", "depth"), ("a", "albedo"))) == ["dd.y.T", "a.R", "a.G", "a.B"]
+    for bad, words in (("albdo", "did you mean 'albedo'"), ("x:shape_index", "does not compute"),
+                       ("x:normals", "did you mean 'sh_normal'"), (":depth", "needs a name"),
+                       ("a:depth,a:uv", "given twice"), (3, "must be a string")):
+        with pytest.raises(InputError, match=words) as e:
+            aovs.parse(bad, "render()", "aov")
+        assert str(e.value).startswith("render(): aov = ") and "\n" not in str(e.value)
+
+
+def test_refusals(cornell):
+    with pytest.raises(InputError, match="did you mean 'depth'"):
+        raytrace.render(cornell, width=4, height=4, spp=1, aov="dept")
+    with pytest.raises(InputError, match="AOVs adds them up on the host"):
+        raytrace.render(cornell, width=4, height=4, spp=1, aov="depth", accumulate="device")
+
+
+def test_no_aovs_builds_none(cornell):
+    image, stats = raytrace.render(cornell, width=4, height=4, spp=1, sampler="center")
+    assert "-DHAS_AOVS=0" in stats.build_options and image.aovs == {} and stats.aovs == []
+
+
+def test_exr_channels(tmp_path):
+    """Image.write and the command line write the AOVs as EXR channels named as Mitsuba's aov integrator names
+    them, with the values of image.aovs; the command line refuses --aov with another output before any work."""
+    import OpenImageIO as oiio
+    scene = wall_scene()
+    image, _ = raytrace.render(scene, aov="albedo,dd:depth,uv", spp=4, sampler="sobol")
+    image.write(tmp_path / "a.exr")
+    read = oiio.ImageInput.open(str(tmp_path / "a.exr"))
+    names = list(read.spec().channelnames)
+    pixels = read.read_image("float")
+    assert read.spec().getattribute("raytrace:aovs") == "albedo:albedo,dd:depth,uv:uv"
+    read.close()
+    assert set(names) == {"R", "G", "B", "variance.R", "variance.G", "variance.B", "albedo.R", "albedo.G",
+                          "albedo.B", "dd.T", "uv.U", "uv.V"}
+    for channel, (name, k) in {"albedo.G": ("albedo", 1), "dd.T": ("dd", 0), "uv.V": ("uv", 1)}.items():
+        np.testing.assert_array_equal(pixels[..., names.index(channel)], image.aovs[name][..., k])
+    toml = ROOT / "scenes" / "cornell.toml"
+    result = run("render", str(toml), "-o", str(tmp_path / "b.png"), "--aov", "albedo", "--spp", "1")
+    assert result.returncode == 2 and "--aov" in result.stderr and len(result.stderr.splitlines()) == 1
+    assert not (tmp_path / "b.png").exists()
+    result = run("render", str(toml), "-o", str(tmp_path / "c.exr"), "--aov", "albedo,normal", "--spp", "1",
+                 "--width", "8", "--height", "8")
+    assert result.returncode == 0, result.stderr
+    spec = oiio.ImageInput.open(str(tmp_path / "c.exr")).spec()
+    assert {"albedo.R", "normal.X", "normal.Y", "normal.Z"} <= set(spec.channelnames)
+
+
+def test_dask_carries_aovs():
+    """A Dask render's AOVs are the local render's (the same bands' sums, added on the client)."""
+    pytest.importorskip("dask.distributed")
+    scene = wall_scene()
+    local, _ = raytrace.render(scene, aov="depth,albedo")
+    dist, _ = raytrace.render(scene, aov="depth,albedo", scheduler="local:1")
+    for name in ("depth", "albedo"):
+        np.testing.assert_array_equal(local.aovs[name], dist.aovs[name])
