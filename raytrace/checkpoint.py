@@ -56,8 +56,7 @@ def fingerprint(final, options, r, device):
             "options": {"texture_filter": options.texture_filter, "time_limit": options.time_limit,
                         "target_error": options.target_error, "lanes": options.lanes,
                         "features": None if features is None else list(features),
-                        "max_pass_work": options.max_pass_work, "accumulate": options.accumulate,
-                        "aov": list(getattr(options, "aov", None) or [])},
+                        "max_pass_work": options.max_pass_work, "accumulate": options.accumulate},
             "schedule": [list(p) for p in r.passes], "device": device}
 
 

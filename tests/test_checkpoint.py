@@ -133,6 +133,21 @@ def test_resume_from_python(tmp_path, accumulate):
     assert errors == [[h["samples"], h["estimated_rmse"]] for h in whole_stats.history]
 
 
+def test_the_aovs_resume_too(tmp_path):
+    """The AOVs' sums are in the checkpoint: a render with depth and normal AOVs stopped after 3 passes and
+    resumed has the uninterrupted render's AOVs, bit for bit; a checkpoint without them is refused for a render
+    with them (the AOVs are the final model's)."""
+    scene = raytrace.load_file(CORNELL)
+    whole, _ = raytrace.render(scene, **SMALL, aov="depth,normal")
+    ck = tmp_path / "aov.ckpt"
+    raytrace.render(scene, **SMALL, aov="depth,normal", checkpoint=str(ck), checkpoint_every=0, watch=[StopAfter(3)])
+    resumed, _ = raytrace.render(scene, **SMALL, aov="depth,normal", checkpoint=str(ck), resume=True)
+    assert resumed.aovs.keys() == whole.aovs.keys() == {"depth", "normal"}
+    assert all(np.array_equal(resumed.aovs[name], whole.aovs[name]) for name in whole.aovs)
+    with pytest.raises(raytrace.InputError, match="was made for another scene"):
+        raytrace.render(scene, **SMALL, checkpoint=str(ck), resume=True)
+
+
 def test_a_dask_render_resumes_here(tmp_path):
     """A Dask render (one local worker) stopped after 2 passes resumes in this process to the local render's
     bits (the bands are the local render's: renderer/distributed.py)."""

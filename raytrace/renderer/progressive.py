@@ -134,6 +134,8 @@ class Accumulator(Halves):
         arrays = {"total": self.total}
         if self.prefix is not None:
             arrays["prefix"] = self.prefix
+        if self.aov_total is not None:
+            arrays["aov_total"] = self.aov_total
         return {**self.counts(), "rays": self.rays}, arrays
 
     def restore(self, counts, arrays):
@@ -142,6 +144,8 @@ class Accumulator(Halves):
         self.rays = float(counts.get("rays", 0.0))
         self.total[...] = checked_array(arrays, "total", self.total.shape, np.float64)
         self.prefix = None if "prefix" not in arrays else checked_array(arrays, "prefix", self.total.shape, np.float32)
+        if self.aov_total is not None:
+            self.aov_total[...] = checked_array(arrays, "aov_total", self.aov_total.shape, np.float64)
         self.kept_variance = None
 
     def _half_difference(self, rows):
