@@ -63,6 +63,10 @@ class RenderOptions:
                                     "(default: the device on GPUs, the host on CPUs)",
                                     choices=("device", "host"))
     client: object = option(None, "a dask.distributed.Client to render on, instead of scheduler", cli=False)
+    aov: str | list | tuple | None = option(None, 'AOVs to store beside the image: albedo, normal, depth, position, '
+                                            'uv, geo_normal, or Mitsuba\'s "name:type" items, separated by commas '
+                                            "(an EXR output's channels NAME.R ...; default: the scene's)",
+                                            metavar="NAMES")
     watch: list | None = option(None, "watchers called as the render goes (raytrace.Watcher: the progress of each "
                                 "pass, its image)", cli=False)
     checkpoint: str | None = option(None, "a file the render's state is kept in, every checkpoint_every seconds and "
@@ -71,10 +75,6 @@ class RenderOptions:
     resume: bool = option(False, "continue the render kept in checkpoint (the same scene and options)", cli=False)
     checkpoint_command: dict | None = option(None, "what the command line keeps in a checkpoint to resume it",
                                              cli=False)
-    aov: str | list | tuple | None = option(None, 'AOVs to store beside the image: albedo, normal, depth, position, '
-                                            'uv, geo_normal, or Mitsuba\'s "name:type" items, separated by commas '
-                                            "(an EXR output's channels NAME.R ...; default: the scene's)",
-                                            metavar="NAMES")
 
 
 # Other renderers' words for render()'s options (Mitsuba 3's sample_count, pbrt-v4's pixelsamples, a
