@@ -14,8 +14,13 @@ def require_extra(command, extra, *modules):
     `pip install .` has none): one line naming the extra, rather than a ModuleNotFoundError after minutes."""
     missing = [m for m in modules if importlib.util.find_spec(m) is None]
     if missing:
-        raise InputError("environment", command, None, f"needs the {extra} extra ({', '.join(missing)} "
-                         f"missing): pip install \"raytrace[{extra}]\", or -e \".[{extra}]\" in a checkout")
+        raise missing_extra(command, extra, missing)
+
+
+def missing_extra(command, extra, missing):
+    """The InputError of require_extra: `command` needs the `extra`, whose modules `missing` are not there."""
+    return InputError("environment", command, None, f"needs the {extra} extra ({', '.join(missing)} "
+                      f"missing): pip install \"raytrace[{extra}]\", or -e \".[{extra}]\" in a checkout")
 
 
 def child_env(env=None, **variables):
