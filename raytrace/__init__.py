@@ -8,11 +8,13 @@
     image, stats = raytrace.render(scene, spp=16, light_samples=16)
     image.write("cornell.png")                               # as the command line writes it
     image, stats = raytrace.show(scene, spp=256)             # in a notebook: the image shown as it converges
+    clean, _ = raytrace.render(scene, spp=16, denoise=True)  # Open Image Denoise (the denoise extra)
 
 The package: render.py (render), notebook.py (show), options.py (its options, shared with the command line),
-image.py (what it returns), parameters.py (editing a loaded scene), image_file.py (writing images), scene/ (the
-scene model, its readers and checks), renderer/ (the host side of the kernel in kernels/), commands/ (the
-commands that measure and verify the renderer: bench, converge, stability, compile, assets), cli.py.
+image.py (what it returns), denoise.py (Open Image Denoise on it), parameters.py (editing a loaded scene),
+image_file.py (writing images), scene/ (the scene model, its readers and checks), renderer/ (the host side of the
+kernel in kernels/), commands/ (the commands that measure and verify the renderer: bench, converge, stability,
+compile, assets), cli.py.
 """
 import os as _os
 import signal as _signal
@@ -38,7 +40,8 @@ if "-m" in _argv[:-1] and _argv[_argv.index("-m") + 1] == "raytrace":
         if _signal.getsignal(_signum) is not _signal.SIG_IGN:  # nohup's ignored signals stay ignored
             _signal.signal(_signum, _interrupted_while_loading)
 
-from .errors import InputError  # noqa: E402 (after the signals: these imports are what takes the time)
+from .denoise import denoise  # noqa: E402 (after the signals: these imports are what takes the time)
+from .errors import InputError  # noqa: E402
 from .image import Image  # noqa: E402
 from .notebook import show  # noqa: E402
 from .parameters import SceneParameters, parameters  # noqa: E402
@@ -48,7 +51,7 @@ from .scene import Scene, load_dict, load_file, load_string  # noqa: E402
 from .watch import PassReport, Watcher  # noqa: E402
 
 __all__ = ["Features", "Image", "InputError", "PassReport", "RenderStats", "Scene", "SceneParameters", "Watcher",
-           "load_dict", "load_file", "load_string", "parameters", "render", "show"]
+           "denoise", "load_dict", "load_file", "load_string", "parameters", "render", "show"]
 
 
 def __dir__():  # the API, not the submodules and the standard library the package imported (PEP 562)
