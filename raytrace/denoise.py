@@ -22,12 +22,16 @@ import importlib
 
 import numpy as np
 
-from .errors import InputError
+from .errors import TRUE_OR_FALSE, InputError
 
 EXTRA = "denoise"
 MODULE = "pyoidn"
 SOURCE = "denoise()"
 PREFILTER = False  # the measured choice (benchmarks/denoise.py): see the module's docstring
+# The AOVs (raytrace's, Mitsuba's aov integrator's types) OIDN takes as its albedo and normal: the first hit's
+# diffuse reflectance and shading normal, the pair Mitsuba's own denoising (its OptixDenoiser) is given.
+AUX = {"albedo": "albedo", "normal": "sh_normal"}
+NOISY = "noisy"  # the AOV that keeps a denoised Image's noisy beauty
 
 
 def require(command):
@@ -104,8 +108,8 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
 
     beauty: an H x W x 3 image of linear radiance, a raytrace.Image or any array; albedo, normal: H x W x 3
     auxiliary images of the same render (the albedo in [0, 1], the normal in [-1, 1]; values outside are
-    clamped), or None: an Image's own AOVs of those names (render(..., aov=["albedo", "normal"])) where it has
-    them, else none (OIDN then sees the beauty alone, and blurs more). prefilter: denoise the albedo and normal
+    clamped), or None: an Image's own AOVs "albedo" and "sh_normal" (render(..., aov=["albedo", "sh_normal"]))
+    where it has them, else none (OIDN then sees the beauty alone, and blurs more). prefilter: denoise the albedo and normal
     first and take them as clean (raytrace.denoise's module docstring says which is the default and why).
 
     Returns an H x W x 3 float32 array; for a raytrace.Image, an Image with its stats, variance (the noisy
@@ -116,12 +120,12 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
     require(SOURCE)
     pixels = _check(beauty, "beauty")
     aovs = dict(getattr(beauty, "aovs", None) or {})
-    albedo = aovs.get("albedo") if albedo is None else albedo
-    normal = aovs.get("normal") if normal is None else normal
+    albedo = aovs.get(AUX["albedo"]) if albedo is None else albedo
+    normal = aovs.get(AUX["normal"]) if normal is None else normal
     albedo = None if albedo is None else _check(albedo, "albedo", pixels.shape)
     normal = None if normal is None else _check(normal, "normal", pixels.shape)
     if not isinstance(prefilter, bool):
-        raise InputError(SOURCE, "prefilter", prefilter, "must be True or False")
+        raise InputError(SOURCE, "prefilter", prefilter, TRUE_OR_FALSE)
     output, zeroed = denoised_pixels(pixels, albedo, normal, prefilter)
     if not isinstance(beauty, Image):
         return output
@@ -129,7 +133,7 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
     result.metadata = {**beauty.metadata, "denoised": described(albedo is not None, normal is not None, prefilter)}
     if zeroed:
         result.metadata["denoise_zeroed_values"] = zeroed
-    result.aovs = {**aovs, "noisy": np.asarray(beauty)}
+    result.aovs = {**aovs, NOISY: np.asarray(beauty)}
     return result
 
 

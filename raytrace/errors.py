@@ -9,6 +9,7 @@ import signal
 SHOWN, SHOWN_TEXT = 80, 400
 API = "render()"  # the source an error names for a keyword argument of render() (the command line renames it)
 POSITIVE_SECONDS = "must be a positive number of seconds"  # render()'s time_limit, converge's --montage-seconds
+TRUE_OR_FALSE = "must be True or False"  # a bool from Python: a material's two_sided, render()'s denoise
 
 
 class InputError(Exception):

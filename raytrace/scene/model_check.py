@@ -12,7 +12,7 @@ import numpy as np
 
 from . import bsdfs, ranges, rules
 from .. import structs
-from ..errors import InputError
+from ..errors import TRUE_OR_FALSE, InputError
 from ..numerics import FLOAT32_MAX
 from . import delta_lights
 from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, DirectionalEmitter, Ellipsoid, EnvironmentMap, Light,
@@ -97,7 +97,7 @@ def _check_sides(source, m, i, materials):
     """A material's back side: none, or another two-sided material without a back of its own."""
     prefix = f"materials.{m.name}."
     if not isinstance(m.two_sided, bool):
-        raise InputError(source, prefix + "two_sided", m.two_sided, "must be True or False")
+        raise InputError(source, prefix + "two_sided", m.two_sided, TRUE_OR_FALSE)
     if m.back != -1:
         _index(source, prefix + "back", m.back, len(materials))
         other = materials[m.back]
