@@ -20,7 +20,7 @@ from .errors import InputError, UnsupportedWarning, did_you_mean, interrupted_li
 from .outputs import (Interrupted, Outputs, committed, handle_signals, keep_signals, kept_signal, raise_pending,
                       scene_inputs, write_json)
 from .watch import Watcher
-from .image import metadata
+from .image import Image, metadata
 from .image_file import FORMATS, check_extension, write_image_file
 from .options import API, SYNONYMS, command_line_name, declared, option_type
 from .commands.converge_peer import PEER_SAMPLERS
@@ -140,6 +140,8 @@ def parser():
     r = sub.add_parser("render", help="render a scene to an image file")
     _add_render_options(r, resumable=True)
     r.add_argument("-o", "--output", required=True, help=f"image file ({', '.join(sorted(FORMATS))})")
+    r.add_argument("--denoise", action="store_true", help="write the image denoised by Intel Open Image Denoise "
+                   "(the denoise extra), given the albedo and normal AOVs; an .exr keeps the noisy one as noisy.R ...")
     r.add_argument("--stats-json", help="write render statistics to this JSON file")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--checkpoint", metavar="FILE", help="keep the render's state in FILE (every "
@@ -246,7 +248,7 @@ def _resumed(args):
         return args
     from .checkpoint import load
     given = [a.option_strings[0] if a.option_strings else a.dest for a in parser_actions("render")
-             if a.dest in ("scene", "defines", "ignore_unsupported", "checkpoint", *_render_kwargs(args))
+             if a.dest in ("scene", "defines", "ignore_unsupported", "checkpoint", "denoise", *_render_kwargs(args))
              and getattr(args, a.dest) != a.default]
     if given:
         raise InputError("command line", given[0], None, "is not taken with --resume: the checkpoint's scene and "
@@ -257,7 +259,8 @@ def _resumed(args):
         raise InputError("command line", "--resume", args.resume, "keeps no command line (made by render(), not "
                          "`raytrace render`): resume it with render(checkpoint=..., resume=True)")
     kept = {"scene": command["scene"], "defines": command.get("defines", []),
-            "ignore_unsupported": command.get("ignore_unsupported", False), "checkpoint": args.resume,
+            "ignore_unsupported": command.get("ignore_unsupported", False), "denoise": command.get("denoise", False),
+            "checkpoint": args.resume,
             "checkpoint_every": command.get("checkpoint_every", 60.0), **command.get("options", {})}
     return argparse.Namespace(**{**vars(args), **kept})
 
@@ -266,7 +269,8 @@ def _checkpoint_command(args):
     """What a checkpoint keeps to be resumed from the command line: the scene (as an absolute path), its loading
     options and the render options."""
     return {"scene": str(Path(args.scene).absolute()), "defines": args.defines,
-            "ignore_unsupported": args.ignore_unsupported, "checkpoint_every": args.checkpoint_every,
+            "ignore_unsupported": args.ignore_unsupported, "denoise": args.denoise,
+            "checkpoint_every": args.checkpoint_every,
             "options": _render_kwargs(args)}
 
 
@@ -281,11 +285,14 @@ def cmd_render(args):
     from .render import render_progressive
 
     check_extension(args.output, "command line", "-o")
+    args = _resumed(args)
+    displays = [_display(args)] if args.display is not None else []
     if args.aov and Path(args.output).suffix.lower() != ".exr":  # before any work: only an EXR holds them
         raise InputError("command line", "--aov", args.aov, f"AOVs are written as channels of an .exr output; -o is "
                          f"{str(args.output)!r}")
-    args = _resumed(args)
-    displays = [_display(args)] if args.display is not None else []
+    if args.denoise:  # before any work: one line when the extra is missing
+        from .denoise import require
+        require("render --denoise")
     with Outputs(inputs=[args.scene]) as outputs:
         image_file = outputs.reserve("-o", args.output)
         stats_file = args.stats_json and outputs.reserve("--stats-json", args.stats_json)
@@ -293,19 +300,26 @@ def cmd_render(args):
             outputs.check_other_file("--resume" if args.resume else "--checkpoint", args.checkpoint)
         scene = load_scene(args)
         outputs.add_inputs(scene_inputs(scene))
+        kwargs = _render_kwargs(args)
+        if args.denoise:
+            from .denoise import aov_request
+            kwargs["aov"] = aov_request(args.aov, scene, "command line", "--aov")
         try:
             image, variance, stats = render_progressive(
-                scene, **_render_kwargs(args), progress=False if args.no_progress else None,
-                watch=[_KeepOnSignal(), *displays],
+                scene, **kwargs, progress=False if args.no_progress else None, watch=[_KeepOnSignal(), *displays],
                 checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every, resume=args.resume is not None,
                 checkpoint_command=_checkpoint_command(args) if args.checkpoint else None)
         except InputError as e:  # the checkpoint resumed is the one --resume named
             if args.resume is None or (e.source, e.key) != (API, "checkpoint"):
                 raise
             raise InputError("command line", "--resume", e.value, e.problem) from None
+        attributes, layers = metadata(stats, args.scene), aov_types.layers(stats.aovs, stats.aov_images)
+        if args.denoise:
+            from .denoise import denoise, noisy_layers
+            image = denoise(Image.of(image, variance, stats, args.scene, stats.aov_images))
+            attributes, layers = image.metadata, layers + noisy_layers(image.aovs)
         with outputs.writing(image_file):
-            write_image_file(image_file, image, metadata(stats, args.scene), variance,
-                             aov_types.layers(stats.aovs, stats.aov_images))
+            write_image_file(image_file, image, attributes, variance, layers)
         if stats_file:
             with outputs.writing(stats_file):
                 write_json(stats_file, dataclasses.asdict(stats))

@@ -33,6 +33,13 @@ class UnsupportedWarning(UserWarning):
     or where raytrace's model differs from what the scene asks: one per kind, one line each."""
 
 
+def missing_extra(command, extra, missing):
+    """The InputError for `command`, which needs the package's `extra`, whose modules `missing` are not
+    installed: one line naming the extra (commands.require_extra's, raytrace.denoise's)."""
+    return InputError("environment", command, None, f"needs the {extra} extra ({', '.join(missing)} "
+                      f"missing): pip install \"raytrace[{extra}]\", or -e \".[{extra}]\" in a checkout")
+
+
 def check_path(path, source, key):
     """`path` as a str: a str or an os.PathLike that gives one (bytes are refused, not shown as "b'x.exr'" and
     called an unknown extension), with no NUL character."""

@@ -36,7 +36,8 @@ class Image(np.ndarray):
     - metadata: the attributes its files carry;
     - write(path): the file the command line would write (the format from the extension; .png, .jpg, .bmp,
       .tga in the course's 8-bit encoding ceil(255 x^(1/2.2)), .tif 16-bit, .exr and .hdr linear floats, an
-      .exr with the variance channels, then the AOVs' as Mitsuba names them: NAME.R, NAME.G, NAME.B ...);
+      .exr with the variance channels, then the AOVs' as Mitsuba names them: NAME.R, NAME.G, NAME.B ..., and
+      a denoised image's noisy one as noisy.R, noisy.G, noisy.B);
     - _repr_png_(): the 8-bit image, which Jupyter shows inline.
 
     A slice or a computed array is an Image without them."""
@@ -57,9 +58,10 @@ class Image(np.ndarray):
         H x W x 3 real numbers, a value that is not a finite float32 (NaN, Inf, or a float64 beyond
         +-3.4e38; the error says how many), in an .hdr a negative value or one of 2^127 or more (RGBE cannot
         hold them), or a failed write."""
+        from .denoise import noisy_layers
         pairs = aov_types.parse(self.metadata.get("aovs"), "Image.write()", "metadata['aovs']")
         write_image(path, np.asarray(self), self.metadata, self.variance, key="path", source="Image.write()",
-                    aovs=aov_types.layers(pairs, self.aovs))
+                    aovs=aov_types.layers(pairs, self.aovs) + noisy_layers(self.aovs))
 
     def _repr_png_(self):
         """The 8-bit PNG, or None (Jupyter then shows the text) for an array write() refuses."""

@@ -67,6 +67,8 @@ class RenderOptions:
                                             'uv, geo_normal, or Mitsuba\'s "name:type" items, separated by commas '
                                             "(an EXR output's channels NAME.R ...; default: the scene's)",
                                             metavar="NAMES")
+    denoise: bool = option(False, "denoise the image with Intel Open Image Denoise (the denoise extra), given "
+                           "the albedo and normal AOVs", cli=False)
     watch: list | None = option(None, "watchers called as the render goes (raytrace.Watcher: the progress of each "
                                 "pass, its image)", cli=False)
     checkpoint: str | None = option(None, "a file the render's state is kept in, every checkpoint_every seconds and "

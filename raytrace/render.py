@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import aovs as aov_types, samplers, structs
-from .errors import POSITIVE_SECONDS, InputError, check_path
+from .errors import POSITIVE_SECONDS, TRUE_OR_FALSE, InputError, check_path
 from .numerics import is_real
 from .memory import available_memory
 from .renderer.cpu_target import lanes_for
@@ -167,8 +167,8 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
            light_selection=None, texture_filter="trilinear", shading=None, max_depth=None, seed=None, time_limit=None, target_error=None,
            device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
-           max_pass_work=PASS_WORK, accumulate=None, client=None, aov=None, watch=None, checkpoint=None,
-           checkpoint_every=60.0, resume=False, checkpoint_command=None):
+           max_pass_work=PASS_WORK, accumulate=None, client=None, aov=None, denoise=False, watch=None,
+           checkpoint=None, checkpoint_every=60.0, resume=False, checkpoint_command=None):
     """Render `scene` (from load_file, load_dict or load_string); returns (image, stats).
 
     image is a raytrace.Image: an H x W x 3 float32 numpy array of linear radiance (row 0 at the top) that
@@ -215,6 +215,8 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
             list of them, each a short name (albedo, normal, depth, position, uv, geo_normal) or Mitsuba's
             "name:type"; image.aovs then holds each as an H x W x C float32 array by its name (None: the
             scene's, from its `aovs` or Mitsuba's aov integrator; "" or []: none).
+        denoise: the image denoised by Intel Open Image Denoise (raytrace.denoise; the denoise extra), with
+            the AOVs albedo and normal, added to `aov` where it lacks them; image.aovs["noisy"] keeps the render.
         watch: a list of watchers (raytrace.Watcher), told of the build, each pass (its samples, estimated error
             and image so far; one may stop the render) and the end (raytrace/watch.py).
         checkpoint: a file to keep the render's state in (every checkpoint_every seconds, and at the end), from
@@ -226,6 +228,12 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
     Returns:
         (Image, RenderStats)
     """
+    _option(denoise, API, "denoise", lambda v: isinstance(v, bool), TRUE_OR_FALSE)
+    if denoise:  # before any work: the extra, then the AOVs it reads
+        from .denoise import aov_request, require
+        require("render(denoise=True)")
+        if isinstance(scene, Scene):  # (render_progressive refuses anything else)
+            aov = aov_request(aov, scene, API, "aov")
     image, variance, stats = render_progressive(
         scene, width=width, height=height, spp=spp, light_samples=light_samples, sampler=sampler,
         light_sampler=light_sampler, light_selection=light_selection, texture_filter=texture_filter, shading=shading, max_depth=max_depth, seed=seed,
@@ -233,7 +241,11 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
         features=features, progress=progress, max_band_bytes=max_band_bytes, max_pass_work=max_pass_work,
         client=client, accumulate=accumulate, aov=aov, watch=watch, checkpoint=checkpoint,
         checkpoint_every=checkpoint_every, resume=resume, checkpoint_command=checkpoint_command)
-    return Image.of(image, variance, stats, scene.path, stats.aov_images), stats
+    image = Image.of(image, variance, stats, scene.path, stats.aov_images)
+    if denoise:
+        from .denoise import denoise as denoised
+        image = denoised(image)
+    return image, stats
 
 
 def _zero_nonfinite(image):

@@ -22,7 +22,7 @@ LAYERS = [["raytrace.errors", "raytrace.numerics", "raytrace.memory", "raytrace.
           ["raytrace.scene"],
           ["raytrace.renderer"],
           ["raytrace.render", "raytrace.outputs", "raytrace.image_file", "raytrace.options", "raytrace.image",
-           "raytrace.parameters", "raytrace.watch", "raytrace.progress", "raytrace.checkpoint"],
+           "raytrace.parameters", "raytrace.watch", "raytrace.progress", "raytrace.checkpoint", "raytrace.denoise"],
           ["raytrace.commands"],
           ["raytrace.cli", "raytrace.__main__", "raytrace"]]
 

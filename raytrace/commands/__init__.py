@@ -4,7 +4,7 @@ import importlib.util
 import os
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import missing_extra
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -15,12 +15,6 @@ def require_extra(command, extra, *modules):
     missing = [m for m in modules if importlib.util.find_spec(m) is None]
     if missing:
         raise missing_extra(command, extra, missing)
-
-
-def missing_extra(command, extra, missing):
-    """The InputError of require_extra: `command` needs the `extra`, whose modules `missing` are not there."""
-    return InputError("environment", command, None, f"needs the {extra} extra ({', '.join(missing)} "
-                      f"missing): pip install \"raytrace[{extra}]\", or -e \".[{extra}]\" in a checkout")
 
 
 def child_env(env=None, **variables):
