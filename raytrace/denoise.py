@@ -22,22 +22,21 @@ import importlib
 
 import numpy as np
 
-from .errors import TRUE_OR_FALSE, InputError
+from .errors import TRUE_OR_FALSE, InputError, missing_extra
 
 EXTRA = "denoise"
 MODULE = "pyoidn"
 SOURCE = "denoise()"
 PREFILTER = False  # the measured choice (benchmarks/denoise.py): see the module's docstring
-# The AOVs (raytrace's, Mitsuba's aov integrator's types) OIDN takes as its albedo and normal: the first hit's
-# diffuse reflectance and shading normal, the pair Mitsuba's own denoising (its OptixDenoiser) is given.
-AUX = {"albedo": "albedo", "normal": "sh_normal"}
-NOISY = "noisy"  # the AOV that keeps a denoised Image's noisy beauty
+# The AOVs OIDN takes as its albedo and normal, {OIDN's image: (name, type)} (raytrace/aovs.py): the first
+# hit's diffuse reflectance and shading normal, the pair Mitsuba's own denoising (its OptixDenoiser) is given.
+AUX = {"albedo": ("albedo", "albedo"), "normal": ("normal", "sh_normal")}
+NOISY = "noisy"  # the layer that keeps a denoised Image's noisy beauty: image.aovs["noisy"], noisy.R ... in an EXR
 
 
 def require(command):
     """The pyoidn module, or InputError naming the `denoise` extra, before any render work: `command` names
     what asked for it (the command line's --denoise, render()'s denoise)."""
-    from .commands import missing_extra
     try:
         return importlib.import_module(MODULE)
     except ImportError:  # absent, or a broken install (its library not loadable)
@@ -108,8 +107,8 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
 
     beauty: an H x W x 3 image of linear radiance, a raytrace.Image or any array; albedo, normal: H x W x 3
     auxiliary images of the same render (the albedo in [0, 1], the normal in [-1, 1]; values outside are
-    clamped), or None: an Image's own AOVs "albedo" and "sh_normal" (render(..., aov=["albedo", "sh_normal"]))
-    where it has them, else none (OIDN then sees the beauty alone, and blurs more). prefilter: denoise the albedo and normal
+    clamped), or None: an Image's own AOVs "albedo" and "normal" (render(..., aov="albedo,normal")) where it
+    has them, else none (OIDN then sees the beauty alone, and blurs more). prefilter: denoise the albedo and normal
     first and take them as clean (raytrace.denoise's module docstring says which is the default and why).
 
     Returns an H x W x 3 float32 array; for a raytrace.Image, an Image with its stats, variance (the noisy
@@ -120,8 +119,8 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
     require(SOURCE)
     pixels = _check(beauty, "beauty")
     aovs = dict(getattr(beauty, "aovs", None) or {})
-    albedo = aovs.get(AUX["albedo"]) if albedo is None else albedo
-    normal = aovs.get(AUX["normal"]) if normal is None else normal
+    albedo = aovs.get(AUX["albedo"][0]) if albedo is None else albedo
+    normal = aovs.get(AUX["normal"][0]) if normal is None else normal
     albedo = None if albedo is None else _check(albedo, "albedo", pixels.shape)
     normal = None if normal is None else _check(normal, "normal", pixels.shape)
     if not isinstance(prefilter, bool):
@@ -129,12 +128,33 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
     output, zeroed = denoised_pixels(pixels, albedo, normal, prefilter)
     if not isinstance(beauty, Image):
         return output
-    result = Image.of(output, beauty.variance, beauty.stats)
+    result = Image.of(output, beauty.variance, beauty.stats, aovs={**aovs, NOISY: np.asarray(beauty)})
     result.metadata = {**beauty.metadata, "denoised": described(albedo is not None, normal is not None, prefilter)}
     if zeroed:
         result.metadata["denoise_zeroed_values"] = zeroed
-    result.aovs = {**aovs, NOISY: np.asarray(beauty)}
     return result
+
+
+def noisy_layers(aovs):
+    """The file layer of a denoised image's noisy beauty among its `aovs` ({name: array}), if it has one:
+    [(its channel names, the array)] (image_file.write_image_file's `aovs`), else []."""
+    return [([f"{NOISY}.{c}" for c in "RGB"], aovs[NOISY])] if NOISY in aovs else []
+
+
+def aov_request(aov, scene, source, key):
+    """render()'s `aov` (None: the scene's AOVs) with the albedo and normal denoising takes added where it lacks
+    them, as raytrace/aovs.py's pairs. InputError when it gives one of their names, or "noisy", to another
+    type: the denoiser would read the wrong image, or the noisy beauty overwrite an AOV."""
+    from . import aovs as aov_types
+    pairs = list(scene.aovs if aov is None else aov_types.parse(aov, source, key))
+    for name, kind in AUX.values():
+        if (name, kind) not in pairs:
+            if any(given == name for given, _ in pairs):
+                raise InputError(source, key, aov, f"denoising needs the AOV {name!r} to be the {kind}")
+            pairs.append((name, kind))
+    if any(given == NOISY for given, _ in pairs):
+        raise InputError(source, key, aov, f"denoising keeps the noisy image as {NOISY!r}: name the AOV otherwise")
+    return aov_types.to_string(pairs)
 
 
 def described(albedo, normal, prefilter):
