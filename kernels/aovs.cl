@@ -11,6 +11,8 @@
  *               (camera.cl, as Mitsuba's sensors start it), to the hit: Mitsuba's si.t
  *   position    the world-space hit point
  *   uv          the surface's texture coordinates there (surface.cl; a mesh without uvs: barycentrics)
+ *   shape_index 1 + the shape's place in the scene's order (raytrace/aovs.py's SHAPE_ORDER), as a float; a
+ *               pixel's mean over samples on two shapes lies between their numbers (Mitsuba's does too)
  * The first hit is the camera ray's after hide_emitters' pass_emitters: the surface the beauty shows, where
  * Mitsuba's aov (which knows nothing of its nested integrator's hide_emitters) would show the emitter. Planes
  * follow the types' order below, each type's components in order. */
@@ -85,6 +87,40 @@ inline vec2 aov_uv(const Scene *s, Hit hit, vint on)
 }
 #endif
 
+#if HAS_AOVS & AOV_SHAPE_INDEX
+/* The shape_index of the lanes' hits (`on`), one lane at a time, from the host's table of every primitive's
+ * number (raytrace/renderer/packing.py's shape_index_table): the rectangles', ellipsoids', disks',
+ * cylinders', lights' (SHAPE_NONE) and instances' in that order, then the triangles' in the Triangle table's
+ * order. A hit in an instance's group is the instance's. */
+inline vfloat aov_shape_index(const Scene *s, Hit hit, vint on)
+{
+    int kind[LANES], index[LANES], hit_on[LANES];
+    float number[LANES];
+    VSTORE(hit.kind, kind);
+    VSTORE(hit.index, index);
+    VSTORE(on, hit_on);
+#if HAS_INSTANCES
+    int instance[LANES];
+    VSTORE(hit.instance, instance);
+#endif
+    __constant const RenderParams *p = s->params;
+    const int ellipsoids = p->n_rectangles, disks = ellipsoids + p->n_ellipsoids, cylinders = disks + p->n_disks;
+    const int lights = cylinders + p->n_cylinders, instances = lights + p->n_lights;
+    const int triangles = instances + p->n_instances;
+    for (int i = 0; i < LANES; ++i) {
+        int k = kind[i], at = index[i];
+        at += k == SHAPE_RECTANGLE ? 0 : k == SHAPE_ELLIPSOID ? ellipsoids : k == SHAPE_DISK ? disks
+            : k == SHAPE_CYLINDER ? cylinders : k == SHAPE_TRIANGLE ? triangles : lights;
+#if HAS_INSTANCES
+        if (instance[i] >= 0)
+            at = instances + instance[i];
+#endif
+        number[i] = hit_on[i] ? (float)s->shape_indices[at] : 0.0f;
+    }
+    return VLOAD(number);
+}
+#endif
+
 /* The AOV_PLANES values of the lanes' camera rays: r the ray that met `hit` (its origin past the emitters it
  * passed), o the camera ray's own origin, sp the hit's shading point. */
 inline void aov_values(const Scene *s, Ray r, vec3 o, Hit hit, ShadingPoint sp, vfloat *value)
@@ -128,6 +164,9 @@ inline void aov_values(const Scene *s, Ray r, vec3 o, Hit hit, ShadingPoint sp, 
     vec2 uv = aov_uv(s, hit, on);
     value[k++] = uv.x;
     value[k++] = uv.y;
+#endif
+#if HAS_AOVS & AOV_SHAPE_INDEX
+    value[k++] = aov_shape_index(s, hit, on);
 #endif
 }
 

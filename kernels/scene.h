@@ -51,6 +51,7 @@ typedef struct {
     __global const Disk *disks;
     __global const Cylinder *cylinders;
     __global const Instance *instances; /* HAS_INSTANCES: the shape groups' placements (bvh.cl) */
+    __global const int *shape_indices;  /* the shape_index AOV's: each primitive's shape (aovs.cl's layout) */
     __global const Light *lights;
     __global const Emitter *emitters;                  /* HAS_EMITTERS: area emitters on shapes, delta lights */
     __global const EmitterTriangle *emitter_triangles; /* their meshes' triangles (emitters.cl) */
@@ -105,13 +106,14 @@ typedef struct {
     __global const Emitter *emitters, __global const EmitterTriangle *emitter_triangles,                    \
     __global const BVHNode *nodes, __global const int *prims, __global const uint *culled_subtrees,        \
     __global const float *environment_map, __global const Disk *disks, __global const Cylinder *cylinders,  \
-    __global const Instance *instances
+    __global const Instance *instances, __global const int *shape_indices
 #define SCENE_FROM_PARAMETERS                                                                               \
     {.rectangles = rectangles, .triangles = triangles, .triangle_uvs = triangle_uvs,                        \
      .triangle_normals = triangle_normals, .attributes = attributes, .ellipsoids = ellipsoids, .lights = lights, .materials = materials, \
      .emitters = emitters, .emitter_triangles = emitter_triangles,                                          \
      .camera = camera, .params = params, .nodes = nodes, .prims = prims, .culled_subtrees = culled_subtrees, \
-     .environment_map = environment_map, .disks = disks, .cylinders = cylinders, .instances = instances}
+     .environment_map = environment_map, .disks = disks, .cylinders = cylinders, .instances = instances, \
+     .shape_indices = shape_indices}
 
 #define TEXTURE_PARAMETERS                                                                                  \
     __global const Texture *textures, __global const MipLevel *mip_levels, __global const uint *texels,    \

@@ -332,9 +332,11 @@ typedef struct {
 #define AOV_DEPTH 8       /* T */
 #define AOV_POSITION 16   /* X, Y, Z */
 #define AOV_UV 32         /* U, V */
+#define AOV_SHAPE_INDEX 64 /* I */
 #define AOV_PLANES (((HAS_AOVS & AOV_ALBEDO) ? 3 : 0) + ((HAS_AOVS & AOV_SH_NORMAL) ? 3 : 0)                     \
                     + ((HAS_AOVS & AOV_GEO_NORMAL) ? 3 : 0) + ((HAS_AOVS & AOV_DEPTH) ? 1 : 0)                  \
-                    + ((HAS_AOVS & AOV_POSITION) ? 3 : 0) + ((HAS_AOVS & AOV_UV) ? 2 : 0))
+                    + ((HAS_AOVS & AOV_POSITION) ? 3 : 0) + ((HAS_AOVS & AOV_UV) ? 2 : 0)                       \
+                    + ((HAS_AOVS & AOV_SHAPE_INDEX) ? 1 : 0))
 
 /* How a sample pattern's table (points in 0.32 fixed point, the same for every pixel) is randomised per
  * pixel and per sample stream, so that neighbouring pixels get independent patterns (samplers.cl). */

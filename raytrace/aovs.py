@@ -14,12 +14,19 @@ from .errors import InputError, did_you_mean
 # The types, in the kernel's order (kernels/types.h's AOV_* bits and planes): each one's channel suffixes, as
 # Mitsuba's aov integrator names them.
 TYPES = {"albedo": ("R", "G", "B"), "sh_normal": ("X", "Y", "Z"), "geo_normal": ("X", "Y", "Z"), "depth": ("T",),
-         "position": ("X", "Y", "Z"), "uv": ("U", "V")}
+         "position": ("X", "Y", "Z"), "uv": ("U", "V"), "shape_index": ("I",)}
 # Mitsuba's types raytrace does not compute (its loader refuses or skips them)
-UNSUPPORTED = ("dp_du", "dp_dv", "duv_dx", "duv_dy", "prim_index", "shape_index")
+UNSUPPORTED = ("dp_du", "dp_dv", "duv_dx", "duv_dy", "prim_index")
 # An item without a type: its own name, of this type
 SHORT = {"albedo": "albedo", "normal": "sh_normal", "sh_normal": "sh_normal", "geo_normal": "geo_normal",
-         "depth": "depth", "position": "position", "uv": "uv"}
+         "depth": "depth", "position": "position", "uv": "uv", "shape": "shape_index", "shape_index": "shape_index"}
+# The shape_index AOV numbers the scene's shapes from 1 (0: nothing hit, as Mitsuba's scalar variants number
+# theirs) in this order: its lists in the scene model, each in its own order (the file's order of that kind).
+# A loose triangle (a scene file's "triangle", each face of an inline "mesh") is a shape of its own, a mesh
+# file one shape, an instance one shape whatever its group holds (Mitsuba's si.instance). Mitsuba's scalar
+# variants number scene->shapes() in the XML's order and its JIT variants by the shape's registry id: the
+# numbers differ from Mitsuba's, the partition of the image into shapes does not.
+SHAPE_ORDER = ("rectangles", "triangles", "meshes", "ellipsoids", "disks", "cylinders", "lights", "instances")
 
 
 def parse(value, source, key):

@@ -64,7 +64,7 @@ class RenderOptions:
                                     choices=("device", "host"))
     client: object = option(None, "a dask.distributed.Client to render on, instead of scheduler", cli=False)
     aov: str | list | tuple | None = option(None, 'AOVs to store beside the image: albedo, normal, depth, position, '
-                                            'uv, geo_normal, or Mitsuba\'s "name:type" items, separated by commas '
+                                            'uv, geo_normal, shape, or Mitsuba\'s "name:type" items, separated by commas '
                                             "(an EXR output's channels NAME.R ...; default: the scene's)",
                                             metavar="NAMES")
     denoise: bool = option(False, "denoise the image with Intel Open Image Denoise (the denoise extra), given "

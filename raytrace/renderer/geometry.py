@@ -27,6 +27,8 @@ class TriangleSoup:
     material: np.ndarray
     attributes: dict  # {name: per-corner values (F, 3, 3)} of the mesh attributes the materials read, 0 elsewhere
                       # (a face attribute's value at its triangle's three corners: constant over it)
+    shape: np.ndarray = None  # (F,) the shape each is of: a loose triangle's index in scene.triangles, a mesh's
+                              # len(scene.triangles) + its index in scene.meshes; -1 in a group (the shape_index AOV)
 
 
 def triangle_soup(scene):
@@ -34,8 +36,10 @@ def triangle_soup(scene):
     v = [np.array([t.vertices for t in tris], np.float64).reshape(-1, 3, 3)]
     uv = [np.array([DEFAULT_UV if t.uv is None else t.uv for t in tris], np.float64).reshape(-1, 3, 2)]
     normals, material = [None], [np.array([t.material for t in tris], np.int32)]
-    for shape in [*scene.meshes, *(m for g in scene.groups for m in g.meshes)]:  # the groups' in their own space
-        m = shape.mesh
+    owner = [np.arange(len(tris), dtype=np.int32)]
+    for k, shape in enumerate([*scene.meshes, *(m for g in scene.groups for m in g.meshes)]):  # the groups' in
+        m = shape.mesh                                                                         # their own space
+        owner.append(np.full(len(m.faces), len(tris) + k if k < len(scene.meshes) else -1, np.int32))
         v.append(m.vertices[m.faces])
         uv.append(m.uvs[m.faces] if m.uvs is not None else np.broadcast_to(DEFAULT_UV, (len(m.faces), 3, 2)))
         normals.append(m.normals[m.faces] if shape.smooth else None)
@@ -58,7 +62,8 @@ def triangle_soup(scene):
             return np.broadcast_to(values, (len(mesh.faces), 3, 3))
         attributes[name] = np.concatenate([np.zeros((len(tris), 3, 3))] + [corners(s.mesh) for s in scene.meshes]
                                           + [corners(m.mesh) for g in scene.groups for m in g.meshes])
-    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material), attributes)
+    return TriangleSoup(v, np.concatenate(uv), np.concatenate(normals), np.concatenate(material), attributes,
+                        np.concatenate(owner))
 
 
 def primitive_boxes(scene, soup):
@@ -179,4 +184,4 @@ def in_leaf_order(soup, prims):
     prims = prims.copy()
     prims[triangle] = np.arange(len(order), dtype=prims.dtype) * structs.PRIM_KINDS + structs.SHAPES["triangle"]
     return TriangleSoup(soup.v[order], soup.uv[order], soup.normals[order], soup.material[order],
-                        {name: values[order] for name, values in soup.attributes.items()}), prims
+                        {name: values[order] for name, values in soup.attributes.items()}, soup.shape[order]), prims

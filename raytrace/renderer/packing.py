@@ -122,6 +122,21 @@ def triangle_normal_records(normals):
     return a
 
 
+def shape_index_table(scene, triangle_shapes):
+    """kernels/aovs.cl's shape_indices: the shape_index AOV of each primitive, 1 + the shape's place in the
+    scene's order (raytrace/aovs.py's SHAPE_ORDER: its rectangles, loose triangles, meshes, ellipsoids, disks,
+    cylinders, lights and instances, each list in its own order), laid out as the kernel reads it: the
+    rectangles', ellipsoids', disks', cylinders', lights' and instances' numbers, then each triangle's in the
+    Triangle table's order, from triangle_shapes (geometry.TriangleSoup.shape; a group's triangle: 0, its
+    instance's number stands for it)."""
+    counts = [len(scene.rectangles), len(scene.triangles) + len(scene.meshes), len(scene.ellipsoids),
+              len(scene.disks), len(scene.cylinders), len(scene.lights), len(scene.instances)]
+    first = 1 + np.concatenate([[0], np.cumsum(counts)[:-1]])  # each list's first number
+    analytic = [np.arange(n) + f for k, (n, f) in enumerate(zip(counts, first)) if k != 1]
+    triangles = np.where(triangle_shapes >= 0, triangle_shapes + first[1], 0)
+    return np.concatenate([*analytic, triangles]).astype(np.int32)
+
+
 def ellipsoid_structs(ells):
     a = np.zeros(max(len(ells), 1), structs.ELLIPSOID)
     for s, e in zip(a, ells):

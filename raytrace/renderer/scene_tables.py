@@ -5,12 +5,13 @@ import weakref
 import numpy as np
 
 from .. import structs
+from ..aovs import TYPES
 from ..scene.course_maps import kernel_materials
 from .culling import scene_extent
 from .geometry import bvh_structs, in_leaf_order, triangle_soup
 from .film_filter import parameters
 from .packing import (affine_shape_structs, instance_structs, attribute_table, camera_struct, ellipsoid_structs, emitter_tables, environment_table, light_structs, material_structs, params_struct,
-                      rectangle_structs, triangle_normal_records, triangle_records, triangle_uv_records)
+                      rectangle_structs, shape_index_table, triangle_normal_records, triangle_records, triangle_uv_records)
 
 
 # Each live Scene object's packed triangles and BVH, by id(scene): repeated renders of one Scene object (bench's
@@ -25,7 +26,8 @@ _GEOMETRY = {}
 
 def _geometry_tables(scene, uv, smooth, use_bvh):
     """Triangle, TriangleUV, TriangleNormals, BVHNode, primitive-reference, culled-subtree, mesh-attribute
-    (in the triangles' order) and Instance tables."""
+    (in the triangles' order) and Instance tables, and the triangles' shapes (TriangleSoup.shape, in their
+    order)."""
     key, cached = (uv, smooth, use_bvh, scene.checked), _GEOMETRY.get(id(scene))
     if cached is not None and cached[0] == key:
         return cached[1]
@@ -37,7 +39,7 @@ def _geometry_tables(scene, uv, smooth, use_bvh):
     tables = [triangle_records(soup.v, soup.material),
               triangle_uv_records(soup.v, soup.uv) if uv else unused(structs.TRIANGLE_UV),
               triangle_normal_records(soup.normals) if smooth else unused(structs.TRIANGLE_NORMALS),
-              nodes, prims, culled, attribute_table(soup.attributes), instance_structs(scene, roots)]
+              nodes, prims, culled, attribute_table(soup.attributes), instance_structs(scene, roots), soup.shape]
     if cached is None:
         weakref.finalize(scene, _GEOMETRY.pop, id(scene), None)
     _GEOMETRY[id(scene)] = key, tables
@@ -56,9 +58,9 @@ def film(scene, width, height):
 def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filter="trilinear", pixel_pattern=None,
                  light_pattern=None, seed=0, features=None):
     """The scene's tables, named after kernels/scene.h's SCENE_PARAMETERS. Tables a variant does not read
-    (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH) are one dummy entry:
-    features None packs them all but the BVH."""
-    triangles, uvs, normals, nodes, prims, culled, attributes, instances = _geometry_tables(
+    (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH, the shapes' numbers without
+    the shape_index AOV) are one dummy entry: features None packs them all but the BVH."""
+    triangles, uvs, normals, nodes, prims, culled, attributes, instances, shapes = _geometry_tables(
         scene, features is None or features.textures, features is None or features.smooth_normals,
         features is not None and features.bvh)
     params = params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
@@ -74,5 +76,7 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
             "materials": material_structs(kernel_materials(scene)), "nodes": nodes, "prims": prims,
             "culled_subtrees": culled, "attributes": attributes, "emitters": emitters,
             "emitter_triangles": emitter_triangles, "instances": instances,
+            "shape_indices": shape_index_table(scene, shapes) if features is None
+            or features.aovs >> [*TYPES].index("shape_index") & 1 else np.zeros(1, np.int32),
             "environment_map": environment_table(scene) if features is None or features.environment_map
             else np.zeros(1, np.float32)}
