@@ -377,6 +377,17 @@ def test_direct_model(tmp_path, render):
     assert_same_images(scene, back)
 
 
+def test_aovs_as_the_aov_integrator(tmp_path):
+    """A scene's AOVs are written as Mitsuba's aov integrator around the one that renders the image, and read
+    back as the same AOVs and shading. Writing no aov integrator fails it (seen)."""
+    toml = _variant(tmp_path, "cornell_path.toml", [(ELLIPSOID, SPHERE), ('shading = "path"\n',
+                                                                          'shading = "path"\n'
+                                                                          'aovs = "albedo,dd.y:depth,shape"\n')])
+    scene, back = _round_trip(toml, tmp_path)
+    assert scene.aovs == back.aovs == (("albedo", "albedo"), ("dd.y", "depth"), ("shape", "shape_index"))
+    assert (back.shading, back.max_depth) == (scene.shading, scene.max_depth)
+
+
 def test_path_integrator_parameters(tmp_path):
     """cornell_path.toml (its ellipsoid a sphere) with rr_depth 2 and the emitters hidden: the path integrator
     writes both, and the XML reads back to the same model and images. Leaving rr_depth out fails it (seen)."""

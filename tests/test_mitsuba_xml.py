@@ -215,6 +215,40 @@ def test_integrator_parameters(tmp_path, integrator, render):
         assert getattr(scene, key) == value
 
 
+AOV_INTEGRATOR = ('<integrator type="aov">\n<string name="aovs" value="AOVS"/>\n'
+                  '<integrator type="direct" name="my_image"><integer name="emitter_samples" value="2"/>'
+                  '</integrator>\n</integrator>')
+
+
+AOVS_PARAM = 'name="aovs"'
+
+
+def test_the_aov_integrator(tmp_path):
+    """Mitsuba's aov integrator: its `aovs` become render.aovs (the AOVs' names and types), the integrator inside
+    sets the shading as a bare one does; a type raytrace does not compute is refused in one line at the XML's
+    line, or left out with one warning under ignore_unsupported; a misspelt type is refused at that line with
+    the nearest. Mutations, each failing here: the inner integrator not read (its shading set, its parameters
+    ignored: light_samples 1), an unsupported type passed on to parse (its message, not the unsupported one)."""
+    base = BOX.replace('<integrator type="path"><integer name="max_depth" value="$depth"/></integrator>',
+                       AOV_INTEGRATOR)
+    text = base.replace("AOVS", "dd.y:depth,nn:sh_normal,s:shape_index,albedo")
+    scene = raytrace.load_file(write(tmp_path, text), ignore_unsupported=True)
+    assert scene.aovs == (("dd.y", "depth"), ("nn", "sh_normal"), ("s", "shape_index"), ("albedo", "albedo"))
+    assert (scene.shading, scene.light_samples) == ("direct", 2)
+    text = base.replace("AOVS", "dd.y:depth,p:prim_index")
+    error = error_of(tmp_path, text)
+    assert "prim_index" in str(error) and "--ignore-unsupported" in str(error) and "\n" not in str(error)
+    assert f"scene.xml:{line_of(text, AOVS_PARAM)}" in str(error)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = raytrace.load_file(write(tmp_path, text), ignore_unsupported=True)
+    assert scene.aovs == (("dd.y", "depth"),)
+    assert [str(w.message) for w in caught if "prim_index" in str(w.message)] != []
+    text = base.replace("AOVS", "a:albdo")
+    error = error_of(tmp_path, text)
+    assert "did you mean 'albedo'" in str(error) and f"scene.xml:{line_of(text, AOVS_PARAM)}" in str(error)
+
+
 def test_shading_samples_not_with_either_count(tmp_path):
     """Mitsuba refuses shading_samples beside emitter_samples or bsdf_samples, and so does raytrace, at the
     parameter."""

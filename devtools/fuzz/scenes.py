@@ -13,6 +13,7 @@ import numpy as np
 from hypothesis import assume
 from hypothesis import strategies as st
 
+from raytrace import aovs as aov_types
 from raytrace.numerics import FLOAT32_MAX, FLOAT32_TINY
 from raytrace.renderer.packing import SMOOTH_ALPHA  # below it a rough conductor or glass renders smooth
 from raytrace.scene.bsdfs import BY_NAME
@@ -616,6 +617,10 @@ def path_scenes(draw):
     if draw(st.booleans()):  # Russian roulette from any vertex; the emitters hidden from the camera
         table["render"].update(rr_depth=draw(st.one_of(st.integers(1, 8), st.just(2**31 - 1))),
                                hide_emitters=draw(st.booleans()))
+    if draw(st.booleans()):  # AOVs beside the image (raytrace/aovs.py): short names and Mitsuba's name:type items
+        table["render"]["aovs"] = ",".join(draw(st.lists(st.sampled_from(
+            [*aov_types.SHORT, *(f"n{i}:{kind}" for i, kind in enumerate(aov_types.TYPES))]), unique=True,
+            max_size=4)))
     names = [f"m{i}" for i in range(draw(st.integers(1, 3)))]
     table["materials"] = {name: draw(path_materials()) for name in names}
     light = table["lights"][0]

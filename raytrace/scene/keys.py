@@ -209,7 +209,10 @@ TABLES = {
                    default=False),
                Key("bsdf_samples", "integer", 'shading = "direct": BSDF samples per pixel sample, combined with the '
                    "light_samples per light by multiple importance sampling (Mitsuba's direct bsdf_samples)",
-                   default=0, low=0, high=MAX_SAMPLES)],
+                   default=0, low=0, high=MAX_SAMPLES),
+               Key("aovs", "string", "AOVs to store beside the image, separated by commas: albedo, normal, "
+                   "geo_normal, depth, position, uv, shape, or Mitsuba's name:type items (its aov integrator's "
+                   "`aovs`); --aov and render(aov=...) replace them", default="")],
     "lights[]": _rectangle(_COLOUR),
     "lights[] (direct, path)": _rectangle(_RADIANCE) + [_LIGHT_MATERIAL],
     "materials.NAME": [

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import aovs as aov_types
 from ..errors import InputError, did_you_mean, printable
 from . import bsdfs, mesh_file, spectra
 from .mitsuba_xml import WHERE, Where
@@ -242,6 +243,10 @@ PLUGINS = {
         Param("hide_emitters", False, "render hide_emitters"))),
     "moment": Plugin("integrator", "a wrapper: raytrace renders the integrator inside", (
         Param("integrator", None, "", "one integrator"),)),
+    "aov": Plugin("integrator", "AOVs beside the image of the integrator inside, which raytrace renders", (
+        Param("aovs", None, "render aovs", "name:type items; types albedo, depth, position, uv, geo_normal, "
+              "sh_normal, shape_index (not dp_du, dp_dv, duv_dx, duv_dy, prim_index)"),
+        Param("integrator", None, "", "one integrator, as a bare one would render"))),
     "independent": Plugin("sampler", "uniform random samples: raytrace's random", (
         Param("sample_count", 4, "render spp"), Param("seed", 0, "render seed"))),
     "stratified": Plugin("sampler", "a jittered grid: raytrace's jittered", (
@@ -529,9 +534,21 @@ class _Translator:
         if len(integrators) > 1:
             self.unsupported(self.where(integrators[1][1], integrators[1][0]).at, "a second integrator",
                              "raytrace renders with one")
-        while node["type"] == "moment":
-            inner = [(k, v) for k, v, category in self.objects(self.params(node, key, "moment"), key, node)
-                     if category == "integrator"]
+        while node["type"] in ("moment", "aov"):
+            wrapper = node["type"]
+            params = self.params(node, key, wrapper)
+            inner = [(k, v) for k, v, category in self.objects(params, key, node) if category == "integrator"]
+            if wrapper == "aov":
+                self.aovs(params, node, key)
+                if len(inner) > 1:
+                    self.unsupported(self.where(inner[1][1], inner[1][0]).at, "a second integrator in aov",
+                                     "raytrace renders the image of one")
+                if not inner:  # Mitsuba's image is then black; its AOVs stand alone
+                    self.unsupported(self.where(node, key).at, "an aov integrator without one inside",
+                                     "raytrace renders an image beside the AOVs (path tracing here)")
+                    return
+                key, node = inner[0]
+                continue
             if len(inner) != 1:
                 self.fail(self.where(node, key).at, f"{key}.integrator", len(inner), "moment must wrap one integrator")
             key, node = inner[0]
@@ -556,6 +573,23 @@ class _Translator:
             render["hide_emitters"] = self.boolean(params["hide_emitters"], node, key, "hide_emitters")
             self.origin("render.hide_emitters", node, key, "hide_emitters")
         self.out.origins["render.shading"] = (self.where(node, key).at, f"integrator {name}")
+
+    def aovs(self, params, node, key):
+        """render.aovs from Mitsuba's aov integrator's `aovs` string: its items of types raytrace does not compute
+        (aovs.UNSUPPORTED) refused, or left out with one warning under --ignore-unsupported."""
+        if "aovs" not in params:
+            self.fail(self.where(node, key).at, f"{key}.aovs", None, "missing (the aov integrator's name:type items)")
+        value = self.string(params["aovs"], node, key, "aovs")
+        at, kept = self.where(node, key).of("aovs"), []
+        for item in value.split(","):
+            kind = item.partition(":")[2].strip()
+            if kind in aov_types.UNSUPPORTED:
+                self.unsupported(at, f"integrator aov: {kind}", "raytrace does not compute this AOV type")
+            else:
+                kept.append(item)
+        aov_types.parse(",".join(kept), at, f"{key}.aovs")  # refused here, on the XML's line
+        self.table.setdefault("render", {})["aovs"] = ",".join(item.strip() for item in kept)
+        self.origin("render.aovs", node, key, "aovs")
 
     def sensor(self, key, node):
         name = node["type"]

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import aovs as aov_types
 from ..errors import InputError
 from . import bsdfs
 from .model import RR_DEPTH, WRAPPERS, PointEmitter, ProjectorEmitter, ShapeEmitter, SpotEmitter, fingerprint
@@ -160,8 +161,12 @@ class _Writer:
 
     def integrator(self, root):
         scene = self.scene
+        if scene.aovs:  # Mitsuba's aov integrator around the one that renders the image (named: its channels)
+            root = ET.SubElement(root, "integrator", type="aov")
+            ET.SubElement(root, "string", name="aovs", value=aov_types.to_string(scene.aovs))
+        name = {"name": "image"} if scene.aovs else {}
         if scene.shading == "path":
-            integrator = ET.SubElement(root, "integrator", type="path")
+            integrator = ET.SubElement(root, "integrator", type="path", **name)
             ET.SubElement(integrator, "integer", name="max_depth", value=str(int(scene.max_depth)))
             if scene.rr_depth != RR_DEPTH:
                 ET.SubElement(integrator, "integer", name="rr_depth", value=str(int(scene.rr_depth)))
@@ -169,7 +174,7 @@ class _Writer:
                 integrator.append(_comment(f"raytrace's light_samples = {scene.light_samples}: Mitsuba's path "
                                            "tracer takes one emitter sample per vertex (the same estimate, noisier)"))
         else:
-            integrator = ET.SubElement(root, "integrator", type="direct")
+            integrator = ET.SubElement(root, "integrator", type="direct", **name)
             ET.SubElement(integrator, "integer", name="emitter_samples", value=str(int(scene.light_samples)))
             # always written: Mitsuba's default is 1, raytrace's 0 (the light samples alone)
             ET.SubElement(integrator, "integer", name="bsdf_samples", value=str(int(scene.bsdf_samples)))

@@ -19,7 +19,7 @@ import numpy as np
 from . import bsdfs, delta_lights, environment_map, keys, mesh_file, meshes, meshgen, mitsuba, mitsuba_xml, named_materials, ranges, \
     rules, texture_lookups
 from ..errors import InputError, UnsupportedWarning, check_path, did_you_mean
-from .. import samplers
+from .. import aovs as aov_types, samplers
 from .model import (RADIOMETRIC, WRAPPERS, Camera, Cylinder, Disk, fingerprint, Ellipsoid, EnvironmentMap, Light, Material, MeshShape, Rectangle, Scene,
                     ShapeEmitter, ShapeGroup, Instance,
                     Triangle, normalize)
@@ -775,7 +775,8 @@ def parse_scene(table, path="<scene>", files=None):
                   textures=textures.textures, shading=shading, max_depth=max_depth, environment=environment,
                   environment_map=environment_map, seed=render.integer("seed"), rr_depth=render.integer("rr_depth"),
                   hide_emitters=render.boolean("hide_emitters"), bsdf_samples=render.integer("bsdf_samples"),
-                  light_selection=render.string("light_selection"), **film)
+                  light_selection=render.string("light_selection"),
+                  aovs=aov_types.parse(render.string("aovs"), path, "render.aovs"), **film)
 
     lights = r.raw("lights", [])  # keys.py: none only where rules.py allows it
     if not isinstance(lights, list):  # none at all: rules.py says when that is allowed
