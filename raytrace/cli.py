@@ -281,15 +281,21 @@ def _display(args):
     return TevDisplay(Path(args.output).name, host, port, label=f"--display {args.display}")
 
 
+def _refuse_aovs_without_exr(output, source, key, value):
+    """AOVs are channels of an EXR file: with any other output they are refused, in one line naming where they
+    came from (--aov, or the scene's own), before any rendering."""
+    if Path(output).suffix.lower() != ".exr":
+        raise InputError(source, key, value, f"AOVs are written as channels of an .exr output; -o is {str(output)!r}")
+
+
 def cmd_render(args):
     from .render import render_progressive
 
     check_extension(args.output, "command line", "-o")
     args = _resumed(args)
     displays = [_display(args)] if args.display is not None else []
-    if args.aov and Path(args.output).suffix.lower() != ".exr":  # before any work: only an EXR holds them
-        raise InputError("command line", "--aov", args.aov, f"AOVs are written as channels of an .exr output; -o is "
-                         f"{str(args.output)!r}")
+    if args.aov:  # before any work
+        _refuse_aovs_without_exr(args.output, "command line", "--aov", args.aov)
     if args.denoise:  # before any work: one line when the extra is missing
         from .denoise import require
         require("render --denoise")
@@ -299,6 +305,8 @@ def cmd_render(args):
         if args.checkpoint:
             outputs.check_other_file("--resume" if args.resume else "--checkpoint", args.checkpoint)
         scene = load_scene(args)
+        if args.aov is None and scene.aovs:  # the scene's own (render.aovs, Mitsuba's aov integrator)
+            _refuse_aovs_without_exr(args.output, scene.path, "render.aovs", aov_types.to_string(scene.aovs))
         outputs.add_inputs(scene_inputs(scene))
         kwargs = _render_kwargs(args)
         if args.denoise:

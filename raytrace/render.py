@@ -140,10 +140,17 @@ def _settings(final):
             samplers.pattern(final.light_sampler, final.light_samples))
 
 
-def check_memory(width, height):
-    """Refuse a render whose host memory (its sums and images, progressive.BYTES_PER_PIXEL) cannot be had:
-    better one line now than a MemoryError, or the kernel's OOM killer, after minutes of rendering."""
-    needed, available = width * height * BYTES_PER_PIXEL + HEADROOM_BYTES, available_memory()
+# An AOV plane's bytes a pixel on the host: its float64 sum (progressive.Accumulator.aov_total), its float32
+# mean and the float32 array image.aovs holds
+AOV_BYTES_PER_PLANE = 8 + 4 + 4
+
+
+def check_memory(width, height, aov_planes=0):
+    """Refuse a render whose host memory (its sums and images, progressive.BYTES_PER_PIXEL, and its AOVs' as
+    many per plane, aov_planes of them: aovs.plane_count) cannot be had: better one line now than a MemoryError,
+    or the kernel's OOM killer, after minutes of rendering."""
+    needed = width * height * (BYTES_PER_PIXEL + AOV_BYTES_PER_PLANE * aov_planes) + HEADROOM_BYTES
+    available = available_memory()
     if needed > available:
         raise InputError(API, "width/height", f"{width}x{height}",
                          f"needs about {needed / 2**30:.1f} GiB of memory, {available / 2**30:.1f} GiB available")
@@ -341,7 +348,7 @@ def render_progressive(scene, **kwargs):
         raise InputError(API, "accumulate", options.accumulate, "a Dask render adds its bands on the client: "
                          'use "host" or None')
     r = resolve_all(final, options)
-    check_memory(r.width, r.height)
+    check_memory(r.width, r.height, aov_types.plane_count(aov_types.mask(final.aovs)))
     watchers = [Progress(options.progress, options.time_limit, options.target_error),
                 *check_watchers(options.watch, API, "watch")]
     try:

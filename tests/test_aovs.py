@@ -280,3 +280,35 @@ def test_shape_index(lanes, variant):
         assert where.sum() >= 4, name
         np.testing.assert_array_equal(got[where], SHAPES[name][0], err_msg=name)
     assert miss.any() and not got[miss].any()
+
+
+def test_memory_counts_the_aov_planes(monkeypatch):
+    """render()'s memory check counts the AOVs' planes (16 bytes a plane per pixel: the float64 sum, the float32
+    mean, image.aovs' array): with memory for the image alone, a render with AOVs is refused before any work.
+    Mutation: the planes left out of check_memory's estimate (this render then starts: fails here)."""
+    import importlib
+    render_module = importlib.import_module("raytrace.render")
+    scene = wall_scene()
+    pixels = W * H
+    monkeypatch.setattr(render_module, "available_memory",
+                        lambda: pixels * render_module.BYTES_PER_PIXEL + render_module.HEADROOM_BYTES + 8 * pixels)
+    render_module.check_memory(W, H)  # the image alone fits
+    with pytest.raises(InputError, match="GiB of memory") as e:
+        raytrace.render(scene, aov="albedo,depth")  # 4 planes: 64 bytes a pixel more
+    assert "\n" not in str(e.value)
+
+
+def test_the_scenes_aovs_need_an_exr(tmp_path):
+    """A scene's own AOVs (render.aovs, or Mitsuba's aov integrator) with an output other than .exr are refused
+    in one line naming the scene file and the key, before any work, as --aov is; an .exr output carries them.
+    Mutation: the check for args.aov only (the PNG is written: fails here)."""
+    text = (ROOT / "scenes" / "cornell.toml").read_text()
+    assert "[render]" in text
+    scene = tmp_path / "s.toml"
+    scene.write_text(text.replace("[render]", '[render]\naovs = "albedo,dd:depth"', 1))
+    result = run("render", str(scene), "-o", str(tmp_path / "b.png"), "--spp", "1", "--width", "8", "--height", "8")
+    assert result.returncode == 2 and len(result.stderr.splitlines()) == 1, result.stderr
+    assert str(scene) in result.stderr and "render.aovs" in result.stderr and ".exr" in result.stderr
+    assert not (tmp_path / "b.png").exists()
+    result = run("render", str(scene), "-o", str(tmp_path / "c.exr"), "--spp", "1", "--width", "8", "--height", "8")
+    assert result.returncode == 0 and (tmp_path / "c.exr").exists(), result.stderr
