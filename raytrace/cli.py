@@ -26,6 +26,7 @@ from .options import API, SYNONYMS, command_line_name, declared, option_type
 from .commands.converge_peer import PEER_SAMPLERS
 
 EXIT_BAD_INPUT = 2
+CHECKPOINT_EVERY = 60.0  # seconds, render --checkpoint-every's default
 
 
 DESCRIPTION = ("A ray tracer whose per-pixel pipeline is one OpenCL C kernel: render a scene, benchmark it, "
@@ -146,8 +147,9 @@ def parser():
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--checkpoint", metavar="FILE", help="keep the render's state in FILE (every "
                    "--checkpoint-every seconds and at the end), to continue it with --resume FILE")
-    r.add_argument("--checkpoint-every", type=float, default=60.0, metavar="SECONDS",
-                   help="seconds between checkpoints; 0: after every pass (default: 60)")
+    r.add_argument("--checkpoint-every", type=float, default=CHECKPOINT_EVERY, metavar="SECONDS",
+                   help=f"seconds between checkpoints; 0: after every pass (default: {CHECKPOINT_EVERY:g}; with "
+                   "--resume, the checkpoint's)")
     r.add_argument("--resume", metavar="FILE", help="continue the render kept in the checkpoint FILE (its scene and "
                    "options; keeps checkpointing into FILE) to the image the render would have made uninterrupted")
     r.add_argument("--display", metavar="tev[:HOST:PORT]", help="show each pass in the tev viewer, at tev's "
@@ -238,6 +240,10 @@ class _KeepOnSignal(Watcher):
         signum = kept_signal()
         return None if signum is None else signal.Signals(signum).name
 
+    def finished(self, report):
+        if report is None:  # an exception ends the render: a signal now ends the command at once
+            keep_signals(False)
+
 
 def _resumed(args):
     """For `render --resume FILE`: args with the scene and the options the checkpoint keeps, or args unchanged.
@@ -253,7 +259,7 @@ def _resumed(args):
     if given:
         raise InputError("command line", given[0], None, "is not taken with --resume: the checkpoint's scene and "
                          "options are the ones it continues")
-    meta, _ = load(args.resume)
+    meta, _ = load(args.resume, arrays=False)
     command = meta.get("command")
     if not isinstance(command, dict) or not isinstance(command.get("scene"), str):
         raise InputError("command line", "--resume", args.resume, "keeps no command line (made by render(), not "
@@ -262,6 +268,8 @@ def _resumed(args):
             "ignore_unsupported": command.get("ignore_unsupported", False), "denoise": command.get("denoise", False),
             "checkpoint": args.resume,
             "checkpoint_every": command.get("checkpoint_every", 60.0), **command.get("options", {})}
+    if args.checkpoint_every != CHECKPOINT_EVERY:  # how often is the resumed run's to choose: no bit depends on it
+        kept["checkpoint_every"] = args.checkpoint_every
     return argparse.Namespace(**{**vars(args), **kept})
 
 

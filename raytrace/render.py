@@ -25,7 +25,7 @@ from .renderer.program import Features
 from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_WORK,
                                    first_half, pass_size, row_chunks)
 from .options import API, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: callers')
-from .checkpoint import Checkpoints
+from .checkpoint import FINAL, Checkpoints
 from .image import Image
 from .progress import Progress
 from .watch import PassReport, call, check_watchers
@@ -353,8 +353,15 @@ def render_progressive(scene, **kwargs):
                 *check_watchers(options.watch, API, "watch")]
     try:
         return _render_passes(scene, final, options, r, watchers)
-    finally:
-        watchers[0].finished(None)  # the bar's thread ends whatever happened
+    except BaseException:
+        for w in watchers:  # their threads and sockets end whatever happened (watch.py: finished(None))
+            finished = getattr(w, "finished", None)
+            if callable(finished):
+                try:
+                    finished(None)
+                except Exception:  # the render's own exception is the one to tell
+                    pass
+        raise
 
 
 def _report(r, acc, seconds, rmse=None, relative=None, stopped_by=None):
@@ -368,16 +375,20 @@ def _render_passes(scene, final, options, r, watchers):
     error or a watcher ends them; returns render_progressive's (image, variance, stats)."""
     call(watchers, "building", "building the kernel")
     passes = _passes(scene, options, r)
-    acc, done = passes.accumulator(), {"render_seconds": 0.0, "wall_seconds": 0.0, "history": []}
-    keeper = options.checkpoint and Checkpoints(options, final, r, passes)
+    acc = passes.accumulator()
+    done = {"render_seconds": 0.0, "wall_seconds": 0.0, "history": [], "stopped_by": None}
+    keeper = options.checkpoint and Checkpoints(options, final, r, passes, acc)
     if keeper and options.resume:
         done = keeper.resume(acc)
-    render_seconds, history, stopped_by = done["render_seconds"], done["history"], "spp"
+    render_seconds, history = done["render_seconds"], done["history"]
+    # a render its samples, target or time limit ended stays ended; one a watcher stopped (Ctrl-C) goes on
+    ended = done["stopped_by"] in FINAL
+    stopped_by = done["stopped_by"] if ended else "spp"
     rmse, relative = (history[-1]["estimated_rmse"], history[-1]["estimated_relative_rmse"]) if history else (None,
                                                                                                              None)
     start = time.perf_counter() - done["wall_seconds"]
     call(watchers, "started", _report(r, acc, done["wall_seconds"], rmse, relative))
-    for k in range(acc.passes, len(r.passes)):
+    for k in range(len(r.passes) if ended else acc.passes, len(r.passes)):
         _, n, n_first = r.passes[k]
         pass_start = time.perf_counter()
         render_seconds += passes.run_pass(k, acc)
@@ -388,6 +399,8 @@ def _render_passes(scene, final, options, r, watchers):
                         "pass_seconds": now - pass_start,
                         "kernel_seconds": render_seconds, "estimated_rmse": rmse,
                         "estimated_relative_rmse": relative})
+        if keeper:
+            keeper.after_pass(passes)
         asked = call(watchers, "pass_done", _report(r, acc, now - start, rmse, relative))
         if acc.n_total >= r.spp:
             break
@@ -406,7 +419,7 @@ def _render_passes(scene, final, options, r, watchers):
     passes.cancel()
     wall_seconds = time.perf_counter() - start
     if keeper:
-        keeper.save(acc, render_seconds, wall_seconds, history)
+        keeper.save(acc, render_seconds, wall_seconds, history, stopped_by)
     call(watchers, "finished", _report(r, acc, wall_seconds, rmse, relative, stopped_by))
 
     rays = acc.rays_traced()
@@ -415,7 +428,8 @@ def _render_passes(scene, final, options, r, watchers):
     aov_images = aov_types.images(final.aovs, aov_means) if final.aovs else {}
     nonfinite = sum(_zero_nonfinite(a) for a in (image, variance, *aov_images.values()) if a is not None)
     info = passes.info()
-    stats = RenderStats(render_seconds, wall_seconds, info["build_seconds"], int(rays), rays / render_seconds / 1e6,
+    rate = rays / render_seconds / 1e6 if render_seconds > 0 else 0.0
+    stats = RenderStats(render_seconds, wall_seconds, info["build_seconds"], int(rays), rate,
                         info["device"], info["build_options"], r.width, r.height, acc.n_total, r.spp, r.n_light,
                         r.pixel.name, r.light.name, options.texture_filter, options.seed, info["texture_bytes"],
                         acc.passes, stopped_by, rmse, relative, history,

@@ -245,3 +245,85 @@ def test_a_checkpoint_that_is_an_output_or_input_is_refused(tmp_path):
     result = run(CORNELL, "--checkpoint", out, "-o", out, "--no-progress")
     assert result.returncode == 2 and "--checkpoint = " in result.stderr and "also another output" in result.stderr
     assert "is an input of this run" in refused(tmp_path, CORNELL, "--checkpoint", CORNELL)
+
+
+def damaged(path, change):
+    """The checkpoint at `path` with `change(meta, arrays)` applied, written back as a file of its own."""
+    meta, arrays = checkpoint.load(path)
+    change(meta, arrays)
+    bad = path.with_name("damaged.ckpt")
+    checkpoint.save(bad, {k: v for k, v in meta.items() if k != "format"}, arrays)
+    return bad
+
+
+def counts(meta):
+    return meta["progress"]["counts"]
+
+
+@pytest.mark.parametrize("change, problem", [
+    (lambda m, a: counts(m).update(passes=3), "is damaged: n_prefix = 32, its 3 passes give 16"),
+    (lambda m, a: counts(m).update(passes=1 << 31), "is damaged: passes = 2147483648"),
+    (lambda m, a: counts(m).update(n_total=1 << 31), "is damaged: n_total = 2147483648, its 8 passes give 64"),
+    (lambda m, a: m["progress"].update(counts=[1, 2]), "is damaged: progress: no counts"),
+    (lambda m, a: m["progress"].update(history=m["progress"]["history"][:-1]),
+     "is damaged: history: not one entry a pass (8)"),
+    (lambda m, a: m["progress"].update(history=[1] * 8), "is damaged: history: not one entry a pass (8)"),
+    (lambda m, a: m["progress"].update(wall_seconds="nan"), "is damaged: wall_seconds = 'nan'"),
+    (lambda m, a: m["progress"].update(render_seconds=-1.0), "is damaged: render_seconds = -1.0"),
+    (lambda m, a: a.pop("prefix"), "is damaged: prefix: missing"),
+    (lambda m, a: a["total"].__setitem__((0, 0, 0), np.nan), "is damaged: total: not finite"),
+    (lambda m, a: a.update(total=a["total"][:, :1]), "is damaged: total: float64 (3, 1, 64), expected float64 "
+                                                     "(3, 48, 64)"),
+    (lambda m, a: m.update(fingerprint=[1]), "was made for another raytrace or kernel source"),
+])
+def test_a_damaged_checkpoint_is_refused_in_one_line(tmp_path, change, problem):
+    """A checkpoint whose fingerprint matches but whose state its schedule cannot give (counts, history, seconds,
+    arrays): refused naming what is wrong, never a traceback or a wrong image."""
+    scene = raytrace.load_file(CORNELL)
+    ck = tmp_path / "whole.ckpt"
+    raytrace.render(scene, **SMALL, checkpoint=str(ck))
+    bad = damaged(ck, change)
+    with pytest.raises(raytrace.InputError) as e:
+        raytrace.render(scene, **SMALL, checkpoint=str(bad), resume=True)
+    assert str(e.value) == f"render(): checkpoint = '{bad}': {problem}" + (
+        "" if problem.startswith("is damaged") else ": refusing to continue it")
+
+
+@pytest.mark.parametrize("stop", [dict(target_error=0.05), dict(time_limit=1e-9)], ids=["target-error", "time-limit"])
+def test_a_render_its_target_ended_stays_ended(tmp_path, stop):
+    """Resuming the checkpoint of a render its target error or time limit stopped renders no pass more: the
+    image is the one it wrote."""
+    scene = raytrace.load_file(CORNELL)
+    ck = tmp_path / "ended.ckpt"
+    first, stats = raytrace.render(scene, **SMALL, **stop, checkpoint=str(ck))
+    assert stats.stopped_by in ("target-error", "time-limit") and stats.passes < 8
+    again, resumed = raytrace.render(scene, **SMALL, **stop, checkpoint=str(ck), resume=True)
+    assert resumed.passes == stats.passes and resumed.stopped_by == stats.stopped_by
+    assert np.array_equal(again, first) and np.array_equal(again.variance, first.variance)
+
+
+def test_a_finished_dask_checkpoint_resumes_on_dask(tmp_path):
+    """No pass left to render: the statistics' device is asked of a worker (found: a traceback)."""
+    pytest.importorskip("dask.distributed")
+    scene = raytrace.load_file(CORNELL)
+    ck = tmp_path / "done.ckpt"
+    whole, _ = raytrace.render(scene, **SMALL, scheduler="local:1", checkpoint=str(ck))
+    again, stats = raytrace.render(scene, **SMALL, scheduler="local:1", checkpoint=str(ck), resume=True)
+    assert np.array_equal(again, whole) and "Dask" in stats.device
+
+
+def test_a_checkpoint_that_cannot_be_written_is_refused_before_any_work(tmp_path):
+    (tmp_path / "file").write_text("")
+    with pytest.raises(raytrace.InputError, match="checkpoint = '.*file/x.ckpt': cannot write in its directory: "
+                                                  "Not a directory"):
+        raytrace.render(raytrace.load_file(CORNELL), **SMALL, checkpoint=str(tmp_path / "file" / "x.ckpt"),
+                        watch=[StopAfter(0)])
+
+
+def test_checkpoint_every_beside_resume_is_the_resumed_runs(tmp_path, small_checkpoint):
+    """How often a resumed run checkpoints changes no bit: --checkpoint-every beside --resume is taken, and
+    kept for the next resume."""
+    result = run("--resume", small_checkpoint, "-o", tmp_path / "again.png", "--checkpoint-every", 5, "--no-progress")
+    assert result.returncode == 0, result.stderr
+    meta, _ = checkpoint.load(small_checkpoint, arrays=False)
+    assert meta["command"]["checkpoint_every"] == 5.0

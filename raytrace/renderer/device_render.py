@@ -250,5 +250,10 @@ class LocalPasses:
             info["extra"]["device_bytes"] += self.sums.nbytes
         return info
 
+    def device_fingerprint(self):
+        """What a checkpoint of this render records of its device: the device and the kernel variant."""
+        info = self.d.info()
+        return {"device": info["device"], "build_options": info["build_options"]}
+
     def cancel(self):
         pass

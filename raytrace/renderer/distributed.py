@@ -199,14 +199,24 @@ def render_band(payload, resolved, digest, sample0, n, n_first, row0, rows):
     statistics say of the worker's device. `payload` is pickled_render's, unpickled once per worker and
     render; `resolved` is the client's render.Resolved: the options checked once, against the client's scene
     file."""
-    if digest not in _device_renders:
-        _device_renders.clear()  # one scene at a time: device memory is the worker's to keep small
-        _device_renders[digest] = DeviceRender(*pickle.loads(payload), resolved)
-    d = _device_renders[digest]
+    d = _device_render(payload, resolved, digest)
     d.set_samples(sample0, n, n_first)
     sums, first, rays, seconds, aovs = d.bands.run_band(d.queue, d.args, row0, rows)
     return (sums.copy(), None if first is None else first.copy(), rays, seconds, d.info(),
             None if aovs is None else aovs.copy())
+
+
+def _device_render(payload, resolved, digest):
+    """This worker's DeviceRender of the render `digest`, built on its first task."""
+    if digest not in _device_renders:
+        _device_renders.clear()  # one scene at a time: device memory is the worker's to keep small
+        _device_renders[digest] = DeviceRender(*pickle.loads(payload), resolved)
+    return _device_renders[digest]
+
+
+def worker_info(payload, resolved, digest):
+    """A worker's DeviceRender.info() for this render, its device built as for a band."""
+    return _device_render(payload, resolved, digest).info()
 
 
 class DaskPasses:
@@ -241,8 +251,19 @@ class DaskPasses:
             seconds += band_seconds
         return seconds
 
+    def device_fingerprint(self):
+        """A checkpoint's record of the device (as LocalPasses'): the workers', known once a band came back (None
+        before: render.py asks again after the first pass)."""
+        if self.last_info is None:
+            return None
+        return {"device": self.last_info["device"], "build_options": self.last_info["build_options"]}
+
     def info(self):
-        """The statistics' device: the last band's worker's, the workers being of one kind."""
+        """The statistics' device: the last band's worker's, the workers being of one kind (asked of a worker
+        where no band came back: a finished render resumed)."""
+        if self.last_info is None:
+            self.last_info = self.client.submit(worker_info, self.payload, self.resolved, self.digest,
+                                                pure=False).result()
         n = len(self.client.scheduler_info()["workers"])
         return {**self.last_info, "device": f"{self.last_info['device']} (Dask, {n} workers)",
                 "extra": {**self.last_info["extra"], "sums": "host"}}
