@@ -8,13 +8,12 @@ notebook's kernel has it.
 
 The image is the PNG Image._repr_png_ makes (the 8-bit encoding of the command line's .png), so the shown
 image and `image` displayed by itself are the same picture. A pass's update is skipped while the display has
-taken more than tev.DISPLAY_SHARE of the render's wall time (the PNG encoding is host time), never the last."""
+taken more than watch.DISPLAY_SHARE of the render's wall time (the PNG encoding is host time), never the last."""
 import time
 
 from .image import Image
 from .render import render
-from .tev import DISPLAY_SHARE  # the same budget as tev's stream
-from .watch import Watcher
+from .watch import DISPLAY_SHARE, Watcher
 
 
 def _error(relative):
@@ -63,6 +62,8 @@ class NotebookDisplay(Watcher):
         return None
 
     def finished(self, report):
+        if report is None:  # an exception ends the render: the cell shows it
+            return
         if self.shown_spp != report.spp:
             self._show(report)
         self._say(final_line(report))

@@ -107,6 +107,7 @@ def handle_signals():
     try:
         yield
     finally:
+        _State.keeping = False
         for s, handler in before.items():
             signal.signal(s, handler)
 

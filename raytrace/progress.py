@@ -47,7 +47,7 @@ class Progress(Watcher):
         self.file = file or sys.stderr
         self.bar, self.start, self.lock = None, time.perf_counter(), threading.Lock()
         self.first = None  # (seconds, spp) when this run's passes began
-        self.stop = threading.Event()
+        self.stop, self.thread = threading.Event(), None  # one redraw thread, from the bar's first opening
         self.terminal = wanted is None and hasattr(self.file, "isatty") and self.file.isatty()
 
     def _open(self, description, total=None):
@@ -56,8 +56,9 @@ class Progress(Watcher):
             self.bar = tqdm(total=total, unit="spp", file=self.file, leave=False, desc=description,
                             bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} spp [{elapsed}"
                             "{postfix}]" if total else "{desc} [{elapsed}]")
-            if self.wanted or self.terminal:
-                threading.Thread(target=self._redraw, daemon=True).start()
+            if (self.wanted or self.terminal) and self.thread is None:
+                self.thread = threading.Thread(target=self._redraw, daemon=True)
+                self.thread.start()
 
     def _redraw(self):
         while not self.stop.wait(REDRAW_SECONDS):

@@ -21,14 +21,13 @@ import socket
 import time
 
 from .errors import InputError
-from .watch import Watcher
+from .watch import DISPLAY_SHARE, Watcher
 
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 14158  # tev's default --hostname
 CHANNELS = ["R", "G", "B"]
 TILE = 128  # rows and columns of an UpdateImage packet at most: tevclient.Ipc's tiling, 192 KiB a packet
 CONNECT_SECONDS = 2.0  # a local tev answers in microseconds; a remote one in well under this
 SEND_SECONDS = 10.0    # a packet of one tile (192 KiB) that takes longer: a tev that hangs, given up
-DISPLAY_SHARE = 0.1    # of the render's wall time, the display's at most (see the module's docstring)
 DISPLAY_VALUE = "tev or tev:HOST:PORT (PORT in [1, 65535])"
 
 
@@ -81,7 +80,7 @@ class TevDisplay(Watcher):
         return None
 
     def finished(self, report):
-        if self.socket is not None and self.sent_spp != report.spp:
+        if self.socket is not None and report is not None and self.sent_spp != report.spp:
             self._update(report)
         if self.socket is not None:
             self.socket.close()

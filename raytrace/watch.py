@@ -8,10 +8,13 @@ Every method is optional (Watcher's do nothing):
     building(what)          a slow step before the passes: "building the kernel", "uploading the scene"
     started(report)         the passes are about to begin (report.spp: 0, or a resumed render's samples)
     pass_done(report)       after every pass; a str returned stops the render after it (stats.stopped_by)
-    finished(report)        once at the end, however the passes ended; report.image() is the final image
+    finished(report)        once at the end, however the passes ended; report.image() is the final image;
+                            report None where an exception (an error, an interrupting signal) ended the render
 
 An exception in a watcher ends the render as any other does."""
 from dataclasses import dataclass, field
+
+DISPLAY_SHARE = 0.1  # of a render's wall time, what a viewer's updates may take at most (tev.py, notebook.py)
 
 
 @dataclass
@@ -53,7 +56,8 @@ class Watcher:
         return None
 
     def finished(self, report):
-        """The passes ended (report.stopped_by says why); report.image() is the final image."""
+        """The passes ended (report.stopped_by says why); report.image() is the final image. `report` is None
+        where an exception ended the render: let go of what the watcher holds (a socket, a thread)."""
 
 
 def check_watchers(watch, source, key):

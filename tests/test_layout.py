@@ -23,6 +23,7 @@ LAYERS = [["raytrace.errors", "raytrace.numerics", "raytrace.memory", "raytrace.
           ["raytrace.renderer"],
           ["raytrace.render", "raytrace.outputs", "raytrace.image_file", "raytrace.options", "raytrace.image",
            "raytrace.parameters", "raytrace.watch", "raytrace.progress", "raytrace.checkpoint", "raytrace.denoise"],
+          ["raytrace.tev", "raytrace.notebook"],
           ["raytrace.commands"],
           ["raytrace.cli", "raytrace.__main__", "raytrace"]]
 
