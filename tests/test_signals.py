@@ -112,6 +112,26 @@ def test_a_signal_during_the_passes_keeps_them(tmp_path, signum):
     assert np.array_equal(pixels[..., :3], image) and np.array_equal(pixels[..., 3:], image.variance)
 
 
+@pytest.mark.parametrize("signum, output", [(signal.SIGINT, "big.exr"), (signal.SIGTERM, "big.png")],
+                         ids=["int-exr", "term-png"])
+def test_a_signal_while_the_image_is_written_lets_it_be_written(tmp_path, signum, output):
+    """The samples are all done and the image is being written (its temporary holds bytes): the signal is kept,
+    the image and the statistics are written whole, and the line says so, with the signal's exit status."""
+    child = start(tmp_path, output)
+    try:
+        wait_for_temporary(child, tmp_path, os.path.splitext(output)[1], True)
+        child.send_signal(signum)
+        stdout, stderr = child.communicate(timeout=300)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    name = signal.Signals(signum).name
+    assert child.returncode == 128 + signum, stderr
+    assert stderr == f"raytrace: interrupted by {name}: wrote {tmp_path / output} with 1 of 1 spp in 1 pass\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([output, "stats.json"])
+
+
 @pytest.mark.parametrize("signals", [(signal.SIGINT, signal.SIGTERM), (signal.SIGTERM, signal.SIGINT),
                                      (signal.SIGHUP,)], ids=["int-term", "term-int", "hup"])
 def test_a_second_signal_or_a_hangup_writes_nothing(tmp_path, signals):
