@@ -68,6 +68,11 @@ def mask(pairs):
     return sum(1 << i for i, kind in enumerate(TYPES) if kind in kinds)
 
 
+def stores(bits, kind):
+    """Whether HAS_AOVS = bits stores the AOV type `kind` (the host packs the tables its kernel code reads)."""
+    return bool(bits >> [*TYPES].index(kind) & 1)
+
+
 def planes(bits):
     """The kernel's AOV planes for HAS_AOVS = bits: {type: slice of the planes after OUTPUT_PLANES}."""
     out, at = {}, 0

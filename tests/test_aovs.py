@@ -51,15 +51,15 @@ def wall_scene(normal_y=-1.0, shading="path", reflectance=None, extra=(), fov=70
 
 
 def reference(scene):
-    """Per pixel (H x W): the float64 depth, position, normal (the rectangle's own), uv and whether the ray
-    meets the wall, for the pixel centres."""
+    """Per pixel (H x W): the float64 depth, position, normal (the rectangle's own; a mesh's: -y), uv and
+    whether the ray meets the wall, for the pixel centres."""
     y, x = np.mgrid[0:H, 0:W] + 0.5
     d, _ = camera_directions(scene.camera, x, y, W, H)
     t = D / d[:, 1]
     p = t[:, None] * d
     hit = (np.abs(p[:, 0]) < HALF) & (np.abs(p[:, 2]) < HALF)
     u = p[:, 0] / (2 * HALF) + 0.5                  # along the tangent +x
-    normal = np.array([0.0, np.sign(scene.rectangles[0].normal[1]), 0.0])
+    normal = np.array([0.0, np.sign(scene.rectangles[0].normal[1]) if scene.rectangles else -1.0, 0.0])
     v = np.cross(normal, [1.0, 0.0, 0.0]) @ p.T / (2 * HALF) + 0.5  # along normal x tangent
     return {"depth": t.reshape(H, W, 1), "position": p.reshape(H, W, 3),
             "normal": np.broadcast_to(normal, (H * W, 3)).reshape(H, W, 3),
@@ -102,6 +102,73 @@ def test_albedo_of_a_checkerboard(lanes):
     got = image.aovs["albedo"]
     np.testing.assert_allclose(got[clear], expected[clear], rtol=1e-6)
     assert not got[~ref["hit"]].any()
+
+
+# A two-triangle mesh without uvs (its uv AOV: each face's barycentrics, geometry.DEFAULT_UV) on the wall's
+# plane; the corners are off the view's diagonals so no pixel centre lies on the shared edge.
+MESH_CORNERS = np.array([[-HALF, D, -HALF], [HALF, D, -0.5], [HALF, D, HALF], [-HALF, D, HALF]])
+MESH_FACES = ((0, 1, 2), (0, 2, 3))
+
+
+def mesh_reference(scene):
+    """Per pixel: the float64 barycentrics (b1, b2) of the hit in the face it lies in, that face's number (-1
+    off the mesh) and its distance in b from the face's edges (to leave out pixels a rounding may put on the
+    other face)."""
+    ref = reference(scene)
+    p = ref["position"].reshape(-1, 3)[:, [0, 2]]
+    uv, face, margin = np.zeros((len(p), 2)), np.full(len(p), -1), np.zeros(len(p))
+    for k, corners in enumerate(MESH_FACES):
+        a, b, c = MESH_CORNERS[list(corners)][:, [0, 2]]
+        b12 = np.linalg.solve(np.stack([b - a, c - a], 1), (p - a).T).T
+        weights = np.column_stack([1 - b12.sum(1), b12])
+        inside = (weights >= 0).all(1)
+        uv[inside], face[inside], margin[inside] = b12[inside], k, weights[inside].min(1)
+    return uv.reshape(H, W, 2), face.reshape(H, W), margin.reshape(H, W)
+
+
+def test_mesh_without_uvs(lanes):
+    """Every AOV of a triangle mesh without uvs or textures (the uv AOV reads the triangles' uv table, packed
+    only for textures once: garbage, up to 1e28, and NaNs read past a one-entry table) against float64: the uv
+    is the face's barycentrics (b1, b2), the depth, position and normals as the wall's (test_wall_values), the
+    albedo the material's colour, the shape_index the face's number (each face of an inline mesh is a shape:
+    aovs.SHAPE_ORDER), and no value is non-finite. The barycentrics' tolerance: the kernel's intersection
+    (triangle.cl) forms them from the ray and two edges in about 20 roundings of terms up to M = 8 in
+    magnitude, divided by the determinant's 2 |e1 x e2| / |d| ~ 8: 64 u, as the wall's bound, on values below 1
+    (measured: 2.6 u).
+    Mutation: the uv table packed for textures only (the fix undone): the uvs are garbage, fails here."""
+    scene = raytrace.load_dict({
+        "camera": {"position": [0.0, 0.0, 0.0], "look_at": [0.0, 1.0, 0.0], "up": [0.0, 0.0, 1.0], "fov": 70.0},
+        "image": {"width": W, "height": H}, "render": {"shading": "path", "sampler": "center", "spp": 1},
+        "lights": [{"center": [0.0, 1.0, 3.0], "size": [0.5, 0.5], "normal": [0.0, 0.0, -1.0],
+                    "tangent": [1.0, 0.0, 0.0], "radiance": 5.0}],
+        "materials": {"m": {"colour": [0.25, 0.5, 0.75]}},
+        "shapes": [{"type": "mesh", "vertices": MESH_CORNERS.tolist(), "faces": [list(f) for f in MESH_FACES],
+                    "material": "m"}]})
+    image, stats = raytrace.render(scene, lanes=lanes, aov="albedo,normal,g:geo_normal,depth,position,uv,shape")
+    assert stats.extra["nonfinite_values"] == 0
+    ref = reference(scene)
+    uv, face, margin = mesh_reference(scene)
+    on, clear = face >= 0, margin > 1e-3
+    assert clear.sum() >= 100 and (face[clear] == 0).any() and (face[clear] == 1).any()
+    np.testing.assert_allclose(image.aovs["uv"][clear], uv[clear], rtol=0, atol=64 * U)
+    assert np.isfinite(image.aovs["uv"]).all() and not image.aovs["uv"][~on].any()
+    np.testing.assert_array_equal(image.aovs["shape"][clear][:, 0], face[clear] + 1)
+    np.testing.assert_allclose(image.aovs["albedo"][on], np.broadcast_to([0.25, 0.5, 0.75], (on.sum(), 3)),
+                               rtol=1e-6)
+    for name, key in (("depth", "depth"), ("position", "position"), ("normal", "normal"), ("g", "normal")):
+        np.testing.assert_allclose(image.aovs[name][on], ref[key][on], rtol=0, atol=64 * U * 2 * D, err_msg=name)
+        assert not image.aovs[name][~on].any(), name
+
+
+def test_cornell_aovs_are_finite(cornell):
+    """scenes/cornell.toml (rectangles and a mesh without uvs, no textures) with every AOV: no value non-finite
+    (the host zeroes and counts them) and the uvs within [0, 1] (the rectangles' and the barycentrics).
+    Mutation: the uv table packed for textures only: 63 NaNs or uvs of 1e24 and more, fails here."""
+    image, stats = raytrace.render(cornell, width=48, height=32, spp=4,
+                                   aov="albedo,normal,g:geo_normal,depth,position,uv,shape")
+    assert stats.extra["nonfinite_values"] == 0
+    uv = image.aovs["uv"]
+    assert (uv >= 0).all() and (uv <= 1 + 1e-6).all()
 
 
 def test_hidden_light_is_passed():

@@ -5,7 +5,7 @@ import weakref
 import numpy as np
 
 from .. import structs
-from ..aovs import TYPES
+from ..aovs import stores
 from ..scene.course_maps import kernel_materials
 from .culling import scene_extent
 from .geometry import bvh_structs, in_leaf_order, triangle_soup
@@ -59,9 +59,11 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
                  light_pattern=None, seed=0, features=None):
     """The scene's tables, named after kernels/scene.h's SCENE_PARAMETERS. Tables a variant does not read
     (uvs without textures, normals without smooth meshes, the BVH without HAS_BVH, the shapes' numbers without
-    the shape_index AOV) are one dummy entry: features None packs them all but the BVH."""
+    the shape_index AOV) are one dummy entry: features None packs them all but the BVH. The uv AOV reads the
+    triangles' uvs (aovs.cl's aov_uv, a mesh without uvs its barycentrics) with or without textures."""
+    uv = features is None or features.textures or stores(features.aovs, "uv")
     triangles, uvs, normals, nodes, prims, culled, attributes, instances, shapes = _geometry_tables(
-        scene, features is None or features.textures, features is None or features.smooth_normals,
+        scene, uv, features is None or features.smooth_normals,
         features is not None and features.bvh)
     params = params_struct(scene, spp, light_samples, width, height, texture_filter, pixel_pattern, light_pattern,
                            seed)
@@ -77,6 +79,6 @@ def scene_tables(scene, width=1, height=1, spp=1, light_samples=1, texture_filte
             "culled_subtrees": culled, "attributes": attributes, "emitters": emitters,
             "emitter_triangles": emitter_triangles, "instances": instances,
             "shape_indices": shape_index_table(scene, shapes) if features is None
-            or features.aovs >> [*TYPES].index("shape_index") & 1 else np.zeros(1, np.int32),
+            or stores(features.aovs, "shape_index") else np.zeros(1, np.int32),
             "environment_map": environment_table(scene) if features is None or features.environment_map
             else np.zeros(1, np.float32)}
