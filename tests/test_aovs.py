@@ -189,6 +189,87 @@ def test_beauty_is_unchanged(name):
     assert stats.extra["nonfinite_values"] == 0 and len(image.aovs) == 7
 
 
+GOLD = {"eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603]}  # scenes/materials.toml's
+ALBEDO_BSDFS = {
+    "plastic": ({"type": "plastic", "diffuse_reflectance": [0.2, 0.4, 0.6]}, [0.2, 0.4, 0.6]),
+    "roughplastic": ({"type": "roughplastic", "diffuse_reflectance": [0.6, 0.3, 0.1], "alpha": 0.3},
+                     [0.6, 0.3, 0.1]),
+    "principled": ({"type": "principled", "base_color": [0.3, 0.5, 0.7], "metallic": 0.5, "roughness": 0.4},
+                   [0.3, 0.5, 0.7]),
+    "conductor": ({"type": "conductor", **GOLD}, [0.0, 0.0, 0.0]),
+    "dielectric": ({"type": "dielectric", "int_ior": 1.5}, [0.0, 0.0, 0.0]),
+    "roughconductor_ggx": ({"type": "roughconductor", "distribution": "ggx", "alpha": 0.3,
+                            "specular_reflectance": [0.9, 0.8, 0.7], **GOLD}, None),
+    "roughconductor_beckmann": ({"type": "roughconductor", "distribution": "beckmann", "alpha": 0.3, **GOLD}, None),
+}
+
+
+def fresnel_conductor(cos_i, eta, k):
+    """The unpolarised Fresnel reflectance of a conductor of index eta + i k, in complex float64 (Born and Wolf's
+    amplitudes; pbrt-v4's FrComplex)."""
+    n = np.asarray(eta, np.float64) + 1j * np.asarray(k, np.float64)
+    cos_t = np.sqrt(1 - (1 - cos_i ** 2) / n ** 2)
+    r_parallel = (n * cos_i - cos_t) / (n * cos_i + cos_t)
+    r_perpendicular = (cos_i - n * cos_t) / (cos_i + n * cos_t)
+    return (np.abs(r_parallel) ** 2 + np.abs(r_perpendicular) ** 2) / 2
+
+
+def rough_conductor_albedo(material, wi):
+    """Mitsuba's eval_diffuse_reflectance of roughconductor seen from wi (unit, towards the viewer; the normal
+    +z): pi f(wi, n) cos(n, n) = pi k F(wi . h) D(h) G1(wi) G1(n) / (4 cos theta_i), h the half vector of wi and
+    n, G1(n) = 1; GGX's D and Smith G1, Beckmann's D and G1 by Walter et al.'s rational fit (Mitsuba's
+    smith_g1), in float64."""
+    alpha, cos_i = material["alpha"], wi[2]
+    h = (wi + [0.0, 0.0, 1.0]) / np.linalg.norm(wi + [0.0, 0.0, 1.0])
+    c2 = h[2] ** 2
+    tan2_i = (1 - cos_i ** 2) / cos_i ** 2
+    if material["distribution"] == "ggx":
+        d = alpha ** 2 / (np.pi * (c2 * alpha ** 2 + 1 - c2) ** 2)
+        g1 = 2 / (1 + np.sqrt(1 + alpha ** 2 * tan2_i))
+    else:
+        d = np.exp(-(1 - c2) / c2 / alpha ** 2) / (np.pi * alpha ** 2 * c2 ** 2)
+        a = 1 / (alpha * np.sqrt(tan2_i))
+        g1 = 1.0 if a >= 1.6 else (3.535 * a + 2.181 * a * a) / (1 + 2.276 * a + 2.577 * a * a)
+    k = np.asarray(material.get("specular_reflectance", [1.0, 1.0, 1.0]))
+    return np.pi * k * fresnel_conductor(wi @ h, material["eta"], material["k"]) * d * g1 / (4 * cos_i)
+
+
+@pytest.mark.parametrize("bsdf", ALBEDO_BSDFS)
+def test_albedo_of_other_bsdfs(bsdf):
+    """The albedo AOV of the path model's BSDFs other than diffuse, as aovs.cl's aov_albedo documents them after
+    Mitsuba's eval_diffuse_reflectance: the plastics' diffuse_reflectance, principled's base_color, 0 for the
+    smooth conductor and the dielectric (delta BSDFs), and the rough conductor's pi f(wi, n) (Mitsuba's default)
+    against float64 (rough_conductor_albedo), GGX and Beckmann. An orthographic camera sees a wall 40 degrees off
+    its normal, so every pixel's wi is the same, off the normal (where D, G1 and F all vary with the angle).
+    Tolerance, the rough conductor: the kernel forms the direction, the half vector and its cosines in about 10
+    float32 roundings, D, G1 and F in about 15 each (exp2 and sqrt counted as 2 to 4); the cosines' errors are
+    amplified by D's slope, |d ln D / d ln cos^2 theta_h| < 11 at alpha 0.3 and theta_h = 20 degrees: 256 u
+    relative bounds the lot with room (measured: 17 u GGX, 21 u Beckmann). The others are a parameter's float32
+    copy, or 0, exactly. Mutations tried (aovs.cl), each failing here: the rough conductor's f(n, wi) for
+    f(wi, n) (its cosine then wi's: both rough conductors), its pi dropped (both), plastic given 0 as the
+    conductor is (plastic)."""
+    material, expected = ALBEDO_BSDFS[bsdf]
+    theta = np.radians(40.0)
+    wi = np.array([np.sin(theta), 0.0, np.cos(theta)])  # towards the camera, the wall's normal +z
+    scene = raytrace.load_dict({
+        "camera": {"type": "orthographic", "position": (6.0 * wi).tolist(), "look_at": [0.0, 0.0, 0.0],
+                   "up": [0.0, 1.0, 0.0], "size": [2.0, 1.5]},
+        "image": {"width": 8, "height": 6}, "render": {"shading": "path", "sampler": "center", "spp": 1},
+        "lights": [{"center": [0.0, 0.0, 8.0], "size": [1.0, 1.0], "normal": [0.0, 0.0, -1.0],
+                    "tangent": [1.0, 0.0, 0.0], "radiance": 1.0}],
+        "materials": {"m": material},
+        "shapes": [{"type": "rectangle", "center": [0.0, 0.0, 0.0], "size": [20.0, 20.0], "normal": [0.0, 0.0, 1.0],
+                    "tangent": [1.0, 0.0, 0.0], "material": "m"}]})
+    image, _ = raytrace.render(scene, aov="albedo")
+    got = image.aovs["albedo"].reshape(-1, 3).astype(np.float64)
+    if expected is None:
+        expected = rough_conductor_albedo(material, wi)
+        np.testing.assert_allclose(got, np.broadcast_to(expected, got.shape), rtol=256 * U, atol=0)
+        assert (expected > 0.1).all()
+    else:
+        np.testing.assert_allclose(got, np.broadcast_to(np.float32(expected), got.shape), rtol=0, atol=0)
+
+
 def test_hidden_light_is_passed():
     """With hide_emitters, a camera ray through a light records what lies beyond it (the surface the image shows),
     its depth from the camera's origin, not from where it passed the light."""
