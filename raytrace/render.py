@@ -66,8 +66,11 @@ class RenderStats:
     history: list = field(default_factory=list)  # per pass: samples, seconds, estimated errors
     extra: dict = field(default_factory=dict)
     aovs: list = field(default_factory=list)  # [name, type] of each AOV stored (raytrace/aovs.py)
-    aov_images = {}  # render_progressive's AOVs by name, H x W x C float32: a class attribute, no field, so that
-                     # --stats-json (dataclasses.asdict) holds no arrays
+
+    def __post_init__(self):
+        # render_progressive's AOVs by name, H x W x C float32: no field, so that --stats-json
+        # (dataclasses.asdict) holds no arrays; each instance's own dict, not one shared by all
+        self.aov_images = {}
 
 
 def _option(value, source, key, check, problem):

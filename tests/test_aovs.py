@@ -497,3 +497,17 @@ def test_the_scenes_aovs_need_an_exr(tmp_path):
     assert not (tmp_path / "b.png").exists()
     result = run("render", str(scene), "-o", str(tmp_path / "c.exr"), "--spp", "1", "--width", "8", "--height", "8")
     assert result.returncode == 0 and (tmp_path / "c.exr").exists(), result.stderr
+
+
+def test_stats_hold_no_arrays():
+    """RenderStats.aov_images (the AOVs render_progressive returns beside the image) is no dataclass field, so
+    --stats-json (dataclasses.asdict) holds no arrays, and each RenderStats has its own dict. Mutation: a class
+    attribute `{}` (as it was): a RenderStats made by dataclasses.replace sees another's entries, fails here."""
+    import dataclasses
+    import json
+    image, stats = raytrace.render(wall_scene(), aov="depth")
+    assert stats.aov_images["depth"] is not None and "depth" in image.aovs
+    assert "aov_images" not in json.dumps(dataclasses.asdict(stats))
+    first, second = dataclasses.replace(stats), dataclasses.replace(stats)
+    first.aov_images["x"] = 1
+    assert second.aov_images == {} and "x" not in stats.aov_images
