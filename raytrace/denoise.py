@@ -113,12 +113,18 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
 
     Returns an H x W x 3 float32 array; for a raytrace.Image, an Image with its stats, variance (the noisy
     image's) and AOVs, the noisy beauty added as the AOV "noisy", and metadata["denoised"] saying how, so that
-    write() keeps both in an EXR. InputError for arrays of the wrong shape or type, or when pyoidn is
-    missing."""
+    write() keeps both in an EXR; its metadata's estimated RMSE, the noisy image's, is noisy_estimated_rmse.
+    InputError for arrays of the wrong shape or type, an Image denoised already (its AOV "noisy" would become
+    the once-denoised image) or with an AOV "noisy" of its own, or when pyoidn is missing."""
     from .image import Image
     require(SOURCE)
     pixels = _check(beauty, "beauty")
     aovs = dict(getattr(beauty, "aovs", None) or {})
+    if isinstance(beauty, Image) and "denoised" in beauty.metadata:
+        raise InputError(SOURCE, "beauty", None, f"is denoised already (its noisy beauty: aovs[{NOISY!r}])")
+    if NOISY in aovs:
+        raise InputError(SOURCE, "beauty", None, f"has an AOV named {NOISY!r}, where denoising keeps the noisy "
+                         "beauty: name the AOV otherwise")
     albedo = aovs.get(AUX["albedo"][0]) if albedo is None else albedo
     normal = aovs.get(AUX["normal"][0]) if normal is None else normal
     albedo = None if albedo is None else _check(albedo, "albedo", pixels.shape)
@@ -130,6 +136,8 @@ def denoise(beauty, albedo=None, normal=None, *, prefilter=PREFILTER):
         return output
     result = Image.of(output, beauty.variance, beauty.stats, aovs={**aovs, NOISY: np.asarray(beauty)})
     result.metadata = {**beauty.metadata, "denoised": described(albedo is not None, normal is not None, prefilter)}
+    if "estimated_rmse" in result.metadata:  # the noisy image's error, not the denoised one's
+        result.metadata["noisy_estimated_rmse"] = result.metadata.pop("estimated_rmse")
     if zeroed:
         result.metadata["denoise_zeroed_values"] = zeroed
     return result

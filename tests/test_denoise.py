@@ -151,3 +151,20 @@ def test_the_exr_keeps_the_noisy_beauty_and_the_aovs(tmp_path):
     albedo, normal = (pixels[..., [names.index(f"{name}.{c}") for c in components]]
                       for name, components in (("albedo", "RGB"), ("normal", "XYZ")))
     assert np.array_equal(denoise(kept, albedo, normal), beauty)
+
+
+def test_a_denoised_image_is_not_denoised_again(noisy):
+    """The denoised Image's metadata keeps the noisy image's estimated RMSE as noisy_estimated_rmse (the
+    denoised image has no estimate of its own), and denoise() refuses, in one line, an Image denoised already
+    (its AOV "noisy", the render's noisy beauty, would become the once-denoised image) or one with an AOV named
+    "noisy" of its own (overwritten). Mutations: estimated_rmse kept as it was; either refusal left out: each
+    fails here."""
+    denoised = denoise(noisy)
+    assert "estimated_rmse" not in denoised.metadata
+    assert denoised.metadata["noisy_estimated_rmse"] == noisy.metadata["estimated_rmse"] > 0
+    with pytest.raises(raytrace.InputError, match=r"^denoise\(\): beauty: is denoised already") as e:
+        denoise(denoised)
+    named = raytrace.Image.of(np.asarray(noisy), aovs={**noisy.aovs, NOISY: np.asarray(noisy)})
+    with pytest.raises(raytrace.InputError, match=rf"^denoise\(\): beauty: has an AOV named '{NOISY}'") as f:
+        denoise(named)
+    assert "\n" not in str(e.value) + str(f.value)
