@@ -107,6 +107,8 @@ def _spec(ext, width, height, metadata, variance, aovs=()):
     pixel_type = "uint8" if ext in EIGHT_BIT else "uint16" if ext in SIXTEEN_BIT else "float"
     spec = oiio.ImageSpec(width, height, len(channels), oiio.TypeDesc(pixel_type))
     spec.channelnames = channels
+    if not aovs:  # a file names the AOVs it carries (an EXR's layers): a PNG, or an EXR without them, none
+        metadata = {key: value for key, value in (metadata or {}).items() if key != "aovs"}
     for key, value in (metadata or {}).items():
         if isinstance(value, int) and value >= 2**31:  # a seed up to 2^32 - 1: int attributes are int32, and
             spec.attribute(f"raytrace:{key}", str(value))  # OIIO's Python binding sets no wider number exactly

@@ -511,3 +511,16 @@ def test_stats_hold_no_arrays():
     first, second = dataclasses.replace(stats), dataclasses.replace(stats)
     first.aov_images["x"] = 1
     assert second.aov_images == {} and "x" not in stats.aov_images
+
+
+def test_only_a_file_with_the_layers_names_them(tmp_path):
+    """An image's metadata names its AOVs ("aovs": Mitsuba's "name:type,..."); a file carries that attribute
+    only with the AOVs' layers: an EXR does, a PNG (no layers) does not, though it carries the other (text)
+    attributes. Mutation: the attribute kept in every file (as it was): the PNG names albedo and depth, fails here."""
+    import OpenImageIO as oiio
+    image, _ = raytrace.render(wall_scene(), aov="albedo,depth")
+    for name, named in (("a.png", None), ("a.exr", "albedo:albedo,depth:depth")):
+        image.write(tmp_path / name)
+        spec = oiio.ImageInput.open(str(tmp_path / name)).spec()
+        assert spec.getattribute("raytrace:aovs") == named, name
+        assert spec.getattribute("raytrace:sampler") == "center", name
