@@ -350,7 +350,8 @@ def cmd_render(args):
         if mesh.dropped:
             print(f"raytrace: note: {mesh.source}: {mesh.dropped} degenerate faces left out", file=sys.stderr)
     error = "" if stats.estimated_rmse is None else (
-        f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)")
+        f", estimated RMSE {stats.estimated_rmse:.2e} ({stats.estimated_relative_rmse:.2%} of the mean)"
+        + (" before denoising" if args.denoise else ""))
     passes = f"{stats.passes} pass{'es' * (stats.passes != 1)}"
     spp_from = {"option": "--spp", "scene": "the scene's spp", "default": "the default: the scene gives no spp",
                 "target_error": f"until --target-error, at most {stats.max_spp}"}[stats.extra["spp_from"]]

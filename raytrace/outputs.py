@@ -58,10 +58,20 @@ def _on_signal(signum, frame):
         return
     if _State.keeping and _State.kept is None and signum in KEPT_SIGNALS:
         _State.kept = signum
+        if _on_a_terminal():  # someone pressed Ctrl-C and waits: say what happens (a log keeps its one line)
+            os.write(2, f"\rraytrace: {signal.Signals(signum).name}: ending after the pass under way; again to end at "
+                        "once, writing nothing\n".encode())
         return
     _State.signum = signum
     if not _State.held:
         _raise()
+
+
+def _on_a_terminal():
+    try:
+        return os.isatty(2)
+    except OSError:
+        return False
 
 
 def _raise():

@@ -102,3 +102,35 @@ def test_the_rate_is_this_runs_passes_not_the_build(tmp_path):
     bar.pass_done(report(16, 0.16))
     bar.finished(None)
     assert "pass 1/16, est. rel. error ?, 00:02 left" in out.getvalue()
+
+
+def test_a_terminal_is_told_that_ctrl_c_ends_after_the_pass(tmp_path):
+    """On a terminal the first Ctrl-C is answered at once (a pass may take seconds, and a user who sees nothing
+    presses again, losing the render): one line saying the render ends after the pass under way; then the line
+    of what was written. Off a terminal (tests/test_signals.py) only the latter."""
+    import signal
+    import threading
+    import time
+    out = tmp_path / "a.exr"
+    argv = [sys.executable, "-m", "raytrace", "render", CORNELL, "-o", str(out), "--spp", "256", "--sampler",
+            "sobol", "--light-sampler", "sobol", "--checkpoint", str(tmp_path / "a.ckpt"), "--checkpoint-every", "0"]
+    result = {}
+
+    def run():
+        result["status"], result["text"] = on_a_terminal(argv)
+    reader = threading.Thread(target=run)
+    reader.start()
+    deadline = time.monotonic() + 300
+    while not (tmp_path / "a.ckpt").exists():
+        assert time.monotonic() < deadline and reader.is_alive()
+        time.sleep(0.002)
+    children = subprocess.run(["pgrep", "-f", str(out)], capture_output=True, text=True).stdout.split()
+    for pid in children:
+        if int(pid) != os.getpid():
+            os.kill(int(pid), signal.SIGINT)
+    reader.join(300)
+    assert result["status"] == 130, result["text"]
+    notice = result["text"].find("raytrace: SIGINT: ending after the pass under way; again to end at once, writing "
+                                 "nothing")
+    wrote = result["text"].find(f"raytrace: interrupted by SIGINT: wrote {out} with ")
+    assert 0 <= notice < wrote, result["text"]
