@@ -9,6 +9,8 @@ notebook's kernel has it.
 The image is the PNG Image._repr_png_ makes (the 8-bit encoding of the command line's .png), so the shown
 image and `image` displayed by itself are the same picture. A pass's update is skipped while the display has
 taken more than watch.DISPLAY_SHARE of the render's wall time (the PNG encoding is host time), never the last."""
+import signal
+import threading
 import time
 
 from .image import Image
@@ -41,6 +43,27 @@ class NotebookDisplay(Watcher):
         self.ipython, self.max_share = display, max_share
         self.line = self.image = None
         self.shown_spp, self.display_seconds = None, 0.0
+        self.interrupted, self.handler = False, None
+
+    def _keep_interrupt(self):
+        """Jupyter's interrupt (SIGINT to the kernel) ends the render after the pass under way, keeping its samples,
+        as Ctrl-C does on the command line; a second one raises KeyboardInterrupt as ever."""
+        if threading.current_thread() is not threading.main_thread():
+            return
+        before = signal.getsignal(signal.SIGINT)
+
+        def interrupt(signum, frame):
+            if self.interrupted:
+                self._release()
+                raise KeyboardInterrupt
+            self.interrupted = True
+        self.handler = before
+        signal.signal(signal.SIGINT, interrupt)
+
+    def _release(self):
+        if self.handler is not None:
+            signal.signal(signal.SIGINT, self.handler)
+            self.handler = None
 
     def _say(self, text):
         bundle = {"text/plain": text}
@@ -53,15 +76,17 @@ class NotebookDisplay(Watcher):
         self._say(what)
 
     def started(self, report):
+        self._keep_interrupt()
         self._say(f"rendering {report.width}x{report.height}, {report.max_spp} spp")
 
     def pass_done(self, report):
         if self.max_share is None or self.display_seconds <= self.max_share * report.seconds:
             self._show(report)
             self._say(pass_line(report))
-        return None
+        return "interrupt" if self.interrupted else None
 
     def finished(self, report):
+        self._release()
         if report is None:  # an exception ends the render: the cell shows it
             return
         if self.shown_spp != report.spp:
@@ -83,7 +108,9 @@ class NotebookDisplay(Watcher):
 
 def show(scene, **options):
     """Render `scene` in a Jupyter notebook, showing the image after each pass with a line of the passes,
-    samples, seconds and estimated relative error; returns (image, stats) as render() does. The keyword
+    samples, seconds and estimated relative error; returns (image, stats) as render() does. Interrupting the
+    kernel (the stop button, or I I) ends the render after the pass under way and returns what it has
+    (stats.stopped_by "interrupt"); a second interrupt stops it at once. The keyword
     arguments are render()'s; progress defaults to False here (the line is the progress), and watchers given
     in watch= are called as well."""
     display, given = NotebookDisplay(), options.get("watch")

@@ -65,3 +65,35 @@ def test_show_updates_the_image_in_place(tmp_path):
     assert [o["output_type"] for o in outputs] == ["display_data", "display_data"]
     assert outputs[0]["data"]["text/plain"] == texts[-1]
     assert hashlib.sha256(base64.b64decode(outputs[1]["data"]["image/png"])).hexdigest() == digest
+
+
+class InterruptingClient(RecordingClient):
+    """Interrupts the kernel, as the stop button does, once the first image of the render is shown."""
+
+    def process_message(self, msg, cell, cell_index):
+        content = msg.get("content", {})
+        if (msg["msg_type"] == "display_data" and "image/png" in content.get("data", {}) and not self.sent):
+            import asyncio
+            self.sent = True
+            asyncio.ensure_future(self.km.interrupt_kernel())
+        return super().process_message(msg, cell, cell_index)
+
+
+def test_an_interrupt_keeps_the_samples_done(tmp_path):
+    """The kernel interrupted after the first pass is shown: the render ends after the pass under way and show()
+    returns its image (the cell does not fail), stopped by "interrupt", with fewer samples than asked for. A render
+    of 64 passes of 1024 samples at 64 x 48, a fraction of a second each: the interrupt lands within a few.
+    Mutation tried: no handler put in (the interrupt raises KeyboardInterrupt in the cell: the test fails)."""
+    cells = ["import raytrace\nscene = raytrace.load_file(%r)" % CORNELL,
+             'image, stats = raytrace.show(scene, width=64, height=48, spp=65536, sampler="sobol", '
+             'max_pass_work=64 * 48 * 17 * 1024)',
+             "print(stats.stopped_by, stats.spp, stats.passes)"]
+    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    client = InterruptingClient(notebook, timeout=CELL_SECONDS, startup_timeout=KERNEL_SECONDS,
+                                kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
+    client.displays, client.sent = [], False
+    client.execute(env=child_env())
+    stopped_by, spp, passes = notebook.cells[2].outputs[0]["text"].split()
+    assert client.sent and stopped_by == "interrupt" and 0 < int(spp) < 65536 and int(passes) >= 1
+    line = notebook.cells[1].outputs[0]["data"]["text/plain"]
+    assert line.endswith("; stopped by interrupt") and line.startswith(f"{spp} spp in {passes} pass")
