@@ -121,6 +121,14 @@ inline vfloat aov_shape_index(const Scene *s, Hit hit, vint on)
 }
 #endif
 
+/* value[*k ...] = v's components, *k past them. */
+inline void put_vec3(vfloat *value, int *k, vec3 v)
+{
+    value[(*k)++] = v.x;
+    value[(*k)++] = v.y;
+    value[(*k)++] = v.z;
+}
+
 /* The AOV_PLANES values of the lanes' camera rays: r the ray that met `hit` (its origin past the emitters it
  * passed), o the camera ray's own origin, sp the hit's shading point. */
 inline void aov_values(const Scene *s, Ray r, vec3 o, Hit hit, ShadingPoint sp, vfloat *value)
@@ -134,21 +142,15 @@ inline void aov_values(const Scene *s, Ray r, vec3 o, Hit hit, ShadingPoint sp, 
 #endif
 #if HAS_AOVS & AOV_ALBEDO
     vec3 albedo = v3_select(zero, aov_albedo(sp, r.d), on);
-    value[k++] = albedo.x;
-    value[k++] = albedo.y;
-    value[k++] = albedo.z;
+    put_vec3(value, &k, albedo);
 #endif
 #if HAS_AOVS & AOV_SH_NORMAL
     vec3 n = v3_scale(sp.n, side);
-    value[k++] = n.x;
-    value[k++] = n.y;
-    value[k++] = n.z;
+    put_vec3(value, &k, n);
 #endif
 #if HAS_AOVS & AOV_GEO_NORMAL
     vec3 ng = v3_scale(hit.n, side);
-    value[k++] = ng.x;
-    value[k++] = ng.y;
-    value[k++] = ng.z;
+    put_vec3(value, &k, ng);
 #endif
 #if HAS_AOVS & AOV_DEPTH
     /* hit.t runs from r's origin; a ray that passed emitters left from beyond them along the same direction */
@@ -156,9 +158,7 @@ inline void aov_values(const Scene *s, Ray r, vec3 o, Hit hit, ShadingPoint sp, 
 #endif
 #if HAS_AOVS & AOV_POSITION
     vec3 p = v3_select(zero, hit.p, on);
-    value[k++] = p.x;
-    value[k++] = p.y;
-    value[k++] = p.z;
+    put_vec3(value, &k, p);
 #endif
 #if HAS_AOVS & AOV_UV
     vec2 uv = aov_uv(s, hit, on);

@@ -46,6 +46,21 @@ def wait_for_temporary(child, out_dir, suffix, written):
     pytest.fail("no temporary file appeared")
 
 
+def signalled_at_its_temporary(tmp_path, output, signum, written):
+    """A render of BIG into `output`, sent `signum` once its temporary exists (and, if `written`, holds bytes);
+    (stdout, stderr, the child) once it has ended."""
+    child = start(tmp_path, output)
+    try:
+        wait_for_temporary(child, tmp_path, os.path.splitext(output)[1], written)
+        child.send_signal(signum)
+        stdout, stderr = child.communicate(timeout=300)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    return stdout, stderr, child
+
+
 @pytest.mark.parametrize("signum, output, written", [
     (signal.SIGHUP, "big.png", True), (signal.SIGTERM, "big.png", False), (signal.SIGHUP, "big.exr", False),
     (signal.SIGINT, "big.png", False),
@@ -53,15 +68,7 @@ def wait_for_temporary(child, out_dir, suffix, written):
 def test_signal_leaves_nothing(tmp_path, signum, output, written):
     """The output's temporary is made before the scene is read: a signal as it appears lands before the passes
     (nothing to keep), and SIGHUP while the image is written ends the command too."""
-    child = start(tmp_path, output)
-    try:
-        wait_for_temporary(child, tmp_path, os.path.splitext(output)[1], written)
-        child.send_signal(signum)
-        stdout, stderr = child.communicate(timeout=120)
-    finally:
-        if child.poll() is None:
-            child.kill()
-            child.wait()
+    stdout, stderr, child = signalled_at_its_temporary(tmp_path, output, signum, written)
     name = signal.Signals(signum).name
     assert child.returncode == 128 + signum, stderr
     assert stderr == f"raytrace: interrupted by {name}; nothing written\n" and stdout == ""
@@ -117,15 +124,7 @@ def test_a_signal_during_the_passes_keeps_them(tmp_path, signum):
 def test_a_signal_while_the_image_is_written_lets_it_be_written(tmp_path, signum, output):
     """The samples are all done and the image is being written (its temporary holds bytes): the signal is kept,
     the image and the statistics are written whole, and the line says so, with the signal's exit status."""
-    child = start(tmp_path, output)
-    try:
-        wait_for_temporary(child, tmp_path, os.path.splitext(output)[1], True)
-        child.send_signal(signum)
-        stdout, stderr = child.communicate(timeout=300)
-    finally:
-        if child.poll() is None:
-            child.kill()
-            child.wait()
+    stdout, stderr, child = signalled_at_its_temporary(tmp_path, output, signum, True)
     name = signal.Signals(signum).name
     assert child.returncode == 128 + signum, stderr
     assert stderr == f"raytrace: interrupted by {name}: wrote {tmp_path / output} with 1 of 1 spp in 1 pass\n"
