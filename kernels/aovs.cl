@@ -153,8 +153,13 @@ inline void aov_values(const Scene *s, Ray r, vec3 o, Hit hit, ShadingPoint sp, 
     put_vec3(value, &k, ng);
 #endif
 #if HAS_AOVS & AOV_DEPTH
-    /* hit.t runs from r's origin; a ray that passed emitters left from beyond them along the same direction */
-    value[k++] = SELECT((vfloat)(0.0f), hit.t + v3_dot(v3_sub(r.o, o), r.d), on);
+    /* hit.t runs from r's origin; a ray that passed emitters left from beyond them along the same direction; a
+     * near plane the loader dropped (it cuts nothing) is still where the depth starts: depth_from / cos */
+    const float depth_from = s->camera->depth_from;
+    vfloat depth = hit.t + v3_dot(v3_sub(r.o, o), r.d);
+    if (depth_from > 0.0f)
+        depth -= depth_from / v3_dot(r.d, v3_uniform(s->camera->forward));
+    value[k++] = SELECT((vfloat)(0.0f), depth, on);
 #endif
 #if HAS_AOVS & AOV_POSITION
     vec3 p = v3_select(zero, hit.p, on);

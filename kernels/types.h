@@ -26,6 +26,7 @@ typedef struct {
     float rfilter_pdf[RFILTER_NODES];   /* |f| at the nodes, normalised: the piecewise-linear sampling density */
     float rfilter_cdf[RFILTER_NODES];   /* that density's integral from -reach to each node */
     float rfilter_cumulative[RFILTER_NODES]; /* f's own integral from -reach to each node, over rfilter_integral */
+    float depth_from;                   /* the depth AOV's near plane where the rays start at the eye (aovs.cl) */
 } Camera;
 
 typedef struct {

@@ -21,7 +21,8 @@ CAMERA = np.dtype([("position", *VEC3F), ("forward", *VEC3F), ("right", *VEC3F),
                    ("rfilter_border", "<i4"),
                    ("rfilter_reach", "<f4"), ("rfilter_step", "<f4"), ("rfilter_a", "<f4"), ("rfilter_b", "<f4"),
                    ("rfilter_integral", "<f4"), ("rfilter_pdf", "<f4", (RFILTER_NODES,)),
-                   ("rfilter_cdf", "<f4", (RFILTER_NODES,)), ("rfilter_cumulative", "<f4", (RFILTER_NODES,))])
+                   ("rfilter_cdf", "<f4", (RFILTER_NODES,)), ("rfilter_cumulative", "<f4", (RFILTER_NODES,)),
+                   ("depth_from", "<f4")])
 
 RECTANGLE = np.dtype([("center", *VEC3F), ("normal", *VEC3F), ("tangent", *VEC3F), ("bitangent", *VEC3F),
                       ("half_x", "<f4"), ("half_y", "<f4"), ("material", "<i4")])

@@ -37,27 +37,22 @@ where the scene does not go: a one-sided material seen from behind (0; Mitsuba's
 reflectance), a mask (the masked material times its opacity; Mitsuba's ignores it), a rough dielectric seen
 from inside, and an emitter hidden by hide_emitters (raytrace's first hit is the surface beyond it).
 
-depth fails, and is marked xfail (strict): raytrace's XML loader drops a near clip plane that cuts nothing
-(raytrace/scene/mitsuba.py's without_idle_clip_planes, so that a scene renders bit for bit as its TOML), and
-the depth AOV then runs from the eye, where Mitsuba's si.t runs from the near plane (perspective.cpp starts
-the ray at near_clip / d.z): raytrace's depth exceeds Mitsuba's by near_clip / cos(the ray's angle to the
-view), 0.5 to 0.57 here (from 0.01 on any file that keeps Mitsuba's default near_clip). Less that (raytrace's
-depth minus 0.5 |(x tan(fov_x / 2), y tan(fov_y / 2), 1)| at the pixel centres, x and y in [-1, 1]; over a
-pixel the term's spread is below 1e-4), the worst value is 0.17 of its tolerance:
-test_depth_less_the_near_plane_matches. When the loader keeps the plane (or the kernel measures from it
-whatever the loader drops), XFAIL's entry goes and that test, which would then subtract the plane twice, with
-it.
+depth: the scene's near plane (0.5) cuts nothing, so raytrace's loader drops it (raytrace/scene/mitsuba.py's
+without_idle_clip_planes, so that a scene renders bit for bit as its TOML) and the rays start at the eye; the
+depth AOV still runs from the plane, as Mitsuba's si.t does (perspective.cpp starts the ray at near_clip / d.z),
+through the camera's dropped_near_clip (kernels/aovs.cl). Found by this test: without it raytrace's depth
+exceeded Mitsuba's by near_clip / cos(the ray's angle to the view), 0.5 to 0.57 here, 3.5 times its tolerance
+(0.01 on any file that keeps Mitsuba's default near_clip).
 
 Measured (seed 0): worst |diff| per AOV, and its share of its tolerance: albedo 0.049 (0.36, a check edge on
 the floor), position 0.017 (0.18), sh_normal 0.011 (0.15), geo_normal 0.033 (0.31, a facet edge of the
-low-poly sphere), uv 0.0029 (0.18), shape_index 0 (exact); depth 0.57 (3.5 times its tolerance, every value:
-the near plane above).
+low-poly sphere), uv 0.0029 (0.18), shape_index 0 (exact), depth 0.018 (from the dropped near plane).
 
 Mutations, each applied to raytrace's AOVs before judging (test_mutation_fails runs them; each fails):
 normals negated (sh_normal, geo_normal: the shape's side not kept); sh_normal in geo_normal's place (the
 low-poly sphere's facets); uv swapped; depth 1% long; position's y and z swapped; albedo 2% dark (the
-constant plastic and backdrop catch it); two shapes given one number (the map breaks); and, on the depth
-less the near plane, depth 1% long and depth 0.01 long (the default near_clip: 76 of the 2257 values fail, the
+constant plastic and backdrop catch it); two shapes given one number (the map breaks); depth 0.01 long (the
+default near_clip: 76 of the 2257 values fail, the
 backdrop's and the spheres' fronts, where depth spreads least over a pixel; the depth tolerance runs from
 0.017 to 0.22). Not caught, by design: two shapes' numbers exchanged (labels)."""
 import numpy as np
@@ -67,8 +62,6 @@ from helpers import ROOT
 from devtools.peers import aov_check
 
 SCENE = ROOT / "scenes" / "mitsuba" / "aov.xml"
-# The AOV that fails, and why (the docstring): strict, so that the entry goes when raytrace agrees
-XFAIL = {"dd": "depth runs from the eye where the loader drops an idle near plane; Mitsuba's from the near plane"}
 
 
 @pytest.fixture(scope="module")
@@ -80,8 +73,7 @@ def rendered():
 
 def _names():
     reference = aov_check.load_reference(aov_check.reference_path(SCENE))
-    return [pytest.param(n, marks=pytest.mark.xfail(reason=XFAIL[n], strict=True)) if n in XFAIL else n
-            for n, _ in reference["aovs"]]
+    return [n for n, _ in reference["aovs"]]
 
 
 def test_shape_map_is_one_to_one(rendered):
@@ -101,31 +93,6 @@ def test_aov_matches_mitsuba(rendered, name):
     assert verdict["failing"] == 0, verdict
 
 
-NEAR_CLIP = 0.5  # the scene's near_clip (raytrace's loader drops it from the model)
-
-
-def _less_near_plane(depth):
-    """raytrace's depth less near_clip / cos, the distance from the eye to the near plane along each pixel
-    centre's ray (the module's docstring): Mitsuba's si.t."""
-    import math
-
-    import raytrace
-    model = raytrace.load_file(str(SCENE))
-    h, w = depth.shape[:2]
-    tan_y = math.tan(math.radians(model.camera.fov_deg) / 2)
-    x = ((np.arange(w) + 0.5) / w * 2 - 1) * tan_y * w / h
-    y = ((np.arange(h) + 0.5) / h * 2 - 1) * tan_y
-    return depth - NEAR_CLIP * np.sqrt(1 + x[None, :, None] ** 2 + y[:, None, None] ** 2)
-
-
-def test_depth_less_the_near_plane_matches(rendered):
-    """raytrace's depth less the distance to the (dropped) near plane matches Mitsuba's: the depth AOV's one
-    difference is where it starts (XFAIL's entry)."""
-    ours = rendered[0]
-    result = aov_check.judge(SCENE, ours={**ours, "dd": _less_near_plane(ours["dd"])})
-    assert result["dd"]["failing"] == 0, result["dd"]
-
-
 def _negate(*names):
     return lambda a: {**a, **{n: -a[n] for n in names}}
 
@@ -134,8 +101,8 @@ MUTATIONS = {
     "normals negated": (_negate("nn", "gn"), ("nn", "gn")),
     "sh_normal as geo_normal": (lambda a: {**a, "gn": a["nn"]}, ("gn",)),
     "uv swapped": (lambda a: {**a, "uv": a["uv"][..., ::-1]}, ("uv",)),
-    "depth 1% long": (lambda a: {**a, "dd": _less_near_plane(a["dd"]) * 1.01}, ("dd",)),
-    "depth 0.01 long": (lambda a: {**a, "dd": _less_near_plane(a["dd"]) + 0.01}, ("dd",)),
+    "depth 1% long": (lambda a: {**a, "dd": a["dd"] * 1.01}, ("dd",)),
+    "depth 0.01 long": (lambda a: {**a, "dd": a["dd"] + 0.01}, ("dd",)),
     "position y and z swapped": (lambda a: {**a, "pos": a["pos"][..., [0, 2, 1]]}, ("pos",)),
     "albedo 2% dark": (lambda a: {**a, "albedo": a["albedo"] * 0.98}, ("albedo",)),
 }

@@ -35,6 +35,7 @@ def camera_struct(camera, width, height, crop=None, rfilter=("box", {}), border=
         c["scale_y"] = tan_half
     c["focal_length"] = 1.0
     c["near_clip"], c["far_clip"] = camera.near_clip, camera.far_clip
+    c["depth_from"] = camera.dropped_near_clip
     if camera.kind == "thinlens":
         c["lens_radius"], c["focus_distance"] = camera.aperture_radius, camera.focus_distance
     c["film_width"], c["film_height"] = width, height

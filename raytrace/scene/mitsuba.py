@@ -1460,7 +1460,8 @@ def without_idle_clip_planes(scene, table):
     if not any(idle.values()):
         return scene
     scene.camera = dataclasses.replace(camera, near_clip=0.0 if idle["near_clip"] else near,
-                                       far_clip=math.inf if idle["far_clip"] else camera.far_clip)
+                                       far_clip=math.inf if idle["far_clip"] else camera.far_clip,
+                                       dropped_near_clip=near if idle["near_clip"] else 0.0)
     for key, dropped in idle.items():  # from the scene's table, and the translation's (convert writes it)
         for source in (scene.source, table):
             if dropped and source is not None:

@@ -188,7 +188,7 @@ class _Writer:
             ET.SubElement(sensor, "string", name="fov_axis", value="y")
             ET.SubElement(sensor, "float", name="fov", value=_number(camera.fov_deg))
         near, far = self.clip()
-        near = camera.near_clip if camera.near_clip > 0 else near
+        near = camera.near_clip or camera.dropped_near_clip or near
         far = camera.far_clip if camera.far_clip < math.inf else far
         if near != NEAR_CLIP:
             ET.SubElement(sensor, "float", name="near_clip", value=_number(near))

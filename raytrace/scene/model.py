@@ -64,6 +64,9 @@ class Camera:
     aperture_radius: float = 0.0
     focus_distance: float | None = None
     size: np.ndarray | None = None
+    # Mitsuba's near_clip where its loader dropped the plane as cutting nothing (mitsuba.without_idle_clip_planes):
+    # the rays start at the eye, and the depth AOV still runs from the plane, as Mitsuba's si.t does
+    dropped_near_clip: float = 0.0
 
     def basis(self):
         """forward, right, up as docs/model.md, camera defines them (float64)."""

@@ -18,7 +18,8 @@ def _map(scene, point, length):
     replace = dataclasses.replace
     cam = scene.camera
     lengths = {k: float(length(getattr(cam, k))) for k in ("near_clip", "far_clip", "aperture_radius",
-                                                           "focus_distance") if getattr(cam, k) is not None}
+                                                           "focus_distance", "dropped_near_clip")
+               if getattr(cam, k) is not None}
     if cam.size is not None:  # an orthographic view's
         lengths["size"] = length(cam.size)
     camera = replace(cam, position=point(cam.position), look_at=point(cam.look_at), **lengths)
