@@ -6,6 +6,7 @@ build and during a cluster's render, and odd mesh files. The promise: bad input 
 file or option, the key and the value, exit status 2, and nothing left behind."""
 import contextlib
 import os
+import re
 import signal
 import socket
 import struct
@@ -305,7 +306,9 @@ def test_ctrl_c_while_the_modules_load_is_one_line(tmp_path, delay):
 
 def test_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
     """Found (item 4): Ctrl-C during a --scheduler local:2 render printed 68 lines, four workers' KeyboardInterrupt
-    tracebacks. A terminal's Ctrl-C reaches the whole process group: sent so here, once the cluster is up."""
+    tracebacks. A terminal's Ctrl-C reaches the whole process group: sent so here, once the cluster is up. One
+    line, whichever moment it lands at: before the passes, nothing written; during them (issue 61), the samples
+    done written (tests/test_signals.py holds what they are)."""
     argv = [sys.executable, "-m", "raytrace", "render", str(CORNELL), "-o", str(tmp_path / "x.png"), "--width", 1024,
             "--height", 1024, "--spp", 64, "--scheduler", "local:2", "--no-progress"]
     child = subprocess.Popen(list(map(str, argv)), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -320,8 +323,12 @@ def test_ctrl_c_during_a_local_cluster_render_is_one_line(tmp_path):
         if child.poll() is None:
             os.killpg(child.pid, signal.SIGKILL)
             child.wait()
-    assert (child.returncode, stderr) == (130, "raytrace: interrupted by SIGINT; nothing written\n"), stderr[-2000:]
-    assert list(tmp_path.iterdir()) == []
+    out = tmp_path / "x.png"
+    kept = re.fullmatch(rf"raytrace: interrupted by SIGINT: wrote {re.escape(str(out))} with \d+ of 64 spp in \d+ "
+                        r"pass(es)?\n", stderr)
+    assert child.returncode == 130 and (kept or stderr == "raytrace: interrupted by SIGINT; nothing written\n"), \
+        stderr[-2000:]
+    assert [p.name for p in tmp_path.iterdir()] == (["x.png"] if kept else [])
 
 
 def test_a_binary_ply_face_claiming_more_indices_than_it_holds_is_refused(tmp_path):
