@@ -1,6 +1,7 @@
 """A stand-in for the tev viewer in the tests: a TCP listener on a real socket that reads tev's IPC protocol
 as tev's primary instance does (tev's src/Ipc.cpp: SocketConnection::service and
-IpcPacket::interpretAsCreateImage / interpretAsUpdateImage) and keeps what it was sent.
+IpcPacket::interpretAsCreateImage / interpretAsUpdateImage), keeps what it was sent, and fails the test on
+close() if what it was sent broke the protocol.
 
 The protocol: a stream of packets, each a little-endian uint32 length (the length's own 4 bytes included), an
 int8 type, then the type's fields; a string is its UTF-8 bytes and a NUL, a bool one byte.
@@ -126,7 +127,11 @@ class TevListener:
                 self.frames.append((name, canvas.copy()))
 
     def close(self):
-        """Stop listening once the connection being served has ended (its sender closes it)."""
+        """Stop listening once the connection being served has ended (its sender closes it), and hold the sender
+        to the protocol: every packet read whole and as tev reads it (no .errors), the connection ended within
+        30 s. A test's own close() and its fixture's both check; the second has nothing more to do."""
         self.stopping.set()
         self.thread.join(timeout=30)
         self.server.close()
+        assert not self.thread.is_alive(), "the sender never closed its connection"
+        assert not self.errors, f"tev's protocol broken: {self.errors}"
