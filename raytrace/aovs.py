@@ -107,4 +107,4 @@ def to_string(pairs):
 def layers(pairs, arrays):
     """The file layers of the AOVs `pairs` whose arrays {name: H x W x C} holds: (channel names, array) each,
     in the pairs' order (image_file.write_image_file's `aovs`)."""
-    return [([f"{name}.{suffix}" for suffix in TYPES[kind]], arrays[name]) for name, kind in pairs if name in arrays]
+    return [(channel_names([(name, kind)]), arrays[name]) for name, kind in pairs if name in arrays]

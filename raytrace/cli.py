@@ -15,12 +15,14 @@ import sys
 import warnings
 from pathlib import Path
 
+import numpy as np
+
 from . import aovs as aov_types, samplers
 from .errors import InputError, UnsupportedWarning, did_you_mean, interrupted_line
 from .outputs import (Interrupted, Outputs, committed, handle_signals, keep_signals, kept_signal, raise_pending,
                       scene_inputs, write_json)
 from .watch import Watcher
-from .image import Image, metadata
+from .image import Image
 from .image_file import FORMATS, check_extension, write_image_file
 from .options import API, SYNONYMS, command_line_name, declared, option_type
 from .commands.converge_peer import PEER_SAMPLERS
@@ -329,13 +331,12 @@ def cmd_render(args):
             if args.resume is None or (e.source, e.key) != (API, "checkpoint"):
                 raise
             raise InputError("command line", "--resume", e.value, e.problem) from None
-        attributes, layers = metadata(stats, args.scene), aov_types.layers(stats.aovs, stats.aov_images)
+        image = Image.of(image, variance, stats, args.scene, stats.aov_images)  # as render() returns it
         if args.denoise:
-            from .denoise import denoise, noisy_layers
-            image = denoise(Image.of(image, variance, stats, args.scene, stats.aov_images))
-            attributes, layers = image.metadata, layers + noisy_layers(image.aovs)
+            from .denoise import denoise
+            image = denoise(image)
         with outputs.writing(image_file):
-            write_image_file(image_file, image, attributes, variance, layers)
+            write_image_file(image_file, np.asarray(image), image.metadata, image.variance, image.layers())
         if stats_file:
             with outputs.writing(stats_file):
                 write_json(stats_file, dataclasses.asdict(stats))

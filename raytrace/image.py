@@ -58,10 +58,15 @@ class Image(np.ndarray):
         H x W x 3 real numbers, a value that is not a finite float32 (NaN, Inf, or a float64 beyond
         +-3.4e38; the error says how many), in an .hdr a negative value or one of 2^127 or more (RGBE cannot
         hold them), or a failed write."""
+        write_image(path, np.asarray(self), self.metadata, self.variance, key="path", source="Image.write()",
+                    aovs=self.layers())
+
+    def layers(self):
+        """The file layers beside the image and its variance: the AOVs its metadata names, then a denoised
+        image's noisy one ([(channel names, H x W x C array)], image_file.write_image_file's `aovs`)."""
         from .denoise import noisy_layers
         pairs = aov_types.parse(self.metadata.get("aovs"), "Image.write()", "metadata['aovs']")
-        write_image(path, np.asarray(self), self.metadata, self.variance, key="path", source="Image.write()",
-                    aovs=aov_types.layers(pairs, self.aovs) + noisy_layers(self.aovs))
+        return aov_types.layers(pairs, self.aovs) + noisy_layers(self.aovs)
 
     def _repr_png_(self):
         """The 8-bit PNG, or None (Jupyter then shows the text) for an array write() refuses."""
