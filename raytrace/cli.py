@@ -24,11 +24,10 @@ from .outputs import (Interrupted, Outputs, committed, handle_signals, keep_sign
 from .watch import Watcher
 from .image import Image
 from .image_file import FORMATS, check_extension, write_image_file
-from .options import API, SYNONYMS, command_line_name, declared, option_type
+from .options import API, CHECKPOINT_EVERY, SYNONYMS, command_line_name, declared, option_type
 from .commands.converge_peer import PEER_SAMPLERS
 
 EXIT_BAD_INPUT = 2
-CHECKPOINT_EVERY = 60.0  # seconds, render --checkpoint-every's default
 
 
 DESCRIPTION = ("A ray tracer whose per-pixel pipeline is one OpenCL C kernel: render a scene, benchmark it, "
@@ -269,7 +268,7 @@ def _resumed(args):
     kept = {"scene": command["scene"], "defines": command.get("defines", []),
             "ignore_unsupported": command.get("ignore_unsupported", False), "denoise": command.get("denoise", False),
             "checkpoint": args.resume,
-            "checkpoint_every": command.get("checkpoint_every", 60.0), **command.get("options", {})}
+            "checkpoint_every": command.get("checkpoint_every", CHECKPOINT_EVERY), **command.get("options", {})}
     if args.checkpoint_every != CHECKPOINT_EVERY:  # how often is the resumed run's to choose: no bit depends on it
         kept["checkpoint_every"] = args.checkpoint_every
     return argparse.Namespace(**{**vars(args), **kept})

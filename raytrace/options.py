@@ -14,6 +14,7 @@ from .errors import API, did_you_mean  # noqa: F401 (API: the source of an optio
 from .renderer.progressive import PASS_WORK
 from .scene.model import LIGHT_SELECTIONS, SHADINGS
 
+CHECKPOINT_EVERY = 60.0  # seconds between a render's checkpoints, by default
 MAX_BAND_BYTES = 64 << 20  # the device output buffer: below the 128 MiB any full-profile device allows
 
 
@@ -73,7 +74,7 @@ class RenderOptions:
                                 "pass, its image)", cli=False)
     checkpoint: str | None = option(None, "a file the render's state is kept in, every checkpoint_every seconds and "
                                     "at the end, to resume from", cli=False)
-    checkpoint_every: float = option(60.0, "seconds between checkpoints (0: after every pass)", cli=False)
+    checkpoint_every: float = option(CHECKPOINT_EVERY, "seconds between checkpoints (0: after every pass)", cli=False)
     resume: bool = option(False, "continue the render kept in checkpoint (the same scene and options)", cli=False)
     checkpoint_command: dict | None = option(None, "what the command line keeps in a checkpoint to resume it",
                                              cli=False)

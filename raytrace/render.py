@@ -24,7 +24,7 @@ from .renderer.device_render import LocalPasses, band_rows
 from .renderer.program import Features
 from .renderer.progressive import (BYTES_PER_PIXEL, MIN_PASSES_FOR_TARGET, PASS_WORK,
                                    first_half, pass_size, row_chunks)
-from .options import API, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: callers')
+from .options import API, CHECKPOINT_EVERY, MAX_BAND_BYTES, RenderOptions, unknown_keyword  # noqa: F401 (MAX_BAND_BYTES: callers')
 from .checkpoint import FINAL, Checkpoints
 from .image import Image
 from .progress import Progress
@@ -178,7 +178,7 @@ def render(scene, *, width=None, height=None, spp=None, light_samples=None, samp
            device=None,
            scheduler=None, lanes=None, features=None, progress=None, max_band_bytes=MAX_BAND_BYTES,
            max_pass_work=PASS_WORK, accumulate=None, client=None, aov=None, denoise=False, watch=None,
-           checkpoint=None, checkpoint_every=60.0, resume=False, checkpoint_command=None):
+           checkpoint=None, checkpoint_every=CHECKPOINT_EVERY, resume=False, checkpoint_command=None):
     """Render `scene` (from load_file, load_dict or load_string); returns (image, stats).
 
     image is a raytrace.Image: an H x W x 3 float32 numpy array of linear radiance (row 0 at the top) that
