@@ -71,11 +71,9 @@ class Halves:
         return {"n_prefix": self.n_prefix, "n_total": self.n_total, "passes": self.passes}
 
     def restore_counts(self, counts):
+        """counts() of a checkpoint, checked against its pass schedule already (checkpoint._checked_progress)."""
         for name in ("n_prefix", "n_total", "passes"):
-            value = counts.get(name)
-            if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= 1 << 31:
-                raise ValueError(f"{name} = {value!r}")
-            setattr(self, name, value)
+            setattr(self, name, counts[name])
 
     def weights(self):
         """(prefix weight, total weight), float64: the half difference (A - B) sqrt(nA nB) / N, with A the mean
@@ -175,7 +173,11 @@ class Accumulator(Halves):
         """The AOVs' means, aov_planes x H x W float32 (planar, as the kernel's planes), or None without AOVs."""
         if self.aov_total is None:
             return None
-        return (self.aov_total / max(self.n_total, 1)).astype(np.float32)
+        out = np.empty(self.aov_total.shape, np.float32)
+        row_bytes = self.aov_total.shape[0] * self.aov_total.shape[2] * 8
+        for rows in row_chunks(self.aov_total.shape[1], row_bytes):  # no full-size float64 temporary
+            out[:, rows] = self.aov_total[:, rows] / max(self.n_total, 1)
+        return out
 
     def variance(self):
         """H x W x CHANNELS float32 estimated variance of each pixel's mean, or None before the second
